@@ -1,0 +1,1 @@
+"""Compiled bkflow LAMMPS plugin (bkflowplugin.so) and the LAMMPS build it targets."""

@@ -1,0 +1,372 @@
+/* bkflow: fix bk/substrate. One post-force pass over local atoms applies, per atom i,
+     drive     F = k_d^i (anchor_i(t) - r_i),  anchor_i(t) = r_i(t0) + V_d (t - t0) x_hat
+     friction  dr_i += v_i dt;  F = -k_e dr_i;  break when |k_e dr_i| > mu_s sigma_n A
+               (reset: dr_i = 0;  coulomb: dr_i rescaled onto the threshold)
+     damping   F = -m gamma v_i
+   with v_i the half-step velocity that fix nve leaves before post_force, and r_i unwrapped.
+   The equations are those of ../shared/MODEL.md; plugins/README.md documents the syntax. */
+
+#include "fix_bk_substrate.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "lammps.h"
+#include "memory.h"
+#include "update.h"
+#include "utils.h"
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <utility>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+#ifndef BK_LAMMPS_VERSION
+#error "BK_LAMMPS_VERSION must name the LAMMPS version the plugin is built against"
+#endif
+#ifndef BK_LAMMPS_GIT
+#error "BK_LAMMPS_GIT must name the LAMMPS git descriptor the plugin is built against"
+#endif
+
+namespace {
+const char *USAGE =
+    "fix ID group bk/substrate [drive V_d kd_property] "
+    "[friction k_e mu_s sigma_n A reset|coulomb] [damp gamma]";
+
+double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
+{
+  double value = utils::numeric(file, line, str, false, lmp);
+  if (!(value > 0.0))
+    lmp->error->all(file, line, "fix bk/substrate: {} must be > 0, got {}", what, str);
+  return value;
+}
+}    // namespace
+
+FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), drive_on(0), friction_on(0), damp_on(0), coulomb(0), vd(0.0), ke(0.0),
+    fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kd_name(nullptr), kd_index(-1),
+    state(nullptr), t0(0.0), vh_valid(0), sum_fx_drive(0.0), nbreak_step(0), nbreak_total(0),
+    plate_shift(0.0), reduced(0)
+{
+  if (strcmp(lmp->version, BK_LAMMPS_VERSION) != 0 ||
+      strcmp(LAMMPS::git_descriptor(), BK_LAMMPS_GIT) != 0)
+    error->all(FLERR,
+               "fix bk/substrate: the bkflow plugin was built for LAMMPS {} ({}) but this is "
+               "LAMMPS {} ({}); rebuild it with `pip install -e .` against this LAMMPS",
+               BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
+
+  if (domain->dimension != 2) error->all(FLERR, "fix bk/substrate requires dimension 2");
+  if (domain->triclinic) error->all(FLERR, "fix bk/substrate requires an orthogonal box");
+  if (narg < 4) error->all(FLERR, "Illegal fix bk/substrate command: expected {}", USAGE);
+
+  int iarg = 3;
+  while (iarg < narg) {
+    if (strcmp(arg[iarg], "drive") == 0) {
+      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
+      vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      const char *name = arg[iarg + 2];
+      if (strncmp(name, "d_", 2) == 0) name += 2;
+      if (*name == '\0') error->all(FLERR, "fix bk/substrate drive: empty kd_property name");
+      delete[] kd_name;
+      kd_name = utils::strdup(name);
+      drive_on = 1;
+      iarg += 3;
+    } else if (strcmp(arg[iarg], "friction") == 0) {
+      if (iarg + 6 > narg)
+        error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A reset|coulomb");
+      ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
+      mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
+      sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
+      area = positive(FLERR, "A", arg[iarg + 4], lmp);
+      if (strcmp(arg[iarg + 5], "reset") == 0)
+        coulomb = 0;
+      else if (strcmp(arg[iarg + 5], "coulomb") == 0)
+        coulomb = 1;
+      else
+        error->all(FLERR, "fix bk/substrate friction mode must be reset or coulomb, got {}",
+                   arg[iarg + 5]);
+      fmax = mus * sigman * area;
+      friction_on = 1;
+      iarg += 6;
+    } else if (strcmp(arg[iarg], "damp") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate damp needs: damp gamma");
+      gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
+      damp_on = gamma > 0.0;
+      iarg += 2;
+    } else {
+      error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", arg[iarg], USAGE);
+    }
+  }
+
+  vector_flag = 1;
+  size_vector = 4;
+  global_freq = 1;
+  extvector = 0;
+  restart_global = 1;
+  restart_peratom = 1;
+  dynamic_group_allow = 0;
+
+  FixBKSubstrate::grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+
+  for (int i = 0; i < atom->nlocal; i++) set_arrays(i);
+  t0 = current_time();
+}
+
+FixBKSubstrate::~FixBKSubstrate()
+{
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  memory->destroy(state);
+  delete[] kd_name;
+}
+
+int FixBKSubstrate::setmask()
+{
+  return POST_FORCE;
+}
+
+void FixBKSubstrate::init()
+{
+  if (drive_on) {
+    int flag, cols;
+    kd_index = atom->find_custom(kd_name, flag, cols);
+    if (kd_index < 0 || flag != 1 || cols != 0)
+      error->all(FLERR,
+                 "fix bk/substrate: per-atom stiffness property d_{} not found; define it with "
+                 "`fix ID all property/atom d_{}` before read_data",
+                 kd_name, kd_name);
+  }
+  if (damp_on && !atom->rmass_flag && !atom->mass_setflag)
+    error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
+}
+
+double FixBKSubstrate::current_time() const
+{
+  return update->atime + static_cast<double>(update->ntimestep - update->atimestep) * update->dt;
+}
+
+/* setup() applies the forces of the current state without advancing the contact history.
+   Damping uses the half-step velocity stored by the last post_force, so that a run split into
+   chunks, or continued from a restart file, follows the same trajectory as one long run. */
+
+void FixBKSubstrate::setup(int /*vflag*/)
+{
+  plate_shift = vd * (current_time() - t0);
+  dispatch(0);
+}
+
+void FixBKSubstrate::post_force(int /*vflag*/)
+{
+  plate_shift = vd * (current_time() - t0);
+  dispatch(1);
+}
+
+template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void FixBKSubstrate::eval()
+{
+  double *const *const x = atom->x;
+  double *const *const v = atom->v;
+  double *const *const f = atom->f;
+  const int *const mask = atom->mask;
+  const imageint *const image = atom->image;
+  const int nlocal = atom->nlocal;
+  const double *const kd = DRIVE ? atom->dvector[kd_index] : nullptr;
+  const double *const rmass = atom->rmass;
+  const double *const mass = atom->mass;
+  const int *const type = atom->type;
+  const double xprd = domain->xprd, yprd = domain->yprd;
+  const double dt = update->dt;
+  const double shift = plate_shift;
+  const double fmax2 = fmax * fmax, ke2 = ke * ke;
+  const int use_vh = !ADVANCE && vh_valid;
+
+  double sfx = 0.0;
+  bigint nb = 0;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    double *const s = state[i];
+    double fx = 0.0, fy = 0.0;
+    if (DRIVE) {
+      const double xu = x[i][0] + static_cast<double>((image[i] & IMGMASK) - IMGMAX) * xprd;
+      const double yu =
+          x[i][1] + static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX) * yprd;
+      const double fdx = kd[i] * (s[AX] + shift - xu);
+      fx += fdx;
+      fy += kd[i] * (s[AY] - yu);
+      sfx += fdx;
+    }
+    const double vx = use_vh ? s[VHX] : v[i][0];
+    const double vy = use_vh ? s[VHY] : v[i][1];
+    if (FRIC) {
+      if (ADVANCE) {
+        s[DRX] += vx * dt;
+        s[DRY] += vy * dt;
+        const double r2 = s[DRX] * s[DRX] + s[DRY] * s[DRY];
+        if (ke2 * r2 > fmax2) {
+          nb++;
+          if (COULOMB) {
+            const double scale = fmax / (ke * sqrt(r2));
+            s[DRX] *= scale;
+            s[DRY] *= scale;
+          } else {
+            s[DRX] = 0.0;
+            s[DRY] = 0.0;
+          }
+        }
+      }
+      fx -= ke * s[DRX];
+      fy -= ke * s[DRY];
+    }
+    if (DAMP) {
+      const double mg = (rmass ? rmass[i] : mass[type[i]]) * gamma;
+      fx -= mg * vx;
+      fy -= mg * vy;
+      if (ADVANCE) {
+        s[VHX] = vx;
+        s[VHY] = vy;
+      }
+    }
+    f[i][0] += fx;
+    f[i][1] += fy;
+  }
+
+  sum_fx_drive = sfx;
+  nbreak_step = nb;
+  nbreak_total += nb;
+  reduced = 0;
+  if (ADVANCE && DAMP) vh_valid = 1;
+}
+
+namespace {
+using EvalFn = void (FixBKSubstrate::*)();
+}
+
+namespace LAMMPS_NS {
+// one specialisation per combination of parts, so the hot loop carries no unused branch
+struct BKSubstrateTable {
+  template <std::size_t... I> static constexpr auto make(std::index_sequence<I...>)
+  {
+    return std::array<EvalFn, sizeof...(I)>{
+        {&FixBKSubstrate::eval<I & 1, (I >> 1) & 1, (I >> 2) & 1, (I >> 3) & 1, (I >> 4) & 1>...}};
+  }
+};
+}    // namespace LAMMPS_NS
+
+void FixBKSubstrate::dispatch(int advance)
+{
+  static const auto table = BKSubstrateTable::make(std::make_index_sequence<32>{});
+  const int idx = drive_on | friction_on << 1 | (friction_on & coulomb) << 2 | damp_on << 3 |
+      (advance ? 1 : 0) << 4;
+  (this->*table[idx])();
+}
+
+/* vector: 1 sigma_x = sum_i k_d^i (anchor_x - x_i) / (Lx Ly); 2 contact breaks in the last
+   step; 3 contact breaks since the fix was defined; 4 plate displacement V_d (t - t0). */
+
+double FixBKSubstrate::compute_vector(int n)
+{
+  if (!reduced) {
+    double local[3] = {sum_fx_drive, static_cast<double>(nbreak_step),
+                       static_cast<double>(nbreak_total)};
+    MPI_Allreduce(local, reduced_vec, 3, MPI_DOUBLE, MPI_SUM, world);
+    reduced = 1;
+  }
+  if (n == 0) return reduced_vec[0] / (domain->xprd * domain->yprd);
+  if (n == 1) return reduced_vec[1];
+  if (n == 2) return reduced_vec[2];
+  return plate_shift;
+}
+
+/* global restart state: t0, vh_valid, total breaks */
+
+void FixBKSubstrate::write_restart(FILE *fp)
+{
+  double local = static_cast<double>(nbreak_total), total = 0.0;
+  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, world);
+  if (comm->me == 0) {
+    double list[3] = {t0, static_cast<double>(vh_valid), total};
+    int size = 3 * sizeof(double);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(list, sizeof(double), 3, fp);
+  }
+}
+
+void FixBKSubstrate::restart(char *buf)
+{
+  auto *list = reinterpret_cast<double *>(buf);
+  t0 = list[0];
+  vh_valid = static_cast<int>(list[1]);
+  nbreak_total = comm->me == 0 ? static_cast<bigint>(list[2]) : 0;
+}
+
+double FixBKSubstrate::memory_usage()
+{
+  return static_cast<double>(atom->nmax) * NSTATE * sizeof(double);
+}
+
+void FixBKSubstrate::grow_arrays(int nmax)
+{
+  memory->grow(state, nmax, NSTATE, "bk/substrate:state");
+}
+
+void FixBKSubstrate::copy_arrays(int i, int j, int /*delflag*/)
+{
+  for (int k = 0; k < NSTATE; k++) state[j][k] = state[i][k];
+}
+
+// a new atom: anchored where it stands, no contact history, velocity as given
+void FixBKSubstrate::set_arrays(int i)
+{
+  const imageint img = atom->image[i];
+  state[i][AX] = atom->x[i][0] + static_cast<double>((img & IMGMASK) - IMGMAX) * domain->xprd;
+  state[i][AY] =
+      atom->x[i][1] + static_cast<double>((img >> IMGBITS & IMGMASK) - IMGMAX) * domain->yprd;
+  state[i][DRX] = state[i][DRY] = 0.0;
+  state[i][VHX] = atom->v[i][0];
+  state[i][VHY] = atom->v[i][1];
+}
+
+int FixBKSubstrate::pack_exchange(int i, double *buf)
+{
+  for (int k = 0; k < NSTATE; k++) buf[k] = state[i][k];
+  return NSTATE;
+}
+
+int FixBKSubstrate::unpack_exchange(int nlocal, double *buf)
+{
+  for (int k = 0; k < NSTATE; k++) state[nlocal][k] = buf[k];
+  return NSTATE;
+}
+
+int FixBKSubstrate::pack_restart(int i, double *buf)
+{
+  // buf[0] holds the count, as every fix reading atom->extra expects
+  buf[0] = NSTATE + 1;
+  for (int k = 0; k < NSTATE; k++) buf[k + 1] = state[i][k];
+  return NSTATE + 1;
+}
+
+void FixBKSubstrate::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
+  m++;
+  for (int k = 0; k < NSTATE; k++) state[nlocal][k] = extra[nlocal][m++];
+}
+
+int FixBKSubstrate::size_restart(int /*nlocal*/)
+{
+  return NSTATE + 1;
+}
+
+int FixBKSubstrate::maxsize_restart()
+{
+  return NSTATE + 1;
+}

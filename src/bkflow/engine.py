@@ -1,0 +1,193 @@
+"""Run one deck through the LAMMPS Python API, in chunks, with guards and a completion record.
+
+A run directory is complete only when ``meta.json`` says ``"status": "complete"``; it is
+written last, atomically, so an interrupted run never looks finished. Between chunks the
+engine checks for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
+:class:`RunError` naming phi, the step and the cause.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .deck import (DATA_FILE, DECK_FILE, STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text,
+                   deck_text, setup_text)
+from .params import RunSpec
+from .plugin import build_info, lammps_version, open_lammps
+
+META_FILE = "meta.json"
+LOG_FILE = "log.lammps"
+#: files a run writes; a partial run's are removed before it is redone
+RUN_FILES = (DECK_FILE, DATA_FILE, STRESS_FILE, LOG_FILE, META_FILE)
+
+
+class RunError(RuntimeError):
+    """A run that cannot go on (blown up, lost atoms, torn bond, LAMMPS error)."""
+
+
+class RunExistsError(RuntimeError):
+    """The output directory already holds a finished run."""
+
+
+@dataclass(frozen=True)
+class RunResult:
+    out: Path
+    meta: dict
+
+
+def is_complete(out) -> bool:
+    """True when ``out`` holds a finished run (its meta.json says so)."""
+    try:
+        meta = json.loads((Path(out) / META_FILE).read_text())
+    except (OSError, ValueError):
+        return False
+    return meta.get("status") == "complete"
+
+
+def _write_json_atomic(path: Path, obj) -> None:
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
+    os.replace(tmp, path)
+
+
+class _Progress:
+    """One status line on a terminal (stderr); silent when stderr is not a terminal."""
+
+    def __init__(self, label: str, total: int, enabled: bool | None = None):
+        self.label, self.total = label, total
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.t0 = time.perf_counter()
+
+    def update(self, step: int, sigma_x: float) -> None:
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        frac = step / self.total
+        eta = el / frac - el if frac > 0 else float("nan")
+        sys.stderr.write(f"\r{self.label}: {100 * frac:5.1f}%  step {step}/{self.total}  "
+                         f"sigma_x {sigma_x:+.4f}  elapsed {el:6.1f}s  eta {eta:6.1f}s ")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+
+
+class _Guard:
+    """Reads the state between chunks and names what went wrong."""
+
+    def __init__(self, lmp, spec: RunSpec):
+        self.lmp, self.spec = lmp, spec
+        lmp.commands_string(
+            "compute bkbond all bond/local dist\n"
+            "compute bkbondmax all reduce max c_bkbond inputs local\n")
+
+    def sigma_x(self) -> float:
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+        return self.lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 0)
+
+    def check(self, step: int) -> float:
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
+
+        spec, lmp = self.spec, self.lmp
+        where = f"phi={spec.phi:g}, {spec.Lx}x{spec.Ly}, seed {spec.seed}, step {step}"
+        natoms = lmp.get_natoms()
+        if natoms != spec.N:
+            raise RunError(f"{where}: lost atoms ({natoms} of {spec.N} left); the run blew up, "
+                           "try a smaller --dt-factor")
+        x = lmp.numpy.extract_atom("x")
+        sx = self.sigma_x()
+        if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
+            raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
+                           "try a smaller --dt-factor")
+        longest = lmp.extract_compute("bkbondmax", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
+        if not longest <= spec.bond_limit:
+            raise RunError(f"{where}: a bond stretched to {longest:.3g} l (limit "
+                           f"{spec.bond_limit:g} l); the layer tore apart, try a smaller "
+                           "--dt-factor")
+        return sx
+
+
+def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
+        chunk_steps: int | None = None, command: str | None = None) -> RunResult:
+    """Run ``spec`` into directory ``out``: in.bk, data.bk, stress.csv, log.lammps, meta.json.
+
+    ``overwrite``: redo a finished run instead of refusing. A partial run (no complete
+    meta.json) is always cleared and redone. ``chunk_steps``: steps between checks and
+    progress updates (default: 1% of the run, at least 1000 steps).
+    """
+    out = Path(out)
+    if is_complete(out) and not overwrite:
+        raise RunExistsError(f"{out} already holds a finished run (meta.json); choose another "
+                             "--out or pass --overwrite")
+    out.mkdir(parents=True, exist_ok=True)
+    for name in RUN_FILES:
+        (out / name).unlink(missing_ok=True)
+
+    (out / DATA_FILE).write_text(data_text(spec))
+    (out / DECK_FILE).write_text(deck_text(spec))
+
+    started = time.time()
+    lmp = open_lammps(log=out / LOG_FILE)
+    n_total = spec.n_steps
+    chunk = chunk_steps or max(1000, n_total // 100)
+    bar = _Progress(f"phi={spec.phi:g} {spec.Lx}x{spec.Ly} seed {spec.seed}", n_total, progress)
+    step = 0
+    try:
+        files = DeckFiles(data=str((out / DATA_FILE).resolve()),
+                          stress=str((out / STRESS_FILE).resolve()))
+        try:
+            lmp.commands_string(setup_text(spec, files))
+            guard = _Guard(lmp, spec)
+            t_wall = time.perf_counter()
+            while step < n_total:
+                n = min(chunk, n_total - step)
+                lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
+                step += n
+                bar.update(step, guard.check(step))
+            wall = time.perf_counter() - t_wall
+        except RunError:
+            raise
+        except Exception as exc:  # LAMMPS errors arrive as plain exceptions
+            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} "
+                           f"(see {out / LOG_FILE})") from None
+        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+        breaks = int(lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2))
+    finally:
+        bar.close()
+        lmp.close()
+
+    meta = {
+        "status": "complete",
+        "bkflow": __version__,
+        **lammps_version(),
+        "plugin": build_info(),
+        "params": spec.to_dict(),
+        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": n_total,
+                    "stress_nevery": spec.stress_nevery,
+                    "stress_dt": spec.stress_nevery * spec.dt},
+        "seed": spec.seed,
+        "wall_time_s": wall,
+        "atom_steps_per_s": spec.N * n_total / wall if wall > 0 else None,
+        "contact_breaks": breaks,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
+        "host": platform.node(),
+        "command": command,
+        "files": sorted(p.name for p in out.iterdir() if p.name in RUN_FILES),
+    }
+    meta["files"] = sorted(set(meta["files"]) | {META_FILE})
+    _write_json_atomic(out / META_FILE, meta)
+    return RunResult(out, meta)

@@ -1,0 +1,63 @@
+"""The square lattice of MODEL.md: positions, the 2N periodic bonds, and the drive stiffnesses.
+
+Particle i = ix + Lx * iy sits at ((ix + 1/2) l, (iy + 1/2) l) in the box [0, Lx l) x [0, Ly l).
+Each particle owns two bonds, to its +x and its +y neighbour (periodic), so every particle has
+four bonds and there are 2N in all.
+
+>>> lat = square_lattice(4, 2)
+>>> lat.positions.shape, lat.bonds.shape
+((8, 2), (16, 2))
+>>> lat.bonds[:2].tolist()
+[[0, 1], [0, 4]]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .params import RunSpec
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """Positions (N, 2), 0-based bond pairs (2N, 2), box lengths and per-particle k_d^i."""
+
+    Lx: int
+    Ly: int
+    positions: np.ndarray
+    bonds: np.ndarray
+    k_d: np.ndarray
+
+    @property
+    def box(self) -> tuple[float, float]:
+        return float(self.Lx), float(self.Ly)
+
+
+def square_lattice(Lx: int, Ly: int, spacing: float = 1.0) -> Lattice:
+    """Lattice geometry with every k_d^i = 1 (use :func:`lattice_for` for a run's k_d^i)."""
+    ix, iy = np.meshgrid(np.arange(Lx), np.arange(Ly), indexing="xy")
+    ix, iy = ix.ravel(), iy.ravel()
+    positions = np.column_stack([(ix + 0.5) * spacing, (iy + 0.5) * spacing]).astype(float)
+    idx = ix + Lx * iy
+    right = (ix + 1) % Lx + Lx * iy
+    up = ix + Lx * ((iy + 1) % Ly)
+    bonds = np.empty((2 * Lx * Ly, 2), dtype=np.int64)
+    bonds[0::2, 0] = idx
+    bonds[0::2, 1] = right
+    bonds[1::2, 0] = idx
+    bonds[1::2, 1] = up
+    return Lattice(Lx, Ly, positions, bonds, np.ones(Lx * Ly))
+
+
+def drive_stiffness(spec: RunSpec) -> np.ndarray:
+    """k_d^i uniform in (k_d - dk_d, k_d + dk_d), from ``numpy.random.default_rng(seed)``."""
+    rng = np.random.default_rng(spec.seed)
+    return rng.uniform(spec.k_d - spec.dk_d, spec.k_d + spec.dk_d, spec.N)
+
+
+def lattice_for(spec: RunSpec) -> Lattice:
+    """The lattice of a run, with its seeded drive stiffnesses."""
+    lat = square_lattice(spec.Lx, spec.Ly)
+    return Lattice(lat.Lx, lat.Ly, lat.positions, lat.bonds, drive_stiffness(spec))

@@ -1,0 +1,162 @@
+"""Model parameters of ../shared/MODEL.md ("Units and defaults"), the single source of defaults.
+
+Every other module takes a :class:`RunSpec` and derives what it needs from it; nothing else
+hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
+
+>>> spec = RunSpec(phi=10.0, Lx=20, Ly=5)
+>>> spec.k_b, spec.N
+(10.0, 100)
+>>> round(spec.dt, 6)
+0.013868
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from dataclasses import dataclass
+
+#: The paper's lattice sizes by particle number (Ly = Lx / 4).
+PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
+
+#: Largest accepted time-step factor C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d). Velocity
+#: Verlet is stable for omega_max dt < 2, i.e. C < 2; the contact breaks add kicks that the
+#: linear bound ignores, so the guard keeps a margin below it (see benchmarks/RESULTS.md).
+DT_FACTOR_MAX = 1.0
+
+FRICTION_MODES = ("reset", "coulomb")
+
+
+class SpecError(ValueError):
+    """A parameter outside its meaning; the message names the field and the accepted range."""
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"20x5"`` -> ``(20, 5)``; a clear :class:`SpecError` for anything else."""
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", str(text))
+    if not m:
+        raise SpecError(f"size {text!r} is not of the form LXxLY (e.g. 20x5)")
+    return int(m.group(1)), int(m.group(2))
+
+
+def size_from_n(n: int) -> tuple[int, int]:
+    """The paper's lattice for N = 100, 400 or 900 particles."""
+    if n not in PAPER_SIZES:
+        raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}")
+    return PAPER_SIZES[n]
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of the model: lattice, physics, integration and output sampling.
+
+    Attributes follow MODEL.md symbols. ``phi`` = k_b / dk_d is the control parameter;
+    ``dt_factor`` is C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (MODEL.md "Integration").
+    ``stress_every`` is the sampling interval of sigma_x in time units (rounded to whole steps).
+    """
+
+    phi: float
+    Lx: int = 20
+    Ly: int = 5
+    seed: int = 1
+    t_end: float = 4000.0
+    dt_factor: float = 0.1
+    friction: str = "reset"
+    k_d: float = 1.0
+    dk_d: float = 1.0
+    k_e: float = 10.0
+    mu_s: float = 0.2
+    sigma_n: float = 5.0
+    area: float = 1.0
+    V_d: float = 0.02
+    gamma: float = 0.2
+    mass: float = 1.0
+    stress_every: float = 0.1
+    #: a bond longer than this (lattice units) stops the run as torn apart
+    bond_limit: float = 4.0
+
+    def __post_init__(self):
+        def finite(name):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise SpecError(f"{name} must be a finite number, got {v!r}")
+            return v
+
+        for name in ("phi", "t_end", "dt_factor", "k_d", "k_e", "mu_s", "sigma_n", "area",
+                     "mass", "stress_every", "bond_limit"):
+            if not finite(name) > 0:
+                raise SpecError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        for name in ("dk_d", "gamma", "V_d"):
+            finite(name)
+        if self.gamma < 0:
+            raise SpecError(f"gamma must be >= 0, got {self.gamma!r}")
+        if not 0 <= self.dk_d <= self.k_d:
+            raise SpecError(
+                f"dk_d must lie in [0, k_d] = [0, {self.k_d}] so that every k_d^i >= 0, "
+                f"got {self.dk_d!r}")
+        if self.dk_d == 0:
+            raise SpecError("dk_d = 0 leaves phi = k_b / dk_d undefined; use a small dk_d")
+        for name in ("Lx", "Ly"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < 2:
+                raise SpecError(
+                    f"{name} must be an integer >= 2 (each particle needs bonds to distinct "
+                    f"neighbours), got {v!r}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise SpecError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.friction not in FRICTION_MODES:
+            raise SpecError(f"friction must be one of {FRICTION_MODES}, got {self.friction!r}")
+        if self.dt_factor > DT_FACTOR_MAX:
+            raise SpecError(
+                f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
+                f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
+        if self.n_steps < 1:
+            raise SpecError(f"t_end {self.t_end} is shorter than one time step ({self.dt:g})")
+
+    # derived quantities -------------------------------------------------------------------
+    @property
+    def N(self) -> int:
+        return self.Lx * self.Ly
+
+    @property
+    def k_b(self) -> float:
+        """Bond stiffness k_b = phi * dk_d."""
+        return self.phi * self.dk_d
+
+    @property
+    def omega_max(self) -> float:
+        """Stiffest mode, sqrt((4 k_b + k_e + k_d + dk_d) / m)."""
+        return math.sqrt((4 * self.k_b + self.k_e + self.k_d + self.dk_d) / self.mass)
+
+    @property
+    def dt(self) -> float:
+        return self.dt_factor / math.sqrt(4 * self.k_b + self.k_e + self.k_d + self.dk_d)
+
+    @property
+    def n_steps(self) -> int:
+        return int(round(self.t_end / self.dt))
+
+    @property
+    def stress_nevery(self) -> int:
+        """Steps between sigma_x samples (stress_every rounded to whole steps, at least 1)."""
+        return max(1, int(round(self.stress_every / self.dt)))
+
+    @property
+    def friction_threshold(self) -> float:
+        """mu_s sigma_n A, the largest contact force before the contact breaks."""
+        return self.mu_s * self.sigma_n * self.area
+
+    def replace(self, **changes) -> "RunSpec":
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RunSpec":
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
+        return cls(**d)

