@@ -1,4 +1,9 @@
 /* bkflow: fix bk/substrate. One post-force pass over local atoms applies, per atom i,
+     bonds     F = -k_b (r_ij - r0) d_ij / r_ij over the atom's bonds (topology of the data
+               file, newton_bond off so every atom holds all of its bonds). The bond vector
+               keeps the periodic image of the lattice: d_ij = x_i - x_j - L m with m chosen so
+               that d_ij - (u_i - u_j) is the lattice vector, u = r(t) - r(t0). Unlike the
+               minimum image of bond_style harmonic, this holds for any stretch.
      drive     F = k_d^i (anchor_i(t) - r_i),  anchor_i(t) = r_i(t0) + V_d (t - t0) x_hat
      friction  dr_i += v_i dt;  F = -k_e dr_i;  break when |k_e dr_i| > mu_s sigma_n A
                (reset: dr_i = 0;  coulomb: dr_i rescaled onto the threshold)
@@ -12,6 +17,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "force.h"
 #include "lammps.h"
 #include "memory.h"
 #include "update.h"
@@ -34,7 +40,7 @@ using namespace FixConst;
 
 namespace {
 const char *USAGE =
-    "fix ID group bk/substrate [drive V_d kd_property] "
+    "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
     "[friction k_e mu_s sigma_n A reset|coulomb] [damp gamma]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
@@ -47,10 +53,10 @@ double positive(const char *file, int line, const char *what, const char *str, L
 }    // namespace
 
 FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), drive_on(0), friction_on(0), damp_on(0), coulomb(0), vd(0.0), ke(0.0),
-    fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kd_name(nullptr), kd_index(-1),
-    state(nullptr), t0(0.0), vh_valid(0), sum_fx_drive(0.0), nbreak_step(0), nbreak_total(0),
-    plate_shift(0.0), reduced(0)
+    Fix(lmp, narg, arg), bonds_on(0), drive_on(0), friction_on(0), damp_on(0), coulomb(0), vd(0.0), ke(0.0),
+    fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kb(0.0), r0(0.0), kd_name(nullptr),
+    kd_index(-1), state(nullptr), u(nullptr), nmax_u(0), t0(0.0), vh_valid(0), sum_fx_drive(0.0),
+    nbreak_step(0), nbreak_total(0), plate_shift(0.0), rmax_local(0.0), reduced(0)
 {
   if (strcmp(lmp->version, BK_LAMMPS_VERSION) != 0 ||
       strcmp(LAMMPS::git_descriptor(), BK_LAMMPS_GIT) != 0)
@@ -65,7 +71,13 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
 
   int iarg = 3;
   while (iarg < narg) {
-    if (strcmp(arg[iarg], "drive") == 0) {
+    if (strcmp(arg[iarg], "bonds") == 0) {
+      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate bonds needs: bonds k_b r0");
+      kb = positive(FLERR, "k_b", arg[iarg + 1], lmp);
+      r0 = positive(FLERR, "r0", arg[iarg + 2], lmp);
+      bonds_on = 1;
+      iarg += 3;
+    } else if (strcmp(arg[iarg], "drive") == 0) {
       if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
       vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       const char *name = arg[iarg + 2];
@@ -103,12 +115,22 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
     }
   }
 
+  if (bonds_on && !atom->molecular)
+    error->all(FLERR, "fix bk/substrate bonds needs a molecular atom style (atom_style bond)");
+
   vector_flag = 1;
-  size_vector = 4;
+  size_vector = 5;
+  scalar_flag = 1;
+  extscalar = 1;
+  energy_global_flag = 1;
+  comm_forward = 2;
   global_freq = 1;
   extvector = 0;
   restart_global = 1;
   restart_peratom = 1;
+  peratom_flag = 1;
+  size_peratom_cols = NSTATE;
+  peratom_freq = 1;
   dynamic_group_allow = 0;
 
   FixBKSubstrate::grow_arrays(atom->nmax);
@@ -124,6 +146,7 @@ FixBKSubstrate::~FixBKSubstrate()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   memory->destroy(state);
+  memory->destroy(u);
   delete[] kd_name;
 }
 
@@ -143,6 +166,9 @@ void FixBKSubstrate::init()
                  "`fix ID all property/atom d_{}` before read_data",
                  kd_name, kd_name);
   }
+  if (bonds_on && force->newton_bond)
+    error->all(FLERR, "fix bk/substrate bonds needs every atom to hold all its bonds: "
+                      "use `newton on off` (newton_bond off) before read_data");
   if (damp_on && !atom->rmass_flag && !atom->mass_setflag)
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
 }
@@ -159,16 +185,85 @@ double FixBKSubstrate::current_time() const
 void FixBKSubstrate::setup(int /*vflag*/)
 {
   plate_shift = vd * (current_time() - t0);
+  update_displacements();
   dispatch(0);
 }
 
 void FixBKSubstrate::post_force(int /*vflag*/)
 {
   plate_shift = vd * (current_time() - t0);
+  update_displacements();
   dispatch(1);
 }
 
-template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void FixBKSubstrate::eval()
+// u = r(t) - r(t0) of local atoms; ghosts get theirs by forward communication
+void FixBKSubstrate::update_displacements()
+{
+  if (!bonds_on && !drive_on) return;
+  if (atom->nmax > nmax_u) {
+    nmax_u = atom->nmax;
+    memory->destroy(u);
+    memory->create(u, nmax_u, 2, "bk/substrate:u");
+  }
+  double *const *const x = atom->x;
+  const imageint *const image = atom->image;
+  const int nlocal = atom->nlocal;
+  const double xprd = domain->xprd, yprd = domain->yprd;
+  for (int i = 0; i < nlocal; i++) {
+    u[i][0] = x[i][0] + static_cast<double>((image[i] & IMGMASK) - IMGMAX) * xprd - state[i][AX];
+    u[i][1] = x[i][1] + static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX) * yprd -
+        state[i][AY];
+  }
+  if (bonds_on && comm->nprocs > 1) comm->forward_comm(this);
+}
+
+int FixBKSubstrate::pack_forward_comm(int n, int *list, double *buf, int /*pbc_flag*/,
+                                      int * /*pbc*/)
+{
+  int m = 0;
+  for (int k = 0; k < n; k++) {
+    buf[m++] = u[list[k]][0];
+    buf[m++] = u[list[k]][1];
+  }
+  return m;
+}
+
+void FixBKSubstrate::unpack_forward_comm(int n, int first, double *buf)
+{
+  int m = 0;
+  for (int i = first; i < first + n; i++) {
+    u[i][0] = buf[m++];
+    u[i][1] = buf[m++];
+  }
+}
+
+/* scalar: the bond energy sum k_b/2 (r - r0)^2 (each bond is held by both its atoms) */
+
+double FixBKSubstrate::compute_scalar()
+{
+  double e = 0.0;
+  if (bonds_on) {
+    double *const *const x = atom->x;
+    const double xprd = domain->xprd, yprd = domain->yprd;
+    for (int i = 0; i < atom->nlocal; i++) {
+      for (int k = 0; k < atom->num_bond[i]; k++) {
+        const int j = atom->map(atom->bond_atom[i][k]);
+        if (j < 0) error->one(FLERR, "fix bk/substrate: bond partner of atom {} missing", atom->tag[i]);
+        const double wx = x[i][0] - x[j][0], wy = x[i][1] - x[j][1];
+        const double dx = wx - xprd * nearbyint((wx - (u[i][0] - u[j][0])) / xprd);
+        const double dy = wy - yprd * nearbyint((wy - (u[i][1] - u[j][1])) / yprd);
+        const double dr = sqrt(dx * dx + dy * dy) - r0;
+        e += 0.25 * kb * dr * dr;
+      }
+    }
+  }
+  double all = 0.0;
+  MPI_Allreduce(&e, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+  return all;
+}
+
+template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE>
+void FixBKSubstrate::eval()
 {
   double *const *const x = atom->x;
   double *const *const v = atom->v;
@@ -185,20 +280,39 @@ template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void FixBKSub
   const double shift = plate_shift;
   const double fmax2 = fmax * fmax, ke2 = ke * ke;
   const int use_vh = !ADVANCE && vh_valid;
+  const int *const num_bond = atom->num_bond;
+  tagint *const *const bond_atom = atom->bond_atom;
+  const double inv_xprd = 1.0 / xprd, inv_yprd = 1.0 / yprd;
+  double *const *const uu = u;
 
-  double sfx = 0.0;
+  double sfx = 0.0, r2max = 0.0;
   bigint nb = 0;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     double *const s = state[i];
     double fx = 0.0, fy = 0.0;
+    if (BONDS) {
+      const double xi = x[i][0], yi = x[i][1], uxi = uu[i][0], uyi = uu[i][1];
+      for (int k = 0; k < num_bond[i]; k++) {
+        const int j = atom->map(bond_atom[i][k]);
+        if (j < 0)
+          error->one(FLERR, "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
+                     "increase comm_modify cutoff", bond_atom[i][k], atom->tag[i]);
+        const double wx = xi - x[j][0], wy = yi - x[j][1];
+        const double dx = wx - xprd * nearbyint((wx - (uxi - uu[j][0])) * inv_xprd);
+        const double dy = wy - yprd * nearbyint((wy - (uyi - uu[j][1])) * inv_yprd);
+        const double r2 = dx * dx + dy * dy;
+        const double r = sqrt(r2);
+        const double fb = -kb * (r - r0) / r;
+        fx += fb * dx;
+        fy += fb * dy;
+        if (r2 > r2max) r2max = r2;
+      }
+    }
     if (DRIVE) {
-      const double xu = x[i][0] + static_cast<double>((image[i] & IMGMASK) - IMGMAX) * xprd;
-      const double yu =
-          x[i][1] + static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX) * yprd;
-      const double fdx = kd[i] * (s[AX] + shift - xu);
+      const double fdx = kd[i] * (shift - uu[i][0]);
       fx += fdx;
-      fy += kd[i] * (s[AY] - yu);
+      fy -= kd[i] * uu[i][1];
       sfx += fdx;
     }
     const double vx = use_vh ? s[VHX] : v[i][0];
@@ -237,6 +351,7 @@ template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void FixBKSub
   }
 
   sum_fx_drive = sfx;
+  rmax_local = sqrt(r2max);
   nbreak_step = nb;
   nbreak_total += nb;
   reduced = 0;
@@ -253,21 +368,23 @@ struct BKSubstrateTable {
   template <std::size_t... I> static constexpr auto make(std::index_sequence<I...>)
   {
     return std::array<EvalFn, sizeof...(I)>{
-        {&FixBKSubstrate::eval<I & 1, (I >> 1) & 1, (I >> 2) & 1, (I >> 3) & 1, (I >> 4) & 1>...}};
+        {&FixBKSubstrate::eval<I & 1, (I >> 1) & 1, (I >> 2) & 1, (I >> 3) & 1, (I >> 4) & 1,
+                               (I >> 5) & 1>...}};
   }
 };
 }    // namespace LAMMPS_NS
 
 void FixBKSubstrate::dispatch(int advance)
 {
-  static const auto table = BKSubstrateTable::make(std::make_index_sequence<32>{});
-  const int idx = drive_on | friction_on << 1 | (friction_on & coulomb) << 2 | damp_on << 3 |
-      (advance ? 1 : 0) << 4;
+  static const auto table = BKSubstrateTable::make(std::make_index_sequence<64>{});
+  const int idx = bonds_on | drive_on << 1 | friction_on << 2 | (friction_on & coulomb) << 3 |
+      damp_on << 4 | (advance ? 1 : 0) << 5;
   (this->*table[idx])();
 }
 
 /* vector: 1 sigma_x = sum_i k_d^i (anchor_x - x_i) / (Lx Ly); 2 contact breaks in the last
-   step; 3 contact breaks since the fix was defined; 4 plate displacement V_d (t - t0). */
+   step; 3 contact breaks since the fix was defined; 4 plate displacement V_d (t - t0);
+   5 longest bond in the last step. */
 
 double FixBKSubstrate::compute_vector(int n)
 {
@@ -280,7 +397,10 @@ double FixBKSubstrate::compute_vector(int n)
   if (n == 0) return reduced_vec[0] / (domain->xprd * domain->yprd);
   if (n == 1) return reduced_vec[1];
   if (n == 2) return reduced_vec[2];
-  return plate_shift;
+  if (n == 3) return plate_shift;
+  double rmax = 0.0;
+  MPI_Allreduce(&rmax_local, &rmax, 1, MPI_DOUBLE, MPI_MAX, world);
+  return rmax;
 }
 
 /* global restart state: t0, vh_valid, total breaks */
@@ -313,6 +433,7 @@ double FixBKSubstrate::memory_usage()
 void FixBKSubstrate::grow_arrays(int nmax)
 {
   memory->grow(state, nmax, NSTATE, "bk/substrate:state");
+  array_atom = state;
 }
 
 void FixBKSubstrate::copy_arrays(int i, int j, int /*delflag*/)

@@ -18,6 +18,9 @@ class FixBKSubstrate : public Fix {
   void setup(int) override;
   void post_force(int) override;
   double compute_vector(int) override;
+  double compute_scalar() override;
+  int pack_forward_comm(int, int *, double *, int, int *) override;
+  void unpack_forward_comm(int, int, double *) override;
 
   void write_restart(FILE *) override;
   void restart(char *) override;
@@ -39,7 +42,8 @@ class FixBKSubstrate : public Fix {
  private:
   friend struct BKSubstrateTable;
   // model parameters (MODEL.md "Forces on particle i")
-  int drive_on, friction_on, damp_on, coulomb;
+  int bonds_on, drive_on, friction_on, damp_on, coulomb;
+  double kb, r0;         // bond stiffness (force k_b (r - r0)) and rest length
   double vd;             // plate velocity along +x
   double ke, fmax;       // contact spring, break threshold mu_s*sigma_n*A
   double mus, sigman, area;
@@ -49,6 +53,8 @@ class FixBKSubstrate : public Fix {
 
   double **state;        // AX, AY: anchor at t0 (unwrapped); DR*: contact displacement;
                          // VH*: half-step velocity of the last post_force
+  double **u;            // displacement r_i(t) - r_i(t0), local atoms and ghosts
+  int nmax_u;
   double t0;             // simulation time at which anchors were taken
   int vh_valid;          // VH* hold the velocity used by the last post_force
 
@@ -56,11 +62,13 @@ class FixBKSubstrate : public Fix {
   double sum_fx_drive;
   bigint nbreak_step, nbreak_total;
   double plate_shift;
+  double rmax_local;     // longest bond seen in the last step (local atoms)
   int reduced;
   double reduced_vec[3];
 
   double current_time() const;
-  template <int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();
+  void update_displacements();
+  template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();
   void dispatch(int advance);
 };
 

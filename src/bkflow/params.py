@@ -74,7 +74,7 @@ class RunSpec:
     mass: float = 1.0
     stress_every: float = 0.1
     #: a bond longer than this (lattice units) stops the run as torn apart
-    bond_limit: float = 4.0
+    bond_limit: float = 10.0
 
     def __post_init__(self):
         def finite(name):
@@ -99,10 +99,11 @@ class RunSpec:
             raise SpecError("dk_d = 0 leaves phi = k_b / dk_d undefined; use a small dk_d")
         for name in ("Lx", "Ly"):
             v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v < 2:
+            if not isinstance(v, int) or isinstance(v, bool) or v < 3:
                 raise SpecError(
-                    f"{name} must be an integer >= 2 (each particle needs bonds to distinct "
-                    f"neighbours), got {v!r}")
+                    f"{name} must be an integer >= 3, got {v!r}: with 2 rows the bonds to the "
+                    f"neighbours on either side join the same pair of particles at exactly half "
+                    f"the box, where the minimum-image bond vector is undefined")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise SpecError(f"seed must be a non-negative integer, got {self.seed!r}")
         if self.friction not in FRICTION_MODES:

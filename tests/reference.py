@@ -1,0 +1,116 @@
+"""Independent NumPy implementation of ../shared/MODEL.md, for checking the LAMMPS plugin.
+
+Written from MODEL.md, not from the plugin's source, with LAMMPS's order of operations
+(velocity Verlet as in ``fix nve``; post-force terms with the half-step velocity):
+
+    v += dt/2 f / m ;  x += dt v                        (initial_integrate, t -> t + dt)
+    f  = bonds(x) + drive(x, t) + friction(v) + damping(v)   (forces at t_{n+1})
+    v += dt/2 f / m                                      (final_integrate)
+
+Before the first step, forces are evaluated once from the initial state without advancing the
+contact history (LAMMPS's ``setup``). Positions are kept unwrapped. The bond network never
+changes (MODEL.md): each bond keeps the periodic image it has on the initial lattice, as a
+fixed shift S_ij taken once from the minimum image of the start, d_ij = x_i - x_j + S_ij.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class ReferenceState:
+    x: np.ndarray        # (N, 2) unwrapped positions
+    v: np.ndarray        # (N, 2) velocities
+    dr: np.ndarray       # (N, 2) contact displacements
+    anchor: np.ndarray   # (N, 2) drive anchors at t0
+    t: float = 0.0       # time since the anchors were taken
+    breaks: int = 0
+    f: np.ndarray = field(default=None)
+
+
+class Reference:
+    """The model on a periodic box ``box = (Lx, Ly)`` with 0-based ``bonds`` (M, 2).
+
+    ``k_b`` bond stiffness (force k_b (r - l)), ``k_d`` (N,) drive stiffnesses (None: no
+    drive), ``k_e`` / ``f_max`` contact spring and threshold (None: no friction), ``mode``
+    'reset' | 'coulomb', ``gamma`` damping rate, ``V_d`` plate velocity, ``mass``.
+    """
+
+    def __init__(self, box, bonds, k_b, dt, *, k_d=None, V_d=0.0, k_e=None, f_max=None,
+                 mode="reset", gamma=0.0, mass=1.0, r0=1.0):
+        self.L = np.asarray(box, dtype=float)
+        self.bonds = np.asarray(bonds)
+        self.k_b, self.dt, self.r0 = k_b, dt, r0
+        self.k_d = None if k_d is None else np.asarray(k_d, dtype=float)
+        self.V_d, self.k_e, self.f_max = V_d, k_e, f_max
+        if mode not in ("reset", "coulomb"):
+            raise ValueError(mode)
+        self.mode, self.gamma, self.mass = mode, gamma, mass
+
+    # forces ---------------------------------------------------------------------------
+    def bond_vectors(self, x):
+        i, j = self.bonds[:, 0], self.bonds[:, 1]
+        return x[i] - x[j] + self.shift
+
+    def bond_forces(self, x):
+        i, j = self.bonds[:, 0], self.bonds[:, 1]
+        d = self.bond_vectors(x)
+        r = np.sqrt((d * d).sum(axis=1))
+        fpair = (-self.k_b * (r - self.r0) / r)[:, None] * d
+        f = np.zeros_like(x)
+        np.add.at(f, i, fpair)
+        np.add.at(f, j, -fpair)
+        return f
+
+    def bond_energy(self, x):
+        d = self.bond_vectors(x)
+        r = np.sqrt((d * d).sum(axis=1))
+        return 0.5 * self.k_b * ((r - self.r0) ** 2).sum()
+
+    def substrate_forces(self, s: ReferenceState, v, advance: bool):
+        f = np.zeros_like(s.x)
+        if self.k_d is not None:
+            target = s.anchor + np.array([self.V_d * s.t, 0.0])
+            f += self.k_d[:, None] * (target - s.x)
+        if self.k_e is not None:
+            if advance:
+                s.dr = s.dr + v * self.dt
+                over = self.k_e * np.sqrt((s.dr ** 2).sum(axis=1)) > self.f_max
+                s.breaks += int(over.sum())
+                if self.mode == "reset":
+                    s.dr[over] = 0.0
+                else:
+                    norm = np.sqrt((s.dr[over] ** 2).sum(axis=1))
+                    s.dr[over] *= (self.f_max / (self.k_e * norm))[:, None]
+            f -= self.k_e * s.dr
+        if self.gamma:
+            f -= self.mass * self.gamma * v
+        return f
+
+    # integration ----------------------------------------------------------------------
+    def start(self, x, v=None, anchor=None) -> ReferenceState:
+        """Initial state; the bond images are fixed here, from the lattice ``anchor`` (default
+        ``x``), which must have every bond shorter than half the box."""
+        x = np.array(x, dtype=float)
+        lattice = x if anchor is None else np.asarray(anchor, float)
+        d0 = lattice[self.bonds[:, 0]] - lattice[self.bonds[:, 1]]
+        self.shift = -self.L * np.round(d0 / self.L)
+        x = np.array(x, dtype=float)
+        s = ReferenceState(x=x, v=np.zeros_like(x) if v is None else np.array(v, float),
+                           dr=np.zeros_like(x), anchor=x.copy() if anchor is None else
+                           np.array(anchor, float))
+        s.f = self.bond_forces(s.x) + self.substrate_forces(s, s.v, advance=False)
+        return s
+
+    def step(self, s: ReferenceState, n: int = 1) -> ReferenceState:
+        h = 0.5 * self.dt / self.mass
+        for _ in range(n):
+            s.v = s.v + h * s.f
+            s.x = s.x + self.dt * s.v
+            s.t += self.dt
+            s.f = self.bond_forces(s.x) + self.substrate_forces(s, s.v, advance=True)
+            s.v = s.v + h * s.f
+        return s
