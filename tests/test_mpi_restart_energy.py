@@ -90,7 +90,7 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
     lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
                                    thermo_every=10**6, drive=False, friction=False, damp=False))
     lmp.commands_string("fix_modify bk energy yes\ncompute ke all ke\n"
-                        f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt\n")
+                        f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt format ' %.17g'\n")
     lmp.command(f"run {steps}")
     lmp.close()
     ke, pe = np.loadtxt(workdir / "energy.txt", usecols=(1, 2)).T

@@ -191,6 +191,20 @@ def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles()) -> str:
     return setup_text(spec, files) + f"run             {spec.n_steps}\n"
 
 
+#: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.deck lammps_inputs)
+STANDARD_DECKS = {
+    "N100_phi10": RunSpec(phi=10.0, Lx=20, Ly=5, seed=1),
+    "N900_phi10": RunSpec(phi=10.0, Lx=60, Ly=15, seed=1),
+}
+
+
+def write_standard_decks(root) -> list[str]:
+    """Write every deck of :data:`STANDARD_DECKS` into ``root/NAME/``."""
+    from pathlib import Path
+
+    return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
+
+
 def write_deck(spec: RunSpec, directory) -> dict[str, str]:
     """Write ``in.bk`` and ``data.bk`` into ``directory``; return {name: path}."""
     from pathlib import Path
@@ -200,3 +214,10 @@ def write_deck(spec: RunSpec, directory) -> dict[str, str]:
     (d / DATA_FILE).write_text(data_text(spec))
     (d / DECK_FILE).write_text(deck_text(spec))
     return {"deck": str(d / DECK_FILE), "data": str(d / DATA_FILE)}
+
+
+if __name__ == "__main__":
+    import sys
+
+    for path in write_standard_decks(sys.argv[1] if len(sys.argv) > 1 else "lammps_inputs"):
+        print("wrote", path)

