@@ -39,6 +39,12 @@ using namespace FixConst;
 #endif
 
 namespace {
+// nearest integer of a small value, without a libm call
+inline double round_small(double v)
+{
+  return static_cast<double>(static_cast<int>(v + (v >= 0.0 ? 0.5 : -0.5)));
+}
+
 const char *USAGE =
     "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
     "[friction k_e mu_s sigma_n A reset|coulomb] [damp gamma]";
@@ -55,7 +61,8 @@ double positive(const char *file, int line, const char *what, const char *str, L
 FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), bonds_on(0), drive_on(0), friction_on(0), damp_on(0), coulomb(0), vd(0.0), ke(0.0),
     fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kb(0.0), r0(0.0), kd_name(nullptr),
-    kd_index(-1), state(nullptr), u(nullptr), nmax_u(0), t0(0.0), vh_valid(0), sum_fx_drive(0.0),
+    kd_index(-1), state(nullptr), u(nullptr), nmax_u(0), nblist(0), maxblist(0), bl_i(nullptr),
+    bl_j(nullptr), bl_both(nullptr), bl_sx(nullptr), bl_sy(nullptr), t0(0.0), vh_valid(0), sum_fx_drive(0.0),
     nbreak_step(0), nbreak_total(0), plate_shift(0.0), rmax_local(0.0), reduced(0)
 {
   if (strcmp(lmp->version, BK_LAMMPS_VERSION) != 0 ||
@@ -147,12 +154,17 @@ FixBKSubstrate::~FixBKSubstrate()
   atom->delete_callback(id, Atom::RESTART);
   memory->destroy(state);
   memory->destroy(u);
+  memory->destroy(bl_i);
+  memory->destroy(bl_j);
+  memory->destroy(bl_both);
+  memory->destroy(bl_sx);
+  memory->destroy(bl_sy);
   delete[] kd_name;
 }
 
 int FixBKSubstrate::setmask()
 {
-  return POST_FORCE;
+  return POST_FORCE | POST_NEIGHBOR;
 }
 
 void FixBKSubstrate::init()
@@ -185,19 +197,72 @@ double FixBKSubstrate::current_time() const
 void FixBKSubstrate::setup(int /*vflag*/)
 {
   plate_shift = vd * (current_time() - t0);
-  update_displacements();
+  update_displacements(0);
   dispatch(0);
 }
 
 void FixBKSubstrate::post_force(int /*vflag*/)
 {
   plate_shift = vd * (current_time() - t0);
-  update_displacements();
+  update_displacements(0);
   dispatch(1);
 }
 
-// u = r(t) - r(t0) of local atoms; ghosts get theirs by forward communication
-void FixBKSubstrate::update_displacements()
+void FixBKSubstrate::setup_post_neighbor()
+{
+  post_neighbor();
+}
+
+void FixBKSubstrate::post_neighbor()
+{
+  if (bonds_on) build_bond_list();
+}
+
+/* Positions jump by a box length, and atoms change rank or local index, only at
+   reneighbouring; between two, the periodic shift of each bond is constant. It is the one that
+   makes the bond vector minus the relative displacement u_i - u_j the lattice vector, which is
+   unambiguous however far the bond is stretched. */
+
+void FixBKSubstrate::build_bond_list()
+{
+  update_displacements(1);
+  double *const *const x = atom->x;
+  const int *const mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  const double xprd = domain->xprd, yprd = domain->yprd;
+  int need = 0;
+  for (int i = 0; i < nlocal; i++) need += atom->num_bond[i];
+  if (need > maxblist) {
+    maxblist = need;
+    memory->grow(bl_i, maxblist, "bk/substrate:bl_i");
+    memory->grow(bl_j, maxblist, "bk/substrate:bl_j");
+    memory->grow(bl_both, maxblist, "bk/substrate:bl_both");
+    memory->grow(bl_sx, maxblist, "bk/substrate:bl_sx");
+    memory->grow(bl_sy, maxblist, "bk/substrate:bl_sy");
+  }
+  nblist = 0;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    for (int k = 0; k < atom->num_bond[i]; k++) {
+      const int j = atom->map(atom->bond_atom[i][k]);
+      if (j < 0)
+        error->one(FLERR, "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
+                   "increase comm_modify cutoff", atom->bond_atom[i][k], atom->tag[i]);
+      const int both = j < nlocal && (mask[j] & groupbit);
+      if (both && j < i) continue;    // the same bond, listed by j with i as partner
+      const double wx = x[i][0] - x[j][0], wy = x[i][1] - x[j][1];
+      bl_i[nblist] = i;
+      bl_j[nblist] = j;
+      bl_both[nblist] = both;
+      bl_sx[nblist] = -xprd * round_small((wx - (u[i][0] - u[j][0])) / xprd);
+      bl_sy[nblist] = -yprd * round_small((wy - (u[i][1] - u[j][1])) / yprd);
+      nblist++;
+    }
+  }
+}
+
+// u = r(t) - r(t0) of local atoms; with ghosts, ghosts get theirs by forward communication
+void FixBKSubstrate::update_displacements(int ghosts)
 {
   if (!bonds_on && !drive_on) return;
   if (atom->nmax > nmax_u) {
@@ -214,7 +279,7 @@ void FixBKSubstrate::update_displacements()
     u[i][1] = x[i][1] + static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX) * yprd -
         state[i][AY];
   }
-  if (bonds_on && comm->nprocs > 1) comm->forward_comm(this);
+  if (ghosts && comm->nprocs > 1) comm->forward_comm(this);
 }
 
 int FixBKSubstrate::pack_forward_comm(int n, int *list, double *buf, int /*pbc_flag*/,
@@ -244,17 +309,11 @@ double FixBKSubstrate::compute_scalar()
   double e = 0.0;
   if (bonds_on) {
     double *const *const x = atom->x;
-    const double xprd = domain->xprd, yprd = domain->yprd;
-    for (int i = 0; i < atom->nlocal; i++) {
-      for (int k = 0; k < atom->num_bond[i]; k++) {
-        const int j = atom->map(atom->bond_atom[i][k]);
-        if (j < 0) error->one(FLERR, "fix bk/substrate: bond partner of atom {} missing", atom->tag[i]);
-        const double wx = x[i][0] - x[j][0], wy = x[i][1] - x[j][1];
-        const double dx = wx - xprd * nearbyint((wx - (u[i][0] - u[j][0])) / xprd);
-        const double dy = wy - yprd * nearbyint((wy - (u[i][1] - u[j][1])) / yprd);
-        const double dr = sqrt(dx * dx + dy * dy) - r0;
-        e += 0.25 * kb * dr * dr;
-      }
+    for (int b = 0; b < nblist; b++) {
+      const int i = bl_i[b], j = bl_j[b];
+      const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
+      const double dr = sqrt(dx * dx + dy * dy) - r0;
+      e += (bl_both[b] ? 0.5 : 0.25) * kb * dr * dr;
     }
   }
   double all = 0.0;
@@ -280,35 +339,30 @@ void FixBKSubstrate::eval()
   const double shift = plate_shift;
   const double fmax2 = fmax * fmax, ke2 = ke * ke;
   const int use_vh = !ADVANCE && vh_valid;
-  const int *const num_bond = atom->num_bond;
-  tagint *const *const bond_atom = atom->bond_atom;
-  const double inv_xprd = 1.0 / xprd, inv_yprd = 1.0 / yprd;
   double *const *const uu = u;
 
   double sfx = 0.0, r2max = 0.0;
   bigint nb = 0;
+  if (BONDS) {
+    for (int b = 0; b < nblist; b++) {
+      const int i = bl_i[b], j = bl_j[b];
+      const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
+      const double r2 = dx * dx + dy * dy;
+      const double r = sqrt(r2);
+      const double fb = -kb * (r - r0) / r;
+      f[i][0] += fb * dx;
+      f[i][1] += fb * dy;
+      if (bl_both[b]) {
+        f[j][0] -= fb * dx;
+        f[j][1] -= fb * dy;
+      }
+      if (r2 > r2max) r2max = r2;
+    }
+  }
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     double *const s = state[i];
     double fx = 0.0, fy = 0.0;
-    if (BONDS) {
-      const double xi = x[i][0], yi = x[i][1], uxi = uu[i][0], uyi = uu[i][1];
-      for (int k = 0; k < num_bond[i]; k++) {
-        const int j = atom->map(bond_atom[i][k]);
-        if (j < 0)
-          error->one(FLERR, "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
-                     "increase comm_modify cutoff", bond_atom[i][k], atom->tag[i]);
-        const double wx = xi - x[j][0], wy = yi - x[j][1];
-        const double dx = wx - xprd * nearbyint((wx - (uxi - uu[j][0])) * inv_xprd);
-        const double dy = wy - yprd * nearbyint((wy - (uyi - uu[j][1])) * inv_yprd);
-        const double r2 = dx * dx + dy * dy;
-        const double r = sqrt(r2);
-        const double fb = -kb * (r - r0) / r;
-        fx += fb * dx;
-        fy += fb * dy;
-        if (r2 > r2max) r2max = r2;
-      }
-    }
     if (DRIVE) {
       const double fdx = kd[i] * (shift - uu[i][0]);
       fx += fdx;

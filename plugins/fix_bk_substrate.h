@@ -16,6 +16,8 @@ class FixBKSubstrate : public Fix {
   int setmask() override;
   void init() override;
   void setup(int) override;
+  void setup_post_neighbor() override;
+  void post_neighbor() override;
   void post_force(int) override;
   double compute_vector(int) override;
   double compute_scalar() override;
@@ -55,6 +57,12 @@ class FixBKSubstrate : public Fix {
                          // VH*: half-step velocity of the last post_force
   double **u;            // displacement r_i(t) - r_i(t0), local atoms and ghosts
   int nmax_u;
+
+  // bond list, rebuilt at every reneighbouring: pair (i, j), the periodic shift that puts j
+  // at its lattice image of i, and whether j is local (force applied to both ends)
+  int nblist, maxblist;
+  int *bl_i, *bl_j, *bl_both;
+  double *bl_sx, *bl_sy;
   double t0;             // simulation time at which anchors were taken
   int vh_valid;          // VH* hold the velocity used by the last post_force
 
@@ -67,7 +75,8 @@ class FixBKSubstrate : public Fix {
   double reduced_vec[3];
 
   double current_time() const;
-  void update_displacements();
+  void update_displacements(int ghosts);
+  void build_bond_list();
   template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();
   void dispatch(int advance);
 };
