@@ -264,7 +264,8 @@ void FixBKSubstrate::build_bond_list()
 // u = r(t) - r(t0) of local atoms; with ghosts, ghosts get theirs by forward communication
 void FixBKSubstrate::update_displacements(int ghosts)
 {
-  if (!bonds_on && !drive_on) return;
+  // the drive reads u every step; the bonds only when their list is rebuilt
+  if (!drive_on && !(ghosts && bonds_on)) return;
   if (atom->nmax > nmax_u) {
     nmax_u = atom->nmax;
     memory->destroy(u);
