@@ -83,11 +83,9 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
 
 
 def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
-                  damp: bool = True, bonds: bool = True) -> str | None:
-    """The ``fix bk/substrate`` line of a run (parts can be left out; None if all are)."""
-    parts = []
-    if bonds:
-        parts.append(f"bonds {_f(spec.k_b)} 1.0")
+                  damp: bool = True) -> str:
+    """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for."""
+    parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
     if friction:
@@ -95,7 +93,7 @@ def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
                      f"{_f(spec.area)} {spec.friction}")
     if damp:
         parts.append(f"damp {_f(spec.gamma)}")
-    return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts) if parts else None
+    return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 
 def _header(spec: RunSpec) -> list[str]:
@@ -140,17 +138,16 @@ def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[st
         f"timestep        {_f(spec.dt)}",
         "",
         "fix             nve all nve",
+        substrate_fix(spec, drive, friction, damp),
+        "fix             2d all enforce2d",
+        "",
     ]
-    fix = substrate_fix(spec, drive, friction, damp)
-    if fix:
-        lines.append(fix)
-    lines += ["fix             2d all enforce2d", ""]
     return lines
 
 
-def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None, substrate: bool) -> list[str]:
+def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[str]:
     lines = []
-    if files.stress and substrate:
+    if files.stress:
         lines += [
             f'fix             stress all print {spec.stress_nevery} "$(time:%.10g),'
             f'$(f_{SUBSTRATE_FIX}[1]:%.15g)" file {files.stress} screen no title "t,sigma_x"',
@@ -170,7 +167,7 @@ def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int 
                drive: bool = True, friction: bool = True, damp: bool = True) -> str:
     """Everything of the deck before ``run``: system, forces, integrator, outputs."""
     lines = (_header(spec) + _system(files) + _dynamics(spec, drive, friction, damp)
-             + _outputs(spec, files, thermo_every, True))
+             + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 
@@ -182,7 +179,7 @@ def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data
     clock come back from the restart file; k_d^i come back with ``fix kd``.
     """
     lines = (_header(spec) + [f"read_restart    {restart}", "fix             kd all property/atom d_kd"]
-             + _dynamics(spec, True, True, True) + _outputs(spec, files, thermo_every, True))
+             + _dynamics(spec, True, True, True) + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 

@@ -101,9 +101,9 @@ class RunSpec:
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 3:
                 raise SpecError(
-                    f"{name} must be an integer >= 3, got {v!r}: with 2 rows the bonds to the "
-                    f"neighbours on either side join the same pair of particles at exactly half "
-                    f"the box, where the minimum-image bond vector is undefined")
+                    f"{name} must be an integer >= 3, got {v!r}: with 2 cells along an axis the "
+                    f"bonds to the neighbours on either side join the same pair of particles at "
+                    f"exactly half the box, where the bond's periodic image is undefined")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise SpecError(f"seed must be a non-negative integer, got {self.seed!r}")
         if self.friction not in FRICTION_MODES:
