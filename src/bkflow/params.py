@@ -27,6 +27,10 @@ DT_FACTOR_MAX = 1.0
 
 FRICTION_MODES = ("reset", "coulomb")
 
+#: what a run records (MODEL.md "Observables"; docs in bkflow.deck): each scene writes only
+#: what its observables need
+SCENES = ("friction", "order", "clusters", "full")
+
 
 class SpecError(ValueError):
     """A parameter outside its meaning; the message names the field and the accepted range."""
@@ -73,6 +77,15 @@ class RunSpec:
     gamma: float = 0.2
     mass: float = 1.0
     stress_every: float = 0.1
+    #: observables to record: friction (sigma_x only), order (+ snapshots for Psi(t)),
+    #: clusters (+ positions at every slip's maximum and minimum), full (all)
+    scene: str = "full"
+    #: interval of the snapshots of the order scene (time units, rounded to whole steps)
+    snapshot_every: float = 20.0
+    #: slip threshold as a fraction of mu_s sigma_n (MODEL.md "Slip events")
+    slip_threshold: float = 0.01
+    #: fraction of the run treated as transient (not analysed, no slip snapshots written)
+    transient: float = 0.2
     #: a bond longer than this (lattice units) stops the run as torn apart
     bond_limit: float = 10.0
 
@@ -84,7 +97,7 @@ class RunSpec:
             return v
 
         for name in ("phi", "t_end", "dt_factor", "k_d", "k_e", "mu_s", "sigma_n", "area",
-                     "mass", "stress_every", "bond_limit"):
+                     "mass", "stress_every", "bond_limit", "snapshot_every", "slip_threshold"):
             if not finite(name) > 0:
                 raise SpecError(f"{name} must be > 0, got {getattr(self, name)!r}")
         for name in ("dk_d", "gamma", "V_d"):
@@ -106,6 +119,11 @@ class RunSpec:
                     f"exactly half the box, where the bond's periodic image is undefined")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise SpecError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not 0 <= finite("transient") < 1:
+            raise SpecError(f"transient must lie in [0, 1) (a fraction of the run), "
+                            f"got {self.transient!r}")
+        if self.scene not in SCENES:
+            raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
         if self.friction not in FRICTION_MODES:
             raise SpecError(f"friction must be one of {FRICTION_MODES}, got {self.friction!r}")
         if self.dt_factor > DT_FACTOR_MAX:
@@ -142,6 +160,29 @@ class RunSpec:
     def stress_nevery(self) -> int:
         """Steps between sigma_x samples (stress_every rounded to whole steps, at least 1)."""
         return max(1, int(round(self.stress_every / self.dt)))
+
+    @property
+    def snapshot_nevery(self) -> int:
+        """Steps between the order scene's snapshots (at least 1)."""
+        return max(1, int(round(self.snapshot_every / self.dt)))
+
+    @property
+    def slip_threshold_stress(self) -> float:
+        """The slip threshold in stress units: slip_threshold * mu_s * sigma_n."""
+        return self.slip_threshold * self.mu_s * self.sigma_n
+
+    @property
+    def transient_step(self) -> int:
+        """First step after the transient."""
+        return int(round(self.transient * self.n_steps))
+
+    @property
+    def writes_snapshots(self) -> bool:
+        return self.scene in ("order", "full")
+
+    @property
+    def writes_slips(self) -> bool:
+        return self.scene in ("clusters", "full")
 
     @property
     def friction_threshold(self) -> float:

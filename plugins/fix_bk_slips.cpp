@@ -1,0 +1,218 @@
+/* bkflow: fix bk/slips
+
+     fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]
+
+   Every Nevery steps it reads sigma_x (element 1 of the substrate fix's global vector) and
+   runs the zigzag rule of src/bkflow/stress.py: a maximum is the highest sample before
+   sigma_x falls by more than `threshold`; its minimum is the lowest sample before sigma_x
+   rises again by more than `threshold`. While a maximum (minimum) is open, every new
+   running extreme copies the local atoms' positions (no communication); when the event is
+   confirmed, the two copies are gathered on rank 0 and appended to FILE as two frames of a
+   LAMMPS text dump (columns id type x y z ix iy iz, sorted by id), maximum first. So the
+   file holds exactly the positions the slip-cluster analysis needs and nothing in between.
+   Events whose maximum lies before step `start` (the transient) are followed but not
+   written. Global vector: [1] events confirmed, [2] events written.
+
+   The zigzag state is not stored in restart files: a continued run starts a new search. */
+
+#include "fix_bk_slips.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "modify.h"
+#include "update.h"
+#include "utils.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+const char *USAGE = "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]";
+constexpr int NCOL = 5;
+}    // namespace
+
+FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), substrate_id(nullptr), substrate(nullptr), filename(nullptr),
+    fp(nullptr)
+{
+  if (narg < 8) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
+  nevery = utils::inumeric(FLERR, arg[3], false, lmp);
+  if (nevery <= 0) error->all(FLERR, "fix bk/slips: Nevery must be > 0, got {}", arg[3]);
+  substrate_id = utils::strdup(arg[4]);
+  threshold = utils::numeric(FLERR, arg[5], false, lmp);
+  if (!(threshold > 0.0)) error->all(FLERR, "fix bk/slips: threshold must be > 0, got {}", arg[5]);
+  if (strcmp(arg[6], "file") != 0) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
+  filename = utils::strdup(arg[7]);
+  start = 0;
+  int iarg = 8;
+  while (iarg < narg) {
+    if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
+      start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+    } else {
+      error->all(FLERR, "Illegal fix bk/slips keyword {}: {}", arg[iarg], USAGE);
+    }
+  }
+  if (domain->dimension != 2) error->all(FLERR, "fix bk/slips needs dimension 2");
+
+  vector_flag = 1;
+  size_vector = 2;
+  global_freq = 1;
+  extvector = 0;
+
+  if (comm->me == 0) {
+    fp = fopen(filename, "w");
+    if (!fp) error->one(FLERR, "fix bk/slips: cannot open {}: {}", filename, utils::getsyserror());
+  }
+  falling = 0;
+  smax = smin = 0.0;
+  step_max = step_min = -1;
+  last_step = -1;
+  nevents = nwritten = 0;
+}
+
+FixBKSlips::~FixBKSlips()
+{
+  if (fp) fclose(fp);
+  delete[] substrate_id;
+  delete[] filename;
+}
+
+int FixBKSlips::setmask()
+{
+  return END_OF_STEP;
+}
+
+void FixBKSlips::init()
+{
+  substrate = modify->get_fix_by_id(substrate_id);
+  if (!substrate)
+    error->all(FLERR, "fix bk/slips: no fix with ID {} (the bk/substrate fix)", substrate_id);
+  if (strcmp(substrate->style, "bk/substrate") != 0)
+    error->all(FLERR, "fix bk/slips: fix {} is {}, not bk/substrate", substrate_id,
+               substrate->style);
+  if (modify->find_fix(id) < modify->find_fix(substrate_id))
+    error->all(FLERR, "fix bk/slips must be defined after fix {}", substrate_id);
+}
+
+void FixBKSlips::setup(int)
+{
+  if (update->ntimestep % nevery == 0) sample();
+}
+
+void FixBKSlips::end_of_step()
+{
+  sample();
+}
+
+void FixBKSlips::snapshot(std::vector<double> &buf)
+{
+  const int nlocal = atom->nlocal;
+  const int *mask = atom->mask;
+  const tagint *tag = atom->tag;
+  const imageint *image = atom->image;
+  double **x = atom->x;
+  buf.clear();
+  buf.reserve(static_cast<size_t>(nlocal) * NCOL);
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    buf.push_back(static_cast<double>(tag[i]));
+    buf.push_back(x[i][0]);
+    buf.push_back(x[i][1]);
+    buf.push_back(static_cast<double>((image[i] & IMGMASK) - IMGMAX));
+    buf.push_back(static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX));
+  }
+}
+
+void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
+{
+  int n = static_cast<int>(buf.size());
+  const int nprocs = comm->nprocs, me = comm->me;
+  std::vector<int> counts(nprocs), displs(nprocs);
+  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, world);
+  std::vector<double> all;
+  if (me == 0) {
+    int total = 0;
+    for (int p = 0; p < nprocs; p++) {
+      displs[p] = total;
+      total += counts[p];
+    }
+    all.resize(total);
+  }
+  MPI_Gatherv(buf.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+              world);
+  if (me != 0) return;
+
+  const size_t natom = all.size() / NCOL;
+  std::vector<size_t> order(natom);
+  for (size_t k = 0; k < natom; k++) order[k] = k;
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return all[a * NCOL] < all[b * NCOL]; });
+  fmt::print(fp, "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n",
+             step, natom);
+  fmt::print(fp, "{:.17g} {:.17g}\n{:.17g} {:.17g}\n{:.17g} {:.17g}\n", domain->boxlo[0],
+             domain->boxhi[0], domain->boxlo[1], domain->boxhi[1], domain->boxlo[2],
+             domain->boxhi[2]);
+  fputs("ITEM: ATOMS id type x y z ix iy iz\n", fp);
+  for (size_t k : order) {
+    const double *r = &all[k * NCOL];
+    fmt::print(fp, "{} 1 {:.9g} {:.9g} 0 {} {} 0\n", static_cast<tagint>(r[0]), r[1], r[2],
+               static_cast<int>(r[3]), static_cast<int>(r[4]));
+  }
+}
+
+void FixBKSlips::sample()
+{
+  const bigint step = update->ntimestep;
+  if (step == last_step) return;
+  last_step = step;
+  const double s = substrate->compute_vector(0);
+
+  if (step_max < 0) {    // first sample of this fix
+    smax = s;
+    step_max = step;
+    snapshot(snap_max);
+    return;
+  }
+  if (!falling) {
+    if (s > smax) {
+      smax = s;
+      step_max = step;
+      snapshot(snap_max);
+    } else if (smax - s > threshold) {
+      falling = 1;
+      smin = s;
+      step_min = step;
+      snapshot(snap_min);
+    }
+  } else {
+    if (s < smin) {
+      smin = s;
+      step_min = step;
+      snapshot(snap_min);
+    } else if (s - smin > threshold) {
+      nevents++;
+      if (step_max >= start) {
+        write_frame(snap_max, step_max);
+        write_frame(snap_min, step_min);
+        if (fp) fflush(fp);
+        nwritten++;
+      }
+      falling = 0;
+      smax = s;
+      step_max = step;
+      snapshot(snap_max);
+    }
+  }
+}
+
+double FixBKSlips::compute_vector(int n)
+{
+  return n == 0 ? static_cast<double>(nevents) : static_cast<double>(nwritten);
+}

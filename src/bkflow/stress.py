@@ -1,0 +1,296 @@
+"""Slips and friction from the shear-stress series sigma_x(t) (MODEL.md, "Observables").
+
+Pure functions on numpy arrays: no file I/O (readers live in :mod:`bkflow.io`). Stress is in
+the model's units (k_d l / l^2), so mu_s sigma_n = 1 with MODEL.md's defaults.
+
+Slip events
+    MODEL.md defines a slip as a drop of sigma_x from a local maximum to the next local minimum
+    larger than a threshold. On a sampled, slightly noisy series the extrema are taken at the
+    resolution of that threshold (the "zigzag" or hysteresis rule): a maximum is the highest
+    sample before the series falls by more than the threshold, and its minimum is the lowest
+    sample before the series rises again by more than the threshold. So a wiggle smaller than
+    the threshold neither makes an event nor splits one; on a clean sawtooth the events are
+    exactly its teeth. ``fix bk/slips`` (plugins/README.md) runs the same rule inside LAMMPS
+    on the same samples, so the snapshots it writes line up with :func:`slip_events`.
+
+>>> t = np.arange(12.0)
+>>> s = np.array([0, .5, 1, .2, .4, .8, .9, .1, .3, .31, .6, .7])
+>>> ev = slip_events(t, s, threshold=0.05)
+>>> ev.sigma_fail.tolist(), ev.drop.round(2).tolist()
+([1.0, 0.9], [0.8, 0.8])
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: thresholds (fraction of mu_s sigma_n) that ``bkflow analyze`` reports mu_bar for
+REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
+#: default slip threshold, as a fraction of mu_s sigma_n (MODEL.md leaves it open)
+DEFAULT_THRESHOLD_FRACTION = 0.01
+#: default transient: the first 20% of the run is not analysed
+DEFAULT_TRANSIENT_FRACTION = 0.2
+
+
+@dataclass(frozen=True)
+class SlipEvents:
+    """Slip events of one series; arrays have one entry per event, in time order.
+
+    ``i_max``/``i_min`` index the input samples; ``sigma_fail`` = sigma_x at the maximum;
+    ``drop`` = sigma_fail - sigma_x at the minimum (> threshold).
+    """
+
+    i_max: np.ndarray
+    i_min: np.ndarray
+    t_max: np.ndarray
+    t_min: np.ndarray
+    sigma_fail: np.ndarray
+    drop: np.ndarray
+    threshold: float
+
+    def __len__(self) -> int:
+        return len(self.i_max)
+
+    def after(self, t0: float) -> "SlipEvents":
+        """The events whose maximum lies at t >= t0 (transient removed)."""
+        keep = self.t_max >= t0
+        return SlipEvents(self.i_max[keep], self.i_min[keep], self.t_max[keep],
+                          self.t_min[keep], self.sigma_fail[keep], self.drop[keep],
+                          self.threshold)
+
+
+def zigzag_extrema(sigma, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i_max, i_min) of every drop larger than ``threshold`` (see module doc).
+
+    A drop that the series has not yet confirmed by rising again by more than ``threshold``
+    (at the end of the series) is left out: its minimum is not known. fix bk/slips applies
+    the same rule, so both find the same events.
+    """
+    s = np.asarray(sigma, dtype=float)
+    if not threshold > 0:
+        raise ValueError(f"threshold must be > 0, got {threshold!r}")
+    if s.ndim != 1:
+        raise ValueError("sigma must be one-dimensional")
+    if not np.all(np.isfinite(s)):
+        raise ValueError("sigma contains NaN or inf")
+    maxima, minima = [], []
+    vals = s.tolist()  # plain floats: this loop is the only serial part, keep it cheap
+    falling = False
+    cmax = cmin = 0
+    for i in range(1, len(vals)):
+        v = vals[i]
+        if not falling:
+            if v > vals[cmax]:
+                cmax = i
+            elif vals[cmax] - v > threshold:
+                falling, cmin = True, i
+        else:
+            if v < vals[cmin]:
+                cmin = i
+            elif v - vals[cmin] > threshold:
+                maxima.append(cmax)
+                minima.append(cmin)
+                falling, cmax = False, i
+    return np.array(maxima, dtype=int), np.array(minima, dtype=int)
+
+
+def slip_events(t, sigma, threshold: float) -> SlipEvents:
+    """Slip events of the series ``sigma`` sampled at times ``t`` (stress units)."""
+    t = np.asarray(t, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    if t.shape != s.shape:
+        raise ValueError(f"t and sigma differ in shape: {t.shape} vs {s.shape}")
+    i_max, i_min = zigzag_extrema(s, threshold)
+    return SlipEvents(i_max, i_min, t[i_max], t[i_min], s[i_max], s[i_max] - s[i_min],
+                      float(threshold))
+
+
+@dataclass(frozen=True)
+class BlockingEstimate:
+    """Mean of a correlated series with its standard error from blocking.
+
+    ``level``: number of pairwise averagings applied (0 = the naive formula was accepted);
+    ``n_blocks``: samples left at that level; ``reliable``: False when no level passed the
+    test of independence, in which case ``error`` comes from the coarsest level and is a
+    lower bound.
+    """
+
+    mean: float
+    error: float
+    level: int
+    n_blocks: int
+    reliable: bool
+
+
+def blocking_error(x, min_blocks: int = 4) -> BlockingEstimate:
+    """Mean and standard error of a correlated series by automated blocking.
+
+    Blocking (Flyvbjerg and Petersen, J. Chem. Phys. 91, 461 (1989)) averages neighbours in
+    pairs, level after level, until the blocks are uncorrelated; the naive error of the block
+    means is then the error of the mean. The level is chosen automatically after Jonsson,
+    Phys. Rev. E 98, 043304 (2018): the smallest level j at which
+    M_j = sum_{k >= j} n_k (gamma_k / s_k^2)^2 (gamma_k the lag-one autocovariance, s_k^2 the
+    variance, n_k the number of blocks at level k) is below the 99% quantile of chi^2 with as
+    many degrees of freedom as terms. On independent data level 0 passes (the naive error).
+    Levels with fewer than ``min_blocks`` blocks are not used; an odd last sample is dropped
+    at each halving.
+    """
+    from scipy.stats import chi2
+
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    if n == 0:
+        return BlockingEstimate(math.nan, math.nan, 0, 0, False)
+    mean = float(x.mean())
+    if n < 2:
+        return BlockingEstimate(mean, math.nan, 0, n, False)
+    var, gam, nk = [], [], []
+    b = x
+    while True:
+        m = len(b)
+        mu = b.mean()
+        var.append(b.var())
+        gam.append(float(np.sum((b[:-1] - mu) * (b[1:] - mu)) / m))
+        nk.append(m)
+        if m // 2 < max(2, min_blocks):
+            break
+        m2 = m - m % 2
+        b = 0.5 * (b[0:m2:2] + b[1:m2:2])
+    var, gam, nk = np.array(var), np.array(gam), np.array(nk)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(var > 0, nk * (gam / var) ** 2, 0.0)
+    d = len(nk)
+    m_stat = np.cumsum(terms[::-1])[::-1]
+    level, reliable = d - 1, False
+    for j in range(d):
+        if m_stat[j] < chi2.ppf(0.99, d - j):
+            level, reliable = j, True
+            break
+    # var is the biased variance of the n_k block means: the error of the mean is
+    # sqrt(var / (n_k - 1))
+    err = math.sqrt(var[level] / (nk[level] - 1)) if nk[level] > 1 else math.nan
+    return BlockingEstimate(mean, err, int(level), int(nk[level]), reliable)
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Macroscopic friction of one run (MODEL.md, "Macroscopic friction").
+
+    ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
+    standard error by blocking over successive slips (:func:`blocking_error`);
+    ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
+    threshold involved).
+    """
+
+    mu_bar: float
+    mu_bar_err: float
+    n_slips: int
+    mean_stress_ratio: float
+    threshold: float
+    t_transient: float
+    blocking_level: int
+    error_reliable: bool
+
+
+def friction(t, sigma, sigma_n: float, threshold: float,
+             transient_fraction: float = DEFAULT_TRANSIENT_FRACTION,
+             t_transient: float | None = None) -> Friction:
+    """mu_bar with its error and the time-averaged stress ratio of one series.
+
+    ``threshold`` in stress units (MODEL.md's 1% of mu_s sigma_n is 0.01); the transient is the
+    first ``transient_fraction`` of the series' time span, or everything before
+    ``t_transient`` when that is given.
+    """
+    t = np.asarray(t, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    if not 0 <= transient_fraction < 1:
+        raise ValueError(f"transient_fraction must lie in [0, 1), got {transient_fraction!r}")
+    if len(t) < 2:
+        raise ValueError("the stress series has fewer than two samples")
+    t0 = t[0] + transient_fraction * (t[-1] - t[0]) if t_transient is None else t_transient
+    ev = slip_events(t, s, threshold).after(t0)
+    est = blocking_error(ev.sigma_fail / sigma_n)
+    late = t >= t0
+    return Friction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
+                    mean_stress_ratio=float(s[late].mean() / sigma_n), threshold=float(threshold),
+                    t_transient=float(t0), blocking_level=est.level,
+                    error_reliable=est.reliable)
+
+
+@dataclass(frozen=True)
+class PowerLawFit:
+    """Continuous power law p(x) ~ x^-alpha for x >= x_min, fitted by maximum likelihood.
+
+    ``alpha_err`` = (alpha - 1) / sqrt(n_tail), the asymptotic standard error; ``ks`` the
+    Kolmogorov-Smirnov distance between the tail and the fit.
+    """
+
+    alpha: float
+    alpha_err: float
+    x_min: float
+    n_tail: int
+    ks: float
+
+
+def _fit_tail(x_sorted_tail: np.ndarray, x_min: float) -> tuple[float, float]:
+    n = len(x_sorted_tail)
+    alpha = 1.0 + n / float(np.sum(np.log(x_sorted_tail / x_min)))
+    emp = np.arange(n) / n
+    model = 1.0 - (x_sorted_tail / x_min) ** (1.0 - alpha)
+    ks = float(np.max(np.abs(emp - model)))
+    return alpha, ks
+
+
+def power_law_fit(x, x_min: float | None = None, min_tail: int = 10) -> PowerLawFit:
+    """Maximum-likelihood exponent of a continuous power law (Clauset, Shalizi and Newman,
+    SIAM Rev. 51, 661 (2009), Eq. 3.1): alpha = 1 + n / sum ln(x_i / x_min).
+
+    ``x_min`` given: the lower cut. ``x_min=None``: chosen among the sample values as the one
+    that minimises the KS distance between the tail and its fit (their Sec. 3.3), keeping at
+    least ``min_tail`` samples. Fewer than ``min_tail`` samples above the cut give NaN.
+    """
+    x = np.sort(np.asarray(x, dtype=float))
+    x = x[np.isfinite(x) & (x > 0)]
+    nan = PowerLawFit(math.nan, math.nan, math.nan if x_min is None else float(x_min), 0, math.nan)
+    if x_min is not None:
+        tail = x[x >= x_min]
+        if len(tail) < min_tail or np.all(tail == x_min):
+            return PowerLawFit(math.nan, math.nan, float(x_min), len(tail), math.nan)
+        alpha, ks = _fit_tail(tail, x_min)
+        return PowerLawFit(alpha, (alpha - 1) / math.sqrt(len(tail)), float(x_min), len(tail), ks)
+    if len(x) < min_tail:
+        return nan
+    best = None
+    candidates = np.unique(x[: len(x) - min_tail + 1])
+    for xm in candidates:
+        tail = x[np.searchsorted(x, xm):]
+        if np.all(tail == xm):
+            continue
+        alpha, ks = _fit_tail(tail, xm)
+        if best is None or ks < best[1]:
+            best = (alpha, ks, xm, len(tail))
+    if best is None:
+        return nan
+    alpha, ks, xm, n = best
+    return PowerLawFit(alpha, (alpha - 1) / math.sqrt(n), float(xm), n, ks)
+
+
+def drop_distribution(drops, bins: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """Probability density of stress-drop sizes in logarithmic bins: (bin centres, density).
+
+    Centres are geometric means of the bin edges; empty bins have density 0.
+    """
+    d = np.asarray(drops, dtype=float)
+    d = d[np.isfinite(d) & (d > 0)]
+    if len(d) == 0:
+        return np.empty(0), np.empty(0)
+    lo, hi = d.min(), d.max()
+    if hi <= lo:
+        hi = lo * 1.0001
+    edges = np.geomspace(lo, hi, bins + 1)
+    counts, _ = np.histogram(d, edges)
+    density = counts / (len(d) * np.diff(edges))
+    return np.sqrt(edges[:-1] * edges[1:]), density
