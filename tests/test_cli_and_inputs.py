@@ -114,7 +114,7 @@ def test_spec_validation_names_the_field():
 def test_checked_in_decks_are_current(tmp_path):
     write_standard_decks(tmp_path)
     for name in STANDARD_DECKS:
-        for f in ("in.bk", "data.bk"):
+        for f in ("in.bk", "data.bk", "params.json"):
             fresh = (tmp_path / name / f).read_text()
             kept = (ROOT / "lammps_inputs" / name / f).read_text()
             assert fresh == kept, (f"lammps_inputs/{name}/{f} is stale: regenerate with "
@@ -125,7 +125,7 @@ def test_checked_in_decks_are_current(tmp_path):
 def test_standalone_deck_runs_under_lmp(tmp_path):
     """lmp -in in.bk with the wheel's lmp (plugin auto-loaded through the entry point)."""
     src = ROOT / "lammps_inputs" / "N100_phi10"
-    for f in ("in.bk", "data.bk"):
+    for f in ("in.bk", "data.bk", "params.json"):
         (tmp_path / f).write_text((src / f).read_text())
     env = {k: v for k, v in os.environ.items() if k != "LAMMPS_PLUGIN_PATH"}
     proc = subprocess.run([tool("lmp"), "-in", "in.bk", "-var", "comm_cutoff", "1.0"],
@@ -134,3 +134,11 @@ def test_standalone_deck_runs_under_lmp(tmp_path):
     assert "Total wall time" in proc.stdout
     stress = pd.read_csv(tmp_path / "stress.csv")
     assert stress["t"].iloc[-1] == pytest.approx(STANDARD_DECKS["N100_phi10"].t_end, abs=0.2)
+    # the standalone run is analysed like a bkflow run, from the deck's params.json
+    proc = subprocess.run([tool("bkflow"), "analyze", str(tmp_path)], capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["n_slips"] > 10 and summary["n_slips_without_snapshots"] == 0
+    assert 0 < summary["mu_bar"] < STANDARD_DECKS["N100_phi10"].mu_s
+    assert summary["regime"] in ("C", "LC", "DP", "DT")

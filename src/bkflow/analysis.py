@@ -156,20 +156,35 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
     """Analyse a finished run directory: write summary.json (and psi.csv, clusters.csv when
-    the scene recorded them); return the summary."""
+    the scene recorded them); return the summary as written (None where not measured).
+
+    The directory is a ``bkflow run`` output (meta.json) or a deck run standalone with
+    ``lmp -in in.bk`` (params.json from ``bkflow deck``, finished when stress.csv reaches
+    t_end)."""
     from . import io
-    from .deck import SLIPS_FILE, SNAPSHOT_FILE, STRESS_FILE
+    from .deck import PARAMS_FILE, SLIPS_FILE, SNAPSHOT_FILE, STRESS_FILE
     from .engine import CLUSTERS_FILE, META_FILE, PSI_FILE, SUMMARY_FILE, is_complete
 
     d = Path(run_dir)
     if not d.is_dir():
         raise FileNotFoundError(f"{d} is not a directory")
-    if not is_complete(d):
-        raise ValueError(f"{d} holds no finished run (no meta.json with status complete); "
-                         "run it first with bkflow run")
-    meta = io.read_json(d / META_FILE)
-    spec = RunSpec.from_dict(meta["params"])
-    t, sigma = io.read_stress(d / STRESS_FILE)
+    if is_complete(d):
+        meta = io.read_json(d / META_FILE)
+        spec = RunSpec.from_dict(meta["params"])
+        t, sigma = io.read_stress(d / STRESS_FILE)
+    elif (d / PARAMS_FILE).exists() and (d / STRESS_FILE).exists():
+        # a deck run standalone (lmp -in in.bk): finished when the series reaches t_end
+        meta = {}
+        spec = RunSpec.from_dict(io.read_json(d / PARAMS_FILE))
+        t, sigma = io.read_stress(d / STRESS_FILE)
+        last = spec.stress_nevery * ((spec.n_steps // spec.stress_nevery)) * spec.dt
+        if len(t) == 0 or t[-1] < last - 0.5 * spec.dt:
+            raise ValueError(f"{d / STRESS_FILE} ends at t = {t[-1] if len(t) else 0:g}, "
+                             f"before the run's end ({last:g}): the run did not finish")
+    else:
+        raise ValueError(f"{d} holds no finished run (no meta.json with status complete, nor "
+                         f"a deck's {PARAMS_FILE} with its {STRESS_FILE}); run it first with "
+                         "bkflow run")
     snaps = slips = None
     if spec.writes_snapshots:
         f = io.read_frames(d / SNAPSHOT_FILE, spec.N)
@@ -186,4 +201,4 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
         if table is not None:
             io.write_table(d / name, table)
     io.write_json_atomic(d / SUMMARY_FILE, res.summary)
-    return res.summary
+    return io.json_ready(res.summary)  # as written: NaN (not measured) reads back as None

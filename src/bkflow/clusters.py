@@ -9,8 +9,9 @@ cluster of N_c >= 2 particles, with minimum-image distances and positions at the
     l_x = 4 / (N_c (N_c - 1)) * sum over ordered pairs i != j of |dx_ij|,   l_y likewise,
 
 so that a cluster filling the periodic box gives l_x = Lx N/(N-1) and l_y = Ly N/(N-1) (the
-"lattice's discreteness" of MODEL.md: a ring of n equally spaced points has mean distance
-L/4 * n/(n-1)), and one full row gives l_x = Lx Lx/(Lx-1), l_y = 0.
+"lattice's discreteness" of MODEL.md: the distances from one of L equally spaced sites on a
+ring to the others sum to L^2/4; for odd L it is (L^2 - 1)/4, a further factor 1 - 1/L^2),
+and one full row gives l_x = Lx Lx/(Lx-1), l_y = 0.
 The pair sum is computed in O(N_c log N_c) from sorted coordinates and prefix sums, so a
 cluster of the whole 120x30 layer costs no more memory than its positions.
 

@@ -25,6 +25,8 @@ from .params import RunSpec
 
 DATA_FILE = "data.bk"
 DECK_FILE = "in.bk"
+#: the RunSpec of a deck, so that ``bkflow analyze`` can read a run made with ``lmp -in in.bk``
+PARAMS_FILE = "params.json"
 STRESS_FILE = "stress.csv"
 SNAPSHOT_FILE = "snapshots.lammpstrj"
 SLIPS_FILE = "slips.lammpstrj"
@@ -231,14 +233,17 @@ def write_standard_decks(root) -> list[str]:
 
 
 def write_deck(spec: RunSpec, directory) -> dict[str, str]:
-    """Write ``in.bk`` and ``data.bk`` into ``directory``; return {name: path}."""
+    """Write ``in.bk``, ``data.bk`` and ``params.json`` into ``directory``; return {name: path}."""
+    import json
     from pathlib import Path
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     (d / DATA_FILE).write_text(data_text(spec))
     (d / DECK_FILE).write_text(deck_text(spec))
-    return {"deck": str(d / DECK_FILE), "data": str(d / DATA_FILE)}
+    (d / PARAMS_FILE).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
+    return {"deck": str(d / DECK_FILE), "data": str(d / DATA_FILE),
+            "params": str(d / PARAMS_FILE)}
 
 
 if __name__ == "__main__":

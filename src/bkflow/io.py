@@ -74,16 +74,16 @@ def read_json(path) -> dict:
     return json.loads(Path(path).read_text())
 
 
-def _clean(obj):
+def json_ready(obj):
     """NaN and inf become null: JSON has no such numbers and readers choke on them."""
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
+        return {str(k): json_ready(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
+        return [json_ready(v) for v in obj]
     if isinstance(obj, np.generic):
-        return _clean(obj.item())
+        return json_ready(obj.item())
     return obj
 
 
@@ -91,7 +91,7 @@ def write_json_atomic(path, obj) -> None:
     """Write JSON through a temporary file and a rename, so a reader never sees half of it."""
     path = Path(path)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(_clean(obj), indent=2, sort_keys=True, allow_nan=False) + "\n")
+    tmp.write_text(json.dumps(json_ready(obj), indent=2, sort_keys=True, allow_nan=False) + "\n")
     os.replace(tmp, path)
 
 

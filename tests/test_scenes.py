@@ -1,0 +1,141 @@
+"""Scenes write only what their observables need, and the analysis reads them back."""
+
+import json
+import subprocess
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bkflow.analysis import analyze
+from bkflow.cli import main
+from bkflow.deck import write_deck
+from bkflow.engine import run
+from bkflow.io import read_frames, read_stress
+from bkflow.params import RunSpec
+from bkflow.stress import slip_events
+from conftest import tool
+
+REQUIRED = ("mu_bar", "mu_bar_err", "n_slips", "mean_stress_ratio", "mu_bar_by_threshold",
+            "psi_inf", "lx_mean_over_Lx", "ly_mean_over_Ly", "lx_over_ly", "regime",
+            "drop_exponent", "slip_threshold", "slip_threshold_stress", "transient", "s_x",
+            "span_fraction", "psi_crystal", "psi_late_fraction", "drop_x_min")
+
+
+def _files(d):
+    return {p.name for p in d.iterdir()}
+
+
+def test_friction_scene_writes_no_per_atom_output(tmp_path):
+    spec = RunSpec(phi=30.0, t_end=200, scene="friction")
+    run(spec, tmp_path, progress=False)
+    deck = (tmp_path / "in.bk").read_text()
+    assert "dump" not in deck and "bk/slips" not in deck
+    assert not any(n.endswith(".lammpstrj") for n in _files(tmp_path))
+    s = analyze(tmp_path)
+    assert s["n_slips"] > 0 and s["psi_inf"] is None and s["regime"] is None
+    assert not (tmp_path / "psi.csv").exists() and not (tmp_path / "clusters.csv").exists()
+
+
+def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(tmp_path):
+    """With snapshots at every stress sample (never done in practice), the frames fix bk/slips
+    keeps must be exactly the snapshots at the steps of each event's maximum and minimum, and
+    its events must be those slip_events finds in stress.csv after the transient."""
+    spec = RunSpec(phi=30.0, t_end=200, scene="full", snapshot_every=0.1)
+    assert spec.snapshot_nevery == spec.stress_nevery
+    run(spec, tmp_path, progress=False)
+    t, sigma = read_stress(tmp_path / "stress.csv")
+    events = slip_events(t, sigma, spec.slip_threshold_stress).after(spec.transient_step * spec.dt)
+    assert len(events) >= 3
+    slips = read_frames(tmp_path / "slips.lammpstrj", spec.N)
+    snaps = read_frames(tmp_path / "snapshots.lammpstrj", spec.N)
+    ev_steps = np.column_stack([events.i_max, events.i_min]).ravel() * spec.stress_nevery
+    np.testing.assert_array_equal(slips.steps, ev_steps)
+    at = {int(s): k for k, s in enumerate(snaps.steps)}
+    for k, step in enumerate(slips.steps):
+        np.testing.assert_allclose(slips.positions[k], snaps.positions[at[int(step)]], atol=1e-5)
+    s = analyze(tmp_path)
+    assert s["n_cluster_events"] == len(events) and s["n_slips_without_snapshots"] == 0
+    clusters = pd.read_csv(tmp_path / "clusters.csv")
+    assert list(clusters.columns) == ["event", "t", "n_c", "l_x", "l_y"]
+    assert (clusters["n_c"] >= 2).all() and (clusters["n_c"] <= spec.N).all()
+
+
+def test_order_scene_writes_sparse_snapshots_and_psi(tmp_path):
+    spec = RunSpec(phi=1000.0, t_end=100, scene="order", snapshot_every=10)
+    run(spec, tmp_path, progress=False)
+    assert "slips.lammpstrj" not in _files(tmp_path)
+    frames = read_frames(tmp_path / "snapshots.lammpstrj", spec.N)
+    assert len(frames) == 11  # t = 0, 10, ..., 100
+    s = analyze(tmp_path)
+    psi = pd.read_csv(tmp_path / "psi.csv")
+    assert list(psi.columns) == ["t", "psi"] and len(psi) == 11
+    assert psi["psi"].iloc[0] == pytest.approx(1.0, abs=1e-6)  # starts on the lattice
+    assert 0.9 < s["psi_inf"] <= 1.0  # stiff layer stays crystalline
+    assert s["regime"] is None and not (tmp_path / "clusters.csv").exists()
+
+
+def test_run_analyses_unless_told_not_to(tmp_path, capsys):
+    out = tmp_path / "r"
+    args = ["run", "--phi", "30", "--t-end", "150", "--out", str(out), "--quiet"]
+    assert main(args + ["--no-analyze"]) == 0
+    assert not (out / "summary.json").exists()
+    assert main(["analyze", str(out)]) == 0
+    assert "summary.json written" in capsys.readouterr().out
+    s = json.loads((out / "summary.json").read_text())
+    missing = [k for k in REQUIRED if k not in s]
+    assert not missing
+    assert set(s["mu_bar_by_threshold"]) == {"0.001", "0.01", "0.03", "0.1"}
+    assert s["mu_bar_by_threshold"]["0.01"] == s["mu_bar"]
+    assert main(args + ["--overwrite"]) == 0  # analyses by default
+    assert (out / "summary.json").exists() and "mu_bar =" in capsys.readouterr().out
+
+
+def test_analyze_refuses_a_directory_without_a_finished_run(tmp_path, capsys):
+    write_deck(RunSpec(phi=1.0), tmp_path)
+    assert main(["analyze", str(tmp_path)]) == 2
+    assert "holds no finished run" in capsys.readouterr().err
+    # a standalone run cut off half-way
+    (tmp_path / "stress.csv").write_text("t,sigma_x\n0,0\n0.1,0.001\n")
+    assert main(["analyze", str(tmp_path)]) == 2
+    assert "did not finish" in capsys.readouterr().err
+    assert main(["analyze", str(tmp_path / "nowhere")]) == 2
+
+
+def test_truncated_slip_file_is_reported(tmp_path, capsys):
+    spec = RunSpec(phi=30.0, t_end=200, scene="clusters")
+    run(spec, tmp_path, progress=False)
+    text = (tmp_path / "slips.lammpstrj").read_text()
+    frames = text.split("ITEM: TIMESTEP")
+    (tmp_path / "slips.lammpstrj").write_text("ITEM: TIMESTEP".join(frames[:-1]))
+    assert main(["analyze", str(tmp_path)]) == 2
+    assert "truncated" in capsys.readouterr().err
+
+
+def test_slip_frames_are_the_same_on_two_ranks(tmp_path):
+    spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="clusters", seed=3)
+    write_deck(spec, tmp_path)
+    got = {}
+    for np_ in (1, 2):
+        d = tmp_path / f"np{np_}"
+        d.mkdir()
+        for f in ("in.bk", "data.bk"):
+            (d / f).write_text((tmp_path / f).read_text())
+        cmd = [tool("lmp"), "-in", "in.bk", "-screen", "none"]
+        if np_ > 1:
+            cmd = [tool("mpirun"), "-np", str(np_)] + cmd
+        proc = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        got[np_] = read_frames(d / "slips.lammpstrj", spec.N)
+    assert len(got[1]) >= 4
+    np.testing.assert_array_equal(got[1].steps, got[2].steps)
+    np.testing.assert_allclose(got[1].positions, got[2].positions, atol=1e-6)
+
+
+@pytest.mark.slow
+def test_full_scene_of_the_largest_paper_lattice_stays_small(tmp_path):
+    """60x15 to t_end = 4000 with every observable: under 50 MB on disk."""
+    spec = RunSpec(phi=10.0, Lx=60, Ly=15, scene="full")
+    res = run(spec, tmp_path, progress=False)
+    assert res.meta["bytes_written"] < 50e6
+    assert res.meta["slip_snapshots"]["written"] > 50
