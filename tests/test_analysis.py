@@ -214,6 +214,20 @@ def test_regime_rule(fx, fy, psi, expected):
     assert clusters.regime(fx, fy, psi) == expected
 
 
+def test_run_regime_is_the_most_frequent_cluster_regime():
+    box = (20.0, 5.0)
+    # 3 whole-system clusters, 2 rows, 1 small transverse one
+    l_x = np.array([20.2, 20.2, 20.2, 21.05, 21.05, 1.0])
+    l_y = np.array([5.05, 5.05, 5.05, 0.0, 0.0, 4.0])
+    shape = clusters.cluster_shape(l_x, l_y, box, psi_inf=0.99)
+    assert shape.regime == "C"
+    assert shape.regime_fractions == pytest.approx({"C": 0.5, "LC": 1 / 3, "DP": 0, "DT": 1 / 6})
+    assert shape.lx_mean_over_Lx == pytest.approx(l_x.mean() / 20)
+    assert shape.lx_over_ly == pytest.approx(l_x.mean() / l_y.mean())
+    assert clusters.cluster_shape(l_x, l_y, box, psi_inf=0.5).regime == "DP"
+    assert clusters.cluster_shape([], [], box).regime is None
+
+
 # --- stress ------------------------------------------------------------------------------
 
 def _sawtooth(peaks, rate=0.02, dt=0.1, floor=0.0):

@@ -28,8 +28,9 @@ class AnalysisSettings:
     psi_crystal: float = clusters.DEFAULT_PSI_CRYSTAL
     psi_late_fraction: float = order.DEFAULT_LATE_FRACTION
     report_thresholds: tuple = stress.REPORT_THRESHOLDS
-    #: lower cut of the stress-drop power law; None = chosen by the KS rule of Clauset et al.
-    drop_x_min: float | None = None
+    #: lower cut of the stress-drop power law, as a multiple of the slip threshold (the
+    #: smallest drop that counts as a slip); None = chosen by the KS rule of Clauset et al.
+    drop_x_min_over_threshold: float | None = 1.0
 
 
 @dataclass
@@ -62,7 +63,9 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     fr = stress.friction(t, sigma, spec.sigma_n, thr, t_transient=t_transient)
     events = stress.slip_events(t, sigma, thr)
     late = events.after(t_transient)
-    fit = stress.power_law_fit(late.drop, x_min=settings.drop_x_min)
+    x_min = (None if settings.drop_x_min_over_threshold is None
+             else settings.drop_x_min_over_threshold * thr)
+    fit = stress.power_law_fit(late.drop, x_min=x_min)
 
     by_thr, err_thr, n_thr = {}, {}, {}
     for f in settings.report_thresholds:
@@ -90,8 +93,10 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
         "drop_exponent_err": fit.alpha_err,
         "drop_x_min": fit.x_min,
         "drop_n_tail": fit.n_tail,
-        "drop_fit": "continuous power-law maximum likelihood, Clauset, Shalizi and Newman, "
-                    "SIAM Rev. 51, 661 (2009); x_min by their KS rule unless fixed",
+        "drop_ks": fit.ks,
+        "drop_fit": "continuous power-law maximum likelihood above x_min, Clauset, Shalizi and "
+                    "Newman, SIAM Rev. 51, 661 (2009), Eq. 3.1; x_min = the slip threshold "
+                    "unless set (None: their KS rule); drop_ks = KS distance of the fit",
         "s_x": settings.s_x,
         "span_fraction": settings.span_fraction,
         "psi_crystal": settings.psi_crystal,
@@ -149,6 +154,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
             "n_cluster_events": matched,
             "n_slips_without_snapshots": len(late) - matched,
             "regime": shape.regime,
+            "regime_fractions": shape.regime_fractions,
         })
         result.clusters = rows
     return result

@@ -137,48 +137,61 @@ def event_clusters(x_onset, x_end, bonds, box, s_x: float = DEFAULT_S_X) -> Clus
 
 @dataclass(frozen=True)
 class ClusterShape:
-    """Means over all clusters of a run: <l_x/Lx>, <l_y/Ly>, <l_x>/<l_y>, and the regime."""
+    """Means over all clusters of a run: <l_x/Lx>, <l_y/Ly>, <l_x>/<l_y>; the fraction of
+    clusters in each regime and the run's regime (the most frequent one)."""
 
     lx_mean_over_Lx: float
     ly_mean_over_Ly: float
     lx_over_ly: float
     n_clusters: int
+    regime_fractions: dict
     regime: str | None
 
 
-def regime(lx_frac: float, ly_frac: float, psi_inf: float,
-           span: float = DEFAULT_SPAN_FRACTION, psi_crystal: float = DEFAULT_PSI_CRYSTAL):
-    """Regime label of a run from <l_x/Lx>, <l_y/Ly> and Psi(inf), in MODEL.md's terms:
+REGIMES = ("C", "LC", "DP", "DT")
 
-    - ``C``  (crystalline, whole system slips): <l_x/Lx> >= span and <l_y/Ly> >= span and
-      Psi(inf) >= psi_crystal;
-    - ``LC`` (laminar crystalline, whole rows): <l_x/Lx> >= span and <l_y/Ly> < span;
-    - ``DP`` (disorder-parallel): otherwise, when <l_x/Lx> >= <l_y/Ly>;
-    - ``DT`` (disorder-transverse): otherwise (<l_x/Lx> < <l_y/Ly>).
 
-    ``span`` = 0.9 by default: a spanning cluster gives l/L = N/(N-1) >= 1, a row missing one
-    particle of 20 already 0.95 or less. None when there are no clusters.
+def regime(lx_frac, ly_frac, psi_inf: float, span: float = DEFAULT_SPAN_FRACTION,
+           psi_crystal: float = DEFAULT_PSI_CRYSTAL):
+    """Regime of a cluster from its l_x/Lx, l_y/Ly and the run's Psi(inf), in MODEL.md's terms
+    (Fig. 4a of the paper is this classification of single clusters):
+
+    - ``C``  (crystalline, the whole system slips): l_x/Lx >= span and l_y/Ly >= span, in a
+      crystalline layer (Psi(inf) >= psi_crystal);
+    - ``LC`` (laminar crystalline, whole rows): l_x/Lx >= span and l_y/Ly < span;
+    - ``DP`` (disorder-parallel): otherwise, when l_x/Lx >= l_y/Ly;
+    - ``DT`` (disorder-transverse): otherwise (l_x/Lx < l_y/Ly).
+
+    ``span`` = 0.9 by default: a cluster of whole rows gives l_x/Lx = Lx/(Lx-1) > 1, and
+    4 of 5 rows give l_y/Ly = 0.91. Works on scalars (a label, None for NaN) and on arrays
+    (an array of labels, "" for NaN).
     """
-    if not (math.isfinite(lx_frac) and math.isfinite(ly_frac)):
-        return None
-    if lx_frac >= span:
-        if ly_frac >= span and math.isfinite(psi_inf) and psi_inf >= psi_crystal:
-            return "C"
-        if ly_frac < span:
-            return "LC"
-    return "DP" if lx_frac >= ly_frac else "DT"
+    fx, fy = np.asarray(lx_frac, dtype=float), np.asarray(ly_frac, dtype=float)
+    crystal = math.isfinite(psi_inf) and psi_inf >= psi_crystal
+    label = np.where(fx >= fy, "DP", "DT").astype(object)
+    label = np.where((fx >= span) & (fy < span), "LC", label)
+    label = np.where((fx >= span) & (fy >= span) & crystal, "C", label)
+    label = np.where(np.isfinite(fx) & np.isfinite(fy), label, "")
+    if label.ndim == 0:
+        return str(label) or None
+    return label
 
 
 def cluster_shape(l_x, l_y, box, psi_inf: float = math.nan,
                   span: float = DEFAULT_SPAN_FRACTION,
                   psi_crystal: float = DEFAULT_PSI_CRYSTAL) -> ClusterShape:
-    """Averages over all clusters (each cluster counts once) and the :func:`regime` label."""
+    """Averages over all clusters of a run (each cluster counts once), and its regime: every
+    cluster is classified by :func:`regime` and the run takes the most frequent label (ties
+    go to the label of larger phi, in the order C, LC, DP, DT)."""
     l_x = np.asarray(l_x, dtype=float)
     l_y = np.asarray(l_y, dtype=float)
     if len(l_x) == 0:
-        return ClusterShape(math.nan, math.nan, math.nan, 0, None)
+        return ClusterShape(math.nan, math.nan, math.nan, 0, {}, None)
     fx = float(np.mean(l_x) / box[0])
     fy = float(np.mean(l_y) / box[1])
     my = float(np.mean(l_y))
     ratio = float(np.mean(l_x) / my) if my > 0 else math.inf
-    return ClusterShape(fx, fy, ratio, len(l_x), regime(fx, fy, psi_inf, span, psi_crystal))
+    labels = regime(l_x / box[0], l_y / box[1], psi_inf, span, psi_crystal)
+    fractions = {r: float(np.mean(labels == r)) for r in REGIMES}
+    best = max(REGIMES, key=lambda r: (fractions[r], -REGIMES.index(r)))
+    return ClusterShape(fx, fy, ratio, len(l_x), fractions, best)
