@@ -9,7 +9,7 @@ directory through :mod:`bkflow.io` and writes ``summary.json``, ``psi.csv`` and
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +40,6 @@ class RunAnalysis:
     summary: dict
     psi: dict | None = None          # columns t, psi
     clusters: dict | None = None     # columns event, t, n_c, l_x, l_y
-    drops: np.ndarray = field(default_factory=lambda: np.empty(0))
 
 
 def _key(fraction: float) -> str:
@@ -61,7 +60,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     t_transient = spec.transient_step * dt
     thr = spec.slip_threshold_stress
     fr = stress.friction(t, sigma, spec.sigma_n, thr, t_transient=t_transient)
-    events = stress.slip_events(t, sigma, thr)
+    events = fr.events
     late = events.after(t_transient)
     x_min = (None if settings.drop_x_min_over_threshold is None
              else settings.drop_x_min_over_threshold * thr)
@@ -109,7 +108,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
         "n_cluster_events": None,
         "regime": None,
     }
-    result = RunAnalysis(summary, drops=late.drop)
+    result = RunAnalysis(summary)
     lat = square_lattice(spec.Lx, spec.Ly)
 
     if snapshots is not None:
@@ -183,7 +182,7 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
         meta = {}
         spec = RunSpec.from_dict(io.read_json(d / PARAMS_FILE))
         t, sigma = io.read_stress(d / STRESS_FILE)
-        last = spec.stress_nevery * ((spec.n_steps // spec.stress_nevery)) * spec.dt
+        last = spec.stress_nevery * (spec.n_steps // spec.stress_nevery) * spec.dt
         if len(t) == 0 or t[-1] < last - 0.5 * spec.dt:
             raise ValueError(f"{d / STRESS_FILE} ends at t = {t[-1] if len(t) else 0:g}, "
                              f"before the run's end ({last:g}): the run did not finish")

@@ -182,7 +182,7 @@ class Friction:
     ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
     standard error by blocking over successive slips (:func:`blocking_error`);
     ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
-    threshold involved).
+    threshold involved). ``events``: every slip of the series, transient included.
     """
 
     mu_bar: float
@@ -193,6 +193,7 @@ class Friction:
     t_transient: float
     blocking_level: int
     error_reliable: bool
+    events: SlipEvents
 
 
 def friction(t, sigma, sigma_n: float, threshold: float,
@@ -211,13 +212,14 @@ def friction(t, sigma, sigma_n: float, threshold: float,
     if len(t) < 2:
         raise ValueError("the stress series has fewer than two samples")
     t0 = t[0] + transient_fraction * (t[-1] - t[0]) if t_transient is None else t_transient
-    ev = slip_events(t, s, threshold).after(t0)
+    events = slip_events(t, s, threshold)
+    ev = events.after(t0)
     est = blocking_error(ev.sigma_fail / sigma_n)
     late = t >= t0
     return Friction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
                     mean_stress_ratio=float(s[late].mean() / sigma_n), threshold=float(threshold),
                     t_transient=float(t0), blocking_level=est.level,
-                    error_reliable=est.reliable)
+                    error_reliable=est.reliable, events=events)
 
 
 @dataclass(frozen=True)
