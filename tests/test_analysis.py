@@ -330,6 +330,21 @@ def test_power_law_fit_recovers_the_exponent(alpha):
     assert auto.x_min >= 0.5 * x_min
 
 
+def test_drop_distribution_is_a_normalised_density_in_log_bins():
+    rng = np.random.default_rng(6)
+    drops = 0.01 * (1 - rng.random(5000)) ** (-1 / 1.5)  # alpha = 2.5
+    centres, density = stress.drop_distribution(drops, bins=15)
+    edges = np.geomspace(drops.min(), drops.max(), 16)
+    np.testing.assert_allclose(centres, np.sqrt(edges[:-1] * edges[1:]), rtol=1e-12)
+    assert np.sum(density * np.diff(edges)) == pytest.approx(1.0, rel=1e-12)
+    # the density of a power law falls with the power law's exponent
+    full = density > 0
+    slope = np.polyfit(np.log(centres[full][:8]), np.log(density[full][:8]), 1)[0]
+    assert slope == pytest.approx(-2.5, abs=0.2)
+    c0, d0 = stress.drop_distribution([])
+    assert len(c0) == 0 and len(d0) == 0
+
+
 def test_mean_stress_ratio_is_the_late_time_average():
     t = np.linspace(0, 100, 1001)
     s = np.where(t < 20, 0.0, 0.5)

