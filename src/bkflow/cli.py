@@ -1,4 +1,5 @@
-"""Command line: ``bkflow run``, ``bkflow analyze`` and ``bkflow deck``.
+"""Command line: ``bkflow run``, ``bkflow sweep``, ``bkflow plot``, ``bkflow analyze`` and
+``bkflow deck``.
 
 Bad input gets one line on stderr naming the problem and exit code 2; a run that fails
 (blow-up, LAMMPS error) exits 1. Nothing half-written is left looking complete: a run
@@ -63,6 +64,31 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the analysis (summary.json); run bkflow analyze DIR later")
     d = sub.add_parser("deck", help="write in.bk and data.bk without running (lmp -in in.bk)")
     _spec_args(d)
+    sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel (signac-flow); "
+                                      "re-running skips finished runs")
+    sw.add_argument("--phi", required=True,
+                    help="range A:B (log-spaced, --points-per-decade per decade) or list a,b,c")
+    sw.add_argument("--points-per-decade", type=int, default=3,
+                    help="phi values per decade of a range (default 3: 1e-1:1e3 gives 13)")
+    sw.add_argument("--sizes", default="20x5",
+                    help="lattices LXxLY[,LXxLY...] or the paper's N (100,400,900); default 20x5")
+    sw.add_argument("--aspect", default=None,
+                    help="Lx/Ly every size must have (default 4, the paper's Ly = Lx/4), or 'any'")
+    sw.add_argument("--seeds", type=int, default=3, help="seeds 1..K per (phi, size) (default 3)")
+    sw.add_argument("--t-end", type=float, default=RunSpec.t_end, help="run length (time units)")
+    sw.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor,
+                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d)")
+    sw.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction)
+    sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
+                    help="what each run records (default full: everything the figures need)")
+    sw.add_argument("--jobs", type=int, default=None,
+                    help="runs at a time, one process each (default: all cores)")
+    sw.add_argument("--out", default="runs/sweep", help="sweep directory (default runs/sweep)")
+    sw.add_argument("--quiet", action="store_true", help="no progress output")
+    pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF)")
+    pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
+    pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
+    pl.add_argument("--format", default="png,pdf", help="comma-separated formats (default png,pdf)")
     an = sub.add_parser("analyze", help="analyse a finished run: writes DIR/summary.json "
                                         "(+ psi.csv, clusters.csv)")
     an.add_argument("dir", help="run directory (written by bkflow run or lmp -in in.bk)")
@@ -92,6 +118,76 @@ def _print_summary(s: dict) -> None:
           f"({s['drop_n_tail']} drops)")
 
 
+def _sweep(a, argv) -> int:
+    from .sweep import (available_cores, fmt_duration, parse_aspect, parse_sizes, phi_values,
+                        sweep, sweep_specs)
+
+    phis = phi_values(a.phi, a.points_per_decade)
+    sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
+    if a.jobs is not None and a.jobs < 1:
+        raise SpecError(f"--jobs must be >= 1, got {a.jobs}")
+    specs = sweep_specs(phis, sizes, a.seeds, t_end=a.t_end, dt_factor=a.dt_factor,
+                        friction=a.friction, scene=a.scene)
+    jobs = a.jobs or available_cores()
+    print(f"sweep: {len(phis)} phi x {len(sizes)} size(s) x {a.seeds} seed(s) = {len(specs)} "
+          f"runs into {a.out}, {jobs} at a time", flush=True)
+    print(f"  phi = {', '.join(f'{p:g}' for p in phis)}", flush=True)
+    rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None)
+    print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
+          f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
+          + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
+    import pandas as pd
+
+    from .sweep import RESULTS_FILE, RUNS_FILE
+
+    res = pd.read_csv(f"{a.out}/{RESULTS_FILE}") if rep.total else pd.DataFrame()
+    keep = {(s.phi, s.Lx, s.Ly) for s in specs}
+    if len(res):
+        res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]
+        res = res[(res.t_end == a.t_end) & (res.dt_factor == a.dt_factor)]
+        _print_results(res)
+    print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
+    for job_id, msg in rep.failed.items():
+        print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
+    if rep.failed or rep.unfinished:
+        print(f"bkflow: {len(rep.failed) + len(rep.unfinished)} run(s) did not finish; the "
+              "same command retries them", file=sys.stderr)
+        return EXIT_RUN_FAILED
+    return 0
+
+
+def _print_results(res) -> None:
+    def pm(v, e, fmt):
+        if v != v:
+            return "n/a"
+        return f"{v:{fmt}}" + (f" +- {e:{fmt}}" if e == e else "")
+
+    print(f"  {'phi':>8} {'size':>6} {'seeds':>5}  {'mu_bar':>17}  {'<sigma_x>/sigma_n':>17}  "
+          f"{'Psi(inf)':>15}  {'<l_x>/<l_y>':>13}  regime")
+    for _, r in res.iterrows():
+        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6} {r.n_seeds:>5}  "
+              f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>17}  "
+              f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>17}  "
+              f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>15}  "
+              f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>13}  "
+              f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
+
+
+def _plot(a) -> int:
+    from .plot import PlotError, plot
+
+    try:
+        paths, skipped = plot(a.dir, a.out, tuple(f.strip() for f in a.format.split(",")))
+    except PlotError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for p in paths:
+        print(f"wrote {p}")
+    for name, why in skipped.items():
+        print(f"skipped {name}: {why}")
+    return 0
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     a = build_parser().parse_args(argv)
@@ -110,6 +206,10 @@ def main(argv=None) -> int:
             print(f"{a.dir}/summary.json written")
             _print_summary(summary)
             return 0
+        if a.cmd == "sweep":
+            return _sweep(a, argv)
+        if a.cmd == "plot":
+            return _plot(a)
         spec = _spec(a)
         if a.cmd == "deck":
             from .deck import write_deck
@@ -135,6 +235,10 @@ def main(argv=None) -> int:
     except RunError as exc:
         print(f"bkflow: run failed: {exc}", file=sys.stderr)
         return EXIT_RUN_FAILED
+    except KeyboardInterrupt:
+        print("\nbkflow: interrupted; finished runs are kept, an interrupted one is redone: "
+              "run the same command again to resume", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

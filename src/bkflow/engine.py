@@ -58,6 +58,31 @@ def is_complete(out) -> bool:
     return meta.get("status") == "complete"
 
 
+def run_problem(out) -> str | None:
+    """Why ``out`` does not hold an intact finished run, or None when it does.
+
+    Finished means meta.json says complete and every file it lists still has the size it
+    had when the run ended; a truncated, emptied or missing output file is named.
+    """
+    out = Path(out)
+    try:
+        meta = json.loads((out / META_FILE).read_text())
+    except FileNotFoundError:
+        return "not run (no meta.json)"
+    except (OSError, ValueError) as exc:
+        return f"meta.json unreadable ({exc})"
+    if meta.get("status") != "complete":
+        return "meta.json does not say complete"
+    for name, size in meta.get("file_bytes", {}).items():
+        try:
+            actual = (out / name).stat().st_size
+        except OSError:
+            return f"{name} is missing"
+        if actual != size:
+            return f"{name} has {actual} bytes, the run wrote {size}"
+    return None
+
+
 class _Progress:
     """One status line on a terminal (stderr); silent when stderr is not a terminal."""
 
@@ -197,6 +222,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         "files": sorted(p.name for p in out.iterdir() if p.name in RUN_FILES),
     }
     meta["files"] = sorted(set(meta["files"]) | {META_FILE})
-    meta["bytes_written"] = sum((out / f).stat().st_size for f in meta["files"] if f != META_FILE)
+    # sizes let a later check tell a finished run from one whose files were cut or lost
+    meta["file_bytes"] = {f: (out / f).stat().st_size for f in meta["files"] if f != META_FILE}
+    meta["bytes_written"] = sum(meta["file_bytes"].values())
     write_json_atomic(out / META_FILE, meta)
     return RunResult(out, meta)

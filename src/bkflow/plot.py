@@ -1,0 +1,378 @@
+"""Figures of a sweep directory, one per figure of the paper (``bkflow plot DIR``).
+
+Reads ``runs.csv``, ``results.csv`` and the per-run files of the jobs (stress.csv, psi.csv,
+clusters.csv) and writes PNG and PDF into ``DIR/figures``:
+
+=====================  ===============================================================
+``fig1b_stress``       sigma_x(t) of two runs (smallest and largest phi near 1 and 1e3),
+                       sigma_fail of every slip marked, the Amontons-Coulomb line
+``fig2a_friction``     mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside
+``fig2b_asymmetry``    <l_x>/<l_y>(phi) per size
+``fig3_order``         Psi(inf)(phi) per size; inset Psi(t) for phi in {1e3, 1e2, 10, 1}
+``fig4a_clusters``     l_y/Ly vs l_x/Lx of every slip cluster for four phi
+``fig_drops``          stress-drop size distribution for four phi, with the fitted exponent
+=====================  ===============================================================
+
+Error bars are standard errors over seeds; with a single seed, the run's own blocking error.
+A figure whose data the sweep did not record (e.g. scene ``friction``: no clusters) is
+skipped with a note, never drawn empty.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+FIGURES_DIR = "figures"
+FORMATS = ("png", "pdf")
+MARKERS = ("o", "s", "D", "^", "v", "P")
+#: the regimes' colours in the cluster scatter (the paper's: black, red, green, blue)
+REGIME_COLOURS = {"C": "black", "LC": "tab:red", "DP": "tab:green", "DT": "tab:blue"}
+#: phi of the Psi(t) inset (the paper's Fig. 3)
+INSET_PHI = (1e3, 1e2, 10.0, 1.0)
+
+
+class PlotError(ValueError):
+    """The directory holds nothing to plot."""
+
+
+def _style():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5,
+                         "xtick.labelsize": 8, "ytick.labelsize": 8, "lines.markersize": 4,
+                         "figure.dpi": 100, "savefig.dpi": 200, "savefig.bbox": "tight"})
+    return plt
+
+
+def _size_label(lx, ly) -> str:
+    return f"N = {int(lx) * int(ly)} ({int(lx)}x{int(ly)})"
+
+
+def _nearest(values, target) -> float:
+    values = np.asarray(sorted(set(values)), dtype=float)
+    return float(values[np.argmin(np.abs(np.log10(values) - math.log10(target)))])
+
+
+def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
+    sem = g[f"{field}_sem"].to_numpy(dtype=float)
+    if field == "mu_bar":  # one seed: the run's own (blocking) error
+        sem = np.where(np.isfinite(sem), sem, g["mu_bar_err_within_run"].to_numpy(dtype=float))
+    return np.where(np.isfinite(sem), sem, 0.0)
+
+
+class SweepData:
+    """The tables and per-run files of a sweep directory."""
+
+    def __init__(self, root):
+        from .sweep import RESULTS_FILE, RUNS_FILE
+
+        self.root = Path(root)
+        try:
+            self.runs = pd.read_csv(self.root / RUNS_FILE)
+            self.results = pd.read_csv(self.root / RESULTS_FILE)
+        except FileNotFoundError as exc:
+            raise PlotError(f"{self.root} has no {Path(exc.filename).name}: is it a bkflow "
+                            "sweep directory (bkflow sweep --out DIR)?") from None
+        except pd.errors.EmptyDataError:
+            raise PlotError(f"{self.root}: no finished runs to plot yet") from None
+        if self.runs.empty:
+            raise PlotError(f"{self.root}: no finished runs to plot yet")
+        self.sizes = sorted({(int(a), int(b)) for a, b in zip(self.runs.Lx, self.runs.Ly)},
+                            key=lambda s: s[0] * s[1])
+
+    def job_dir(self, row) -> Path:
+        return self.root / "workspace" / row["job"]
+
+    def runs_of(self, lx, ly, phi=None) -> pd.DataFrame:
+        r = self.runs[(self.runs.Lx == lx) & (self.runs.Ly == ly)]
+        if phi is not None:
+            r = r[np.isclose(r.phi, phi)]
+        return r.sort_values("seed")
+
+    def results_of(self, lx, ly) -> pd.DataFrame:
+        return self.results[(self.results.Lx == lx) & (self.results.Ly == ly)].sort_values("phi")
+
+
+def _spec_of(row):
+    """The RunSpec of a runs.csv row (pandas hands back numpy scalars, ints for whole phi)."""
+    import dataclasses
+
+    from .params import RunSpec
+
+    cast = {"float": float, "int": int, "str": str}
+    return RunSpec(**{f.name: cast[f.type](row[f.name]) for f in dataclasses.fields(RunSpec)})
+
+
+def _save(fig, out: Path, name: str, formats) -> list[Path]:
+    paths = []
+    for fmt in formats:
+        p = out / f"{name}.{fmt}"
+        fig.savefig(p, metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None)
+        paths.append(p)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return paths
+
+
+def fig1b_stress(data: SweepData, plt, window: float = 150.0):
+    """sigma_x(t) over the last ``window`` time units of two runs, slips' sigma_fail marked."""
+    from . import io, stress
+
+    lx, ly = data.sizes[0]
+    phis = sorted(set(data.runs_of(lx, ly).phi))
+    chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
+    fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 1.9 * len(chosen) + 0.4),
+                             squeeze=False)
+    for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
+        row = data.runs_of(lx, ly, phi).iloc[0]
+        spec = _spec_of(row)
+        t, sigma = io.read_stress(data.job_dir(row) / "stress.csv")
+        ev = stress.slip_events(t, sigma, spec.slip_threshold_stress)
+        t0 = t[-1] - window
+        keep = t >= t0
+        ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
+                label=f"phi = {phi:g}, {_size_label(lx, ly)}, seed {int(row.seed)}")
+        k = ev.t_max >= t0
+        ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour,
+                mfc="none" if marker == "o" else colour, ls="none",
+                label=r"$\sigma_{\rm fail}$ (slip maxima)")
+        ax.axhline(spec.mu_s * spec.sigma_n, color="tab:blue", ls="-.", lw=1,
+                   label=r"Amontons-Coulomb $\mu_s\sigma_n$")
+        ax.set_ylabel(r"$\sigma_x$")
+        lo = sigma[keep].min()
+        top = spec.mu_s * spec.sigma_n
+        ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
+        ax.legend(loc="upper center", ncol=3, frameon=False, fontsize=6.5)
+    axes[-1, 0].set_xlabel("t (time units)")
+    fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$", fontsize=9)
+    return fig
+
+
+def fig2a_friction(data: SweepData, plt):
+    """mu_bar(phi) and <sigma_x>/sigma_n(phi), per size, with error bars."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(7.0, 2.8))
+    for (lx, ly), m in zip(data.sizes, MARKERS):
+        g = data.results_of(lx, ly)
+        for ax, f in ((a, "mu_bar"), (b, "mean_stress_ratio")):
+            ax.errorbar(g.phi, g[f], yerr=_errors(g, f), marker=m, capsize=2, lw=0.8,
+                        label=_size_label(lx, ly))
+    _regime_labels(a, data)
+    a.set_ylabel(r"$\overline{\mu} = \langle\sigma_{\rm fail}\rangle/\sigma_n$")
+    b.set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$")
+    for ax in (a, b):
+        ax.set_xscale("log")
+        ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
+    a.legend(frameon=False, loc="lower left")
+    a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
+                f"{data.sizes[0][1]})", fontsize=8)
+    b.set_title("time-averaged stress", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def _regime_labels(ax, data: SweepData):
+    """The majority regime of the smallest size, written above each phi."""
+    lx, ly = data.sizes[0]
+    g = data.results_of(lx, ly)
+    if "regime" not in g or g.regime.isna().all():
+        return
+    ax.margins(y=0.18)
+    tr = ax.get_xaxis_transform()
+    for phi, reg in zip(g.phi, g.regime):
+        if isinstance(reg, str):
+            ax.text(phi, 0.98, reg, transform=tr, ha="center", va="top", fontsize=6,
+                    color=REGIME_COLOURS.get(reg, "grey"))
+
+
+def fig2b_asymmetry(data: SweepData, plt):
+    """<l_x>/<l_y>(phi) per size."""
+    fig, ax = plt.subplots(figsize=(3.6, 2.8))
+    for (lx, ly), m in zip(data.sizes, MARKERS):
+        g = data.results_of(lx, ly)
+        ax.errorbar(g.phi, g.lx_over_ly, yerr=_errors(g, "lx_over_ly"), marker=m, capsize=2,
+                    lw=0.8, label=_size_label(lx, ly))
+    aspects = sorted({lx / ly for lx, ly in data.sizes})
+    for r in aspects:
+        ax.axhline(r, color="grey", ls=":", lw=0.8)
+    ax.text(0.02, aspects[-1], " Lx/Ly (whole-box clusters)", transform=ax.get_yaxis_transform(),
+            va="bottom", fontsize=6.5, color="grey")
+    ax.set_xscale("log")
+    ax.set_xlabel(r"$\phi$")
+    ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
+    ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
+    ax.legend(frameon=False, fontsize=6.5)
+    fig.tight_layout()
+    return fig
+
+
+def fig3_order(data: SweepData, plt):
+    """Psi(inf)(phi) per size; inset: Psi(t) of one seed for phi in INSET_PHI."""
+    fig, ax = plt.subplots(figsize=(4.4, 3.2))
+    for (lx, ly), m in zip(data.sizes, MARKERS):
+        g = data.results_of(lx, ly)
+        ax.errorbar(g.phi, g.psi_inf, yerr=_errors(g, "psi_inf"), marker=m, capsize=2, lw=0.8,
+                    label=_size_label(lx, ly))
+    ax.set_xscale("log")
+    ax.set_xlabel(r"$\phi$")
+    ax.set_ylabel(r"$\Psi(\infty)$")
+    ax.set_ylim(0.4, 1.05)
+    ax.legend(frameon=False, loc="lower right")
+    ax.set_title(r"Fig. 3: bond-orientational order $\Psi$", fontsize=9)
+    inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
+    runs = data.runs_of(*inset_size)
+    phis = sorted(set(runs.phi))
+    ins = ax.inset_axes([0.42, 0.3, 0.54, 0.36])
+    shown = []
+    for target, colour in zip(INSET_PHI, ("black", "tab:red", "tab:green", "tab:blue")):
+        phi = _nearest(phis, target)
+        if phi in shown:
+            continue
+        shown.append(phi)
+        row = data.runs_of(*inset_size, phi).iloc[0]
+        path = data.job_dir(row) / "psi.csv"
+        if not path.exists():
+            continue
+        p = pd.read_csv(path)
+        ins.plot(p.t, p.psi, color=colour, lw=0.8, label=f"{phi:g}")
+    ins.set_xlabel("t", fontsize=6.5, labelpad=0)
+    ins.set_ylabel(r"$\Psi(t)$", fontsize=6.5, labelpad=1)
+    ins.tick_params(labelsize=6)
+    ins.set_ylim(0.4, 1.02)
+    ins.set_title(f"N = {inset_size[0] * inset_size[1]}, phi =", fontsize=6, pad=12)
+    ins.legend(fontsize=5.5, frameon=False, loc="lower center", bbox_to_anchor=(0.5, 0.98),
+               ncol=4, handlelength=1.2, columnspacing=0.8, borderaxespad=0)
+    return fig
+
+
+def _phi_per_regime(data: SweepData, lx, ly) -> list[float]:
+    """Four phi that show the four regimes best: for each of C, LC, DP, DT the phi where
+    the largest share of clusters has it (distinct phi, spread over the range)."""
+    runs = data.runs_of(lx, ly)
+    phis = sorted(set(runs.phi))
+    chosen = []
+    for reg in ("C", "LC", "DP", "DT"):
+        col = f"regime_fractions[{reg}]"
+        if col not in runs:
+            continue
+        share = runs.groupby("phi")[col].mean().drop(chosen, errors="ignore")
+        if len(share) and share.max() > 0:
+            chosen.append(float(share.idxmax()))
+    for target in (1e3, 1e2, 1.0, 0.1):  # fill up when some regime never appears
+        if len(chosen) >= 4:
+            break
+        phi = _nearest(phis, target)
+        if phi not in chosen:
+            chosen.append(phi)
+    return sorted(chosen, reverse=True)[:4]
+
+
+def fig4a_clusters(data: SweepData, plt):
+    """l_y/Ly against l_x/Lx of every slip cluster, all seeds, for four phi (20x5 if swept)."""
+    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
+    fig, ax = plt.subplots(figsize=(3.8, 3.4))
+    drawn = 0
+    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
+                              ("black", "tab:red", "tab:green", "tab:blue")):
+        frames = [pd.read_csv(p) for p in (data.job_dir(r) / "clusters.csv"
+                                           for _, r in data.runs_of(lx, ly, phi).iterrows())
+                  if p.exists()]
+        if not frames:
+            continue
+        c = pd.concat(frames)
+        drawn += len(c)
+        ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3.5, alpha=0.6,
+                label=f"phi = {phi:g} ({len(c)} clusters)")
+    if not drawn:
+        import matplotlib.pyplot as plt_
+
+        plt_.close(fig)
+        return None
+    ax.plot([0, 1.1], [0, 1.1], color="grey", lw=0.6, ls="--")
+    ax.axvline(0.9, color="grey", lw=0.6, ls=":")
+    ax.axhline(0.9, color="grey", lw=0.6, ls=":")
+    for txt, x, y in (("C", 1.0, 1.07), ("LC", 1.0, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
+        ax.text(x, y, txt, fontsize=8, ha="center", color=REGIME_COLOURS[txt], weight="bold")
+    ax.set_xlim(0, 1.15)
+    ax.set_ylim(0, 1.15)
+    ax.set_xlabel(r"$l_x / L_x$")
+    ax.set_ylabel(r"$l_y / L_y$")
+    ax.set_title(f"Fig. 4a: slip clusters, {_size_label(lx, ly)}", fontsize=9)
+    ax.legend(frameon=False, fontsize=6, loc="upper left")
+    return fig
+
+
+def fig_drops(data: SweepData, plt):
+    """Density of stress-drop sizes after the transient (all seeds) with the fitted power
+    law above the slip threshold, for the four phi of the cluster figure."""
+    from . import io, stress
+
+    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
+    fig, ax = plt.subplots(figsize=(3.8, 3.0))
+    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
+                              ("black", "tab:red", "tab:green", "tab:blue")):
+        drops, thr = [], None
+        for _, row in data.runs_of(lx, ly, phi).iterrows():
+            spec = _spec_of(row)
+            t, sigma = io.read_stress(data.job_dir(row) / "stress.csv")
+            thr = spec.slip_threshold_stress
+            ev = stress.slip_events(t, sigma, thr).after(spec.transient_step * spec.dt)
+            drops.append(ev.drop)
+        d = np.concatenate(drops) if drops else np.empty(0)
+        if len(d) < 2:
+            continue
+        x, dens = stress.drop_distribution(d, bins=15)
+        fit = stress.power_law_fit(d, x_min=thr)
+        nz = dens > 0
+        label = f"phi = {phi:g}: " + (rf"$\alpha$ = {fit.alpha:.2f} $\pm$ {fit.alpha_err:.2f}"
+                                      if math.isfinite(fit.alpha) else "no fit")
+        ax.plot(x[nz], dens[nz], m, color=colour, mfc="none", label=label)
+        if math.isfinite(fit.alpha):
+            # the fitted density over the tail, scaled by the tail's share of all drops
+            xs = np.geomspace(fit.x_min, d.max(), 50)
+            share = fit.n_tail / len(d)
+            ax.plot(xs, share * (fit.alpha - 1) / fit.x_min * (xs / fit.x_min) ** -fit.alpha,
+                    color=colour, lw=0.8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"stress drop $\Delta\sigma_x$")
+    ax.set_ylabel("probability density")
+    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}", fontsize=9)
+    ax.legend(frameon=False, fontsize=6)
+    return fig
+
+
+FIGURES = {"fig1b_stress": fig1b_stress, "fig2a_friction": fig2a_friction,
+           "fig2b_asymmetry": fig2b_asymmetry, "fig3_order": fig3_order,
+           "fig4a_clusters": fig4a_clusters, "fig_drops": fig_drops}
+#: what each figure needs the runs to have recorded
+_NEEDS = {"fig2b_asymmetry": "lx_over_ly", "fig3_order": "psi_inf",
+          "fig4a_clusters": "lx_over_ly"}
+
+
+def plot(root, out=None, formats=FORMATS) -> tuple[list[Path], dict]:
+    """Write every figure that the sweep in ``root`` has data for into ``out`` (default
+    ``root/figures``). Returns (paths written, {figure: why it was skipped})."""
+    data = SweepData(root)
+    out = Path(out) if out is not None else data.root / FIGURES_DIR
+    out.mkdir(parents=True, exist_ok=True)
+    plt = _style()
+    written, skipped = [], {}
+    for name, make in FIGURES.items():
+        need = _NEEDS.get(name)
+        if need and not np.isfinite(pd.to_numeric(data.runs.get(need), errors="coerce")).any():
+            skipped[name] = f"no run recorded {need} (scene {', '.join(set(data.runs.scene))})"
+            continue
+        fig = make(data, plt)
+        if fig is None:
+            skipped[name] = "no data"
+            continue
+        written += _save(fig, out, name, formats)
+    return written, skipped
