@@ -85,6 +85,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="runs at a time, one process each (default: all cores)")
     sw.add_argument("--out", default="runs/sweep", help="sweep directory (default runs/sweep)")
     sw.add_argument("--quiet", action="store_true", help="no progress output")
+    sw.add_argument("--init", action="store_true",
+                    help="only create the jobs (for workflows/project.py submit); run nothing")
+    co = sub.add_parser("collect", help="(re)write DIR/runs.csv and results.csv from the "
+                                        "finished runs of a sweep directory")
+    co.add_argument("dir", help="sweep directory")
     pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF)")
     pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
     pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
@@ -129,6 +134,14 @@ def _sweep(a, argv) -> int:
     specs = sweep_specs(phis, sizes, a.seeds, t_end=a.t_end, dt_factor=a.dt_factor,
                         friction=a.friction, scene=a.scene)
     jobs = a.jobs or available_cores()
+    if a.init:
+        from .sweep import finished, open_project
+
+        project = open_project(a.out)
+        done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
+        print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
+              f"(cd {a.out} && python <bkflow>/workflows/project.py run|submit ...)")
+        return 0
     print(f"sweep: {len(phis)} phi x {len(sizes)} size(s) x {a.seeds} seed(s) = {len(specs)} "
           f"runs into {a.out}, {jobs} at a time", flush=True)
     print(f"  phi = {', '.join(f'{p:g}' for p in phis)}", flush=True)
@@ -173,6 +186,29 @@ def _print_results(res) -> None:
               f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
 
 
+def _collect(a) -> int:
+    from .sweep import RESULTS_FILE, RUNS_FILE, collect, finished, open_project
+
+    try:
+        project = open_project(a.dir, create=False)
+    except FileNotFoundError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    jobs = list(project)
+    done = [j for j in jobs if finished(j)]
+    failed = [j for j in jobs if not finished(j) and "error" in j.document]
+    runs, res = collect(project)
+    print(f"{a.dir}: {len(jobs)} jobs, {len(done)} finished, {len(failed)} failed, "
+          f"{len(jobs) - len(done) - len(failed)} not run")
+    if len(res):
+        _print_results(res)
+    print(f"wrote {a.dir}/{RUNS_FILE} ({len(runs)} rows) and {a.dir}/{RESULTS_FILE} "
+          f"({len(res)} rows)")
+    for j in failed:
+        print(f"  failed {j.id}: {j.document['error']}", file=sys.stderr)
+    return 0
+
+
 def _plot(a) -> int:
     from .plot import PlotError, plot
 
@@ -210,6 +246,8 @@ def main(argv=None) -> int:
             return _sweep(a, argv)
         if a.cmd == "plot":
             return _plot(a)
+        if a.cmd == "collect":
+            return _collect(a)
         spec = _spec(a)
         if a.cmd == "deck":
             from .deck import write_deck

@@ -1,0 +1,296 @@
+"""Sweeps: the CLI end to end, resume after SIGKILL, corrupt runs redone, bad arguments,
+the tables' statistics, and the cluster project's submission script."""
+
+from __future__ import annotations
+
+import fcntl
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import ROOT, tool
+
+from bkflow.cli import main
+from bkflow.engine import is_complete, run_problem
+from bkflow.params import SpecError
+from bkflow.sweep import (LOCK_FILE, RunBusyError, _job_lock, finished, open_project,
+                          parse_sizes, phi_values, results_table, run_one, sweep, sweep_specs)
+
+TINY = ["--phi", "1,1000", "--seeds", "1", "--t-end", "300", "--jobs", "2"]
+
+
+def bkflow(*args, **kw):
+    return subprocess.run([tool("bkflow"), *map(str, args)], capture_output=True, text=True,
+                          timeout=600, **kw)
+
+
+def job_dirs(root) -> list[Path]:
+    return sorted(p for p in (Path(root) / "workspace").iterdir() if p.is_dir())
+
+
+def done_counts(stdout: str) -> tuple[int, int]:
+    m = re.search(r"(\d+) run\(s\) done in .*?, (\d+) finished earlier", stdout)
+    assert m, stdout
+    return int(m.group(1)), int(m.group(2))
+
+
+@pytest.fixture(scope="module")
+def tiny_sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "tiny"
+    proc = bkflow("sweep", *TINY, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    return out, proc
+
+
+# --------------------------------------------------------------------------- parameters
+def test_phi_range_is_log_spaced_with_whole_decades_exact():
+    v = phi_values("1e-1:1e3")
+    assert len(v) == 13
+    assert v[0] == 0.1 and v[3] == 1.0 and v[6] == 10.0 and v[-1] == 1000.0
+    assert np.allclose(np.diff(np.log10(v)), 1 / 3, atol=1e-6)
+    assert len(phi_values("1:100", points_per_decade=5)) == 11
+    # the same phi reached from two ranges is the same job
+    assert set(phi_values("1:10")) <= set(phi_values("1e-1:1e3"))
+    assert phi_values("100,1,10") == [1.0, 10.0, 100.0]
+    assert phi_values("1:5", 1) == [1.0, 5.0]  # the end of a range is always swept
+
+
+@pytest.mark.parametrize("text,needle", [("1e3:1e-1", "must increase"), ("0:1", "> 0"),
+                                         ("-1,2", "> 0"), ("a:b", "not a number"),
+                                         ("1:2:3", "A:B")])
+def test_bad_phi_is_refused(text, needle):
+    with pytest.raises(SpecError, match=needle):
+        phi_values(text)
+
+
+def test_sizes_follow_the_papers_aspect_unless_told():
+    assert parse_sizes("20x5,40x10") == [(20, 5), (40, 10)]
+    assert parse_sizes("100,900") == [(20, 5), (60, 15)]
+    with pytest.raises(SpecError, match="--aspect"):
+        parse_sizes("7x3")
+    assert parse_sizes("7x3", aspect=None) == [(7, 3)]
+    assert parse_sizes("10x10", aspect=1.0) == [(10, 10)]
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--phi", "1e3:1e-1"], "must increase"),
+    (["--phi", "0:1"], "phi must be > 0"),
+    (["--phi", "1", "--sizes", "7x3"], "Ly = Lx/4"),
+    (["--phi", "1", "--jobs", "0"], "--jobs must be >= 1"),
+    (["--phi", "1", "--seeds", "0"], "--seeds must be >= 1"),
+    (["--phi", "1", "--sizes", "8x2"], "Ly must be an integer >= 3"),
+    (["--phi", "1", "--dt-factor", "5"], "stability bound"),
+])
+def test_bad_sweep_arguments_exit_2_before_running(args, needle, tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["sweep", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_other_aspect_accepted_when_asked(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["sweep", "--phi", "1", "--sizes", "7x3", "--aspect", "any", "--seeds", "2",
+                 "--init", "--out", str(out)]) == 0
+    jobs = list(open_project(out, create=False))
+    assert sorted((j.sp.Lx, j.sp.Ly, j.sp.seed) for j in jobs) == [(7, 3, 1), (7, 3, 2)]
+    assert not any(finished(j) for j in jobs)
+
+
+# --------------------------------------------------------------------------- end to end
+def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
+    out, proc = tiny_sweep
+    assert done_counts(proc.stdout) == (2, 0)
+    runs = pd.read_csv(out / "runs.csv")
+    res = pd.read_csv(out / "results.csv")
+    assert len(runs) == 2 and sorted(runs.phi) == [1.0, 1000.0]
+    assert set(runs.seed) == {1} and (runs.t_end == 300).all()
+    assert len(res) == 2 and (res.n_seeds == 1).all()
+    assert np.isfinite(runs.mu_bar).all() and np.isfinite(runs.psi_inf).all()
+    # the table printed is the table written
+    for phi, mu in zip(res.phi, res.mu_bar):
+        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+{mu:.4f}", proc.stdout), proc.stdout
+    for d in job_dirs(out):
+        assert run_problem(d) is None
+        assert (d / "summary.json").exists() and (d / "clusters.csv").exists()
+
+
+def test_rerunning_a_finished_sweep_recomputes_nothing(tiny_sweep):
+    out, _ = tiny_sweep
+    stamps = {d: (d / "meta.json").stat().st_mtime_ns for d in job_dirs(out)}
+    proc = bkflow("sweep", *TINY, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    assert done_counts(proc.stdout) == (0, 2)
+    assert stamps == {d: (d / "meta.json").stat().st_mtime_ns for d in job_dirs(out)}
+
+
+def test_plot_writes_every_figure(tiny_sweep, tmp_path):
+    out, _ = tiny_sweep
+    figs = tmp_path / "figs"
+    proc = bkflow("plot", out, "--out", figs)
+    assert proc.returncode == 0, proc.stderr
+    names = {"fig1b_stress", "fig2a_friction", "fig2b_asymmetry", "fig3_order",
+             "fig4a_clusters", "fig_drops"}
+    assert {p.name for p in figs.iterdir()} == {f"{n}.{e}" for n in names for e in ("png", "pdf")}
+    for p in figs.glob("*.png"):
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
+
+
+def test_plot_of_a_directory_without_a_sweep_exits_2(tmp_path):
+    proc = bkflow("plot", tmp_path)
+    assert proc.returncode == 2 and "no runs.csv" in proc.stderr
+
+
+def test_plot_skips_what_a_scene_did_not_record(tmp_path):
+    specs = sweep_specs([10.0], [(20, 5)], 1, t_end=200.0, scene="friction")
+    rep = sweep(specs, tmp_path / "s", jobs=1, progress=False)
+    assert len(rep.finished) == 1
+    from bkflow.plot import plot
+
+    written, skipped = plot(tmp_path / "s", formats=("png",))
+    assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops"}
+    assert set(skipped) == {"fig2b_asymmetry", "fig3_order", "fig4a_clusters"}
+    assert all("friction" in why for why in skipped.values())
+
+
+def test_corrupt_or_half_written_runs_are_detected_and_redone(tiny_sweep, tmp_path):
+    src, _ = tiny_sweep
+    out = tmp_path / "copy"
+    shutil.copytree(src, out)
+    a, b = job_dirs(out)
+    a_size = (a / "stress.csv").stat().st_size
+    a_started = (a / "meta.json").read_text()
+    with open(a / "stress.csv", "r+b") as f:  # a cut file under a complete meta.json
+        f.truncate(a_size // 2)
+    (b / "summary.json").write_text('{"mu_bar": 0.1')  # an analysis cut short
+    b_meta = (b / "meta.json").stat().st_mtime_ns
+    assert is_complete(a) and "stress.csv has" in run_problem(a)
+    proj = open_project(out, create=False)
+    assert not any(finished(j) for j in proj)
+
+    proc = bkflow("sweep", *TINY, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    assert done_counts(proc.stdout) == (2, 0)
+    assert all(finished(j) for j in proj)
+    assert (a / "stress.csv").stat().st_size == a_size          # run again from scratch
+    assert (a / "meta.json").read_text() != a_started
+    assert (b / "meta.json").stat().st_mtime_ns == b_meta       # only analysed again
+
+
+def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(tmp_path):
+    out = tmp_path / "s"
+    args = ["sweep", "--phi", "3,10,30", "--seeds", "2", "--t-end", "4000", "--jobs", "2",
+            "--scene", "friction", "--out", str(out)]
+    proc = subprocess.Popen([tool("bkflow"), *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    try:
+        while time.time() < deadline:
+            ws = out / "workspace"
+            if ws.is_dir() and any((d / "summary.json").exists() for d in ws.iterdir()):
+                break
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.02)
+        os.kill(proc.pid, signal.SIGKILL)  # the sweep process only: its workers must follow
+    finally:
+        proc.wait()
+    time.sleep(1.0)
+    # no worker outlived the sweep: every run's lock is free
+    for d in job_dirs(out):
+        fd = os.open(d / LOCK_FILE, os.O_RDWR | os.O_CREAT)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        finally:
+            os.close(fd)
+    proj = open_project(out, create=False)
+    done = {j.id: (Path(j.path) / "meta.json").read_text() for j in proj if finished(j)}
+    assert 1 <= len(done) < 6
+    for j in proj:  # an interrupted run never looks finished
+        assert j.id in done or not finished(j)
+
+    res = bkflow(*args)
+    assert res.returncode == 0, res.stderr
+    assert done_counts(res.stdout) == (6 - len(done), len(done))
+    assert all(finished(j) for j in proj)
+    for j in proj:  # finished runs untouched
+        if j.id in done:
+            assert (Path(j.path) / "meta.json").read_text() == done[j.id]
+
+
+def test_a_run_locked_by_another_process_is_not_touched(tmp_path):
+    spec = sweep_specs([10.0], [(20, 5)], 1, t_end=50.0)[0]
+    with _job_lock(tmp_path):
+        with pytest.raises(RunBusyError, match="another process"):
+            run_one(spec, tmp_path)
+    assert not (tmp_path / "meta.json").exists()
+    s = run_one(spec, tmp_path)
+    assert s["phi"] == 10.0 and s == run_one(spec, tmp_path)
+
+
+# --------------------------------------------------------------------------- tables
+def test_results_are_means_over_seeds_with_standard_errors():
+    base = dict(sweep_specs([1.0], [(20, 5)], 1)[0].to_dict())
+    rows = []
+    for seed, mu, psi, reg in ((1, 0.10, 0.5, "DP"), (2, 0.12, 0.7, "DT"), (3, 0.14, 0.9, "DP")):
+        rows.append({**base, "seed": seed, "mu_bar": mu, "mu_bar_err": 0.01 * seed,
+                     "mean_stress_ratio": mu / 2, "psi_inf": psi, "lx_over_ly": math.nan,
+                     "lx_mean_over_Lx": 1.0, "ly_mean_over_Ly": 1.0, "drop_exponent": 2.0,
+                     "n_slips": 100 * seed, "regime": reg})
+    other = {**rows[0], "phi": 10.0, "seed": 1}
+    res = results_table(pd.DataFrame(rows + [other]))
+    assert len(res) == 2
+    r = res[res.phi == 1.0].iloc[0]
+    assert r.n_seeds == 3 and r.N == 100
+    assert r.mu_bar == pytest.approx(0.12) and r.mu_bar_sem == pytest.approx(0.02 / math.sqrt(3))
+    assert r.psi_inf_sem == pytest.approx(0.2 / math.sqrt(3))
+    assert r.mu_bar_err_within_run == pytest.approx(0.02)
+    assert math.isnan(r.lx_over_ly) and r.regime == "DP"
+    one = res[res.phi == 10.0].iloc[0]
+    assert one.n_seeds == 1 and math.isnan(one.mu_bar_sem)
+
+
+# --------------------------------------------------------------------------- cluster
+def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(tmp_path):
+    out = tmp_path / "grid"
+    assert main(["sweep", "--phi", "1,10", "--seeds", "2", "--t-end", "100", "--init",
+                 "--out", str(out)]) == 0
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "squeue").write_text("#!/bin/sh\nexit 0\n")  # an empty queue
+    (fake / "squeue").chmod(0o755)
+    env = {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
+           "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
+    project_py = ROOT / "workflows" / "project.py"
+    sub = subprocess.run([sys.executable, str(project_py), "submit", "--pretend", "--bundle",
+                          "2", "--parallel"], cwd=out, env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert sub.returncode == 0, sub.stderr
+    scripts = sub.stdout.split("#!/bin/bash")[1:]
+    assert len(scripts) == 2
+    for s in scripts:
+        assert "#SBATCH --ntasks=2" in s and "#SBATCH -t " in s
+        assert "export OMP_NUM_THREADS=1" in s  # our template, not only flow's
+        assert len(re.findall(rf"{re.escape(str(project_py))} run -o simulate -j \w+ &", s)) == 2
+    jobs = sorted(set(re.findall(r"-j (\w+)", sub.stdout)))
+    assert len(jobs) == 4
+    # what a cluster node runs: the same operation, for one job
+    run = subprocess.run([sys.executable, str(project_py), "run", "-o", "simulate", "-j",
+                          jobs[0]], cwd=out, env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr
+    proj = open_project(out, create=False)
+    assert [j.id for j in proj if finished(j)] == [jobs[0]]
+    col = bkflow("collect", out)
+    assert col.returncode == 0 and "4 jobs, 1 finished, 0 failed, 3 not run" in col.stdout
+    assert len(pd.read_csv(out / "runs.csv")) == 1
