@@ -23,6 +23,7 @@ import datetime
 import errno
 import math
 import os
+import shutil
 import sys
 import threading
 import time
@@ -278,9 +279,9 @@ def _die_with_parent() -> None:
 def simulate(job):
     """One run of the model for the job's state point (a RunSpec), via :func:`run_one`.
 
-    A run that fails (blow-up, lost atoms, LAMMPS error) records the message in the job
-    document under ``error`` and does not stop the other runs; the post-condition stays
-    false, so the next sweep tries it again.
+    A run that fails (blow-up, lost atoms, LAMMPS error, or an analysis that cannot cope)
+    records the message in the job document under ``error`` and does not stop the other
+    runs; the post-condition stays false, so the next sweep tries it again.
     """
     from .engine import RunError
 
@@ -290,6 +291,10 @@ def simulate(job):
         run_one(spec, job.path)
     except (RunError, RunBusyError) as exc:
         job.document["error"] = str(exc)
+        return
+    except Exception as exc:  # one run's surprise must not take the sweep's other runs down
+        job.document["error"] = (f"{type(exc).__name__}: {exc} (phi={spec.phi:g}, "
+                                 f"{spec.Lx}x{spec.Ly}, seed {spec.seed}; see {job.path})")
         return
     if "error" in job.document:
         del job.document["error"]
@@ -337,7 +342,8 @@ class _SweepBar:
             from tqdm import tqdm
 
             self.bar = tqdm(total=total, initial=done_before, unit="run", desc="sweep",
-                            file=self.stream, dynamic_ncols=True, smoothing=0.1)
+                            file=self.stream, smoothing=0.1,
+                            ncols=min(100, shutil.get_terminal_size().columns))
         self.thread = threading.Thread(target=self._poll, daemon=True)
 
     def _check(self):
