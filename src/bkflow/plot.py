@@ -224,7 +224,7 @@ def fig3_order(data: SweepData, plt):
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel(r"$\Psi(\infty)$")
     ax.set_ylim(0.4, 1.05)
-    ax.legend(frameon=False, loc="lower right")
+    ax.legend(frameon=False, loc="upper left")
     ax.set_title(r"Fig. 3: bond-orientational order $\Psi$", fontsize=9)
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
     runs = data.runs_of(*inset_size)
@@ -277,10 +277,18 @@ def _phi_per_regime(data: SweepData, lx, ly) -> list[float]:
 def fig4a_clusters(data: SweepData, plt):
     """l_y/Ly against l_x/Lx of every slip cluster, all seeds, for four phi (20x5 if swept)."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
-    fig, ax = plt.subplots(figsize=(3.8, 3.4))
+    return cluster_scatter(data, plt, lx, ly, _phi_per_regime(data, lx, ly),
+                           f"Fig. 4a: slip clusters, {_size_label(lx, ly)}")
+
+
+def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
+    """l_y/Ly against l_x/Lx of every cluster of the runs at (lx, ly) and each phi; the
+    regime boundaries of :func:`bkflow.clusters.regime` drawn in. None when no clusters."""
+    fig = None
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(3.8, 4.0))
     drawn = 0
-    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
-                              ("black", "tab:red", "tab:green", "tab:blue")):
+    for phi, m, colour in zip(phis, MARKERS, ("black", "tab:red", "tab:green", "tab:blue")):
         frames = [pd.read_csv(p) for p in (data.job_dir(r) / "clusters.csv"
                                            for _, r in data.runs_of(lx, ly, phi).iterrows())
                   if p.exists()]
@@ -288,25 +296,26 @@ def fig4a_clusters(data: SweepData, plt):
             continue
         c = pd.concat(frames)
         drawn += len(c)
-        ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3.5, alpha=0.6,
-                label=f"phi = {phi:g} ({len(c)} clusters)")
+        ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3, mew=0.6,
+                alpha=0.5, label=f"phi = {phi:g} ({len(c)} clusters)")
     if not drawn:
-        import matplotlib.pyplot as plt_
-
-        plt_.close(fig)
+        if fig is not None:
+            plt.close(fig)
         return None
     ax.plot([0, 1.1], [0, 1.1], color="grey", lw=0.6, ls="--")
     ax.axvline(0.9, color="grey", lw=0.6, ls=":")
     ax.axhline(0.9, color="grey", lw=0.6, ls=":")
-    for txt, x, y in (("C", 1.0, 1.07), ("LC", 1.0, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
-        ax.text(x, y, txt, fontsize=8, ha="center", color=REGIME_COLOURS[txt], weight="bold")
+    for txt, x, y in (("C", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
+        ax.text(x, y, txt, fontsize=8, ha="center", va="center", color=REGIME_COLOURS[txt],
+                weight="bold", bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
     ax.set_xlim(0, 1.15)
     ax.set_ylim(0, 1.15)
     ax.set_xlabel(r"$l_x / L_x$")
     ax.set_ylabel(r"$l_y / L_y$")
-    ax.set_title(f"Fig. 4a: slip clusters, {_size_label(lx, ly)}", fontsize=9)
-    ax.legend(frameon=False, fontsize=6, loc="upper left")
-    return fig
+    ax.set_title(title, fontsize=9)
+    ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
+              ncol=2, markerscale=1.5)
+    return fig if fig is not None else ax.figure
 
 
 def fig_drops(data: SweepData, plt):
