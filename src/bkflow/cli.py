@@ -173,16 +173,16 @@ def _print_results(res) -> None:
     def pm(v, e, fmt):
         if v != v:
             return "n/a"
-        return f"{v:{fmt}}" + (f" +- {e:{fmt}}" if e == e else "")
+        return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
 
-    print(f"  {'phi':>8} {'size':>6} {'seeds':>5}  {'mu_bar':>17}  {'<sigma_x>/sigma_n':>17}  "
-          f"{'Psi(inf)':>15}  {'<l_x>/<l_y>':>13}  regime")
+    print(f"  {'phi':>8} {'size':>6} {'seeds':>5}  {'mu_bar':>18}  {'<sigma_x>/sigma_n':>18}  "
+          f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime")
     for _, r in res.iterrows():
         print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6} {r.n_seeds:>5}  "
-              f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>17}  "
-              f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>17}  "
-              f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>15}  "
-              f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>13}  "
+              f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>18}  "
+              f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>18}  "
+              f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>16}  "
+              f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
               f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
 
 

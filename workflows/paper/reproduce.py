@@ -139,6 +139,23 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
         dt = s.get("regime_fractions[DT]", pd.Series(np.nan, index=s.index)).to_numpy(float)
         tot.append(f"{np.nansum(dt * w) / w.sum():.3f} of {w.sum():.0f}")
     out.append("| all phi | " + " | ".join(tot) + " |")
+
+    out += ["", "## Aspect ratio (N = 100): cluster shapes over all phi and seeds", "",
+            "DT by the regime rule of bkflow.clusters.regime; 'DT, x not spanned' also leaves "
+            "out clusters with l_x/Lx >= 0.9 (whole-box slips of disordered layers, whose "
+            "DP/DT label the rule decides by l_x/Lx vs l_y/Ly, both about 1).", "",
+            "| size | clusters | DT (regime rule) | DT, x not spanned | spans both axes | "
+            "l_y > l_x (absolute) |", "|---|---|---|---|---|---|"]
+    for lx, ly in ASPECT_SIZES:
+        c = pd.concat([pd.read_csv(aspect_dir / "workspace" / j / "clusters.csv")
+                       for j in a[(a.Lx == lx) & (a.Ly == ly)].job])
+        fx, fy = c.l_x / lx, c.l_y / ly
+        s = a[(a.Lx == lx) & (a.Ly == ly)]
+        w = s.n_clusters.to_numpy(dtype=float)
+        dt_rule = np.nansum(s["regime_fractions[DT]"].to_numpy(float) * w) / w.sum()
+        out.append(f"| {lx}x{ly} | {len(c)} | {dt_rule:.3f} | "
+                   f"{((fx < fy) & (fx < 0.9)).mean():.3f} | "
+                   f"{((fx >= 0.9) & (fy >= 0.9)).mean():.3f} | {(c.l_y > c.l_x).mean():.3f} |")
     return "\n".join(out) + "\n"
 
 
