@@ -294,3 +294,23 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
     col = bkflow("collect", out)
     assert col.returncode == 0 and "4 jobs, 1 finished, 0 failed, 3 not run" in col.stdout
     assert len(pd.read_csv(out / "runs.csv")) == 1
+
+
+def test_a_failed_run_is_reported_and_the_others_finish(tmp_path):
+    good = sweep_specs([10.0], [(20, 5)], 1, t_end=100.0)[0]
+    torn = good.replace(phi=0.1, t_end=400.0, bond_limit=1.5)  # tears apart (test_cli)
+    rep = sweep([torn, good], tmp_path / "s", jobs=1, progress=False)
+    proj = open_project(tmp_path / "s", create=False)
+    assert rep.finished == [proj.open_job(good.to_dict()).id]
+    (job_id, msg), = rep.failed.items()
+    assert "bond stretched" in msg and proj.open_job(id=job_id).document["error"] == msg
+    assert len(pd.read_csv(tmp_path / "s" / "runs.csv")) == 1
+    # the next sweep retries it (and fails the same way), the finished run is left alone
+    rep2 = sweep([torn, good], tmp_path / "s", jobs=1, progress=False)
+    assert rep2.finished_before == 1 and list(rep2.failed) == [job_id]
+
+
+def test_plot_refuses_an_unknown_format(tiny_sweep, tmp_path):
+    out, _ = tiny_sweep
+    proc = bkflow("plot", out, "--out", tmp_path, "--format", "png,jpgx")
+    assert proc.returncode == 2 and "jpgx" in proc.stderr and not any(tmp_path.iterdir())

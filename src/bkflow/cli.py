@@ -123,7 +123,7 @@ def _print_summary(s: dict) -> None:
           f"({s['drop_n_tail']} drops)")
 
 
-def _sweep(a, argv) -> int:
+def _sweep(a) -> int:
     from .sweep import (available_cores, fmt_duration, parse_aspect, parse_sizes, phi_values,
                         sweep, sweep_specs)
 
@@ -154,10 +154,11 @@ def _sweep(a, argv) -> int:
     from .sweep import RESULTS_FILE, RUNS_FILE
 
     res = pd.read_csv(f"{a.out}/{RESULTS_FILE}") if rep.total else pd.DataFrame()
-    keep = {(s.phi, s.Lx, s.Ly) for s in specs}
-    if len(res):
+    if len(res):  # this sweep's rows (the directory may hold other sweeps too)
+        keep = {(s.phi, s.Lx, s.Ly) for s in specs}
         res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]
-        res = res[(res.t_end == a.t_end) & (res.dt_factor == a.dt_factor)]
+        res = res[(res.t_end == a.t_end) & (res.dt_factor == a.dt_factor)
+                  & (res.friction == a.friction) & (res.scene == a.scene)]
         _print_results(res)
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
     for job_id, msg in rep.failed.items():
@@ -243,7 +244,7 @@ def main(argv=None) -> int:
             _print_summary(summary)
             return 0
         if a.cmd == "sweep":
-            return _sweep(a, argv)
+            return _sweep(a)
         if a.cmd == "plot":
             return _plot(a)
         if a.cmd == "collect":

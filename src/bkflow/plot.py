@@ -370,9 +370,15 @@ def plot(root, out=None, formats=FORMATS) -> tuple[list[Path], dict]:
     """Write every figure that the sweep in ``root`` has data for into ``out`` (default
     ``root/figures``). Returns (paths written, {figure: why it was skipped})."""
     data = SweepData(root)
+    plt = _style()
+    supported = plt.figure().canvas.get_supported_filetypes()
+    plt.close("all")
+    bad = [f for f in formats if f not in supported]
+    if bad:
+        raise PlotError(f"format {', '.join(bad)} is not one matplotlib writes; choose from "
+                        f"{', '.join(sorted(supported))}")
     out = Path(out) if out is not None else data.root / FIGURES_DIR
     out.mkdir(parents=True, exist_ok=True)
-    plt = _style()
     written, skipped = [], {}
     for name, make in FIGURES.items():
         need = _NEEDS.get(name)
