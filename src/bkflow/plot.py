@@ -202,8 +202,8 @@ def fig2b_asymmetry(data: SweepData, plt):
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)
-    ax.text(0.02, aspects[-1], " Lx/Ly (whole-box clusters)", transform=ax.get_yaxis_transform(),
-            va="bottom", fontsize=6.5, color="grey")
+    ax.text(0.98, 0.04, "dotted: Lx/Ly (whole-box clusters)", transform=ax.transAxes,
+            ha="right", va="bottom", fontsize=6.5, color="grey")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
