@@ -146,6 +146,9 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
 
   for (int i = 0; i < atom->nlocal; i++) set_arrays(i);
   t0 = current_time();
+  elapsed_base = 0.0;
+  dt_base = update->dt;
+  step_base = update->ntimestep;
 }
 
 FixBKSubstrate::~FixBKSubstrate()
@@ -194,16 +197,26 @@ double FixBKSubstrate::current_time() const
    Damping uses the half-step velocity stored by the last post_force, so that a run split into
    chunks, or continued from a restart file, follows the same trajectory as one long run. */
 
+double FixBKSubstrate::elapsed()
+{
+  if (update->dt != dt_base) {  // a new time step from here on
+    elapsed_base += static_cast<double>(update->ntimestep - step_base) * dt_base;
+    step_base = update->ntimestep;
+    dt_base = update->dt;
+  }
+  return elapsed_base + static_cast<double>(update->ntimestep - step_base) * dt_base;
+}
+
 void FixBKSubstrate::setup(int /*vflag*/)
 {
-  plate_shift = vd * (current_time() - t0);
+  plate_shift = vd * elapsed();
   update_displacements(0);
   dispatch(0);
 }
 
 void FixBKSubstrate::post_force(int /*vflag*/)
 {
-  plate_shift = vd * (current_time() - t0);
+  plate_shift = vd * elapsed();
   update_displacements(0);
   dispatch(1);
 }
@@ -458,17 +471,19 @@ double FixBKSubstrate::compute_vector(int n)
   return rmax;
 }
 
-/* global restart state: t0, vh_valid, total breaks */
+/* global restart state: t0, vh_valid, total breaks, and the plate's clock (elapsed_base,
+   step_base, dt_base) */
 
 void FixBKSubstrate::write_restart(FILE *fp)
 {
   double local = static_cast<double>(nbreak_total), total = 0.0;
   MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, world);
   if (comm->me == 0) {
-    double list[3] = {t0, static_cast<double>(vh_valid), total};
-    int size = 3 * sizeof(double);
+    double list[6] = {t0, static_cast<double>(vh_valid), total, elapsed_base,
+                      static_cast<double>(step_base), dt_base};
+    int size = 6 * sizeof(double);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(list, sizeof(double), 3, fp);
+    fwrite(list, sizeof(double), 6, fp);
   }
 }
 
@@ -478,6 +493,9 @@ void FixBKSubstrate::restart(char *buf)
   t0 = list[0];
   vh_valid = static_cast<int>(list[1]);
   nbreak_total = comm->me == 0 ? static_cast<bigint>(list[2]) : 0;
+  elapsed_base = list[3];
+  step_base = static_cast<bigint>(list[4]);
+  dt_base = list[5];
 }
 
 double FixBKSubstrate::memory_usage()

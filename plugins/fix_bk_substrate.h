@@ -64,6 +64,12 @@ class FixBKSubstrate : public Fix {
   int *bl_i, *bl_j, *bl_both;
   double *bl_sx, *bl_sy;
   double t0;             // simulation time at which anchors were taken
+  // the plate's clock, time since t0 counted in whole steps: elapsed = elapsed_base +
+  // (ntimestep - step_base) * dt_base, rebased only when the time step changes. LAMMPS's
+  // own clock (atime) is re-summed at every run command, so a run split into chunks would
+  // otherwise differ from one long run in the last bits, which the dynamics then amplify.
+  double elapsed_base, dt_base;
+  bigint step_base;
   int vh_valid;          // VH* hold the velocity used by the last post_force
 
   // per-step accumulators (local), reduced lazily in compute_vector()
@@ -75,6 +81,7 @@ class FixBKSubstrate : public Fix {
   double reduced_vec[3];
 
   double current_time() const;
+  double elapsed();
   void update_displacements(int ghosts);
   void build_bond_list();
   template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();

@@ -13,7 +13,7 @@ import shlex
 import sys
 
 from . import __version__
-from .params import SCENES, RunSpec, SpecError, parse_size, size_from_n
+from .params import ACCURACY, SCENES, RunSpec, SpecError, parse_size, size_from_n
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
@@ -24,15 +24,34 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"bkflow: error: {message}\n")
 
 
+def _accuracy_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--accuracy", choices=tuple(ACCURACY), default="default",
+                   help="preset of --dt-factor and --t-end: " + ", ".join(
+                       f"{k} (C = {c:g}, t_end = {t:g})" for k, (c, t) in ACCURACY.items()))
+    p.add_argument("--t-end", type=float, default=None,
+                   help="run length in time units (default: the --accuracy preset's); with "
+                        "--target-error, the longest the run may go")
+    p.add_argument("--dt-factor", type=float, default=None,
+                   help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
+    p.add_argument("--target-error", type=float, default=None,
+                   help="run until mu_bar's standard error is below this (checked every "
+                        "100 time units, at least 500), at most --t-end")
+
+
+def _accuracy(a) -> dict:
+    """dt_factor, t_end and target_error from the preset and the explicit options."""
+    c, t = ACCURACY[a.accuracy]
+    return {"dt_factor": c if a.dt_factor is None else a.dt_factor,
+            "t_end": t if a.t_end is None else a.t_end, "target_error": a.target_error}
+
+
 def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--phi", type=float, required=True, help="k_b / dk_d (> 0)")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--size", help="lattice LXxLY, e.g. 20x5 (default 20x5)")
     size.add_argument("--n", type=int, help="the paper's sizes: 100, 400 or 900 (Ly = Lx/4)")
-    p.add_argument("--t-end", type=float, default=RunSpec.t_end, help="run length (time units)")
+    _accuracy_args(p)
     p.add_argument("--seed", type=int, default=RunSpec.seed, help="seed of the k_d^i draw")
-    p.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor,
-                   help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d)")
     p.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction,
                    help="contact rule at |k_e dr| > mu_s sigma_n A (default reset, the paper's)")
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
@@ -48,8 +67,8 @@ def _spec(a) -> RunSpec:
         Lx, Ly = parse_size(a.size)
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
-    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, t_end=a.t_end, dt_factor=a.dt_factor,
-                   friction=a.friction, scene=a.scene)
+    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, friction=a.friction, scene=a.scene,
+                   **_accuracy(a))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -75,9 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--aspect", default=None,
                     help="Lx/Ly every size must have (default 4, the paper's Ly = Lx/4), or 'any'")
     sw.add_argument("--seeds", type=int, default=3, help="seeds 1..K per (phi, size) (default 3)")
-    sw.add_argument("--t-end", type=float, default=RunSpec.t_end, help="run length (time units)")
-    sw.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor,
-                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d)")
+    _accuracy_args(sw)
     sw.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                     help="what each run records (default full: everything the figures need)")
@@ -131,8 +148,8 @@ def _sweep(a) -> int:
     sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
     if a.jobs is not None and a.jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {a.jobs}")
-    specs = sweep_specs(phis, sizes, a.seeds, t_end=a.t_end, dt_factor=a.dt_factor,
-                        friction=a.friction, scene=a.scene)
+    specs = sweep_specs(phis, sizes, a.seeds, friction=a.friction, scene=a.scene,
+                        **_accuracy(a))
     jobs = a.jobs or available_cores()
     if a.init:
         from .sweep import finished, open_project
@@ -157,8 +174,11 @@ def _sweep(a) -> int:
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
         keep = {(s.phi, s.Lx, s.Ly) for s in specs}
         res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]
-        res = res[(res.t_end == a.t_end) & (res.dt_factor == a.dt_factor)
+        s0 = specs[0]
+        res = res[(res.t_end == s0.t_end) & (res.dt_factor == s0.dt_factor)
                   & (res.friction == a.friction) & (res.scene == a.scene)]
+        res = res[res.target_error.isna() if s0.target_error is None
+                  else res.target_error == s0.target_error]
         _print_results(res)
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
     for job_id, msg in rep.failed.items():
@@ -261,8 +281,15 @@ def main(argv=None) -> int:
         res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
                   command="bkflow " + shlex.join(argv))
         m = res.meta
-        print(f"{a.out}: {spec.n_steps} steps in {m['wall_time_s']:.1f} s "
+        print(f"{a.out}: {m['derived']['n_steps']} steps in {m['wall_time_s']:.1f} s "
               f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
+        ad = m.get("adaptive")
+        if ad:
+            print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}; "
+                  + (f"mu_bar error {ad['mu_bar_err_at_stop']:.2g} <= target "
+                     f"{ad['target_error']:g}" if ad["reached"] else
+                     f"target {ad['target_error']:g} NOT reached (error at the end: "
+                     f"{ad['mu_bar_err_at_stop']:.2g}); raise --t-end"))
         if not a.no_analyze:
             from .analysis import analyze
 

@@ -182,7 +182,7 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
     if spec.writes_slips and files.slips:
         lines += [
             f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.transient_step}",
+            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)
     cols = f"f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] f_{SUBSTRATE_FIX}[3] f_{SUBSTRATE_FIX}[5] "

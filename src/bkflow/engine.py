@@ -83,6 +83,37 @@ def run_problem(out) -> str | None:
     return None
 
 
+#: an adaptive run checks its error every this many time units
+ADAPTIVE_CHUNK_T = 100.0
+
+
+class _TargetError:
+    """The stop rule of an adaptive run (RunSpec.target_error): mu_bar's standard error,
+    by the blocking estimate of bkflow.stress.friction over the slips after the transient
+    (the same fraction of the run so far as a fixed run uses), is below the target and
+    judged reliable, and the run is at least ADAPTIVE_T_MIN long."""
+
+    def __init__(self, spec: RunSpec, stress_file: Path):
+        self.spec, self.path = spec, stress_file
+        self.met, self.last_error, self.checks = False, None, 0
+
+    def reached(self, step: int) -> bool:
+        from .io import read_stress
+        from .params import ADAPTIVE_T_MIN
+        from .stress import friction
+
+        spec = self.spec
+        if step * spec.dt < min(ADAPTIVE_T_MIN, spec.t_end):
+            return False
+        t, sigma = read_stress(self.path)
+        self.checks += 1
+        fr = friction(t, sigma, spec.sigma_n, spec.slip_threshold_stress,
+                      t_transient=spec.transient * step * spec.dt)
+        self.last_error = fr.mu_bar_err
+        self.met = bool(fr.error_reliable and fr.mu_bar_err <= spec.target_error)
+        return self.met
+
+
 class _Progress:
     """One status line on a terminal (stderr); silent when stderr is not a terminal."""
 
@@ -162,6 +193,9 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     lmp = open_lammps(log=out / LOG_FILE)
     n_total = spec.n_steps
     chunk = chunk_steps or max(1000, n_total // 100)
+    adaptive = _TargetError(spec, out / STRESS_FILE) if spec.target_error is not None else None
+    if adaptive is not None and chunk_steps is None:
+        chunk = max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
     bar = _Progress(f"phi={spec.phi:g} {spec.Lx}x{spec.Ly} seed {spec.seed}", n_total, progress)
     step = 0
     try:
@@ -180,6 +214,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                 lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
                 step += n
                 bar.update(step, guard.check(step))
+                if adaptive is not None and adaptive.reached(step):
+                    break
             wall = time.perf_counter() - t_wall
         except RunError:
             raise
@@ -198,13 +234,21 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         bar.close()
         lmp.close()
 
+    requested = spec
+    if step < n_total:  # an adaptive run that met its target: it is a run of this length
+        spec = spec.replace(t_end=step * spec.dt)
     meta = {
         "status": "complete",
         "bkflow": __version__,
         **lammps_version(),
         "plugin": build_info(),
         "params": spec.to_dict(),
-        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": n_total,
+        "requested": requested.to_dict(),
+        "adaptive": None if adaptive is None else {
+            "target_error": requested.target_error, "t_cap": requested.t_end,
+            "t_run": spec.t_end, "reached": step < n_total or adaptive.met,
+            "mu_bar_err_at_stop": adaptive.last_error, "checks": adaptive.checks},
+        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": step,
                     "stress_nevery": spec.stress_nevery,
                     "stress_dt": spec.stress_nevery * spec.dt,
                     "snapshot_nevery": spec.snapshot_nevery if spec.writes_snapshots else None,
@@ -214,7 +258,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         "slip_snapshots": slips,
         "seed": spec.seed,
         "wall_time_s": wall,
-        "atom_steps_per_s": spec.N * n_total / wall if wall > 0 else None,
+        "atom_steps_per_s": spec.N * step / wall if wall > 0 else None,
         "contact_breaks": breaks,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
         "host": platform.node(),

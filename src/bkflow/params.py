@@ -27,6 +27,14 @@ DT_FACTOR_MAX = 1.0
 
 FRICTION_MODES = ("reset", "coulomb")
 
+#: accuracy presets: (dt-factor C, t_end), chosen from the work-precision benchmark
+#: (benchmarks/work_precision.py, errors and costs in benchmarks/RESULTS.md)
+ACCURACY = {"fast": (0.2, 2000.0), "default": (0.1, 4000.0), "precise": (0.05, 8000.0)}
+
+#: an adaptive run (target_error) is never shorter than this (time units), so that its
+#: error estimate rests on a few dozen slips at least
+ADAPTIVE_T_MIN = 500.0
+
 #: what a run records (MODEL.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
 SCENES = ("friction", "order", "clusters", "full")
@@ -88,6 +96,9 @@ class RunSpec:
     transient: float = 0.2
     #: a bond longer than this (lattice units) stops the run as torn apart
     bond_limit: float = 10.0
+    #: adaptive run length: stop once mu_bar's standard error is below this (t_end is then
+    #: the cap); None = run exactly t_end
+    target_error: float | None = None
 
     def __post_init__(self):
         def finite(name):
@@ -122,6 +133,9 @@ class RunSpec:
         if not 0 <= finite("transient") < 1:
             raise SpecError(f"transient must lie in [0, 1) (a fraction of the run), "
                             f"got {self.transient!r}")
+        if self.target_error is not None and not finite("target_error") > 0:
+            raise SpecError(f"target_error must be > 0 (a standard error of mu_bar), "
+                            f"got {self.target_error!r}")
         if self.scene not in SCENES:
             raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
         if self.friction not in FRICTION_MODES:
@@ -175,6 +189,14 @@ class RunSpec:
     def transient_step(self) -> int:
         """First step after the transient."""
         return int(round(self.transient * self.n_steps))
+
+    @property
+    def slips_start_step(self) -> int:
+        """First step whose slips fix bk/slips records: the transient's end, or for an
+        adaptive run (whose end is not known in advance) that of its shortest length."""
+        if self.target_error is None:
+            return self.transient_step
+        return int(round(self.transient * min(self.t_end, ADAPTIVE_T_MIN) / self.dt))
 
     @property
     def writes_snapshots(self) -> bool:

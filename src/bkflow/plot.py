@@ -106,8 +106,16 @@ def _spec_of(row):
 
     from .params import RunSpec
 
-    cast = {"float": float, "int": int, "str": str}
-    return RunSpec(**{f.name: cast[f.type](row[f.name]) for f in dataclasses.fields(RunSpec)})
+    def value(f):
+        v = row[f.name]
+        if f.type == "float | None":
+            return None if v is None or v != v else float(v)
+        return {"float": float, "int": int, "str": str}[f.type](v)
+
+    spec = RunSpec(**{f.name: value(f) for f in dataclasses.fields(RunSpec)})
+    # the stress series of an adaptive run is as long as it ran (t_run), not its cap
+    t_run = row.get("t_run")
+    return spec.replace(t_end=float(t_run)) if t_run is not None and t_run == t_run else spec
 
 
 def _save(fig, out: Path, name: str, formats) -> list[Path]:

@@ -1,0 +1,108 @@
+"""Accuracy controls: presets, the adaptive run length, and extreme inputs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import pytest
+
+from conftest import tool
+
+from bkflow.analysis import analyze
+from bkflow.engine import run
+from bkflow.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
+from bkflow.sweep import open_project, sweep
+
+
+def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_run(tmp_path):
+    spec = RunSpec(phi=10.0, t_end=20000.0, target_error=5e-4, scene="friction")
+    meta = run(spec, tmp_path / "a", progress=False).meta
+    ad = meta["adaptive"]
+    assert ad["reached"] and ADAPTIVE_T_MIN <= ad["t_run"] < spec.t_end
+    assert meta["requested"]["t_end"] == 20000.0 and meta["params"]["t_end"] == ad["t_run"]
+    s = analyze(tmp_path / "a")
+    assert s["mu_bar_err"] <= 5e-4 and s["mu_bar_err"] == pytest.approx(ad["mu_bar_err_at_stop"])
+    # the same trajectory as a fixed run of the length it chose: same series, same summary
+    fixed = spec.replace(t_end=ad["t_run"], target_error=None)
+    run(fixed, tmp_path / "f", progress=False)
+    assert (tmp_path / "a" / "stress.csv").read_bytes() == \
+        (tmp_path / "f" / "stress.csv").read_bytes()
+    assert analyze(tmp_path / "f")["mu_bar"] == s["mu_bar"]
+
+
+def test_adaptive_run_that_hits_its_cap_says_so(tmp_path):
+    meta = run(RunSpec(phi=10.0, t_end=600.0, target_error=1e-7, scene="friction"), tmp_path,
+               progress=False).meta
+    ad = meta["adaptive"]
+    assert not ad["reached"] and ad["t_run"] == 600.0 and ad["mu_bar_err_at_stop"] > 1e-7
+
+
+def test_adaptive_sweep_is_not_redone(tmp_path):
+    spec = RunSpec(phi=10.0, t_end=20000.0, target_error=1e-3, scene="friction")
+    rep = sweep([spec], tmp_path, jobs=1, progress=False)
+    assert len(rep.finished) == 1
+    rep = sweep([spec], tmp_path, jobs=1, progress=False)
+    assert rep.finished_before == 1 and not rep.finished
+    (job,) = list(open_project(tmp_path, create=False))
+    import pandas as pd
+
+    row = pd.read_csv(tmp_path / "runs.csv").iloc[0]
+    assert row.t_end == 20000.0 and ADAPTIVE_T_MIN <= row.t_run < 20000.0
+
+
+@pytest.mark.parametrize("preset", sorted(ACCURACY))
+def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
+    c, t = ACCURACY[preset]
+    proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", preset, "--out",
+                           str(tmp_path)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    p = json.loads((tmp_path / "params.json").read_text())
+    assert (p["dt_factor"], p["t_end"]) == (c, t)
+
+
+def test_explicit_options_override_the_preset(tmp_path):
+    proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", "fast",
+                           "--dt-factor", "0.07", "--out", str(tmp_path)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    p = json.loads((tmp_path / "params.json").read_text())
+    assert (p["dt_factor"], p["t_end"]) == (0.07, ACCURACY["fast"][1])
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--target-error", "-1"], "target_error must be > 0"),
+    (["--accuracy", "sloppy"], "invalid choice"),
+    (["--dt-factor", str(DT_FACTOR_MAX * 1.01)], "stability bound"),
+])
+def test_bad_accuracy_options_exit_2(args, needle, tmp_path):
+    proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", *args, "--out",
+                           str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 2 and needle in proc.stderr, proc.stderr
+
+
+# --------------------------------------------------------------------------- extreme inputs
+@pytest.mark.parametrize("changes", [
+    {"phi": 1e4, "t_end": 60.0},                 # the stiffest layer of the stability scan
+    {"V_d": 0.2, "t_end": 100.0},                # plate ten times faster
+    {"dk_d": 1.0, "k_d": 1.0, "t_end": 100.0},   # k_d^i down to 0 (the default)
+    {"phi": 0.1, "dk_d": 0.01, "t_end": 100.0},  # nearly homogeneous drive, very soft bonds
+])
+def test_extreme_but_valid_inputs_run_and_stay_finite(changes, tmp_path):
+    meta = run(RunSpec(**{"phi": 10.0, "scene": "friction", **changes}), tmp_path,
+               progress=False).meta
+    assert meta["status"] == "complete"
+    s = analyze(tmp_path)
+    assert s["mean_stress_ratio"] == s["mean_stress_ratio"]  # finite, not NaN
+
+
+@pytest.mark.parametrize("changes, needle", [
+    ({"dk_d": 0.0}, "dk_d = 0 leaves phi"),
+    ({"Lx": 4, "Ly": 1}, "Ly must be an integer >= 3"),
+    ({"Lx": 2, "Ly": 2}, "Lx must be an integer >= 3"),
+    ({"dk_d": 1.5}, "dk_d must lie in [0, k_d]"),
+])
+def test_degenerate_inputs_are_refused_with_the_reason(changes, needle):
+    with pytest.raises(SpecError) as exc:
+        RunSpec(phi=10.0, **changes)
+    assert needle in str(exc.value)
