@@ -1,9 +1,10 @@
-/* bkflow LAMMPS plugin: registers fix bk/substrate and fix bk/slips. LAMMPS only warns when a plugin was
+/* bkflow LAMMPS plugin: registers fix bk/substrate, fix bk/slips and fix bk/stress. LAMMPS only warns when a plugin was
    built for another version; a C++ plugin is tied to the exact build it was compiled
    against, so this one says so loudly at load time and fix bk/substrate refuses to run. */
 
 #include "error.h"
 #include "fix_bk_slips.h"
+#include "fix_bk_stress.h"
 #include "fix_bk_substrate.h"
 #include "lammps.h"
 #include "utils.h"
@@ -42,6 +43,11 @@ static Fix *bk_slips_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixBKSlips(lmp, argc, argv);
 }
 
+static Fix *bk_stress_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBKStress(lmp, argc, argv);
+}
+
 extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
 {
   auto *lmp = static_cast<LAMMPS *>(ptr);
@@ -70,5 +76,10 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   plugin.name = "bk/slips";
   plugin.info = "bkflow: positions at the maximum and minimum of every slip event";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_slips_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "bk/stress";
+  plugin.info = "bkflow: the shear stress series t,sigma_x, buffered";
+  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_stress_creator);
   (*register_plugin)(&plugin, lmp);
 }

@@ -494,6 +494,9 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
         row["N"] = int(row["Lx"] * row["Ly"])
         row["n_seeds"] = len(g)
         for f in RESULT_FIELDS:
+            if f not in g:  # a field the runs did not record
+                row[f] = row[f"{f}_sem"] = math.nan
+                continue
             v = pd.to_numeric(g[f], errors="coerce").to_numpy(dtype=float)
             v = v[np.isfinite(v)]
             row[f] = v.mean() if len(v) else math.nan
