@@ -12,6 +12,7 @@ the run's own sampling noise. Cost = mean LAMMPS wall time per run (meta.json) m
 runs side by side on the 2 cores, and atom-steps.
 
     python benchmarks/work_precision.py [--phi 0.1 10 1000] [--size 20x5] [--seeds 3]
+        [--friction reset|reset/step] [--damping implicit|half]
         [--out runs/bench/work_precision] [--plot benchmarks/work_precision.png]
 
 Prints markdown tables (one per phi) and writes the plot.
@@ -35,12 +36,13 @@ OBSERVABLES = (("mu_bar", "mu_bar"), ("mean_stress_ratio", "<sigma_x>/sigma_n"),
                ("psi_inf", "Psi(inf)"))
 
 
-def specs_for(phis, size, seeds):
+def specs_for(phis, size, seeds, **scheme):
     lx, ly = size
     out = []
     for phi in phis:
         for c, t in [(c, t) for c in C_VALUES for t in T_VALUES] + [REFERENCE]:
-            out += sweep_specs([phi], [(lx, ly)], seeds, dt_factor=c, t_end=t, scene="order")
+            out += sweep_specs([phi], [(lx, ly)], seeds, dt_factor=c, t_end=t, scene="order",
+                               **scheme)
     return out
 
 
@@ -120,14 +122,18 @@ def main(argv=None) -> None:
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--friction", default="reset", help="reset (default) or reset/step")
+    ap.add_argument("--damping", default="implicit", help="implicit (default) or half")
     ap.add_argument("--out", default="runs/bench/work_precision")
     ap.add_argument("--plot", default=str(Path(__file__).with_name("work_precision.png")))
     a = ap.parse_args(argv)
-    specs = specs_for(a.phi, parse_size(a.size), a.seeds)
+    specs = specs_for(a.phi, parse_size(a.size), a.seeds, friction=a.friction,
+                      damping=a.damping)
     rep = sweep(specs, a.out, jobs=a.jobs)
     print(f"{len(rep.finished)} runs done, {rep.finished_before} earlier, {len(rep.failed)} "
           f"failed\n")
     runs = runs_table(open_project(a.out, create=False))
+    runs = runs[(runs.friction == a.friction) & (runs.get("damping", a.damping) == a.damping)]
     tables = {}
     for phi in a.phi:
         df, ref = table(runs, phi)

@@ -6,8 +6,13 @@
                minimum image of bond_style harmonic, this holds for any stretch.
      drive     F = k_d^i (anchor_i(t) - r_i),  anchor_i(t) = r_i(t0) + V_d (t - t0) x_hat
      friction  dr_i += v_i dt;  F = -k_e dr_i;  break when |k_e dr_i| > mu_s sigma_n A
-               (reset: dr_i = 0;  coulomb: dr_i rescaled onto the threshold)
-     damping   F = -m gamma v_i
+               (reset: the contact breaks where |k_e dr_i| crosses the threshold inside the
+               step, at the fraction th of v_i dt, and re-forms there: dr_i = (1 - th) v_i dt;
+               reset/step: dr_i = 0 at the end of the step, first order in dt;
+               coulomb: dr_i rescaled onto the threshold)
+     damping   F = -m gamma v_i, v_i the end-of-step velocity v_i(t+dt) = vh_i + dt/(2m) F_i
+               solved with this force in it (implicit, second order; "half": the half-step
+               velocity vh_i, first order)
    with v_i the half-step velocity that fix nve leaves before post_force, and r_i unwrapped.
    The equations are those of ../shared/MODEL.md; plugins/README.md documents the syntax. */
 
@@ -47,7 +52,7 @@ inline double round_small(double v)
 
 const char *USAGE =
     "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
-    "[friction k_e mu_s sigma_n A reset|coulomb] [damp gamma]";
+    "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
 {
@@ -59,7 +64,7 @@ double positive(const char *file, int line, const char *what, const char *str, L
 }    // namespace
 
 FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), bonds_on(0), drive_on(0), friction_on(0), damp_on(0), coulomb(0), vd(0.0), ke(0.0),
+    Fix(lmp, narg, arg), bonds_on(0), drive_on(0), friction_on(0), damp_on(0), coulomb(0), locate_break(1), damp_implicit(1), vd(0.0), ke(0.0),
     fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kb(0.0), r0(0.0), kd_name(nullptr),
     kd_index(-1), state(nullptr), u(nullptr), nmax_u(0), nblist(0), maxblist(0), bl_i(nullptr),
     bl_j(nullptr), bl_both(nullptr), bl_sx(nullptr), bl_sy(nullptr), t0(0.0), vh_valid(0), sum_fx_drive(0.0),
@@ -96,27 +101,40 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
       iarg += 3;
     } else if (strcmp(arg[iarg], "friction") == 0) {
       if (iarg + 6 > narg)
-        error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A reset|coulomb");
+        error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A "
+                 "reset|reset/step|coulomb");
       ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
       mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
       sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
       area = positive(FLERR, "A", arg[iarg + 4], lmp);
+      coulomb = 0;
+      locate_break = 1;
       if (strcmp(arg[iarg + 5], "reset") == 0)
-        coulomb = 0;
+        ;
+      else if (strcmp(arg[iarg + 5], "reset/step") == 0)
+        locate_break = 0;
       else if (strcmp(arg[iarg + 5], "coulomb") == 0)
         coulomb = 1;
       else
-        error->all(FLERR, "fix bk/substrate friction mode must be reset or coulomb, got {}",
+        error->all(FLERR,
+                   "fix bk/substrate friction mode must be reset, reset/step or coulomb, got {}",
                    arg[iarg + 5]);
       fmax = mus * sigman * area;
       friction_on = 1;
       iarg += 6;
     } else if (strcmp(arg[iarg], "damp") == 0) {
-      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate damp needs: damp gamma");
+      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
       gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
       damp_on = gamma > 0.0;
+      damp_implicit = 1;
       iarg += 2;
+      if (iarg < narg && strcmp(arg[iarg], "implicit") == 0) {
+        iarg++;
+      } else if (iarg < narg && strcmp(arg[iarg], "half") == 0) {
+        damp_implicit = 0;
+        iarg++;
+      }
     } else {
       error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", arg[iarg], USAGE);
     }
@@ -396,6 +414,17 @@ void FixBKSubstrate::eval()
             const double scale = fmax / (ke * sqrt(r2));
             s[DRX] *= scale;
             s[DRY] *= scale;
+          } else if (locate_break) {
+            // the contact broke at the fraction th of the step where |dr| reached the
+            // threshold, and the re-formed contact carried the rest of the step's motion
+            const double wx = vx * dt, wy = vy * dt;
+            const double ox = s[DRX] - wx, oy = s[DRY] - wy;
+            const double a = wx * wx + wy * wy, b = ox * wx + oy * wy;
+            const double c = ox * ox + oy * oy - fmax2 / ke2;
+            double th = a > 0.0 ? (-b + sqrt(b * b > a * c ? b * b - a * c : 0.0)) / a : 1.0;
+            th = th < 0.0 ? 0.0 : (th > 1.0 ? 1.0 : th);
+            s[DRX] = (1.0 - th) * wx;
+            s[DRY] = (1.0 - th) * wy;
           } else {
             s[DRX] = 0.0;
             s[DRY] = 0.0;
@@ -406,9 +435,18 @@ void FixBKSubstrate::eval()
       fy -= ke * s[DRY];
     }
     if (DAMP) {
-      const double mg = (rmass ? rmass[i] : mass[type[i]]) * gamma;
-      fx -= mg * vx;
-      fy -= mg * vy;
+      const double m = rmass ? rmass[i] : mass[type[i]];
+      const double mg = m * gamma;
+      if (damp_implicit) {
+        // -m gamma v at the end of the step, v1 = vh + dt/(2m) (F_other - m gamma v1)
+        // solved for v1: second order, where the half-step velocity is first order
+        const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
+        fx -= mg * (vx + h * (f[i][0] + fx)) * den;
+        fy -= mg * (vy + h * (f[i][1] + fy)) * den;
+      } else {
+        fx -= mg * vx;
+        fy -= mg * vy;
+      }
       if (ADVANCE) {
         s[VHX] = vx;
         s[VHY] = vy;

@@ -45,6 +45,8 @@ class FixBKSubstrate : public Fix {
   friend struct BKSubstrateTable;
   // model parameters (MODEL.md "Forces on particle i")
   int bonds_on, drive_on, friction_on, damp_on, coulomb;
+  int locate_break;    // reset: locate the break inside the step (0: at its end, reset/step)
+  int damp_implicit;   // damping with the end-of-step velocity (0: the half-step one)
   double kb, r0;         // bond stiffness (force k_b (r - r0)) and rest length
   double vd;             // plate velocity along +x
   double ke, fmax;       // contact spring, break threshold mu_s*sigma_n*A

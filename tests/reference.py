@@ -36,19 +36,24 @@ class Reference:
 
     ``k_b`` bond stiffness (force k_b (r - l)), ``k_d`` (N,) drive stiffnesses (None: no
     drive), ``k_e`` / ``f_max`` contact spring and threshold (None: no friction), ``mode``
-    'reset' | 'coulomb', ``gamma`` damping rate, ``V_d`` plate velocity, ``mass``.
+    'reset' (the break located inside the step: the contact re-forms where |dr| crosses the
+    threshold and keeps the rest of the step's motion), 'reset/step' (dr = 0 at the end of the
+    step) | 'coulomb', ``gamma`` damping rate, ``damping`` 'implicit' (the force -m gamma v
+    with v the end-of-step velocity, solved for) | 'half' (the half-step velocity), ``V_d`` plate velocity, ``mass``.
     """
 
     def __init__(self, box, bonds, k_b, dt, *, k_d=None, V_d=0.0, k_e=None, f_max=None,
-                 mode="reset", gamma=0.0, mass=1.0, r0=1.0):
+                 mode="reset", gamma=0.0, mass=1.0, r0=1.0, damping="implicit"):
         self.L = np.asarray(box, dtype=float)
         self.bonds = np.asarray(bonds)
         self.k_b, self.dt, self.r0 = k_b, dt, r0
         self.k_d = None if k_d is None else np.asarray(k_d, dtype=float)
         self.V_d, self.k_e, self.f_max = V_d, k_e, f_max
-        if mode not in ("reset", "coulomb"):
+        if mode not in ("reset", "reset/step", "coulomb"):
             raise ValueError(mode)
-        self.mode, self.gamma, self.mass = mode, gamma, mass
+        if damping not in ("implicit", "half"):
+            raise ValueError(damping)
+        self.mode, self.gamma, self.mass, self.damping = mode, gamma, mass, damping
 
     # forces ---------------------------------------------------------------------------
     def bond_vectors(self, x):
@@ -70,24 +75,40 @@ class Reference:
         r = np.sqrt((d * d).sum(axis=1))
         return 0.5 * self.k_b * ((r - self.r0) ** 2).sum()
 
-    def substrate_forces(self, s: ReferenceState, v, advance: bool):
+    def substrate_forces(self, s: ReferenceState, v, advance: bool, f_other):
         f = np.zeros_like(s.x)
         if self.k_d is not None:
             target = s.anchor + np.array([self.V_d * s.t, 0.0])
             f += self.k_d[:, None] * (target - s.x)
         if self.k_e is not None:
             if advance:
-                s.dr = s.dr + v * self.dt
+                old = s.dr
+                w = v * self.dt
+                s.dr = old + w
                 over = self.k_e * np.sqrt((s.dr ** 2).sum(axis=1)) > self.f_max
                 s.breaks += int(over.sum())
                 if self.mode == "reset":
+                    # |old + th w| = f_max / k_e: the positive root of a quadratic in th
+                    o, ww = old[over], w[over]
+                    a = (ww * ww).sum(axis=1)
+                    b = (o * ww).sum(axis=1)
+                    c = (o * o).sum(axis=1) - (self.f_max / self.k_e) ** 2
+                    th = np.clip((-b + np.sqrt(np.maximum(b * b - a * c, 0.0))) / a, 0.0, 1.0)
+                    s.dr[over] = (1.0 - th)[:, None] * ww
+                elif self.mode == "reset/step":
                     s.dr[over] = 0.0
                 else:
                     norm = np.sqrt((s.dr[over] ** 2).sum(axis=1))
                     s.dr[over] *= (self.f_max / (self.k_e * norm))[:, None]
             f -= self.k_e * s.dr
         if self.gamma:
-            f -= self.mass * self.gamma * v
+            if self.damping == "implicit":
+                # -m gamma v(t+dt), with v(t+dt) = v + dt/(2m) (F_other - m gamma v(t+dt))
+                h = 0.5 * self.dt / self.mass
+                f -= self.mass * self.gamma * (v + h * (f + f_other)) / (1 + 0.5 * self.gamma
+                                                                         * self.dt)
+            else:
+                f -= self.mass * self.gamma * v
         return f
 
     # integration ----------------------------------------------------------------------
@@ -102,7 +123,8 @@ class Reference:
         s = ReferenceState(x=x, v=np.zeros_like(x) if v is None else np.array(v, float),
                            dr=np.zeros_like(x), anchor=x.copy() if anchor is None else
                            np.array(anchor, float))
-        s.f = self.bond_forces(s.x) + self.substrate_forces(s, s.v, advance=False)
+        fb = self.bond_forces(s.x)
+        s.f = fb + self.substrate_forces(s, s.v, advance=False, f_other=fb)
         return s
 
     def step(self, s: ReferenceState, n: int = 1) -> ReferenceState:
@@ -111,6 +133,7 @@ class Reference:
             s.v = s.v + h * s.f
             s.x = s.x + self.dt * s.v
             s.t += self.dt
-            s.f = self.bond_forces(s.x) + self.substrate_forces(s, s.v, advance=True)
+            fb = self.bond_forces(s.x)
+            s.f = fb + self.substrate_forces(s, s.v, advance=True, f_other=fb)
             s.v = s.v + h * s.f
         return s

@@ -21,14 +21,15 @@ PRELOAD = 1.2
 def reference_for(spec, lattice):
     return Reference(lattice.box, lattice.bonds, spec.k_b, spec.dt, k_d=lattice.k_d, V_d=spec.V_d,
                      k_e=spec.k_e, f_max=spec.friction_threshold, mode=spec.friction,
-                     gamma=spec.gamma, mass=spec.mass)
+                     gamma=spec.gamma, mass=spec.mass, damping=spec.damping)
 
 
-@pytest.mark.parametrize("mode", ["reset", "coulomb"])
+@pytest.mark.parametrize("mode, damping", [("reset", "implicit"), ("coulomb", "implicit"),
+                                           ("reset/step", "half"), ("reset", "half")])
 @pytest.mark.parametrize("phi", [0.1, 10.0, 1000.0])
 @pytest.mark.parametrize("size", [(8, 3), (6, 6)])
-def test_plugin_matches_reference_integrator(size, phi, mode, workdir):
-    spec = RunSpec(phi=phi, Lx=size[0], Ly=size[1], seed=3, friction=mode)
+def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):
+    spec = RunSpec(phi=phi, Lx=size[0], Ly=size[1], seed=3, friction=mode, damping=damping)
     lattice, x0, v0 = lively_start(spec)
 
     lmp = lammps_with(spec, lattice, v0, workdir, preload=PRELOAD)

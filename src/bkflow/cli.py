@@ -13,7 +13,7 @@ import shlex
 import sys
 
 from . import __version__
-from .params import ACCURACY, SCENES, RunSpec, SpecError, parse_size, size_from_n
+from .params import ACCURACY, FRICTION_MODES, SCENES, RunSpec, SpecError, parse_size, size_from_n
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
@@ -52,8 +52,9 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     size.add_argument("--n", type=int, help="the paper's sizes: 100, 400 or 900 (Ly = Lx/4)")
     _accuracy_args(p)
     p.add_argument("--seed", type=int, default=RunSpec.seed, help="seed of the k_d^i draw")
-    p.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction,
-                   help="contact rule at |k_e dr| > mu_s sigma_n A (default reset, the paper's)")
+    p.add_argument("--friction", choices=FRICTION_MODES, default=RunSpec.friction,
+                   help="contact rule at |k_e dr| > mu_s sigma_n A: reset (the paper's, break located "
+                        "inside the step; default), reset/step (dr = 0 at the step's end), coulomb")
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
                         "Psi(t)), clusters (+ positions at each slip), full (default)")
@@ -95,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="Lx/Ly every size must have (default 4, the paper's Ly = Lx/4), or 'any'")
     sw.add_argument("--seeds", type=int, default=3, help="seeds 1..K per (phi, size) (default 3)")
     _accuracy_args(sw)
-    sw.add_argument("--friction", choices=("reset", "coulomb"), default=RunSpec.friction)
+    sw.add_argument("--friction", choices=FRICTION_MODES, default=RunSpec.friction)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                     help="what each run records (default full: everything the figures need)")
     sw.add_argument("--jobs", type=int, default=None,

@@ -100,7 +100,7 @@ def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
         parts.append(f"friction {_f(spec.k_e)} {_f(spec.mu_s)} {_f(spec.sigma_n)} "
                      f"{_f(spec.area)} {spec.friction}")
     if damp:
-        parts.append(f"damp {_f(spec.gamma)}")
+        parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 

@@ -25,7 +25,14 @@ PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
 #: linear bound ignores, so the guard keeps a margin below it (see benchmarks/RESULTS.md).
 DT_FACTOR_MAX = 1.0
 
-FRICTION_MODES = ("reset", "coulomb")
+#: reset: MODEL.md's rule with the break located inside the time step (the contact re-forms
+#: where |k_e dr| crosses the threshold and keeps the rest of the step's motion); reset/step:
+#: dr = 0 at the end of the step (first order in dt, kept for comparison); coulomb: sliding
+FRICTION_MODES = ("reset", "reset/step", "coulomb")
+
+#: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second
+#: order); half: the half-step velocity (MODEL.md's literal scheme, first order in dt)
+DAMPING_MODES = ("implicit", "half")
 
 #: accuracy presets: (dt-factor C, t_end), chosen from the work-precision benchmark
 #: (benchmarks/work_precision.py, errors and costs in benchmarks/RESULTS.md)
@@ -75,6 +82,8 @@ class RunSpec:
     t_end: float = 4000.0
     dt_factor: float = 0.1
     friction: str = "reset"
+    #: velocity of the damping force (DAMPING_MODES; benchmarks/RESULTS.md "Convergence order")
+    damping: str = "implicit"
     k_d: float = 1.0
     dk_d: float = 1.0
     k_e: float = 10.0
@@ -138,6 +147,8 @@ class RunSpec:
                             f"got {self.target_error!r}")
         if self.scene not in SCENES:
             raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
+        if self.damping not in DAMPING_MODES:
+            raise SpecError(f"damping must be one of {DAMPING_MODES}, got {self.damping!r}")
         if self.friction not in FRICTION_MODES:
             raise SpecError(f"friction must be one of {FRICTION_MODES}, got {self.friction!r}")
         if self.dt_factor > DT_FACTOR_MAX:
