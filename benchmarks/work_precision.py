@@ -32,6 +32,8 @@ from bkflow.sweep import open_project, runs_table, sweep, sweep_specs
 C_VALUES = (0.025, 0.05, 0.1, 0.2, 0.4)
 T_VALUES = (1000.0, 2000.0, 4000.0, 8000.0)
 REFERENCE = (0.025, 16000.0)
+#: the reference's length at the larger C too (the precise preset is one of them)
+EXTRA = ((0.1, 16000.0), (0.2, 16000.0), (0.4, 16000.0))
 OBSERVABLES = (("mu_bar", "mu_bar"), ("mean_stress_ratio", "<sigma_x>/sigma_n"),
                ("psi_inf", "Psi(inf)"))
 
@@ -40,7 +42,7 @@ def specs_for(phis, size, seeds, **scheme):
     lx, ly = size
     out = []
     for phi in phis:
-        for c, t in [(c, t) for c in C_VALUES for t in T_VALUES] + [REFERENCE]:
+        for c, t in [(c, t) for c in C_VALUES for t in T_VALUES] + list(EXTRA) + [REFERENCE]:
             out += sweep_specs([phi], [(lx, ly)], seeds, dt_factor=c, t_end=t, scene="order",
                                **scheme)
     return out

@@ -106,3 +106,17 @@ def test_degenerate_inputs_are_refused_with_the_reason(changes, needle):
     with pytest.raises(SpecError) as exc:
         RunSpec(phi=10.0, **changes)
     assert needle in str(exc.value)
+
+
+def test_a_time_step_past_the_stability_bound_blows_up_with_a_clear_message(tmp_path,
+                                                                             monkeypatch):
+    """What the guard prevents: lifted, C = 2.5 at phi = 1000 blows up within 200 steps and
+    the engine says so (not LAMMPS's "bond partner missing")."""
+    from bkflow import params
+    from bkflow.engine import RunError
+
+    monkeypatch.setattr(params, "DT_FACTOR_MAX", 10.0)
+    spec = RunSpec(phi=1000.0, dt_factor=2.5, t_end=20.0, scene="friction")
+    with pytest.raises(RunError, match="blew up.*smaller --dt-factor"):
+        run(spec, tmp_path, progress=False)
+    assert not (tmp_path / "meta.json").exists()

@@ -66,7 +66,7 @@ def test_paper_sizes_by_n(tmp_path):
     (["--phi", "1", "--n", "500"], "the paper's sizes"),
     (["--phi", "1", "--t-end", "0"], "t_end must be > 0"),
     (["--phi", "1", "--t-end", "-5"], "t_end must be > 0"),
-    (["--phi", "1", "--dt-factor", "1.5"], "above the stability bound"),
+    (["--phi", "1", "--dt-factor", "2.0"], "above the stability bound"),
     (["--phi", "abc"], "invalid float value"),
 ])
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(args, needle, tmp_path):

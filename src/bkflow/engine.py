@@ -221,6 +221,13 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             raise
         except Exception as exc:  # LAMMPS errors arrive as plain exceptions
             msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            if "bond partner" in msg and "missing" in msg:
+                # one rank holds every atom: a partner is "missing" only when an atom jumped
+                # past the ghost cutoff within a chunk, i.e. the integration blew up
+                raise RunError(f"phi={spec.phi:g}, {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
+                               f"before step {step + chunk}: the run blew up (an atom jumped "
+                               f"past its bond partners); try a smaller --dt-factor "
+                               f"(LAMMPS: {msg})") from None
             raise RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} "
                            f"(see {out / LOG_FILE})") from None
         breaks = int(guard.vector(2))

@@ -3,8 +3,8 @@
     python workflows/paper/reproduce.py [--out runs/paper] [--jobs J] [--seeds 3]
 
 1. The grid of Giacco et al. (2014): N = 100, 400, 900 (20x5, 40x10, 60x15), phi from 1e-1
-   to 1e3 with 3 points per decade (13 values), seeds 1..3, t_end = 4000, scene full:
-   117 runs into OUT/grid. The same runs as
+   to 1e3 with 3 points per decade (13 values), seeds 1..3, the default accuracy preset
+   (C = 0.2, t_end = 8000), scene full: 117 runs into OUT/grid. The same runs as
    ``bkflow sweep --phi 1e-1:1e3 --sizes 20x5,40x10,60x15 --seeds 3 --out OUT/grid``.
 2. The aspect-ratio check of MODEL.md ("with Lx <= Ly the DT regime does not appear"): the
    same phi and seeds at N = 100 on 10x10 (Lx = Ly) and 5x20 (Lx < Ly), beside the grid's
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.params import PAPER_SIZES
+from bkflow.params import PAPER_SIZES, RunSpec
 from bkflow.plot import SweepData, _style, cluster_scatter, plot
 from bkflow.sweep import (available_cores, fmt_duration, phi_values, sweep, sweep_specs)
 
@@ -38,7 +38,8 @@ MU_S = 0.2
 
 
 def run_sweep(name, sizes, args, out):
-    specs = sweep_specs(phi_values(PHI), sizes, args.seeds, t_end=args.t_end)
+    specs = sweep_specs(phi_values(PHI), sizes, args.seeds, t_end=args.t_end,
+                        dt_factor=args.dt_factor)
     print(f"{name}: {len(specs)} runs into {out}", flush=True)
     rep = sweep(specs, out, jobs=args.jobs)
     print(f"{name}: {len(rep.finished)} run(s) in {fmt_duration(rep.wall_time_s)}, "
@@ -207,7 +208,9 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="runs/paper", help="where the runs go (default runs/paper)")
     p.add_argument("--jobs", type=int, default=available_cores())
     p.add_argument("--seeds", type=int, default=3)
-    p.add_argument("--t-end", type=float, default=4000.0)
+    p.add_argument("--t-end", type=float, default=RunSpec.t_end,
+                   help="run length (default: the default accuracy preset's)")
+    p.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor)
     p.add_argument("--figures", default=str(HERE / "figures"))
     a = p.parse_args(argv)
     out, figs = Path(a.out), Path(a.figures)
