@@ -78,6 +78,57 @@ def measure(deck: str, steps: int, ranks: int, work: Path) -> tuple[float, dict]
     return int(atoms) * int(n_steps) / float(wall), breakdown
 
 
+def compare_output(a) -> None:
+    """The stress series' cost: none, fix bk/stress (buffered) and fix print (per line)."""
+    from bkflow.deck import SUBSTRATE_FIX
+
+    work = Path(tempfile.mkdtemp())
+    print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
+    print("| N | no output | fix bk/stress | fix print | bk/stress cost | fix print cost |")
+    print("|---|---|---|---|---|---|")
+    for size in a.sizes:
+        lx, ly = parse_size(size)
+        spec = RunSpec(phi=10.0, Lx=lx, Ly=ly)
+        data = work / f"data_{lx}x{ly}.bk"
+        data.write_text(data_text(spec))
+        steps = max(200, int(a.atom_steps / spec.N))
+        stress = str(work / "stress.csv")
+        old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
+               f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
+        decks = {"none": model_deck(spec, str(data), 1.0),
+                 "bk/stress": model_deck(spec, str(data), 1.0, stress=stress),
+                 "print": model_deck(spec, str(data), 1.0) + old}
+        rates = {k: [] for k in decks}
+        for _ in range(a.repeats):
+            for k, deck in decks.items():
+                rates[k].append(measure(deck, steps, 1, work)[0])
+        m = {k: statistics.median(v) for k, v in rates.items()}
+        print(f"| {spec.N} | {m['none']:.3e} | {m['bk/stress']:.3e} | {m['print']:.3e} | "
+              f"{m['none'] / m['bk/stress']:.3f} | {m['none'] / m['print']:.3f} |", flush=True)
+
+
+def compare_schemes(a) -> None:
+    """Cost of the second-order time stepping: the same deck with each scheme, alternating."""
+    work = Path(tempfile.mkdtemp())
+    print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
+    print("| N | phi | reset + implicit | reset/step + half | new / old |")
+    print("|---|---|---|---|---|")
+    for size in a.sizes:
+        lx, ly = parse_size(size)
+        for phi in a.phi:
+            new = RunSpec(phi=phi, Lx=lx, Ly=ly)
+            old = new.replace(friction="reset/step", damping="half")
+            data = work / f"data_{lx}x{ly}_{phi:g}.bk"
+            data.write_text(data_text(new))
+            steps = max(200, int(a.atom_steps / new.N))
+            rn, ro = [], []
+            for _ in range(a.repeats):
+                rn.append(measure(model_deck(new, str(data), 1.0), steps, 1, work)[0])
+                ro.append(measure(model_deck(old, str(data), 1.0), steps, 1, work)[0])
+            n, o = statistics.median(rn), statistics.median(ro)
+            print(f"| {new.N} | {phi:g} | {n:.3e} | {o:.3e} | {n / o:.3f} |", flush=True)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", default=["20x5", "40x10", "60x15", "120x30", "240x60"])
@@ -85,7 +136,17 @@ def main(argv=None):
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--atom-steps", type=float, default=2e7)
+    ap.add_argument("--compare-output", action="store_true",
+                    help="instead: no output vs fix bk/stress vs the fix print line bkflow "
+                         "used before, phi = 10, one rank")
+    ap.add_argument("--compare-schemes", action="store_true",
+                    help="instead: the default time stepping (reset + implicit damping) against "
+                         "the old one (reset/step + half), one rank")
     a = ap.parse_args(argv)
+    if a.compare_schemes:
+        return compare_schemes(a)
+    if a.compare_output:
+        return compare_output(a)
     work = Path(tempfile.mkdtemp())
     print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
     print("| N | phi | ranks | model atom-steps/s | built-in atom-steps/s | model / built-in |")

@@ -62,6 +62,48 @@ class SlipEvents:
                           self.threshold)
 
 
+class Zigzag:
+    """The zigzag rule as a state machine fed with samples in order (see module doc), so a
+    running series (an adaptive run) is scanned once: :meth:`feed` returns the index pairs
+    (i_max, i_min) of the drops confirmed by the new samples, indices counted from the
+    first sample ever fed. :func:`zigzag_extrema` is one call of it on a whole series.
+    """
+
+    def __init__(self, threshold: float):
+        if not threshold > 0:
+            raise ValueError(f"threshold must be > 0, got {threshold!r}")
+        self.threshold = float(threshold)
+        self.n = 0
+        self.falling = False
+        self.imax = self.imin = 0
+        self.vmax = self.vmin = 0.0
+
+    def feed(self, values) -> tuple[list[int], list[int]]:
+        maxima, minima = [], []
+        thr = self.threshold
+        falling, imax, imin, vmax, vmin = self.falling, self.imax, self.imin, self.vmax, self.vmin
+        i = self.n
+        for v in values:  # plain floats: this loop is the only serial part, keep it cheap
+            if i == 0:
+                imax, vmax = 0, v
+            elif not falling:
+                if v > vmax:
+                    imax, vmax = i, v
+                elif vmax - v > thr:
+                    falling, imin, vmin = True, i, v
+            else:
+                if v < vmin:
+                    imin, vmin = i, v
+                elif v - vmin > thr:
+                    maxima.append(imax)
+                    minima.append(imin)
+                    falling, imax, vmax = False, i, v
+            i += 1
+        self.n, self.falling, self.imax, self.imin, self.vmax, self.vmin = (
+            i, falling, imax, imin, vmax, vmin)
+        return maxima, minima
+
+
 def zigzag_extrema(sigma, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i_max, i_min) of every drop larger than ``threshold`` (see module doc).
 
@@ -76,24 +118,7 @@ def zigzag_extrema(sigma, threshold: float) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("sigma must be one-dimensional")
     if not np.all(np.isfinite(s)):
         raise ValueError("sigma contains NaN or inf")
-    maxima, minima = [], []
-    vals = s.tolist()  # plain floats: this loop is the only serial part, keep it cheap
-    falling = False
-    cmax = cmin = 0
-    for i in range(1, len(vals)):
-        v = vals[i]
-        if not falling:
-            if v > vals[cmax]:
-                cmax = i
-            elif vals[cmax] - v > threshold:
-                falling, cmin = True, i
-        else:
-            if v < vals[cmin]:
-                cmin = i
-            elif v - vals[cmin] > threshold:
-                maxima.append(cmax)
-                minima.append(cmin)
-                falling, cmax = False, i
+    maxima, minima = Zigzag(threshold).feed(s.tolist())
     return np.array(maxima, dtype=int), np.array(minima, dtype=int)
 
 
