@@ -48,7 +48,9 @@ def test_cli_run_writes_the_run_directory(tmp_path, capsys):
     stress = pd.read_csv(out / "stress.csv")
     assert list(stress.columns) == ["t", "sigma_x"]
     assert stress["t"].iloc[-1] == pytest.approx(50, abs=0.2)
-    assert np.diff(stress["t"]).mean() == pytest.approx(0.1, rel=0.1)
+    # every ~0.1 time units: stress_every rounded to whole steps, as meta.json records
+    assert np.diff(stress["t"]).mean() == pytest.approx(meta["derived"]["stress_dt"], rel=1e-6)
+    assert meta["derived"]["stress_dt"] == pytest.approx(0.1, rel=0.2)
     # the plate drags the layer forward: sigma_x builds up from 0
     assert stress["sigma_x"].iloc[0] == 0 and stress["sigma_x"].iloc[-50:].mean() > 0
 

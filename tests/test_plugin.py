@@ -70,7 +70,7 @@ def test_plugin_itself_refuses_another_lammps(mismatched_plugin, tmp_path):
 
 
 @pytest.mark.parametrize("args, needle", [
-    ("friction 10 0.2 5 1 sticky", "friction mode must be reset or coulomb"),
+    ("friction 10 0.2 5 1 sticky", "friction mode must be reset, reset/step or coulomb"),
     ("friction -1 0.2 5 1 reset", "k_e must be > 0"),
     ("damp -0.5", "gamma must be >= 0"),
     ("wobble 3", "Unknown fix bk/substrate keyword wobble"),

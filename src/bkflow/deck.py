@@ -169,7 +169,7 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
     """
     lines = []
     if files.stress:
-        lines += [  # buffered by the plugin: fix print's write and flush per line cost 5-9%
+        lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"file {files.stress}",
         ]
