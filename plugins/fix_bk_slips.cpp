@@ -17,6 +17,8 @@
 
 #include "fix_bk_slips.h"
 
+#include "fix_bk_substrate.h"
+
 #include "atom.h"
 #include "comm.h"
 #include "domain.h"
@@ -91,14 +93,7 @@ int FixBKSlips::setmask()
 
 void FixBKSlips::init()
 {
-  substrate = modify->get_fix_by_id(substrate_id);
-  if (!substrate)
-    error->all(FLERR, "fix bk/slips: no fix with ID {} (the bk/substrate fix)", substrate_id);
-  if (strcmp(substrate->style, "bk/substrate") != 0)
-    error->all(FLERR, "fix bk/slips: fix {} is {}, not bk/substrate", substrate_id,
-               substrate->style);
-  if (modify->find_fix(id) < modify->find_fix(substrate_id))
-    error->all(FLERR, "fix bk/slips must be defined after fix {}", substrate_id);
+  substrate = bk_substrate_for(lmp, "bk/slips", id, substrate_id);
 }
 
 void FixBKSlips::setup(int)

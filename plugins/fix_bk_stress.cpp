@@ -13,6 +13,8 @@
 
 #include "fix_bk_stress.h"
 
+#include "fix_bk_substrate.h"
+
 #include "comm.h"
 #include "error.h"
 #include "modify.h"
@@ -64,14 +66,7 @@ int FixBKStress::setmask()
 
 void FixBKStress::init()
 {
-  substrate = modify->get_fix_by_id(substrate_id);
-  if (!substrate)
-    error->all(FLERR, "fix bk/stress: no fix with ID {} (the bk/substrate fix)", substrate_id);
-  if (strcmp(substrate->style, "bk/substrate") != 0)
-    error->all(FLERR, "fix bk/stress: fix {} is {}, not bk/substrate", substrate_id,
-               substrate->style);
-  if (modify->find_fix(id) < modify->find_fix(substrate_id))
-    error->all(FLERR, "fix bk/stress must be defined after fix {}", substrate_id);
+  substrate = bk_substrate_for(lmp, "bk/stress", id, substrate_id);
 }
 
 void FixBKStress::setup(int)

@@ -25,6 +25,7 @@
 #include "force.h"
 #include "lammps.h"
 #include "memory.h"
+#include "modify.h"
 #include "update.h"
 #include "utils.h"
 
@@ -601,4 +602,19 @@ int FixBKSubstrate::size_restart(int /*nlocal*/)
 int FixBKSubstrate::maxsize_restart()
 {
   return NSTATE + 1;
+}
+
+Fix *LAMMPS_NS::bk_substrate_for(LAMMPS *lmp, const char *reader_style, const char *reader_id,
+                                 const char *substrate_id)
+{
+  Fix *substrate = lmp->modify->get_fix_by_id(substrate_id);
+  if (!substrate)
+    lmp->error->all(FLERR, "fix {}: no fix with ID {} (the bk/substrate fix)", reader_style,
+                    substrate_id);
+  if (strcmp(substrate->style, "bk/substrate") != 0)
+    lmp->error->all(FLERR, "fix {}: fix {} is {}, not bk/substrate", reader_style, substrate_id,
+                    substrate->style);
+  if (lmp->modify->find_fix(reader_id) < lmp->modify->find_fix(substrate_id))
+    lmp->error->all(FLERR, "fix {} must be defined after fix {}", reader_style, substrate_id);
+  return substrate;
 }

@@ -90,6 +90,12 @@ class FixBKSubstrate : public Fix {
   void dispatch(int advance);
 };
 
+// The bk/substrate fix that a fix reading its sigma_x (bk/stress, bk/slips) samples: it must
+// exist, be of that style, and be defined before the reader, so that sigma_x is the current
+// step's at end_of_step. Stops with an error naming the reader otherwise.
+class Fix *bk_substrate_for(class LAMMPS *lmp, const char *reader_style, const char *reader_id,
+                            const char *substrate_id);
+
 }    // namespace LAMMPS_NS
 
 #endif

