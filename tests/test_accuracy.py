@@ -70,6 +70,13 @@ def test_explicit_options_override_the_preset(tmp_path):
     assert (p["dt_factor"], p["t_end"]) == (0.07, ACCURACY["fast"][1])
 
 
+def test_a_deck_cannot_be_adaptive(tmp_path):
+    proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--target-error", "1e-3",
+                           "--out", str(tmp_path / "d")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "needs the engine" in proc.stderr
+    assert not (tmp_path / "d").exists()
+
+
 @pytest.mark.parametrize("args, needle", [
     (["--target-error", "-1"], "target_error must be > 0"),
     (["--accuracy", "sloppy"], "invalid choice"),

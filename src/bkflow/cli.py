@@ -271,6 +271,9 @@ def main(argv=None) -> int:
         if a.cmd == "collect":
             return _collect(a)
         spec = _spec(a)
+        if a.cmd == "deck" and spec.target_error is not None:
+            raise SpecError("--target-error needs the engine, which checks the error between "
+                            "chunks (bkflow run); a deck runs exactly --t-end")
         if a.cmd == "deck":
             from .deck import write_deck
 
