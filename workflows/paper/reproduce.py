@@ -56,6 +56,16 @@ def _pm(v, e, fmt=".4f"):
     return f"{v:{fmt}} ± {e:.2g}" if e == e else f"{v:{fmt}}"
 
 
+def cluster_share(runs: pd.DataFrame, regime: str) -> float:
+    """The share of all slip clusters of ``runs`` that the regime rule calls ``regime``:
+    each run's fraction weighted by its number of clusters (NaN without clusters)."""
+    w = runs.n_clusters.to_numpy(dtype=float)
+    col = f"regime_fractions[{regime}]"
+    if col not in runs or not w.sum() > 0:
+        return math.nan
+    return float(np.nansum(runs[col].to_numpy(dtype=float) * w) / w.sum())
+
+
 def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
     """The tables REPRODUCTION.md cites, as markdown."""
     res = pd.read_csv(grid_dir / "results.csv")
@@ -115,11 +125,9 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
             "| phi | C | LC | DP | DT | clusters |", "|---|---|---|---|---|---|"]
     r100 = runs[(runs.Lx == 20) & (runs.Ly == 5)]
     for phi, g in r100.groupby("phi"):
-        w = g.n_clusters.to_numpy(dtype=float)
-        fr = [np.nansum(g[f"regime_fractions[{k}]"].to_numpy(dtype=float) * w) / w.sum()
-              if f"regime_fractions[{k}]" in g and w.sum() > 0 else math.nan
-              for k in ("C", "LC", "DP", "DT")]
-        out.append(f"| {phi:g} | " + " | ".join(f"{f:.2f}" for f in fr) + f" | {w.sum():.0f} |")
+        fr = [cluster_share(g, k) for k in ("C", "LC", "DP", "DT")]
+        out.append(f"| {phi:g} | " + " | ".join(f"{f:.2f}" for f in fr)
+                   + f" | {g.n_clusters.sum():.0f} |")
 
     out += ["", "## Aspect ratio (N = 100): share of DT clusters", "",
             "| phi | " + " | ".join(f"{lx}x{ly} (Lx/Ly = {lx / ly:g})" for lx, ly in ASPECT_SIZES)
@@ -127,18 +135,13 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
     for phi, g in a.groupby("phi"):
         cells = []
         for lx, ly in ASPECT_SIZES:
-            s = g[(g.Lx == lx) & (g.Ly == ly)]
-            w = s.n_clusters.to_numpy(dtype=float)
-            dt = s.get("regime_fractions[DT]", pd.Series(np.nan, index=s.index))
-            cells.append(f"{np.nansum(dt.to_numpy(dtype=float) * w) / w.sum():.2f}"
-                         if w.sum() > 0 else "n/a")
+            share = cluster_share(g[(g.Lx == lx) & (g.Ly == ly)], "DT")
+            cells.append("n/a" if math.isnan(share) else f"{share:.2f}")
         out.append(f"| {phi:g} | " + " | ".join(cells) + " |")
     tot = []
     for lx, ly in ASPECT_SIZES:
         s = a[(a.Lx == lx) & (a.Ly == ly)]
-        w = s.n_clusters.to_numpy(dtype=float)
-        dt = s.get("regime_fractions[DT]", pd.Series(np.nan, index=s.index)).to_numpy(float)
-        tot.append(f"{np.nansum(dt * w) / w.sum():.3f} of {w.sum():.0f}")
+        tot.append(f"{cluster_share(s, 'DT'):.3f} of {s.n_clusters.sum():.0f}")
     out.append("| all phi | " + " | ".join(tot) + " |")
 
     out += ["", "## Aspect ratio (N = 100): cluster shapes over all phi and seeds", "",
@@ -151,9 +154,7 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
         c = pd.concat([pd.read_csv(aspect_dir / "workspace" / j / "clusters.csv")
                        for j in a[(a.Lx == lx) & (a.Ly == ly)].job])
         fx, fy = c.l_x / lx, c.l_y / ly
-        s = a[(a.Lx == lx) & (a.Ly == ly)]
-        w = s.n_clusters.to_numpy(dtype=float)
-        dt_rule = np.nansum(s["regime_fractions[DT]"].to_numpy(float) * w) / w.sum()
+        dt_rule = cluster_share(a[(a.Lx == lx) & (a.Ly == ly)], "DT")
         out.append(f"| {lx}x{ly} | {len(c)} | {dt_rule:.3f} | "
                    f"{((fx < fy) & (fx < 0.9)).mean():.3f} | "
                    f"{((fx >= 0.9) & (fy >= 0.9)).mean():.3f} | {(c.l_y > c.l_x).mean():.3f} |")
@@ -184,11 +185,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     fig, ax = plt.subplots(figsize=(3.8, 2.8))
     for (lx, ly), m in zip(ASPECT_SIZES, "osD"):
         s = a[(a.Lx == lx) & (a.Ly == ly)]
-        rows = []
-        for phi, g in s.groupby("phi"):
-            w = g.n_clusters.to_numpy(dtype=float)
-            dt = g.get("regime_fractions[DT]", pd.Series(np.nan, index=g.index)).to_numpy(float)
-            rows.append((phi, np.nansum(dt * w) / w.sum() if w.sum() > 0 else np.nan))
+        rows = [(phi, cluster_share(g, "DT")) for phi, g in s.groupby("phi")]
         if rows:
             x, y = zip(*rows)
             ax.plot(x, y, marker=m, lw=0.8, label=f"{lx}x{ly} (Lx/Ly = {lx / ly:g})")
