@@ -167,11 +167,9 @@ def _sweep(a) -> int:
     print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
           f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
           + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
-    import pandas as pd
-
     from .sweep import RESULTS_FILE, RUNS_FILE
 
-    res = pd.read_csv(f"{a.out}/{RESULTS_FILE}") if rep.total else pd.DataFrame()
+    res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
         keep = {(s.phi, s.Lx, s.Ly) for s in specs}
         res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]

@@ -112,13 +112,12 @@ def zigzag_extrema(sigma, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     the same rule, so both find the same events.
     """
     s = np.asarray(sigma, dtype=float)
-    if not threshold > 0:
-        raise ValueError(f"threshold must be > 0, got {threshold!r}")
+    zigzag = Zigzag(threshold)  # refuses a threshold <= 0
     if s.ndim != 1:
         raise ValueError("sigma must be one-dimensional")
     if not np.all(np.isfinite(s)):
         raise ValueError("sigma contains NaN or inf")
-    maxima, minima = Zigzag(threshold).feed(s.tolist())
+    maxima, minima = zigzag.feed(s.tolist())
     return np.array(maxima, dtype=int), np.array(minima, dtype=int)
 
 

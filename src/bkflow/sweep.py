@@ -328,6 +328,7 @@ class SweepReport:
     failed: dict = field(default_factory=dict)       # job id -> message
     unfinished: list = field(default_factory=list)   # neither (interrupted)
     wall_time_s: float = 0.0
+    results: pd.DataFrame | None = None              # results.csv as written
 
 
 class _SweepBar:
@@ -416,7 +417,7 @@ def sweep(specs, out, jobs: int | None = None, progress: bool | None = None) -> 
             report.failed[job.id] = job.document["error"]
         else:
             report.unfinished.append(job.id)
-    collect(project)
+    report.results = collect(project)[1]
     return report
 
 
