@@ -78,6 +78,15 @@ def measure(deck: str, steps: int, ranks: int, work: Path) -> tuple[float, dict]
     return int(atoms) * int(n_steps) / float(wall), breakdown
 
 
+def alternated(decks: dict, steps: int, repeats: int, work: Path) -> dict:
+    """Median atom-steps/s of each deck (one rank), the decks run in turn ``repeats`` times."""
+    rates = {k: [] for k in decks}
+    for _ in range(repeats):
+        for k, deck in decks.items():
+            rates[k].append(measure(deck, steps, 1, work)[0])
+    return {k: statistics.median(v) for k, v in rates.items()}
+
+
 def compare_output(a) -> None:
     """The stress series' cost: none, fix bk/stress (buffered) and fix print (per line)."""
     from bkflow.deck import SUBSTRATE_FIX
@@ -95,14 +104,10 @@ def compare_output(a) -> None:
         stress = str(work / "stress.csv")
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
-        decks = {"none": model_deck(spec, str(data), 1.0),
-                 "bk/stress": model_deck(spec, str(data), 1.0, stress=stress),
-                 "print": model_deck(spec, str(data), 1.0) + old}
-        rates = {k: [] for k in decks}
-        for _ in range(a.repeats):
-            for k, deck in decks.items():
-                rates[k].append(measure(deck, steps, 1, work)[0])
-        m = {k: statistics.median(v) for k, v in rates.items()}
+        m = alternated({"none": model_deck(spec, str(data), 1.0),
+                        "bk/stress": model_deck(spec, str(data), 1.0, stress=stress),
+                        "print": model_deck(spec, str(data), 1.0) + old},
+                       steps, a.repeats, work)
         print(f"| {spec.N} | {m['none']:.3e} | {m['bk/stress']:.3e} | {m['print']:.3e} | "
               f"{m['none'] / m['bk/stress']:.3f} | {m['none'] / m['print']:.3f} |", flush=True)
 
@@ -121,11 +126,9 @@ def compare_schemes(a) -> None:
             data = work / f"data_{lx}x{ly}_{phi:g}.bk"
             data.write_text(data_text(new))
             steps = max(200, int(a.atom_steps / new.N))
-            rn, ro = [], []
-            for _ in range(a.repeats):
-                rn.append(measure(model_deck(new, str(data), 1.0), steps, 1, work)[0])
-                ro.append(measure(model_deck(old, str(data), 1.0), steps, 1, work)[0])
-            n, o = statistics.median(rn), statistics.median(ro)
+            m = alternated({"new": model_deck(new, str(data), 1.0),
+                            "old": model_deck(old, str(data), 1.0)}, steps, a.repeats, work)
+            n, o = m["new"], m["old"]
             print(f"| {new.N} | {phi:g} | {n:.3e} | {o:.3e} | {n / o:.3f} |", flush=True)
 
 
