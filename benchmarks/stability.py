@@ -63,7 +63,7 @@ def scan(phis, cs, t_end, seed=1):
 
 def long_run(t_end=16000.0):
     from bkflow.io import read_frames, read_stress
-    from bkflow.stress import friction
+    from bkflow.stress import macroscopic_friction as friction
 
     spec = RunSpec(phi=1000.0, dt_factor=0.1, t_end=t_end, seed=1, scene="order")
     with tempfile.TemporaryDirectory() as d:

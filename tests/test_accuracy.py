@@ -12,7 +12,8 @@ from conftest import tool
 from bkflow.analysis import analyze
 from bkflow.engine import run
 from bkflow.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
-from bkflow.sweep import open_project, sweep
+from bkflow.project import open_project
+from bkflow.sweep import sweep
 
 
 def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_run(tmp_path):

@@ -259,12 +259,12 @@ def test_sawtooth_returns_exactly_its_peaks():
     np.testing.assert_array_equal(ev.i_max, idx)
     np.testing.assert_array_equal(ev.sigma_fail, peaks)
     np.testing.assert_allclose(ev.drop, peaks - 0.1, rtol=1e-14)
-    f = stress.friction(t, s, sigma_n=5.0, threshold=0.01, transient_fraction=0.0)
+    f = stress.macroscopic_friction(t, s, sigma_n=5.0, threshold=0.01, transient_fraction=0.0)
     assert f.n_slips == 30
     assert f.mu_bar == pytest.approx(peaks.mean() / 5.0, rel=1e-14)
     # the transient removes exactly the events whose maximum lies in it
     t0 = t[idx[10]]
-    f2 = stress.friction(t, s, 5.0, 0.01, t_transient=t0)
+    f2 = stress.macroscopic_friction(t, s, 5.0, 0.01, t_transient=t0)
     assert f2.n_slips == 20 and f2.mu_bar == pytest.approx(peaks[10:].mean() / 5, rel=1e-14)
 
 
@@ -348,7 +348,7 @@ def test_drop_distribution_is_a_normalised_density_in_log_bins():
 def test_mean_stress_ratio_is_the_late_time_average():
     t = np.linspace(0, 100, 1001)
     s = np.where(t < 20, 0.0, 0.5)
-    f = stress.friction(t, s, sigma_n=5.0, threshold=0.01)
+    f = stress.macroscopic_friction(t, s, sigma_n=5.0, threshold=0.01)
     assert f.mean_stress_ratio == pytest.approx(0.1, rel=1e-14)
     assert f.n_slips == 0 and math.isnan(f.mu_bar)
 

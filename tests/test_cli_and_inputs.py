@@ -10,9 +10,10 @@ import pytest
 
 from bkflow.cli import main
 from bkflow.deck import STANDARD_DECKS, write_standard_decks
-from bkflow.engine import RunError, is_complete, run
+from bkflow.engine import RunError, run
 from bkflow.lattice import lattice_for, square_lattice
 from bkflow.params import RunSpec, SpecError
+from bkflow.rundir import RunDir
 from conftest import ROOT, tool
 
 
@@ -100,14 +101,14 @@ def test_blown_up_run_names_cause_and_is_not_complete(tmp_path):
     spec = RunSpec(phi=0.1, t_end=400, bond_limit=1.5)
     with pytest.raises(RunError, match=r"phi=0.1.*step \d+.*bond stretched"):
         run(spec, tmp_path, progress=False)
-    assert not is_complete(tmp_path) and not (tmp_path / "meta.json").exists()
+    assert not RunDir(tmp_path).is_complete() and not (tmp_path / "meta.json").exists()
     run(spec.replace(bond_limit=10.0, t_end=20), tmp_path, progress=False)
-    assert is_complete(tmp_path)
+    assert RunDir(tmp_path).is_complete()
 
 
 def test_spec_validation_names_the_field():
-    with pytest.raises(SpecError, match="friction must be one of"):
-        RunSpec(phi=1, friction="sticky")
+    with pytest.raises(SpecError, match="contact_rule must be one of"):
+        RunSpec(phi=1, contact_rule="sticky")
     with pytest.raises(SpecError, match="dk_d"):
         RunSpec(phi=1, dk_d=2.0)
 

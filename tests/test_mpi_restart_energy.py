@@ -88,7 +88,7 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
     data.write_text(data_text(spec, lat))
     lmp = open_lammps()
     lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                   thermo_every=10**6, drive=False, friction=False, damp=False))
+                                   thermo_every=10**6, drive=False, contact=False, damp=False))
     lmp.commands_string("fix_modify bk energy yes\ncompute ke all ke\n"
                         f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt format ' %.17g'\n")
     lmp.command(f"run {steps}")

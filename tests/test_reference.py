@@ -20,7 +20,7 @@ PRELOAD = 1.2
 
 def reference_for(spec, lattice):
     return Reference(lattice.box, lattice.bonds, spec.k_b, spec.dt, k_d=lattice.k_d, V_d=spec.V_d,
-                     k_e=spec.k_e, f_max=spec.friction_threshold, mode=spec.friction,
+                     k_e=spec.k_e, f_max=spec.friction_threshold, mode=spec.contact_rule,
                      gamma=spec.gamma, mass=spec.mass, damping=spec.damping)
 
 
@@ -29,7 +29,7 @@ def reference_for(spec, lattice):
 @pytest.mark.parametrize("phi", [0.1, 10.0, 1000.0])
 @pytest.mark.parametrize("size", [(8, 3), (6, 6)])
 def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):
-    spec = RunSpec(phi=phi, Lx=size[0], Ly=size[1], seed=3, friction=mode, damping=damping)
+    spec = RunSpec(phi=phi, Lx=size[0], Ly=size[1], seed=3, contact_rule=mode, damping=damping)
     lattice, x0, v0 = lively_start(spec)
 
     lmp = lammps_with(spec, lattice, v0, workdir, preload=PRELOAD)
@@ -58,12 +58,12 @@ def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):
 
 def test_reference_detects_a_wrong_rule(workdir):
     """The comparison can fail: the other friction rule gives a different trajectory."""
-    spec = RunSpec(phi=10.0, Lx=6, Ly=6, seed=3, friction="reset")
+    spec = RunSpec(phi=10.0, Lx=6, Ly=6, seed=3, contact_rule="reset")
     lattice, x0, v0 = lively_start(spec)
     lmp = lammps_with(spec, lattice, v0, workdir, preload=PRELOAD)
     lmp.command(f"run {STEPS}")
     got = unwrapped_state(lmp)
     lmp.close()
-    ref = reference_for(spec.replace(friction="coulomb"), lattice)
+    ref = reference_for(spec.replace(contact_rule="coulomb"), lattice)
     s = ref.step(ref.start(x0 - [PRELOAD, 0.0], v0, anchor=x0), STEPS)
     assert np.abs(got["x"] - s.x).max() > 1e-3

@@ -11,15 +11,22 @@ from bkflow.analysis import analyze
 from bkflow.cli import main
 from bkflow.deck import write_deck
 from bkflow.engine import run
-from bkflow.io import read_frames, read_stress
+from bkflow.io import read_frames
 from bkflow.params import RunSpec
+from bkflow.rundir import RunDir
 from bkflow.stress import slip_events
 from conftest import tool
 
 REQUIRED = ("mu_bar", "mu_bar_err", "n_slips", "mean_stress_ratio", "mu_bar_by_threshold",
             "psi_inf", "lx_mean_over_Lx", "ly_mean_over_Ly", "lx_over_ly", "regime",
-            "drop_exponent", "slip_threshold", "slip_threshold_stress", "transient", "s_x",
-            "span_fraction", "psi_crystal", "psi_late_fraction", "drop_x_min")
+            "drop_exponent", "slip_threshold_stress", "drop_x_min")
+#: the analysis settings, recorded (resolved for the run) in every summary
+REQUIRED_SETTINGS = ("slip_threshold", "transient", "s_x", "span_fraction", "psi_crystal",
+                     "psi_late_fraction")
+
+
+def read_stress(path):
+    return RunDir(path.parent).read_stress()
 
 
 def _files(d):
@@ -83,7 +90,8 @@ def test_run_analyses_unless_told_not_to(tmp_path, capsys):
     assert main(["analyze", str(out)]) == 0
     assert "summary.json written" in capsys.readouterr().out
     s = json.loads((out / "summary.json").read_text())
-    missing = [k for k in REQUIRED if k not in s]
+    missing = [k for k in REQUIRED if k not in s] + [
+        k for k in REQUIRED_SETTINGS if k not in s["settings"]]
     assert not missing
     assert set(s["mu_bar_by_threshold"]) == {"0.001", "0.01", "0.03", "0.1"}
     assert s["mu_bar_by_threshold"]["0.01"] == s["mu_bar"]

@@ -3,6 +3,7 @@ the tables' statistics, and the cluster project's submission script."""
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import math
 import os
@@ -21,10 +22,34 @@ import pytest
 from conftest import ROOT, tool
 
 from bkflow.cli import main
-from bkflow.engine import is_complete, run_problem
+from bkflow.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.job import run_one
 from bkflow.params import SpecError
-from bkflow.sweep import (LOCK_FILE, RunBusyError, _job_lock, finished, open_project,
-                          parse_sizes, phi_values, results_table, run_one, sweep, sweep_specs)
+from bkflow.project import finished, open_project
+from bkflow.rundir import LOCK as LOCK_FILE
+from bkflow.rundir import RunBusyError, RunDir
+from bkflow.sweep import sweep
+from bkflow.tables import results_table
+
+
+def is_complete(d):
+    return RunDir(d).is_complete()
+
+
+def run_problem(d):
+    return RunDir(d).problem()
+
+
+@contextlib.contextmanager
+def _job_lock(d):
+    """The run directory's lock held by someone else (a separate open file description, as
+    another process would hold it)."""
+    fd = os.open(Path(d) / LOCK_FILE, os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        yield
+    finally:
+        os.close(fd)
 
 TINY = ["--phi", "1,1000", "--seeds", "1", "--t-end", "300", "--jobs", "2"]
 
@@ -235,7 +260,7 @@ def test_a_run_locked_by_another_process_is_not_touched(tmp_path):
             run_one(spec, tmp_path)
     assert not (tmp_path / "meta.json").exists()
     s = run_one(spec, tmp_path)
-    assert s["phi"] == 10.0 and s == run_one(spec, tmp_path)
+    assert s["params"]["phi"] == 10.0 and s == run_one(spec, tmp_path)
 
 
 # --------------------------------------------------------------------------- tables

@@ -11,29 +11,14 @@ jobs without running them):
     python ../workflows/project.py submit --bundle 16 --parallel             # SLURM: sbatch
     bkflow collect .                                            # runs.csv, results.csv
 
-The operation is ``simulate`` of :mod:`bkflow.sweep`, the same function ``bkflow sweep``
-runs: one job = one RunSpec, post-condition "finished" (files intact and analysed), so a
-re-submission skips finished runs. Each operation asks for one core (``np = 1``) and a
-wall time estimated from the run's atom-steps; ``--bundle K --parallel`` packs K runs into
-one SLURM job of K tasks. The job script is flow's SLURM template extended by
-``templates/script.sh`` beside this file (see the comments there).
+The project is :class:`bkflow.project.ClusterProject`, whose operations ``simulate`` and
+``analyze`` are the ones ``bkflow sweep`` runs; its job-script template ships with the
+package (``bkflow/templates/script.sh``).
 """
 
 import os
-from pathlib import Path
 
-from bkflow.sweep import SweepProject
-
-
-class Project(SweepProject):
-    """SweepProject with the cluster template of workflows/templates."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        # flow looks for templates in <sweep dir>/templates; ours lives beside this file so
-        # that every sweep directory uses it without a copy
-        self._template_dir = str(Path(__file__).resolve().parent / "templates")
-
+from bkflow.project import ClusterProject
 
 if __name__ == "__main__":
-    Project.get_project(os.getcwd()).main()
+    ClusterProject.get_project(os.getcwd()).main()

@@ -1,206 +1,249 @@
-"""One run's outputs turned into its summary: mu_bar, Psi(inf), cluster shapes, regime.
+"""One run's outputs turned into its summary: mu_bar, stress drops, Psi(inf), cluster shapes.
 
-:func:`summarize` is pure (arrays in, a dict and tables out); :func:`analyze` reads a run
-directory through :mod:`bkflow.io` and writes ``summary.json``, ``psi.csv`` and
-``clusters.csv`` next to the run's files. The observables are those of MODEL.md
-("Observables"); every threshold used is written into the summary.
+:func:`summarize` is pure: arrays in, a :class:`RunAnalysis` out, made of one frozen result
+per observable (:class:`FrictionResult`, :class:`DropResult`, :class:`OrderResult`,
+:class:`ClusterResult`) and the tables the figures read (events, Psi(t), clusters).
+:func:`analyze` reads a run directory through :mod:`bkflow.rundir` and writes the summary and
+the tables back there. The observables are those of MODEL.md ("Observables"); the choices it
+leaves open are one :class:`~bkflow.params.AnalysisSettings`, recorded (resolved for the run)
+in every summary, so that a summary made under other settings is known to be stale.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import __version__, clusters, order, stress
 from .lattice import square_lattice
-from .params import RunSpec
-
-
-@dataclass(frozen=True)
-class AnalysisSettings:
-    """Analysis choices MODEL.md leaves open (each one is reported in summary.json)."""
-
-    s_x: float = clusters.DEFAULT_S_X
-    span_fraction: float = clusters.DEFAULT_SPAN_FRACTION
-    psi_crystal: float = clusters.DEFAULT_PSI_CRYSTAL
-    psi_late_fraction: float = order.DEFAULT_LATE_FRACTION
-    report_thresholds: tuple = stress.REPORT_THRESHOLDS
-    #: lower cut of the stress-drop power law, as a multiple of the slip threshold (the
-    #: smallest drop that counts as a slip); None = chosen by the KS rule of Clauset et al.
-    drop_x_min_over_threshold: float | None = 1.0
-
-
-@dataclass
-class RunAnalysis:
-    """What :func:`summarize` returns: the summary row and the per-run tables."""
-
-    summary: dict
-    psi: dict | None = None          # columns t, psi
-    clusters: dict | None = None     # columns event, t, n_c, l_x, l_y
+from .params import AnalysisSettings, RunSpec, transient_step
+from .rundir import CLUSTERS, EVENTS, PSI, RunDir
 
 
 def _key(fraction: float) -> str:
     return f"{fraction:g}"
 
 
+@dataclass(frozen=True)
+class FrictionResult:
+    """mu_bar over the slips after the transient with its blocking error, the time-averaged
+    stress ratio, and mu_bar at each of the report thresholds (MODEL.md "Macroscopic
+    friction")."""
+
+    friction: stress.MacroscopicFriction
+    by_threshold: dict  # fraction of mu_s sigma_n -> MacroscopicFriction
+
+    def row(self) -> dict:
+        f = self.friction
+        return {"mu_bar": f.mu_bar, "mu_bar_err": f.mu_bar_err,
+                "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
+                "mean_stress_ratio": f.mean_stress_ratio, "slip_threshold_stress": f.threshold,
+                "t_transient": f.t_transient,
+                "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
+                "mu_bar_err_by_threshold": {k: v.mu_bar_err
+                                            for k, v in self.by_threshold.items()},
+                "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()}}
+
+
+@dataclass(frozen=True)
+class DropResult:
+    """The power law of stress-drop sizes after the transient (Clauset et al. 2009)."""
+
+    fit: stress.PowerLawFit
+
+    def row(self) -> dict:
+        f = self.fit
+        return {"drop_exponent": f.alpha, "drop_exponent_err": f.alpha_err,
+                "drop_x_min": f.x_min, "drop_n_tail": f.n_tail, "drop_ks": f.ks}
+
+
+@dataclass(frozen=True)
+class OrderResult:
+    """Psi(t) and its plateau Psi(inf)."""
+
+    t: np.ndarray
+    psi: np.ndarray
+    psi_inf: float
+
+    def row(self) -> dict:
+        return {"psi_inf": self.psi_inf}
+
+
+@dataclass(frozen=True)
+class ClusterResult:
+    """Every cluster of the slips after the transient, their mean shape and the regime."""
+
+    table: dict              # columns of clusters.csv
+    shape: clusters.ClusterShape
+    n_events: int            # slips whose frames were found
+    n_without_snapshots: int
+
+    def row(self) -> dict:
+        s = self.shape
+        return {"lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
+                "lx_over_ly": s.lx_over_ly, "n_clusters": s.n_clusters,
+                "n_cluster_events": self.n_events,
+                "n_slips_without_snapshots": self.n_without_snapshots,
+                "regime": s.regime, "regime_fractions": s.regime_fractions}
+
+
+#: the keys of an observable a scene did not record (None in summary.json, empty in tables)
+_NOT_MEASURED = {"psi_inf": math.nan, "lx_mean_over_Lx": math.nan, "ly_mean_over_Ly": math.nan,
+                 "lx_over_ly": math.nan, "n_clusters": None, "n_cluster_events": None,
+                 "n_slips_without_snapshots": None, "regime": None, "regime_fractions": None}
+
+
+@dataclass(frozen=True)
+class RunAnalysis:
+    """What :func:`summarize` returns: one result per observable (None: not recorded by the
+    run's scene), the resolved settings, and the run they belong to."""
+
+    spec: RunSpec
+    settings: AnalysisSettings
+    events: stress.SlipEvents
+    friction: FrictionResult
+    drops: DropResult
+    order: OrderResult | None = None
+    clusters: ClusterResult | None = None
+    extra: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """The summary row: parameters and settings nested, one key per observable."""
+        row = {"bkflow": __version__, "params": self.spec.to_dict(),
+               "settings": self.settings.to_dict(), "N": self.spec.N,
+               "t_run": self.spec.t_end, **_NOT_MEASURED}
+        for part in (self.friction, self.drops, self.order, self.clusters):
+            if part is not None:
+                row.update(part.row())
+        row.update(self.extra)
+        return row
+
+    def tables(self) -> dict:
+        """The tables of the run directory: {file name: columns}."""
+        ev = self.events
+        t0 = self.friction.friction.t_transient
+        out = {EVENTS: {"t_max": ev.t_max, "t_min": ev.t_min, "sigma_fail": ev.sigma_fail,
+                        "drop": ev.drop, "late": (ev.t_max >= t0).astype(int)}}
+        if self.order is not None:
+            out[PSI] = {"t": self.order.t, "psi": self.order.psi}
+        if self.clusters is not None:
+            out[CLUSTERS] = self.clusters.table
+        return out
+
+
+def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma) -> FrictionResult:
+    t_transient = transient_step(settings.transient, spec.n_steps) * spec.dt
+    unit = spec.mu_s * spec.sigma_n
+
+    def at(fraction):
+        return stress.macroscopic_friction(t, sigma, spec.sigma_n, fraction * unit,
+                                           t_transient=t_transient)
+
+    return FrictionResult(at(settings.slip_threshold),
+                          {_key(f): at(f) for f in settings.report_thresholds})
+
+
+def drop_result(settings: AnalysisSettings, late: stress.SlipEvents) -> DropResult:
+    x_min = (None if settings.drop_x_min_over_threshold is None
+             else settings.drop_x_min_over_threshold * late.threshold)
+    return DropResult(stress.power_law_fit(late.drop, x_min=x_min))
+
+
+def order_result(spec: RunSpec, settings: AnalysisSettings, steps, positions) -> OrderResult:
+    lat = square_lattice(spec.Lx, spec.Ly)
+    shifts = order.lattice_shifts(lat.positions, lat.bonds, lat.box)
+    ts = np.asarray(steps) * spec.dt
+    p = order.psi(order.bond_vectors(positions, lat.bonds, shifts=shifts), lat.bonds, spec.N)
+    return OrderResult(ts, p, order.psi_inf(ts, p, settings.psi_late_fraction))
+
+
+def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
+                   t_transient: float, steps, positions, psi_inf: float) -> ClusterResult:
+    """Clusters of every slip after the transient whose frames (maximum, minimum) fix
+    bk/slips wrote; frames are matched to events by step."""
+    steps = np.asarray(steps)
+    if len(steps) % 2:
+        raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
+                         f"{len(steps)} frames: the file is truncated")
+    lat = square_lattice(spec.Lx, spec.Ly)
+    # events of stress.csv by step: sample k of stress.csv is step k * stress_nevery
+    index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
+    rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": []}
+    matched = 0
+    for k in range(0, len(steps), 2):
+        ev = index.get(int(steps[k]))
+        if ev is None or events.t_max[ev] < t_transient:
+            continue
+        matched += 1
+        ext = clusters.event_clusters(positions[k], positions[k + 1], lat.bonds, lat.box,
+                                      settings.s_x)
+        rows["event"] += [ev] * len(ext)
+        rows["t"] += [float(events.t_max[ev])] * len(ext)
+        rows["n_c"] += ext.n_c.tolist()
+        rows["l_x"] += ext.l_x.tolist()
+        rows["l_y"] += ext.l_y.tolist()
+    shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, psi_inf,
+                                   settings.span_fraction, settings.psi_crystal)
+    n_late = int(np.sum(events.t_max >= t_transient))
+    return ClusterResult(rows, shape, matched, n_late - matched)
+
+
 def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings()) -> RunAnalysis:
-    """Summary of one run.
+    """The analysis of one run.
 
     ``t``, ``sigma``: the stress series (stress.csv). ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
     fix bk/slips, frames in pairs (maximum, minimum), or None.
     """
+    settings = settings.resolved(spec)
     t = np.asarray(t, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
-    dt = spec.dt
-    t_transient = spec.transient_step * dt
-    thr = spec.slip_threshold_stress
-    fr = stress.friction(t, sigma, spec.sigma_n, thr, t_transient=t_transient)
-    events = fr.events
-    late = events.after(t_transient)
-    x_min = (None if settings.drop_x_min_over_threshold is None
-             else settings.drop_x_min_over_threshold * thr)
-    fit = stress.power_law_fit(late.drop, x_min=x_min)
+    fr = friction_result(spec, settings, t, sigma)
+    events = fr.friction.events
+    t0 = fr.friction.t_transient
+    drops = drop_result(settings, events.after(t0))
+    orders = None if snapshots is None else order_result(spec, settings, *snapshots)
+    psi_inf = orders.psi_inf if orders is not None else math.nan
+    clus = None if slip_frames is None else cluster_result(spec, settings, events, t0,
+                                                           *slip_frames, psi_inf)
+    return RunAnalysis(spec, settings, events, fr, drops, orders, clus)
 
-    by_thr, err_thr, n_thr = {}, {}, {}
-    for f in settings.report_thresholds:
-        ff = stress.friction(t, sigma, spec.sigma_n, f * spec.mu_s * spec.sigma_n,
-                             t_transient=t_transient)
-        by_thr[_key(f)], err_thr[_key(f)], n_thr[_key(f)] = ff.mu_bar, ff.mu_bar_err, ff.n_slips
 
-    summary = {
-        "bkflow": __version__,
-        **{k: v for k, v in spec.to_dict().items()},
-        "N": spec.N,
-        "mu_bar": fr.mu_bar,
-        "mu_bar_err": fr.mu_bar_err,
-        "mu_bar_err_method": "blocking over successive slips (Flyvbjerg-Petersen levels, "
-                             "level chosen by Jonsson 2018)",
-        "mu_bar_err_reliable": fr.error_reliable,
-        "n_slips": fr.n_slips,
-        "mean_stress_ratio": fr.mean_stress_ratio,
-        "mu_bar_by_threshold": by_thr,
-        "mu_bar_err_by_threshold": err_thr,
-        "n_slips_by_threshold": n_thr,
-        "slip_threshold_stress": thr,
-        "t_transient": t_transient,
-        "drop_exponent": fit.alpha,
-        "drop_exponent_err": fit.alpha_err,
-        "drop_x_min": fit.x_min,
-        "drop_n_tail": fit.n_tail,
-        "drop_ks": fit.ks,
-        "drop_fit": "continuous power-law maximum likelihood above x_min, Clauset, Shalizi and "
-                    "Newman, SIAM Rev. 51, 661 (2009), Eq. 3.1; x_min = the slip threshold "
-                    "unless set (None: their KS rule); drop_ks = KS distance of the fit",
-        "s_x": settings.s_x,
-        "span_fraction": settings.span_fraction,
-        "psi_crystal": settings.psi_crystal,
-        "psi_late_fraction": settings.psi_late_fraction,
-        "psi_inf": math.nan,
-        "lx_mean_over_Lx": math.nan,
-        "ly_mean_over_Ly": math.nan,
-        "lx_over_ly": math.nan,
-        "n_clusters": None,
-        "n_cluster_events": None,
-        "regime": None,
-    }
-    result = RunAnalysis(summary)
-    lat = square_lattice(spec.Lx, spec.Ly)
-
-    if snapshots is not None:
-        steps, pos = snapshots
-        shifts = order.lattice_shifts(lat.positions, lat.bonds, lat.box)
-        ts = np.asarray(steps) * dt
-        p = order.psi(order.bond_vectors(pos, lat.bonds, shifts=shifts), lat.bonds, spec.N)
-        summary["psi_inf"] = order.psi_inf(ts, p, settings.psi_late_fraction)
-        result.psi = {"t": ts, "psi": p}
-
-    if slip_frames is not None:
-        steps, pos = slip_frames
-        steps = np.asarray(steps)
-        if len(steps) % 2:
-            raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
-                             f"{len(steps)} frames: the file is truncated")
-        # events of stress.csv by step: sample k of stress.csv is step k * stress_nevery
-        index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
-        rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": []}
-        matched = 0
-        for k in range(0, len(steps), 2):
-            ev = index.get(int(steps[k]))
-            if ev is None or events.t_max[ev] < t_transient:
-                continue
-            matched += 1
-            ext = clusters.event_clusters(pos[k], pos[k + 1], lat.bonds, lat.box, settings.s_x)
-            rows["event"] += [ev] * len(ext)
-            rows["t"] += [float(events.t_max[ev])] * len(ext)
-            rows["n_c"] += ext.n_c.tolist()
-            rows["l_x"] += ext.l_x.tolist()
-            rows["l_y"] += ext.l_y.tolist()
-        shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, summary["psi_inf"],
-                                       settings.span_fraction, settings.psi_crystal)
-        summary.update({
-            "lx_mean_over_Lx": shape.lx_mean_over_Lx,
-            "ly_mean_over_Ly": shape.ly_mean_over_Ly,
-            "lx_over_ly": shape.lx_over_ly,
-            "n_clusters": shape.n_clusters,
-            "n_cluster_events": matched,
-            "n_slips_without_snapshots": len(late) - matched,
-            "regime": shape.regime,
-            "regime_fractions": shape.regime_fractions,
-        })
-        result.clusters = rows
-    return result
+class AnalysisError(ValueError):
+    """A run directory that cannot be analysed (nothing finished there, or damaged files)."""
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
-    """Analyse a finished run directory: write summary.json (and psi.csv, clusters.csv when
-    the scene recorded them); return the summary as written (None where not measured).
+    """Analyse a finished run directory: write summary.json, events.csv (and psi.csv,
+    clusters.csv when the scene recorded them); return the summary as written (None where
+    not measured).
 
     The directory is a ``bkflow run`` output (meta.json) or a deck run standalone with
     ``lmp -in in.bk`` (params.json from ``bkflow deck``, finished when stress.csv reaches
     t_end)."""
-    from . import io
-    from .deck import PARAMS_FILE, SLIPS_FILE, SNAPSHOT_FILE, STRESS_FILE
-    from .engine import CLUSTERS_FILE, META_FILE, PSI_FILE, SUMMARY_FILE, is_complete
-
-    d = Path(run_dir)
-    if not d.is_dir():
-        raise FileNotFoundError(f"{d} is not a directory")
-    if is_complete(d):
-        meta = io.read_json(d / META_FILE)
-        spec = RunSpec.from_dict(meta["params"])
-        t, sigma = io.read_stress(d / STRESS_FILE)
-    elif (d / PARAMS_FILE).exists() and (d / STRESS_FILE).exists():
-        # a deck run standalone (lmp -in in.bk): finished when the series reaches t_end
+    rd = RunDir(run_dir)
+    if not rd.path.is_dir():
+        raise FileNotFoundError(f"{rd.path} is not a directory")
+    meta = rd.meta() if rd.is_complete() else None
+    if meta is None:
+        why = rd.finished_standalone()
+        if why is not None:
+            raise AnalysisError(why)
         meta = {}
-        spec = RunSpec.from_dict(io.read_json(d / PARAMS_FILE))
-        t, sigma = io.read_stress(d / STRESS_FILE)
-        last = spec.stress_nevery * (spec.n_steps // spec.stress_nevery) * spec.dt
-        if len(t) == 0 or t[-1] < last - 0.5 * spec.dt:
-            raise ValueError(f"{d / STRESS_FILE} ends at t = {t[-1] if len(t) else 0:g}, "
-                             f"before the run's end ({last:g}): the run did not finish")
-    else:
-        raise ValueError(f"{d} holds no finished run (no meta.json with status complete, nor "
-                         f"a deck's {PARAMS_FILE} with its {STRESS_FILE}); run it first with "
-                         "bkflow run")
+    spec = rd.spec()
+    t, sigma = rd.read_stress()
     snaps = slips = None
     if spec.writes_snapshots:
-        f = io.read_frames(d / SNAPSHOT_FILE, spec.N)
+        f = rd.read_snapshots(spec.N)
         snaps = (f.steps, f.positions)
     if spec.writes_slips:
-        f = io.read_frames(d / SLIPS_FILE, spec.N)
+        f = rd.read_slip_frames(spec.N)
         slips = (f.steps, f.positions)
     res = summarize(spec, t, sigma, snaps, slips, settings)
-    res.summary["run_dir"] = str(d)
-    res.summary["wall_time_s"] = meta.get("wall_time_s")
-    res.summary["bytes_written"] = meta.get("bytes_written")
-    for name, table in ((PSI_FILE, res.psi), (CLUSTERS_FILE, res.clusters)):
-        (d / name).unlink(missing_ok=True)
-        if table is not None:
-            io.write_table(d / name, table)
-    io.write_json_atomic(d / SUMMARY_FILE, res.summary)
-    return io.json_ready(res.summary)  # as written: NaN (not measured) reads back as None
+    summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
+               "bytes_written": meta.get("bytes_written")}
+    with rd.lock():
+        return rd.write_analysis(summary, res.tables())

@@ -13,7 +13,9 @@ import shlex
 import sys
 
 from . import __version__
-from .params import ACCURACY, FRICTION_MODES, SCENES, RunSpec, SpecError, parse_size, size_from_n
+from .grid import ASPECT, POINTS_PER_DECADE, SEEDS
+from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, PAPER_SIZES, SCENES,
+                     AnalysisSettings, RunSpec, SpecError, parse_size, size_from_n)
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
@@ -35,7 +37,21 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
     p.add_argument("--target-error", type=float, default=None,
                    help="run until mu_bar's standard error is below this (checked every "
-                        "100 time units, at least 500), at most --t-end")
+                        f"{ADAPTIVE_CHUNK_T:g} time units, at least {ADAPTIVE_T_MIN:g}), at "
+                        "most --t-end")
+
+
+def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--contact-rule", choices=CONTACT_RULES, default=RunSpec.contact_rule,
+                   help="contact rule at |k_e dr| > mu_s sigma_n A: reset (the paper's, break "
+                        "located inside the step; default), reset/step (dr = 0 at the step's "
+                        "end), coulomb")
+
+
+def _analysis_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--analysis", action="append", default=[], metavar="NAME=VALUE",
+                   help="an analysis setting (repeatable): " + ", ".join(
+                       f"{k}={v}" for k, v in AnalysisSettings().to_dict().items()))
 
 
 def _accuracy(a) -> dict:
@@ -48,13 +64,12 @@ def _accuracy(a) -> dict:
 def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--phi", type=float, required=True, help="k_b / dk_d (> 0)")
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--size", help="lattice LXxLY, e.g. 20x5 (default 20x5)")
-    size.add_argument("--n", type=int, help="the paper's sizes: 100, 400 or 900 (Ly = Lx/4)")
+    size.add_argument("--size", help=f"lattice LXxLY (default {RunSpec.Lx}x{RunSpec.Ly})")
+    size.add_argument("--n", type=int, help="the paper's sizes: " + ", ".join(
+        f"{n} ({lx}x{ly})" for n, (lx, ly) in PAPER_SIZES.items()))
     _accuracy_args(p)
     p.add_argument("--seed", type=int, default=RunSpec.seed, help="seed of the k_d^i draw")
-    p.add_argument("--friction", choices=FRICTION_MODES, default=RunSpec.friction,
-                   help="contact rule at |k_e dr| > mu_s sigma_n A: reset (the paper's, break located "
-                        "inside the step; default), reset/step (dr = 0 at the step's end), coulomb")
+    _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
                         "Psi(t)), clusters (+ positions at each slip), full (default)")
@@ -68,8 +83,8 @@ def _spec(a) -> RunSpec:
         Lx, Ly = parse_size(a.size)
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
-    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, friction=a.friction, scene=a.scene,
-                   **_accuracy(a))
+    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, contact_rule=a.contact_rule,
+                   scene=a.scene, **_accuracy(a))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -88,15 +103,18 @@ def build_parser() -> argparse.ArgumentParser:
                                       "re-running skips finished runs")
     sw.add_argument("--phi", required=True,
                     help="range A:B (log-spaced, --points-per-decade per decade) or list a,b,c")
-    sw.add_argument("--points-per-decade", type=int, default=3,
-                    help="phi values per decade of a range (default 3: 1e-1:1e3 gives 13)")
-    sw.add_argument("--sizes", default="20x5",
-                    help="lattices LXxLY[,LXxLY...] or the paper's N (100,400,900); default 20x5")
+    sw.add_argument("--points-per-decade", type=int, default=POINTS_PER_DECADE,
+                    help=f"phi values per decade of a range (default {POINTS_PER_DECADE})")
+    sw.add_argument("--sizes", default=f"{RunSpec.Lx}x{RunSpec.Ly}",
+                    help="lattices LXxLY[,LXxLY...] or the paper's N ("
+                         + ",".join(map(str, PAPER_SIZES)) + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
     sw.add_argument("--aspect", default=None,
-                    help="Lx/Ly every size must have (default 4, the paper's Ly = Lx/4), or 'any'")
-    sw.add_argument("--seeds", type=int, default=3, help="seeds 1..K per (phi, size) (default 3)")
+                    help=f"Lx/Ly every size must have (default {ASPECT}, the paper's), or 'any'")
+    sw.add_argument("--seeds", type=int, default=SEEDS,
+                    help=f"seeds 1..K per (phi, size) (default {SEEDS})")
     _accuracy_args(sw)
-    sw.add_argument("--friction", choices=FRICTION_MODES, default=RunSpec.friction)
+    _contact_rule_arg(sw)
+    _analysis_arg(sw)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                     help="what each run records (default full: everything the figures need)")
     sw.add_argument("--jobs", type=int, default=None,
@@ -108,6 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     co = sub.add_parser("collect", help="(re)write DIR/runs.csv and results.csv from the "
                                         "finished runs of a sweep directory")
     co.add_argument("dir", help="sweep directory")
+    _analysis_arg(co)
     pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF)")
     pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
     pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
@@ -115,6 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
     an = sub.add_parser("analyze", help="analyse a finished run: writes DIR/summary.json "
                                         "(+ psi.csv, clusters.csv)")
     an.add_argument("dir", help="run directory (written by bkflow run or lmp -in in.bk)")
+    _analysis_arg(an)
     return p
 
 
@@ -142,20 +162,24 @@ def _print_summary(s: dict) -> None:
 
 
 def _sweep(a) -> int:
-    from .sweep import (available_cores, fmt_duration, parse_aspect, parse_sizes, phi_values,
-                        sweep, sweep_specs)
+    from .grid import parse_aspect, parse_sizes, phi_values, sweep_specs
+    from .sweep import available_cores, fmt_duration, sweep
+    from .tables import RESULTS_FILE, RUNS_FILE
 
     phis = phi_values(a.phi, a.points_per_decade)
     sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
     if a.jobs is not None and a.jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {a.jobs}")
-    specs = sweep_specs(phis, sizes, a.seeds, friction=a.friction, scene=a.scene,
+    specs = sweep_specs(phis, sizes, a.seeds, contact_rule=a.contact_rule, scene=a.scene,
                         **_accuracy(a))
+    settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
     if a.init:
-        from .sweep import finished, open_project
+        from .project import finished, open_project, set_settings
 
         project = open_project(a.out)
+        if settings is not None:
+            set_settings(project, settings)
         done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
               f"(cd {a.out} && python <bkflow>/workflows/project.py run|submit ...)")
@@ -163,19 +187,19 @@ def _sweep(a) -> int:
     print(f"sweep: {len(phis)} phi x {len(sizes)} size(s) x {a.seeds} seed(s) = {len(specs)} "
           f"runs into {a.out}, {jobs} at a time", flush=True)
     print(f"  phi = {', '.join(f'{p:g}' for p in phis)}", flush=True)
-    rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None)
+    rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None,
+                settings=settings)
     print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
           f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
+          + (f" ({len(rep.reanalysed)} of them only re-analysed)" if rep.reanalysed else "")
           + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
-    from .sweep import RESULTS_FILE, RUNS_FILE
-
     res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
         keep = {(s.phi, s.Lx, s.Ly) for s in specs}
         res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]
         s0 = specs[0]
         res = res[(res.t_end == s0.t_end) & (res.dt_factor == s0.dt_factor)
-                  & (res.friction == a.friction) & (res.scene == a.scene)]
+                  & (res.contact_rule == a.contact_rule) & (res.scene == a.scene)]
         res = res[res.target_error.isna() if s0.target_error is None
                   else res.target_error == s0.target_error]
         _print_results(res)
@@ -207,24 +231,24 @@ def _print_results(res) -> None:
 
 
 def _collect(a) -> int:
-    from .sweep import RESULTS_FILE, RUNS_FILE, collect, finished, open_project
+    from .project import open_project
+    from .sweep import collect
+    from .tables import RESULTS_FILE, RUNS_FILE
 
     try:
         project = open_project(a.dir, create=False)
     except FileNotFoundError as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    jobs = list(project)
-    done = [j for j in jobs if finished(j)]
-    failed = [j for j in jobs if not finished(j) and "error" in j.document]
-    runs, res = collect(project)
-    print(f"{a.dir}: {len(jobs)} jobs, {len(done)} finished, {len(failed)} failed, "
-          f"{len(jobs) - len(done) - len(failed)} not run")
-    if len(res):
-        _print_results(res)
-    print(f"wrote {a.dir}/{RUNS_FILE} ({len(runs)} rows) and {a.dir}/{RESULTS_FILE} "
-          f"({len(res)} rows)")
-    for j in failed:
+    settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
+    c = collect(project, settings)
+    print(f"{a.dir}: {c.jobs} jobs, {c.finished} finished, {len(c.failed)} failed, "
+          f"{c.jobs - c.finished - len(c.failed)} not run; {len(c.reanalysed)} re-analysed")
+    if len(c.results):
+        _print_results(c.results)
+    print(f"wrote {a.dir}/{RUNS_FILE} ({len(c.runs)} rows) and {a.dir}/{RESULTS_FILE} "
+          f"({len(c.results)} rows)")
+    for j in c.failed:
         print(f"  failed {j.id}: {j.document['error']}", file=sys.stderr)
     return 0
 
@@ -249,17 +273,23 @@ def main(argv=None) -> int:
     a = build_parser().parse_args(argv)
     from .engine import RunError, RunExistsError
     from .plugin import PluginError
+    from .rundir import RunBusyError
 
     try:
         if a.cmd == "analyze":
             from .analysis import analyze
+            from .rundir import RunDir
 
+            settings = AnalysisSettings().with_assignments(a.analysis)
+            why = RunDir(a.dir).analysis_problem(settings) if RunDir(a.dir).is_complete() \
+                else None
             try:
-                summary = analyze(a.dir)
+                summary = analyze(a.dir, settings)
             except (ValueError, OSError) as exc:  # missing, partial or corrupt run files
                 print(f"bkflow: error: cannot analyse {a.dir}: {exc}", file=sys.stderr)
                 return EXIT_BAD_INPUT
-            print(f"{a.dir}/summary.json written")
+            print(f"{a.dir}/summary.json written"
+                  + (f" (re-analysed: {why})" if why and why != "no summary.json" else ""))
             _print_summary(summary)
             return 0
         if a.cmd == "sweep":
@@ -297,7 +327,7 @@ def main(argv=None) -> int:
 
             _print_summary(analyze(a.out))
         return 0
-    except (SpecError, RunExistsError, PluginError, FileNotFoundError) as exc:
+    except (SpecError, RunExistsError, RunBusyError, PluginError, FileNotFoundError) as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except RunError as exc:

@@ -22,14 +22,7 @@ from dataclasses import dataclass
 from . import __version__
 from .lattice import Lattice, lattice_for
 from .params import RunSpec
-
-DATA_FILE = "data.bk"
-DECK_FILE = "in.bk"
-#: the RunSpec of a deck, so that ``bkflow analyze`` can read a run made with ``lmp -in in.bk``
-PARAMS_FILE = "params.json"
-STRESS_FILE = "stress.csv"
-SNAPSHOT_FILE = "snapshots.lammpstrj"
-SLIPS_FILE = "slips.lammpstrj"
+from .rundir import DATA, DECK, PARAMS, SLIPS, SNAPSHOTS, STRESS
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
 SUBSTRATE_FIX = "bk"
@@ -41,10 +34,10 @@ SLIPS_FIX = "slips"
 class DeckFiles:
     """Paths the deck refers to (relative for a standalone deck, absolute for the engine)."""
 
-    data: str = DATA_FILE
-    stress: str | None = STRESS_FILE
-    snapshots: str = SNAPSHOT_FILE
-    slips: str = SLIPS_FILE
+    data: str = DATA
+    stress: str | None = STRESS
+    snapshots: str = SNAPSHOTS
+    slips: str = SLIPS
 
 
 def _f(x: float) -> str:
@@ -90,15 +83,15 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
     return "\n".join(lines) + "\n"
 
 
-def substrate_fix(spec: RunSpec, drive: bool = True, friction: bool = True,
+def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
                   damp: bool = True) -> str:
     """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for."""
     parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
-    if friction:
+    if contact:
         parts.append(f"friction {_f(spec.k_e)} {_f(spec.mu_s)} {_f(spec.sigma_n)} "
-                     f"{_f(spec.area)} {spec.friction}")
+                     f"{_f(spec.area)} {spec.contact_rule}")
     if damp:
         parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
@@ -108,7 +101,7 @@ def _header(spec: RunSpec) -> list[str]:
     return [
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
-        f"friction {spec.friction}",
+        f"contact rule {spec.contact_rule}",
         f"# dt = {spec.dt_factor:g} / sqrt(4 k_b + k_e + k_d + dk_d) = {spec.dt:.6g}; "
         f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
@@ -135,7 +128,7 @@ def _system(files: DeckFiles) -> list[str]:
 SERIAL_COMM_CUTOFF = 1.0
 
 
-def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[str]:
+def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool) -> list[str]:
     lines = [
         # on several ranks a bond partner is found only as a ghost within this cutoff, so the
         # default covers the longest bond the run allows; one rank can pass -var comm_cutoff 1
@@ -146,7 +139,7 @@ def _dynamics(spec: RunSpec, drive: bool, friction: bool, damp: bool) -> list[st
         f"timestep        {_f(spec.dt)}",
         "",
         "fix             nve all nve",
-        substrate_fix(spec, drive, friction, damp),
+        substrate_fix(spec, drive, contact, damp),
         "fix             2d all enforce2d",
         "",
     ]
@@ -196,9 +189,9 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
 
 
 def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
-               drive: bool = True, friction: bool = True, damp: bool = True) -> str:
+               drive: bool = True, contact: bool = True, damp: bool = True) -> str:
     """Everything of the deck before ``run``: system, forces, integrator, outputs."""
-    lines = (_header(spec) + _system(files) + _dynamics(spec, drive, friction, damp)
+    lines = (_header(spec) + _system(files) + _dynamics(spec, drive, contact, damp)
              + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
@@ -241,11 +234,10 @@ def write_deck(spec: RunSpec, directory) -> dict[str, str]:
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    (d / DATA_FILE).write_text(data_text(spec))
-    (d / DECK_FILE).write_text(deck_text(spec))
-    (d / PARAMS_FILE).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
-    return {"deck": str(d / DECK_FILE), "data": str(d / DATA_FILE),
-            "params": str(d / PARAMS_FILE)}
+    (d / DATA).write_text(data_text(spec))
+    (d / DECK).write_text(deck_text(spec))
+    (d / PARAMS).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
+    return {"deck": str(d / DECK), "data": str(d / DATA), "params": str(d / PARAMS)}
 
 
 if __name__ == "__main__":

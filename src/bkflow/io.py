@@ -1,10 +1,11 @@
-"""Readers and writers at the edge of the analysis: every file access of bkflow.analysis.
+"""File formats at the edge of bkflow: LAMMPS dumps, CSV tables and JSON, read and written.
 
-Dumps (``snapshots.lammpstrj``, ``slips.lammpstrj``) are read with MDAnalysis's LAMMPS dump
-reader, unwrapped with the image flags; the stress series with pandas. MDAnalysis holds
-coordinates in single precision, so positions come back to about 1e-7 relative (1e-5 l at
-the 80 l a run drifts by t = 4000): far below S_x = 0.01 l and the Psi resolution that
-matters.
+Which file of a run directory holds what is :mod:`bkflow.rundir`'s business; this module only
+knows formats. Dumps are read with MDAnalysis's LAMMPS dump reader, unwrapped with the image
+flags; tables with pandas (both imported only when used, so that the engine does not pay for
+them). MDAnalysis holds coordinates in single precision, so positions come back to about 1e-7
+relative (1e-5 l at the 80 l a run drifts by t = 4000): far below S_x = 0.01 l and the Psi
+resolution that matters.
 """
 
 from __future__ import annotations
@@ -12,34 +13,44 @@ from __future__ import annotations
 import json
 import math
 import os
+import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
+
+#: one float format for every table bkflow writes: full double precision
+FLOAT_FORMAT = "%.17g"
 
 
 @dataclass(frozen=True)
 class Frames:
-    """Frames of a dump: steps (F,), unwrapped positions (F, N, 2) ordered by atom id, box."""
+    """Frames of a dump: steps (F,) and unwrapped positions (F, N, 2) ordered by atom id."""
 
     steps: np.ndarray
     positions: np.ndarray
-    box: tuple[float, float]
 
     def __len__(self) -> int:
         return len(self.steps)
 
 
-def read_stress(path) -> tuple[np.ndarray, np.ndarray]:
-    """The stress series ``stress.csv``: (t, sigma_x) as float arrays."""
+def read_columns(path, columns) -> dict[str, np.ndarray]:
+    """The named float columns of a CSV file (pandas); a clear ValueError when one is absent."""
+    import pandas as pd
+
     df = pd.read_csv(path)
-    missing = {"t", "sigma_x"} - set(df.columns)
+    missing = set(columns) - set(df.columns)
     if missing:
-        raise ValueError(f"{path}: no column(s) {', '.join(sorted(missing))}; is it a bkflow "
-                         "stress.csv?")
-    return df["t"].to_numpy(dtype=float), df["sigma_x"].to_numpy(dtype=float)
+        raise ValueError(f"{path}: no column(s) {', '.join(sorted(missing))}")
+    return {c: df[c].to_numpy(dtype=float) for c in columns}
+
+
+def read_table(path):
+    """A CSV table as a pandas DataFrame."""
+    import pandas as pd
+
+    return pd.read_csv(path)
 
 
 def read_frames(path, n_atoms: int | None = None) -> Frames:
@@ -51,8 +62,7 @@ def read_frames(path, n_atoms: int | None = None) -> Frames:
 
     path = Path(path)
     if path.stat().st_size == 0:
-        n = n_atoms or 0
-        return Frames(np.empty(0, dtype=np.int64), np.empty((0, n, 2)), (math.nan, math.nan))
+        return Frames(np.empty(0, dtype=np.int64), np.empty((0, n_atoms or 0, 2)))
     with warnings.catch_warnings():
         # masses guessed from a dump, and time units: irrelevant here (steps are used)
         warnings.simplefilter("ignore")
@@ -62,12 +72,10 @@ def read_frames(path, n_atoms: int | None = None) -> Frames:
             raise ValueError(f"{path}: {u.atoms.n_atoms} atoms, expected {n_atoms}")
         steps = np.empty(len(u.trajectory), dtype=np.int64)
         pos = np.empty((len(u.trajectory), u.atoms.n_atoms, 2))
-        box = (math.nan, math.nan)
         for k, ts in enumerate(u.trajectory):
             steps[k] = ts.data["step"]
             pos[k] = ts.positions[:, :2]
-            box = (float(ts.dimensions[0]), float(ts.dimensions[1]))
-    return Frames(steps, pos, box)
+    return Frames(steps, pos)
 
 
 def read_json(path) -> dict:
@@ -87,17 +95,39 @@ def json_ready(obj):
     return obj
 
 
+def _replace_atomically(path: Path, write) -> None:
+    """Write through a uniquely named temporary file beside ``path``, flushed to disk, then
+    renamed over it: a reader sees the old file or the whole new one, never half."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        _unlink_quietly(tmp)
+        raise
+
+
+def _unlink_quietly(path) -> None:
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+
+
 def write_json_atomic(path, obj) -> None:
-    """Write JSON through a temporary file and a rename, so a reader never sees half of it."""
-    path = Path(path)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(json_ready(obj), indent=2, sort_keys=True, allow_nan=False) + "\n")
-    os.replace(tmp, path)
+    """Write JSON (NaN as null) atomically."""
+    text = json.dumps(json_ready(obj), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    _replace_atomically(Path(path), lambda f: f.write(text))
 
 
-def write_table(path, columns: dict) -> None:
-    """Write a CSV of named columns (full double precision), atomically."""
-    path = Path(path)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    pd.DataFrame(columns).to_csv(tmp, index=False, float_format="%.17g")
-    os.replace(tmp, path)
+def write_table(path, table) -> None:
+    """Write a CSV of named columns (a dict of arrays or a DataFrame) atomically, floats in
+    :data:`FLOAT_FORMAT`."""
+    import pandas as pd
+
+    df = table if isinstance(table, pd.DataFrame) else pd.DataFrame(table)
+    _replace_atomically(Path(path),
+                        lambda f: df.to_csv(f, index=False, float_format=FLOAT_FORMAT))

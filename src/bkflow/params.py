@@ -27,10 +27,11 @@ PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
 #: C ~ 0.5 <sigma_x> moves by percents (benchmarks/RESULTS.md); the presets stay at <= 0.4.
 DT_FACTOR_MAX = 1.9
 
-#: reset: MODEL.md's rule with the break located inside the time step (the contact re-forms
-#: where |k_e dr| crosses the threshold and keeps the rest of the step's motion); reset/step:
-#: dr = 0 at the end of the step (first order in dt, kept for comparison); coulomb: sliding
-FRICTION_MODES = ("reset", "reset/step", "coulomb")
+#: contact rules at |k_e dr| > mu_s sigma_n A. reset: MODEL.md's rule with the break located
+#: inside the time step (the contact re-forms where |k_e dr| crosses the threshold and keeps the
+#: rest of the step's motion); reset/step: dr = 0 at the end of the step (first order in dt,
+#: kept for comparison); coulomb: sliding
+CONTACT_RULES = ("reset", "reset/step", "coulomb")
 
 #: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second
 #: order); half: the half-step velocity (MODEL.md's literal scheme, first order in dt)
@@ -43,10 +44,33 @@ ACCURACY = {"fast": (0.4, 2000.0), "default": (0.2, 8000.0), "precise": (0.1, 16
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
 ADAPTIVE_T_MIN = 500.0
+#: an adaptive run checks its error every this many time units
+ADAPTIVE_CHUNK_T = 100.0
 
 #: what a run records (MODEL.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
 SCENES = ("friction", "order", "clusters", "full")
+
+#: slip threshold as a fraction of mu_s sigma_n (MODEL.md "Slip events": 1%)
+SLIP_THRESHOLD = 0.01
+#: fraction of the run treated as transient (not analysed, no slip snapshots written)
+TRANSIENT = 0.2
+#: S_x of MODEL.md: forward x displacement (lattice units) that makes a particle "slipping"
+S_X = 0.01
+#: an axis counts as spanned when a cluster's extent reaches this fraction of the box
+SPAN_FRACTION = 0.9
+#: Psi(inf) from which the layer counts as crystalline (MODEL.md: "Psi ~ 1")
+PSI_CRYSTAL = 0.9
+#: fraction of the run whose mean Psi is Psi(inf)
+PSI_LATE_FRACTION = 0.2
+#: thresholds (fractions of mu_s sigma_n) that the summary reports mu_bar for
+REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
+
+
+def transient_step(fraction: float, n_steps: int) -> int:
+    """The first step after the transient of a run of ``n_steps`` steps: the one rule that
+    the engine (fix bk/slips, adaptive stop), the analysis and the figures all use."""
+    return int(round(fraction * n_steps))
 
 
 class SpecError(ValueError):
@@ -83,7 +107,8 @@ class RunSpec:
     seed: int = 1
     t_end: float = ACCURACY["default"][1]
     dt_factor: float = ACCURACY["default"][0]
-    friction: str = "reset"
+    #: rule at a contact break (CONTACT_RULES)
+    contact_rule: str = "reset"
     #: velocity of the damping force (DAMPING_MODES; benchmarks/RESULTS.md "Convergence order")
     damping: str = "implicit"
     k_d: float = 1.0
@@ -101,10 +126,12 @@ class RunSpec:
     scene: str = "full"
     #: interval of the snapshots of the order scene (time units, rounded to whole steps)
     snapshot_every: float = 20.0
-    #: slip threshold as a fraction of mu_s sigma_n (MODEL.md "Slip events")
-    slip_threshold: float = 0.01
-    #: fraction of the run treated as transient (not analysed, no slip snapshots written)
-    transient: float = 0.2
+    #: slips that fix bk/slips records: drops above this fraction of mu_s sigma_n (MODEL.md
+    #: "Slip events"); also the analysis's threshold unless AnalysisSettings says otherwise
+    slip_threshold: float = SLIP_THRESHOLD
+    #: fraction of the run treated as transient: no slip snapshots are written before it, and
+    #: the analysis leaves it out unless AnalysisSettings says otherwise
+    transient: float = TRANSIENT
     #: a bond longer than this (lattice units) stops the run as torn apart
     bond_limit: float = 10.0
     #: adaptive run length: stop once mu_bar's standard error is below this (t_end is then
@@ -151,8 +178,9 @@ class RunSpec:
             raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
         if self.damping not in DAMPING_MODES:
             raise SpecError(f"damping must be one of {DAMPING_MODES}, got {self.damping!r}")
-        if self.friction not in FRICTION_MODES:
-            raise SpecError(f"friction must be one of {FRICTION_MODES}, got {self.friction!r}")
+        if self.contact_rule not in CONTACT_RULES:
+            raise SpecError(f"contact_rule must be one of {', '.join(CONTACT_RULES)}, "
+                            f"got {self.contact_rule!r}")
         if self.dt_factor > DT_FACTOR_MAX:
             raise SpecError(
                 f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
@@ -169,11 +197,6 @@ class RunSpec:
     def k_b(self) -> float:
         """Bond stiffness k_b = phi * dk_d."""
         return self.phi * self.dk_d
-
-    @property
-    def omega_max(self) -> float:
-        """Stiffest mode, sqrt((4 k_b + k_e + k_d + dk_d) / m)."""
-        return math.sqrt((4 * self.k_b + self.k_e + self.k_d + self.dk_d) / self.mass)
 
     @property
     def dt(self) -> float:
@@ -200,8 +223,8 @@ class RunSpec:
 
     @property
     def transient_step(self) -> int:
-        """First step after the transient."""
-        return int(round(self.transient * self.n_steps))
+        """First step after the transient (:func:`transient_step` of the whole run)."""
+        return transient_step(self.transient, self.n_steps)
 
     @property
     def slips_start_step(self) -> int:
@@ -209,7 +232,8 @@ class RunSpec:
         adaptive run (whose end is not known in advance) that of its shortest length."""
         if self.target_error is None:
             return self.transient_step
-        return int(round(self.transient * min(self.t_end, ADAPTIVE_T_MIN) / self.dt))
+        return transient_step(self.transient, int(round(min(self.t_end, ADAPTIVE_T_MIN)
+                                                        / self.dt)))
 
     @property
     def writes_snapshots(self) -> bool:
@@ -224,6 +248,11 @@ class RunSpec:
         """mu_s sigma_n A, the largest contact force before the contact breaks."""
         return self.mu_s * self.sigma_n * self.area
 
+    @property
+    def label(self) -> str:
+        """How messages name the run: phi, lattice and seed."""
+        return f"phi={self.phi:g}, {self.Lx}x{self.Ly}, seed {self.seed}"
+
     def replace(self, **changes) -> "RunSpec":
         return dataclasses.replace(self, **changes)
 
@@ -237,3 +266,98 @@ class RunSpec:
         if unknown:
             raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
         return cls(**d)
+
+
+#: revision of the analysis code: raised whenever a change to it changes a summary, so that
+#: every summary made before is stale and redone (recorded in summary.json)
+ANALYSIS_REVISION = 1
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """Every choice the analysis makes that MODEL.md leaves open, beside :class:`RunSpec`.
+
+    A summary records the settings it was made under (resolved for its run); one made under
+    other settings is stale and is redone from the run's files, never by running LAMMPS
+    again. ``slip_threshold`` and ``transient`` default to the run's own (None), which are
+    also what fix bk/slips recorded; other values are allowed (slips without snapshots are
+    then counted, not guessed).
+    """
+
+    #: slip threshold, fraction of mu_s sigma_n (None: the run's RunSpec.slip_threshold)
+    slip_threshold: float | None = None
+    #: transient, fraction of the run (None: the run's RunSpec.transient)
+    transient: float | None = None
+    s_x: float = S_X
+    span_fraction: float = SPAN_FRACTION
+    psi_crystal: float = PSI_CRYSTAL
+    psi_late_fraction: float = PSI_LATE_FRACTION
+    report_thresholds: tuple = REPORT_THRESHOLDS
+    #: lower cut of the stress-drop power law, as a multiple of the slip threshold (the
+    #: smallest drop that counts as a slip); None = chosen by the KS rule of Clauset et al.
+    drop_x_min_over_threshold: float | None = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "report_thresholds",
+                           tuple(float(v) for v in self.report_thresholds))
+        for name in ("slip_threshold", "s_x", "span_fraction", "psi_crystal",
+                     "psi_late_fraction", "drop_x_min_over_threshold"):
+            v = getattr(self, name)
+            if v is None and name in ("slip_threshold", "drop_x_min_over_threshold"):
+                continue
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or not v > 0:
+                raise SpecError(f"analysis setting {name} must be a number > 0, got {v!r}")
+        if self.transient is not None and not (isinstance(self.transient, (int, float))
+                                               and 0 <= self.transient < 1):
+            raise SpecError(f"analysis setting transient must lie in [0, 1), "
+                            f"got {self.transient!r}")
+        if not self.report_thresholds or not all(v > 0 for v in self.report_thresholds):
+            raise SpecError("analysis setting report_thresholds must be numbers > 0")
+        if not 0 < self.psi_late_fraction <= 1:
+            raise SpecError(f"analysis setting psi_late_fraction must lie in (0, 1], "
+                            f"got {self.psi_late_fraction!r}")
+
+    def resolved(self, spec: RunSpec) -> "AnalysisSettings":
+        """These settings with the run's own values filled in where they defer to it."""
+        return dataclasses.replace(
+            self,
+            slip_threshold=spec.slip_threshold if self.slip_threshold is None
+            else self.slip_threshold,
+            transient=spec.transient if self.transient is None else self.transient)
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["report_thresholds"] = list(self.report_thresholds)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "AnalysisSettings":
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise SpecError(f"unknown analysis setting(s): {', '.join(sorted(unknown))}; "
+                            f"known: {', '.join(sorted(names))}")
+        return cls(**d)
+
+    def with_assignments(self, items) -> "AnalysisSettings":
+        """These settings changed by ``NAME=VALUE`` strings (the CLI's ``--analysis``)."""
+        changes = {}
+        names = {f.name: f for f in dataclasses.fields(self)}
+        for item in items:
+            name, sep, text = str(item).partition("=")
+            name = name.strip().replace("-", "_")
+            if not sep or name not in names:
+                raise SpecError(f"--analysis {item!r}: give NAME=VALUE with NAME one of "
+                                f"{', '.join(sorted(names))}")
+            text = text.strip()
+            try:
+                if text.lower() in ("none", "run", ""):
+                    value = None
+                elif name == "report_thresholds":
+                    value = tuple(float(v) for v in text.split(",") if v.strip())
+                else:
+                    value = float(text)
+            except ValueError:
+                raise SpecError(f"--analysis {item!r}: {text!r} is not a number") from None
+            changes[name] = value
+        return dataclasses.replace(self, **changes)

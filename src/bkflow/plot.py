@@ -1,7 +1,9 @@
 """Figures of a sweep directory, one per figure of the paper (``bkflow plot DIR``).
 
-Reads ``runs.csv``, ``results.csv`` and the per-run files of the jobs (stress.csv, psi.csv,
-clusters.csv) and writes PNG and PDF into ``DIR/figures``:
+Reads tables only: ``runs.csv``, ``results.csv`` and the tables of each run (stress.csv,
+and what the analysis wrote: events.csv, psi.csv, clusters.csv), through
+:mod:`bkflow.tables` and :mod:`bkflow.rundir`; it never analyses. Writes PNG and PDF into
+``DIR/figures``:
 
 =====================  ===============================================================
 ``fig1b_stress``       sigma_x(t) of two runs (smallest and largest phi near 1 and 1e3),
@@ -25,6 +27,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from .rundir import RunDir, sweep_run_dir
+from .tables import read_tables
 
 FIGURES_DIR = "figures"
 FORMATS = ("png", "pdf")
@@ -71,12 +76,9 @@ class SweepData:
     """The tables and per-run files of a sweep directory."""
 
     def __init__(self, root):
-        from .sweep import RESULTS_FILE, RUNS_FILE
-
         self.root = Path(root)
         try:
-            self.runs = pd.read_csv(self.root / RUNS_FILE)
-            self.results = pd.read_csv(self.root / RESULTS_FILE)
+            self.runs, self.results = read_tables(self.root)
         except FileNotFoundError as exc:
             raise PlotError(f"{self.root} has no {Path(exc.filename).name}: is it a bkflow "
                             "sweep directory (bkflow sweep --out DIR)?") from None
@@ -87,8 +89,8 @@ class SweepData:
         self.sizes = sorted({(int(a), int(b)) for a, b in zip(self.runs.Lx, self.runs.Ly)},
                             key=lambda s: s[0] * s[1])
 
-    def job_dir(self, row) -> Path:
-        return self.root / "workspace" / row["job"]
+    def run_dir(self, row) -> RunDir:
+        return sweep_run_dir(self.root, row["job"])
 
     def runs_of(self, lx, ly, phi=None) -> pd.DataFrame:
         r = self.runs[(self.runs.Lx == lx) & (self.runs.Ly == ly)]
@@ -98,24 +100,6 @@ class SweepData:
 
     def results_of(self, lx, ly) -> pd.DataFrame:
         return self.results[(self.results.Lx == lx) & (self.results.Ly == ly)].sort_values("phi")
-
-
-def _spec_of(row):
-    """The RunSpec of a runs.csv row (pandas hands back numpy scalars, ints for whole phi)."""
-    import dataclasses
-
-    from .params import RunSpec
-
-    def value(f):
-        v = row[f.name]
-        if f.type == "float | None":
-            return None if v is None or v != v else float(v)
-        return {"float": float, "int": int, "str": str}[f.type](v)
-
-    spec = RunSpec(**{f.name: value(f) for f in dataclasses.fields(RunSpec)})
-    # the stress series of an adaptive run is as long as it ran (t_run), not its cap
-    t_run = row.get("t_run")
-    return spec.replace(t_end=float(t_run)) if t_run is not None and t_run == t_run else spec
 
 
 def _save(fig, out: Path, name: str, formats) -> list[Path]:
@@ -132,8 +116,6 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
 
 def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     """sigma_x(t) over the last ``window`` time units of two runs, slips' sigma_fail marked."""
-    from . import io, stress
-
     lx, ly = data.sizes[0]
     phis = sorted(set(data.runs_of(lx, ly).phi))
     chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
@@ -141,9 +123,9 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
                              squeeze=False)
     for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
         row = data.runs_of(lx, ly, phi).iloc[0]
-        spec = _spec_of(row)
-        t, sigma = io.read_stress(data.job_dir(row) / "stress.csv")
-        ev = stress.slip_events(t, sigma, spec.slip_threshold_stress)
+        rd = data.run_dir(row)
+        t, sigma = rd.read_stress()
+        ev = rd.read_events()
         t0 = t[-1] - window
         keep = t >= t0
         ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
@@ -152,11 +134,11 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour,
                 mfc="none" if marker == "o" else colour, ls="none",
                 label=r"$\sigma_{\rm fail}$ (slip maxima)")
-        ax.axhline(spec.mu_s * spec.sigma_n, color="tab:blue", ls="-.", lw=1,
+        top = row.mu_s * row.sigma_n
+        ax.axhline(top, color="tab:blue", ls="-.", lw=1,
                    label=r"Amontons-Coulomb $\mu_s\sigma_n$")
         ax.set_ylabel(r"$\sigma_x$")
         lo = sigma[keep].min()
-        top = spec.mu_s * spec.sigma_n
         ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
         ax.legend(loc="upper center", ncol=3, frameon=False, fontsize=6.5)
     axes[-1, 0].set_xlabel("t (time units)")
@@ -244,11 +226,9 @@ def fig3_order(data: SweepData, plt):
         if phi in shown:
             continue
         shown.append(phi)
-        row = data.runs_of(*inset_size, phi).iloc[0]
-        path = data.job_dir(row) / "psi.csv"
-        if not path.exists():
+        p = data.run_dir(data.runs_of(*inset_size, phi).iloc[0]).read_psi()
+        if p is None:
             continue
-        p = pd.read_csv(path)
         ins.plot(p.t, p.psi, color=colour, lw=0.8, label=f"{phi:g}")
     ins.set_xlabel("t", fontsize=6.5, labelpad=0)
     ins.set_ylabel(r"$\Psi(t)$", fontsize=6.5, labelpad=1)
@@ -297,9 +277,9 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
         fig, ax = plt.subplots(figsize=(3.8, 4.0))
     drawn = 0
     for phi, m, colour in zip(phis, MARKERS, ("black", "tab:red", "tab:green", "tab:blue")):
-        frames = [pd.read_csv(p) for p in (data.job_dir(r) / "clusters.csv"
-                                           for _, r in data.runs_of(lx, ly, phi).iterrows())
-                  if p.exists()]
+        frames = [c for c in (data.run_dir(r).read_clusters()
+                              for _, r in data.runs_of(lx, ly, phi).iterrows())
+                  if c is not None]
         if not frames:
             continue
         c = pd.concat(frames)
@@ -326,36 +306,42 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     return fig if fig is not None else ax.figure
 
 
-def fig_drops(data: SweepData, plt):
-    """Density of stress-drop sizes after the transient (all seeds) with the fitted power
-    law above the slip threshold, for the four phi of the cluster figure."""
-    from . import io, stress
+def _log_density(d, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Probability density of positive values in logarithmic bins (centres, density)."""
+    lo, hi = d.min(), max(d.max(), d.min() * 1.0001)
+    edges = np.geomspace(lo, hi, bins + 1)
+    counts, _ = np.histogram(d, edges)
+    return np.sqrt(edges[:-1] * edges[1:]), counts / (len(d) * np.diff(edges))
 
+
+def fig_drops(data: SweepData, plt):
+    """Density of stress-drop sizes after the transient (all seeds, from events.csv) with
+    the power law the analysis fitted above the slip threshold (exponent averaged over the
+    seeds, runs.csv), for the four phi of the cluster figure."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     fig, ax = plt.subplots(figsize=(3.8, 3.0))
     for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
                               ("black", "tab:red", "tab:green", "tab:blue")):
-        drops, thr = [], None
-        for _, row in data.runs_of(lx, ly, phi).iterrows():
-            spec = _spec_of(row)
-            t, sigma = io.read_stress(data.job_dir(row) / "stress.csv")
-            thr = spec.slip_threshold_stress
-            ev = stress.slip_events(t, sigma, thr).after(spec.transient_step * spec.dt)
-            drops.append(ev.drop)
-        d = np.concatenate(drops) if drops else np.empty(0)
+        runs = data.runs_of(lx, ly, phi)
+        events = [data.run_dir(r).read_events() for _, r in runs.iterrows()]
+        d = np.concatenate([e["drop"][e["late"].astype(bool)].to_numpy() for e in events]) \
+            if events else np.empty(0)
+        d = d[np.isfinite(d) & (d > 0)]
         if len(d) < 2:
             continue
-        x, dens = stress.drop_distribution(d, bins=15)
-        fit = stress.power_law_fit(d, x_min=thr)
+        x, dens = _log_density(d, 15)
+        alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
+        alpha_err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
+        x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean()
         nz = dens > 0
-        label = f"phi = {phi:g}: " + (rf"$\alpha$ = {fit.alpha:.2f} $\pm$ {fit.alpha_err:.2f}"
-                                      if math.isfinite(fit.alpha) else "no fit")
+        label = f"phi = {phi:g}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
+                                      if math.isfinite(alpha) else "no fit")
         ax.plot(x[nz], dens[nz], m, color=colour, mfc="none", label=label)
-        if math.isfinite(fit.alpha):
+        if math.isfinite(alpha) and math.isfinite(x_min):
             # the fitted density over the tail, scaled by the tail's share of all drops
-            xs = np.geomspace(fit.x_min, d.max(), 50)
-            share = fit.n_tail / len(d)
-            ax.plot(xs, share * (fit.alpha - 1) / fit.x_min * (xs / fit.x_min) ** -fit.alpha,
+            xs = np.geomspace(x_min, d.max(), 50)
+            share = np.mean(d >= x_min)
+            ax.plot(xs, share * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
                     color=colour, lw=0.8)
     ax.set_xscale("log")
     ax.set_yscale("log")

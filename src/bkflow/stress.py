@@ -27,12 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: thresholds (fraction of mu_s sigma_n) that ``bkflow analyze`` reports mu_bar for
-REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
-#: default slip threshold, as a fraction of mu_s sigma_n (MODEL.md leaves it open)
-DEFAULT_THRESHOLD_FRACTION = 0.01
-#: default transient: the first 20% of the run is not analysed
-DEFAULT_TRANSIENT_FRACTION = 0.2
+from .params import TRANSIENT
 
 
 @dataclass(frozen=True)
@@ -200,7 +195,7 @@ def blocking_error(x, min_blocks: int = 4) -> BlockingEstimate:
 
 
 @dataclass(frozen=True)
-class Friction:
+class MacroscopicFriction:
     """Macroscopic friction of one run (MODEL.md, "Macroscopic friction").
 
     ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
@@ -220,9 +215,9 @@ class Friction:
     events: SlipEvents
 
 
-def friction(t, sigma, sigma_n: float, threshold: float,
-             transient_fraction: float = DEFAULT_TRANSIENT_FRACTION,
-             t_transient: float | None = None) -> Friction:
+def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
+                         transient_fraction: float = TRANSIENT,
+                         t_transient: float | None = None) -> MacroscopicFriction:
     """mu_bar with its error and the time-averaged stress ratio of one series.
 
     ``threshold`` in stress units (MODEL.md's 1% of mu_s sigma_n is 0.01); the transient is the
@@ -240,10 +235,38 @@ def friction(t, sigma, sigma_n: float, threshold: float,
     ev = events.after(t0)
     est = blocking_error(ev.sigma_fail / sigma_n)
     late = t >= t0
-    return Friction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
-                    mean_stress_ratio=float(s[late].mean() / sigma_n), threshold=float(threshold),
-                    t_transient=float(t0), blocking_level=est.level,
-                    error_reliable=est.reliable, events=events)
+    return MacroscopicFriction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
+                               mean_stress_ratio=float(s[late].mean() / sigma_n),
+                               threshold=float(threshold), t_transient=float(t0),
+                               blocking_level=est.level, error_reliable=est.reliable,
+                               events=events)
+
+
+class RunningFriction:
+    """mu_bar's standard error of a series that grows (a run in progress), for the stop rule
+    of an adaptive run: samples are fed in order (:meth:`feed`), slips found once by the
+    :class:`Zigzag` rule, and :meth:`error` is the blocking error of sigma_fail / sigma_n over
+    the slips after the transient of the series so far, exactly what
+    :func:`macroscopic_friction` gives on the whole series at that point."""
+
+    def __init__(self, threshold: float, sigma_n: float):
+        self.zigzag = Zigzag(threshold)
+        self.sigma_n = float(sigma_n)
+        self.t: list[float] = []
+        self.sigma: list[float] = []
+        self.t_max: list[float] = []
+        self.fail: list[float] = []
+
+    def feed(self, t, sigma) -> None:
+        self.t += list(t)
+        self.sigma += list(sigma)
+        i_max, _ = self.zigzag.feed(self.sigma[self.zigzag.n:])
+        self.t_max += [self.t[i] for i in i_max]
+        self.fail += [self.sigma[i] for i in i_max]
+
+    def error(self, t_transient: float) -> BlockingEstimate:
+        fail = np.array([f for t, f in zip(self.t_max, self.fail) if t >= t_transient])
+        return blocking_error(fail / self.sigma_n)
 
 
 @dataclass(frozen=True)

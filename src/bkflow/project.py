@@ -1,0 +1,169 @@
+"""A sweep directory as a signac-flow project: one job per run, two operations.
+
+Every run is a signac job whose state point is the full :class:`~bkflow.params.RunSpec` (the
+job id is a hash of every parameter) and whose folder is the run directory
+(``workspace/<id>/``). Operation :func:`simulate` runs LAMMPS (post-condition: an intact
+finished run); operation :func:`analyze` (pre-condition: simulated) writes the summary under
+the sweep's analysis settings, kept in the project document (post-condition: the summary is
+current for them). So a re-run, locally with ``bkflow sweep`` or on a cluster with
+``python -m bkflow.cluster`` or ``workflows/project.py``, skips finished work; a changed
+analysis setting re-analyses every run and runs no LAMMPS.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from pathlib import Path
+
+from flow import FlowProject
+
+from . import job as one
+from .grid import run_cost
+from .params import AnalysisSettings, RunSpec
+
+#: the operations, in the order a run needs them
+SIMULATE, ANALYZE = "simulate", "analyze"
+#: project-document key of the sweep's analysis settings
+SETTINGS_KEY = "analysis_settings"
+#: engine throughput assumed for cluster wall-time requests (atom-steps/s, one core); the
+#: measured figure is 3-4e7 (benchmarks/RESULTS.md), halved for slower cluster cores
+ASSUMED_THROUGHPUT = 1.5e7
+
+
+class SweepProject(FlowProject):
+    """The signac-flow project of a sweep directory."""
+
+
+def spec_of(job) -> RunSpec:
+    return RunSpec.from_dict(job.cached_statepoint)
+
+
+def settings_of(project) -> AnalysisSettings:
+    """The sweep's analysis settings (project document; defaults when never set)."""
+    return AnalysisSettings.from_dict(dict(project.document.get(SETTINGS_KEY, {})))
+
+
+def set_settings(project, settings: AnalysisSettings) -> None:
+    if settings_of(project) != settings:
+        project.document[SETTINGS_KEY] = settings.to_dict()
+
+
+def simulated(job) -> bool:
+    """Post-condition of :func:`simulate`: the run's files are intact."""
+    return one.simulated(job.path, spec_of(job))
+
+
+def analysed(job) -> bool:
+    """Post-condition of :func:`analyze`: the summary is current for the sweep's settings."""
+    return simulated(job) and one.analysed(job.path, spec_of(job), settings_of(job.project))
+
+
+def finished(job) -> bool:
+    """Simulated and analysed: nothing left to do for this run."""
+    return analysed(job)
+
+
+@SweepProject.label
+def failed(job):
+    """The last attempt at this run stopped with an error (kept in the job document)."""
+    return "error" in job.document
+
+
+def _walltime_hours(job) -> float:
+    """A generous wall-time request for one run on a cluster core (SLURM directive)."""
+    return round(max(0.05, (3 * run_cost(spec_of(job)) / ASSUMED_THROUGHPUT + 120) / 3600), 3)
+
+
+def _die_with_parent() -> None:
+    """In a worker process of a local sweep, die when the sweep itself is killed: a worker
+    left behind would keep writing a run the resumed sweep redoes (Linux only)."""
+    import multiprocessing
+
+    if multiprocessing.parent_process() is None or not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        if os.getppid() == 1:  # the parent died before prctl took effect
+            os._exit(1)
+
+
+def _record_failure(job, exc: Exception) -> None:
+    from .engine import RunError
+    from .rundir import RunBusyError
+
+    spec = spec_of(job)
+    if isinstance(exc, (RunError, RunBusyError)):
+        job.document["error"] = str(exc)
+    else:  # one run's surprise must not take the sweep's other runs down
+        job.document["error"] = (f"{type(exc).__name__}: {exc} ({spec.label}; see {job.path})")
+
+
+@SweepProject.post(simulated)
+@SweepProject.operation(directives={"np": 1, "walltime": _walltime_hours})
+def simulate(job):
+    """Run the job's RunSpec (:func:`bkflow.job.simulate`) and, while its files are hot,
+    analyse it as :func:`analyze` would, so that one pass finishes a run. A failure
+    (blow-up, LAMMPS error) is recorded in the job document under ``error`` and does not stop
+    the other runs; the post-condition stays false, so the next sweep tries it again."""
+    _die_with_parent()
+    try:
+        spec = spec_of(job)
+        one.simulate(spec, job.path, command=f"bkflow sweep ({SIMULATE})")
+        one.analyze(spec, job.path, settings_of(job.project))
+    except Exception as exc:
+        _record_failure(job, exc)
+        return
+    if "error" in job.document:
+        del job.document["error"]
+
+
+@SweepProject.pre(simulated)
+@SweepProject.post(analysed)
+@SweepProject.operation(directives={"np": 1})
+def analyze(job):
+    """Analyse the job's run under the sweep's settings (:func:`bkflow.job.analyze`); an
+    analysis that fails (damaged files) is recorded like a failed run."""
+    _die_with_parent()
+    try:
+        one.analyze(spec_of(job), job.path, settings_of(job.project))
+    except Exception as exc:
+        _record_failure(job, exc)
+        return
+    if "error" in job.document:
+        del job.document["error"]
+
+
+def open_project(path, create: bool = True) -> SweepProject:
+    """The sweep project at ``path`` (created when ``create`` and it does not exist)."""
+    import signac
+
+    path = Path(path)
+    if not (path / ".signac").is_dir():
+        if not create:
+            raise FileNotFoundError(f"{path} is not a bkflow sweep directory (no .signac/); "
+                                    "run bkflow sweep --out DIR first")
+        path.mkdir(parents=True, exist_ok=True)
+        signac.init_project(str(path))
+    return SweepProject.get_project(str(path), search=False)
+
+
+#: the cluster job-script template shipped with the package (flow's SLURM template extended)
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+
+
+class ClusterProject(SweepProject):
+    """SweepProject with bkflow's job-script template (``bkflow/templates/script.sh``)."""
+
+    def __init__(self, *args, **kwargs):
+        from .flowcompat import set_template_dir
+
+        super().__init__(*args, **kwargs)
+        # flow looks for templates in <sweep dir>/templates; ours ships with the package so
+        # that every sweep directory uses it without a copy
+        set_template_dir(self, TEMPLATE_DIR)

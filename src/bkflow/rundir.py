@@ -1,0 +1,298 @@
+"""The run directory: every file a run and its analysis write, and the checks on them.
+
+This module is the only one that knows a run directory's layout. The engine writes the deck,
+the data file and LAMMPS's outputs here and commits the run by writing ``meta.json`` last
+(atomically, with the size of every file, so a cut file is detected); the analysis reads the
+run's tables and writes its own; sweeps and figures ask the checks below. Nothing else names
+a file of a run.
+
+==========================  ===============================================================
+``in.bk``, ``data.bk``      the LAMMPS deck and data file (``lmp -in in.bk`` runs it again)
+``params.json``             the RunSpec of a deck written by ``bkflow deck``
+``stress.csv``              ``t,sigma_x``: the shear stress every stress_nevery steps
+``snapshots.lammpstrj``     positions every snapshot_nevery steps (scenes order, full)
+``slips.lammpstrj``         positions at every slip's maximum and minimum (clusters, full)
+``log.lammps``              LAMMPS's log
+``meta.json``               the completion record: parameters, versions, counters, sizes
+``summary.json``            the analysis: every observable, the settings it was made under
+``events.csv``              one row per slip: onset and end time, sigma_fail, drop, late
+``psi.csv``                 ``t,psi``: Psi(t) (scenes order, full)
+``clusters.csv``            one row per slip cluster (scenes clusters, full)
+==========================  ===============================================================
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import io
+from .params import ANALYSIS_REVISION, AnalysisSettings, RunSpec
+
+DECK = "in.bk"
+DATA = "data.bk"
+PARAMS = "params.json"
+STRESS = "stress.csv"
+SNAPSHOTS = "snapshots.lammpstrj"
+SLIPS = "slips.lammpstrj"
+LOG = "log.lammps"
+META = "meta.json"
+SUMMARY = "summary.json"
+EVENTS = "events.csv"
+PSI = "psi.csv"
+CLUSTERS = "clusters.csv"
+LOCK = ".bkflow.lock"
+
+#: what a run writes (the engine); a partial run's are removed before it is redone
+RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, LOG, META)
+#: what the analysis writes
+ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
+#: a sweep directory keeps its runs in signac's workspace/<job id>/
+WORKSPACE = "workspace"
+
+#: columns of the analysis's tables
+EVENT_COLUMNS = ("t_max", "t_min", "sigma_fail", "drop", "late")
+PSI_COLUMNS = ("t", "psi")
+CLUSTER_COLUMNS = ("event", "t", "n_c", "l_x", "l_y")
+
+
+#: run directories whose lock this process holds
+_HELD: set[str] = set()
+
+
+class RunBusyError(RuntimeError):
+    """Another process is writing this run directory now (its lock is held)."""
+
+
+class RunDir:
+    """One run directory: its files, its completion record and its checks.
+
+    >>> d = RunDir("runs/phi10")
+    >>> d.path.name, d.file(STRESS).name
+    ('phi10', 'stress.csv')
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+
+    def __repr__(self) -> str:
+        return f"RunDir({str(self.path)!r})"
+
+    def file(self, name: str) -> Path:
+        return self.path / name
+
+    # ------------------------------------------------------------------ the completion record
+    def meta(self) -> dict | None:
+        """meta.json, or None when there is none or it is unreadable."""
+        try:
+            meta = io.read_json(self.file(META))
+        except (OSError, ValueError):
+            return None
+        return meta if isinstance(meta, dict) else None
+
+    def is_complete(self) -> bool:
+        """meta.json says the run finished (sizes not checked: see :meth:`problem`)."""
+        meta = self.meta()
+        return meta is not None and meta.get("status") == "complete"
+
+    def problem(self) -> str | None:
+        """Why this directory does not hold an intact finished run, or None when it does.
+
+        Finished means meta.json says complete and every file it lists still has the size it
+        had when the run ended; a truncated, emptied or missing output file is named.
+        """
+        try:
+            meta = io.read_json(self.file(META))
+        except FileNotFoundError:
+            return "not run (no meta.json)"
+        except (OSError, ValueError) as exc:
+            return f"meta.json unreadable ({exc})"
+        if not isinstance(meta, dict) or meta.get("status") != "complete":
+            return "meta.json does not say complete"
+        for name, size in meta.get("file_bytes", {}).items():
+            try:
+                actual = self.file(name).stat().st_size
+            except OSError:
+                return f"{name} is missing"
+            if actual != size:
+                return f"{name} has {actual} bytes, the run wrote {size}"
+        return None
+
+    def commit(self, meta: dict) -> dict:
+        """Write meta.json last: the files' sizes and ``"status": "complete"`` with it."""
+        files = sorted(p.name for p in self.path.iterdir() if p.name in RUN_FILES)
+        meta = {**meta, "status": "complete", "files": sorted(set(files) | {META})}
+        # sizes let a later check tell a finished run from one whose files were cut or lost
+        meta["file_bytes"] = {f: self.file(f).stat().st_size for f in files if f != META}
+        meta["bytes_written"] = sum(meta["file_bytes"].values())
+        io.write_json_atomic(self.file(META), meta)
+        return meta
+
+    def clear(self) -> None:
+        """Remove what a run and its analysis wrote (before a run is redone)."""
+        for name in RUN_FILES + ANALYSIS_FILES:
+            self.file(name).unlink(missing_ok=True)
+
+    @contextlib.contextmanager
+    def lock(self):
+        """Hold an exclusive lock on the directory (released when the process dies); a
+        second writer gets :class:`RunBusyError` at once. Re-entrant within a process (the
+        sweep's job holds it around the engine's run and the analysis)."""
+        import fcntl
+
+        self.path.mkdir(parents=True, exist_ok=True)
+        key = str(self.path.resolve())
+        if key in _HELD:
+            yield self
+            return
+        fd = os.open(self.file(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                if exc.errno in (errno.EAGAIN, errno.EACCES):
+                    raise RunBusyError(f"{self.path}: another process is writing this run now; "
+                                       "wait for it or stop it") from None
+                raise
+            _HELD.add(key)
+            try:
+                yield self
+            finally:
+                _HELD.discard(key)
+        finally:
+            os.close(fd)
+
+    # ------------------------------------------------------------------ the run's parameters
+    def spec(self) -> RunSpec:
+        """The RunSpec of the finished run (meta.json), or of a deck run standalone
+        (params.json, written by ``bkflow deck``)."""
+        meta = self.meta()
+        if meta is not None and meta.get("status") == "complete":
+            return RunSpec.from_dict(meta["params"])
+        return RunSpec.from_dict(io.read_json(self.file(PARAMS)))
+
+    def finished_standalone(self) -> str | None:
+        """For a deck run with ``lmp -in in.bk``: why it is not finished (None when its stress
+        series reaches the deck's t_end)."""
+        if not (self.file(PARAMS).exists() and self.file(STRESS).exists()):
+            return (f"{self.path} holds no finished run (no meta.json with status complete, "
+                    f"nor a deck's {PARAMS} with its {STRESS}); run it first with bkflow run")
+        spec = self.spec()
+        t, _ = self.read_stress()
+        last = spec.stress_nevery * (spec.n_steps // spec.stress_nevery) * spec.dt
+        if len(t) == 0 or t[-1] < last - 0.5 * spec.dt:
+            return (f"{self.file(STRESS)} ends at t = {t[-1] if len(t) else 0:g}, before the "
+                    f"run's end ({last:g}): the run did not finish")
+        return None
+
+    # ------------------------------------------------------------------ the run's outputs
+    def read_stress(self) -> tuple[np.ndarray, np.ndarray]:
+        """The stress series: (t, sigma_x)."""
+        c = io.read_columns(self.file(STRESS), ("t", "sigma_x"))
+        return c["t"], c["sigma_x"]
+
+    def stress_reader(self) -> "StressTail":
+        """An incremental reader of the stress series of a run in progress."""
+        return StressTail(self.file(STRESS))
+
+    def read_snapshots(self, n_atoms: int) -> io.Frames:
+        return io.read_frames(self.file(SNAPSHOTS), n_atoms)
+
+    def read_slip_frames(self, n_atoms: int) -> io.Frames:
+        return io.read_frames(self.file(SLIPS), n_atoms)
+
+    # ------------------------------------------------------------------ the analysis
+    def summary(self) -> dict | None:
+        """summary.json, or None when there is none or it is unreadable."""
+        try:
+            s = io.read_json(self.file(SUMMARY))
+        except (OSError, ValueError):
+            return None
+        return s if isinstance(s, dict) else None
+
+    def analysis_problem(self, settings: AnalysisSettings | None = None,
+                         spec: RunSpec | None = None) -> str | None:
+        """Why the analysis here is missing or stale (None when it is current): no or a cut
+        summary.json, one made by another revision of the analysis (ANALYSIS_REVISION) or under other settings than
+        ``settings`` (resolved for this run), for other parameters than ``spec``, or a table
+        it wrote gone."""
+        s = self.summary()
+        if s is None:
+            return "no summary.json" if not self.file(SUMMARY).exists() \
+                else "summary.json unreadable"
+        if "mu_bar" not in s or "settings" not in s or "params" not in s:
+            return "summary.json is not a bkflow summary"
+        spec = spec or self.spec()
+        if s.get("analysis_revision") != ANALYSIS_REVISION:
+            return (f"summary.json made by analysis revision {s.get('analysis_revision')}, "
+                    f"this bkflow's is {ANALYSIS_REVISION}")
+        wanted = (settings or AnalysisSettings()).resolved(spec).to_dict()
+        if s["settings"] != io.json_ready(wanted):
+            changed = sorted(k for k in wanted if s["settings"].get(k) != io.json_ready(
+                wanted[k]))
+            return f"summary.json made under other analysis settings ({', '.join(changed)})"
+        if s["params"] != io.json_ready(spec.to_dict()):
+            return "summary.json belongs to other parameters"
+        for name in s.get("tables", []):
+            if not self.file(name).is_file():
+                return f"{name} is missing"
+        return None
+
+    def write_analysis(self, summary: dict, tables: dict) -> dict:
+        """Write the analysis's tables, then summary.json (last: it lists the tables)."""
+        self.file(SUMMARY).unlink(missing_ok=True)
+        for name in (EVENTS, PSI, CLUSTERS):
+            self.file(name).unlink(missing_ok=True)
+        for name, table in tables.items():
+            io.write_table(self.file(name), table)
+        summary = {**summary, "tables": sorted(tables), "analysis_revision": ANALYSIS_REVISION}
+        io.write_json_atomic(self.file(SUMMARY), summary)
+        return io.json_ready(summary)
+
+    def read_events(self):
+        """events.csv as a DataFrame (columns :data:`EVENT_COLUMNS`)."""
+        return io.read_table(self.file(EVENTS))
+
+    def read_psi(self):
+        """psi.csv as a DataFrame, or None when the run recorded no snapshots."""
+        return io.read_table(self.file(PSI)) if self.file(PSI).exists() else None
+
+    def read_clusters(self):
+        """clusters.csv as a DataFrame, or None when the run recorded no slip frames."""
+        return io.read_table(self.file(CLUSTERS)) if self.file(CLUSTERS).exists() else None
+
+
+class StressTail:
+    """Reads the lines a running LAMMPS appended to the stress series since the last call
+    (whole lines only), so that a check during a run costs what the new samples cost."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.offset = 0
+
+    def new(self) -> tuple[list[float], list[float]]:
+        with open(self.path, "rb") as f:
+            f.seek(self.offset)
+            chunk = f.read()
+        end = chunk.rfind(b"\n") + 1
+        self.offset += end
+        t, sigma = [], []
+        for line in chunk[:end].decode().splitlines():
+            a, _, b = line.partition(",")
+            try:
+                ta, sb = float(a), float(b)
+            except ValueError:  # the header
+                continue
+            t.append(ta)
+            sigma.append(sb)
+        return t, sigma
+
+
+def sweep_run_dir(root, job_id: str) -> RunDir:
+    """The run directory of job ``job_id`` of the sweep in ``root``."""
+    return RunDir(Path(root) / WORKSPACE / str(job_id))
+

@@ -1,0 +1,104 @@
+"""The tables of a sweep: ``runs.csv`` (one row per finished run) and ``results.csv`` (one
+row per point of the grid, mean and standard error over seeds), written through one writer
+with one float format (:func:`bkflow.io.write_table`)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import io
+from .params import RunSpec
+
+RUNS_FILE = "runs.csv"
+RESULTS_FILE = "results.csv"
+#: the analysis settings every row of the tables was made under
+SETTINGS_FILE = "analysis.json"
+#: summary fields averaged over seeds in results.csv (mean and standard error)
+RESULT_FIELDS = ("mu_bar", "mean_stress_ratio", "psi_inf", "lx_over_ly", "lx_mean_over_Lx",
+                 "ly_mean_over_Ly", "drop_exponent", "n_slips", "t_run")
+#: state-point keys that are not physics: averaged over
+_NOT_GROUPED = ("seed",)
+#: summary entries that are not results (nested parameters and settings, bookkeeping)
+_NOT_A_RESULT = ("params", "settings", "tables", "bkflow", "analysis_revision")
+
+
+def summary_row(summary: dict) -> dict:
+    """The scalars of a summary, nested dicts flattened as ``key[sub]``."""
+    row = {}
+    for k, v in summary.items():
+        if k in _NOT_A_RESULT or isinstance(v, list):
+            continue
+        if isinstance(v, dict):
+            for kk, vv in v.items():
+                row[f"{k}[{kk}]"] = vv
+        else:
+            row[k] = v
+    return row
+
+
+def runs_table(finished_runs) -> pd.DataFrame:
+    """One row per run: job id, every parameter (as requested: an adaptive run's t_end is
+    its cap, t_run the length it ran) and every scalar of its summary.
+
+    ``finished_runs``: (job id, state point, summary) of every finished run."""
+    rows = [{"job": job_id, **summary_row(summary), **statepoint}
+            for job_id, statepoint, summary in finished_runs]
+    df = pd.DataFrame(rows)
+    if len(df):
+        df = df.sort_values(["Lx", "Ly", "phi", "seed"], kind="stable").reset_index(drop=True)
+    return df
+
+
+def results_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per (phi, size, and every other parameter but the seed): the mean over seeds and its
+    standard error (sample standard deviation / sqrt(n); NaN for one seed) of
+    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run error of mu_bar, and the
+    regime most seeds report."""
+    if runs.empty:
+        return pd.DataFrame()
+    params = [f for f in RunSpec.__dataclass_fields__ if f not in _NOT_GROUPED]
+    rows = []
+    for key, g in runs.groupby(params, sort=True, dropna=False):
+        row = dict(zip(params, key))
+        row["N"] = int(row["Lx"] * row["Ly"])
+        row["n_seeds"] = len(g)
+        for f in RESULT_FIELDS:
+            if f not in g:  # a field the runs did not record
+                row[f] = row[f"{f}_sem"] = math.nan
+                continue
+            v = pd.to_numeric(g[f], errors="coerce").to_numpy(dtype=float)
+            v = v[np.isfinite(v)]
+            row[f] = v.mean() if len(v) else math.nan
+            row[f"{f}_sem"] = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else math.nan
+        err = pd.to_numeric(g["mu_bar_err"], errors="coerce").to_numpy(dtype=float)
+        row["mu_bar_err_within_run"] = float(np.nanmean(err)) if np.isfinite(err).any() \
+            else math.nan
+        regimes = g["regime"].dropna()
+        row["regime"] = regimes.mode().iloc[0] if len(regimes) else None
+        rows.append(row)
+    first = ["phi", "Lx", "Ly", "N", "n_seeds"]
+    df = pd.DataFrame(rows)
+    return df[first + [c for c in df.columns if c not in first]].sort_values(
+        ["Lx", "Ly", "phi"], kind="stable").reset_index(drop=True)
+
+
+def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Write runs.csv, results.csv and the settings they were made under into ``root``."""
+    runs = runs_table(finished_runs)
+    results = results_table(runs)
+    root = Path(root)
+    io.write_table(root / RUNS_FILE, runs)
+    io.write_table(root / RESULTS_FILE, results)
+    io.write_json_atomic(root / SETTINGS_FILE, settings)
+    return runs, results
+
+
+def read_tables(root) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """runs.csv and results.csv of a sweep directory (FileNotFoundError when absent,
+    pandas' EmptyDataError when empty)."""
+    root = Path(root)
+    return io.read_table(root / RUNS_FILE), io.read_table(root / RESULTS_FILE)
