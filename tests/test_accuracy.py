@@ -7,13 +7,15 @@ import subprocess
 
 import pytest
 
-from conftest import tool
+from tests.support import tool
 
 from bkflow.analysis import analyze
 from bkflow.engine import run
 from bkflow.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
 from bkflow.project import open_project
 from bkflow.sweep import sweep
+
+pytestmark = pytest.mark.lammps
 
 
 def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_run(tmp_path):

@@ -14,7 +14,9 @@ from bkflow.engine import RunError, run
 from bkflow.lattice import lattice_for, square_lattice
 from bkflow.params import RunSpec, SpecError
 from bkflow.rundir import RunDir
-from conftest import ROOT, tool
+from tests.support import ROOT, tool
+
+pytestmark = pytest.mark.lammps
 
 
 def test_lattice_has_four_distinct_bonds_per_particle():

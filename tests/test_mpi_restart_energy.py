@@ -8,7 +8,9 @@ import pytest
 from bkflow.deck import DeckFiles, continue_text, data_text, setup_text
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
-from conftest import global_vector, lammps_with, lively_start, tool, unwrapped_state
+from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
+
+pytestmark = pytest.mark.lammps
 
 STEPS = 2000
 

@@ -9,7 +9,9 @@ import sys
 import pytest
 
 from bkflow.plugin import PLUGIN_FILE, PluginError, build_info, check_plugin, open_lammps
-from conftest import ROOT, tool
+from tests.support import ROOT, tool
+
+pytestmark = pytest.mark.lammps
 
 
 def test_installed_plugin_matches_installed_lammps():

@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 from bkflow.params import RunSpec
-from conftest import global_vector, lammps_with, lively_start, unwrapped_state
-from reference import Reference
+from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
+from tests.reference import Reference
+
+pytestmark = pytest.mark.lammps
 
 STEPS = 2000
 PRELOAD = 1.2

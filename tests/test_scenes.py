@@ -15,7 +15,9 @@ from bkflow.io import read_frames
 from bkflow.params import RunSpec
 from bkflow.rundir import RunDir
 from bkflow.stress import slip_events
-from conftest import tool
+from tests.support import tool
+
+pytestmark = pytest.mark.lammps
 
 REQUIRED = ("mu_bar", "mu_bar_err", "n_slips", "mean_stress_ratio", "mu_bar_by_threshold",
             "psi_inf", "lx_mean_over_Lx", "ly_mean_over_Ly", "lx_over_ly", "regime",

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import ROOT, tool
+from tests.support import ROOT, tool
 
 from bkflow.cli import main
 from bkflow.grid import parse_sizes, phi_values, sweep_specs
@@ -30,6 +30,8 @@ from bkflow.rundir import LOCK as LOCK_FILE
 from bkflow.rundir import RunBusyError, RunDir
 from bkflow.sweep import sweep
 from bkflow.tables import results_table
+
+pytestmark = pytest.mark.lammps
 
 
 def is_complete(d):

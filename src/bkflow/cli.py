@@ -13,6 +13,7 @@ import shlex
 import sys
 
 from . import __version__
+from . import rundir as rd
 from .grid import ASPECT, POINTS_PER_DECADE, SEEDS
 from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, PAPER_SIZES, SCENES,
                      AnalysisSettings, RunSpec, SpecError, parse_size, size_from_n)
@@ -91,13 +92,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="bkflow", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"bkflow {__version__}")
     sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
-    r = sub.add_parser("run", help="run the model: writes in.bk, data.bk, stress.csv, meta.json")
+    r = sub.add_parser("run", help=f"run the model: writes {rd.DECK}, {rd.DATA}, {rd.STRESS}, "
+                                   f"{rd.META}")
     _spec_args(r)
     r.add_argument("--overwrite", action="store_true", help="redo a finished run in --out")
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.add_argument("--no-analyze", action="store_true",
-                   help="skip the analysis (summary.json); run bkflow analyze DIR later")
-    d = sub.add_parser("deck", help="write in.bk and data.bk without running (lmp -in in.bk)")
+                   help=f"skip the analysis ({rd.SUMMARY}); run bkflow analyze DIR later")
+    d = sub.add_parser("deck", help=f"write {rd.DECK}, {rd.DATA}, {rd.PARAMS} without running "
+                                    f"(lmp -in {rd.DECK})")
     _spec_args(d)
     sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel (signac-flow); "
                                       "re-running skips finished runs")
@@ -123,7 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--quiet", action="store_true", help="no progress output")
     sw.add_argument("--init", action="store_true",
                     help="only create the jobs (for workflows/project.py submit); run nothing")
-    co = sub.add_parser("collect", help="(re)write DIR/runs.csv and results.csv from the "
+    co = sub.add_parser("collect", help="re-analyse what is stale, (re)write the tables from the "
                                         "finished runs of a sweep directory")
     co.add_argument("dir", help="sweep directory")
     _analysis_arg(co)
@@ -131,9 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
     pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
     pl.add_argument("--format", default="png,pdf", help="comma-separated formats (default png,pdf)")
-    an = sub.add_parser("analyze", help="analyse a finished run: writes DIR/summary.json "
-                                        "(+ psi.csv, clusters.csv)")
-    an.add_argument("dir", help="run directory (written by bkflow run or lmp -in in.bk)")
+    an = sub.add_parser("analyze", help=f"analyse a finished run: writes DIR/{rd.SUMMARY}, "
+                                        f"{rd.EVENTS} (+ {rd.PSI}, {rd.CLUSTERS})")
+    an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {rd.DECK})")
     _analysis_arg(an)
     return p
 
@@ -288,8 +291,8 @@ def main(argv=None) -> int:
             except (ValueError, OSError) as exc:  # missing, partial or corrupt run files
                 print(f"bkflow: error: cannot analyse {a.dir}: {exc}", file=sys.stderr)
                 return EXIT_BAD_INPUT
-            print(f"{a.dir}/summary.json written"
-                  + (f" (re-analysed: {why})" if why and why != "no summary.json" else ""))
+            print(f"{a.dir}/{rd.SUMMARY} written"
+                  + (f" (re-analysed: {why})" if why and not why.startswith("no ") else ""))
             _print_summary(summary)
             return 0
         if a.cmd == "sweep":

@@ -34,12 +34,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-#: S_x of MODEL.md: forward x displacement (lattice units) that makes a particle "slipping"
-DEFAULT_S_X = 0.01
-#: an axis counts as spanned when the mean cluster extent reaches this fraction of the box
-DEFAULT_SPAN_FRACTION = 0.9
-#: Psi(inf) from which the layer counts as crystalline (MODEL.md: "Psi ~ 1")
-DEFAULT_PSI_CRYSTAL = 0.9
+from .params import PSI_CRYSTAL as DEFAULT_PSI_CRYSTAL
+from .params import S_X as DEFAULT_S_X
+from .params import SPAN_FRACTION as DEFAULT_SPAN_FRACTION
 
 
 def slipping(x_onset, x_end, s_x: float = DEFAULT_S_X) -> np.ndarray:

@@ -25,7 +25,7 @@ from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_
     deck_text, setup_text
 from .params import ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, RunSpec, transient_step
 from .plugin import build_info, lammps_version, open_lammps
-from .rundir import DATA, DECK, LOG, SLIPS, SNAPSHOTS, STRESS, RunDir
+from .rundir import DATA, DECK, LOG, META, SLIPS, SNAPSHOTS, STRESS, RunDir
 from .stress import RunningFriction
 
 class RunError(RuntimeError):
@@ -137,7 +137,7 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
 def _claim(rd: RunDir, overwrite: bool) -> None:
     """Refuse a finished run (unless ``overwrite``); clear a partial one."""
     if rd.is_complete() and not overwrite:
-        raise RunExistsError(f"{rd.path} already holds a finished run (meta.json); choose "
+        raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
                              "another --out or pass --overwrite")
     rd.clear()
 

@@ -35,11 +35,12 @@ class Lattice:
         return float(self.Lx), float(self.Ly)
 
 
-def square_lattice(Lx: int, Ly: int, spacing: float = 1.0) -> Lattice:
-    """Lattice geometry with every k_d^i = 1 (use :func:`lattice_for` for a run's k_d^i)."""
+def square_lattice(Lx: int, Ly: int) -> Lattice:
+    """Lattice geometry (l = 1) with every k_d^i = 1 (use :func:`lattice_for` for a run's
+    k_d^i)."""
     ix, iy = np.meshgrid(np.arange(Lx), np.arange(Ly), indexing="xy")
     ix, iy = ix.ravel(), iy.ravel()
-    positions = np.column_stack([(ix + 0.5) * spacing, (iy + 0.5) * spacing]).astype(float)
+    positions = np.column_stack([ix + 0.5, iy + 0.5]).astype(float)
     idx = ix + Lx * iy
     right = (ix + 1) % Lx + Lx * iy
     up = ix + Lx * ((iy + 1) % Ly)

