@@ -8,7 +8,7 @@ is smooth; and up to t = 150, through the first slips, where the reset rule ente
 <sigma_x>_ref| / sigma_n over it; the order is the slope of log(error) against log(C).
 
     python benchmarks/convergence.py [--phi 10] [--size 20x5] [--levels 6]
-        [--friction reset|reset/step] [--damping implicit|half]
+        [--contact-rule reset|reset/step|coulomb] [--damping implicit|half]
 """
 
 from __future__ import annotations
@@ -16,36 +16,38 @@ from __future__ import annotations
 import argparse
 import math
 import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from bkflow.engine import run
-from bkflow.io import read_stress
-from bkflow.params import RunSpec, parse_size
+from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.rundir import RunDir
 
 C0 = 0.4
 
 
-def series(phi, size, c, t_end, stress_every, friction="reset", damping="implicit"):
+def series(phi, size, c, t_end, stress_every, contact_rule=RunSpec.contact_rule,
+           damping=RunSpec.damping):
     lx, ly = size
     spec = RunSpec(phi=phi, Lx=lx, Ly=ly, dt_factor=c, t_end=t_end, stress_every=stress_every,
-                   scene="friction", friction=friction, damping=damping)
+                   scene="friction", contact_rule=contact_rule, damping=damping)
     with tempfile.TemporaryDirectory() as d:
         res = run(spec, d, progress=False)
-        t, s = read_stress(Path(d) / "stress.csv")
+        t, s = RunDir(d).read_stress()
     return t, s, res.meta["contact_breaks"]
 
 
-def study(phi, size, levels, windows=(20.0, 150.0), friction="reset", damping="implicit"):
+def study(phi, size, levels, windows=(20.0, 150.0), contact_rule=RunSpec.contact_rule,
+          damping=RunSpec.damping):
     every = RunSpec(phi=phi, dt_factor=C0).dt  # one step of the largest C: common sample times
     cs = [C0 / 2 ** k for k in range(levels)]
     c_ref = C0 / 2 ** (levels + 2)
     t_end = max(windows)
-    ref_t, ref_s, ref_breaks = series(phi, size, c_ref, t_end, every, friction, damping)
+    sigma_n = RunSpec.sigma_n
+    ref_t, ref_s, ref_breaks = series(phi, size, c_ref, t_end, every, contact_rule, damping)
     out = []
     for c in cs:
-        t, s, breaks = series(phi, size, c, t_end, every, friction, damping)
+        t, s, breaks = series(phi, size, c, t_end, every, contact_rule, damping)
         n = min(len(t), len(ref_t))
         assert np.allclose(t[:n], ref_t[:n], rtol=1e-9, atol=1e-9), "sampling times differ"
         row = {"C": c, "breaks": breaks}
@@ -53,7 +55,7 @@ def study(phi, size, levels, windows=(20.0, 150.0), friction="reset", damping="i
             m = t[:n] <= w
             d = s[:n][m] - ref_s[:n][m]
             row[f"max_{w:g}"] = float(np.abs(d).max())
-            row[f"mean_{w:g}"] = float(abs(d.mean()) / 5.0)
+            row[f"mean_{w:g}"] = float(abs(d.mean()) / sigma_n)
         out.append(row)
     return out, c_ref, ref_breaks
 
@@ -69,14 +71,14 @@ def main(argv=None) -> None:
     ap.add_argument("--phi", type=float, nargs="+", default=[10.0])
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--levels", type=int, default=6)
-    ap.add_argument("--friction", default="reset")
-    ap.add_argument("--damping", default="implicit")
+    ap.add_argument("--contact-rule", choices=CONTACT_RULES, default=RunSpec.contact_rule)
+    ap.add_argument("--damping", choices=DAMPING_MODES, default=RunSpec.damping)
     a = ap.parse_args(argv)
     size = parse_size(a.size)
     for phi in a.phi:
-        rows, c_ref, ref_breaks = study(phi, size, a.levels, friction=a.friction,
+        rows, c_ref, ref_breaks = study(phi, size, a.levels, contact_rule=a.contact_rule,
                                         damping=a.damping)
-        print(f"phi = {phi:g}, {a.size}, friction {a.friction}, damping {a.damping}; "
+        print(f"phi = {phi:g}, {a.size}, contact rule {a.contact_rule}, damping {a.damping}; "
               f"reference C = {c_ref:g} "
               f"({ref_breaks} contact breaks by t = 150)\n")
         print("| C | breaks by t=150 | max err t<=20 | mean err t<=20 | max err t<=150 | "

@@ -6,7 +6,11 @@ differ, and prints two markdown tables: wall time and bytes written per scene (w
 time relative to the friction scene of the same phi, measured in the same run), and the
 summary numbers of the full scene (bkflow analyze).
 
-    python benchmarks/scenes.py [--phi 1 30 1000] [--sizes 20x5] [--t-end 4000] [--seed 1]
+    python benchmarks/scenes.py [--phi 1 30 1000] [--sizes 20x5] [--t-end T] [--dt-factor C]
+        [--seed 1]
+
+Runs use the default accuracy preset (RunSpec's t_end and dt_factor) unless --t-end and
+--dt-factor say otherwise.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from pathlib import Path
 from bkflow.analysis import analyze
 from bkflow.engine import run
 from bkflow.params import SCENES, RunSpec, parse_size
+from bkflow.rundir import DATA, DECK, LOG, STRESS
 
 
 def _mb(b):
@@ -33,7 +38,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--phi", type=float, nargs="+", default=[1.0, 30.0, 1000.0])
     ap.add_argument("--sizes", nargs="+", default=["20x5"])
-    ap.add_argument("--t-end", type=float, default=4000.0)
+    ap.add_argument("--t-end", type=float, default=RunSpec.t_end,
+                    help="run length (default: the default accuracy preset's)")
+    ap.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor,
+                    help="C in dt = C / sqrt(...) (default: the default accuracy preset's)")
     ap.add_argument("--seed", type=int, default=1)
     a = ap.parse_args(argv)
 
@@ -45,16 +53,16 @@ def main(argv=None) -> None:
                 walls = {}
                 for scene in SCENES:
                     spec = RunSpec(phi=phi, Lx=Lx, Ly=Ly, seed=a.seed, t_end=a.t_end,
-                                   scene=scene)
+                                   dt_factor=a.dt_factor, scene=scene)
                     out = Path(tmp) / f"{size}_{phi:g}_{scene}"
                     res = run(spec, out, progress=False)
                     t0 = time.perf_counter()
                     s = analyze(out)
                     t_an = time.perf_counter() - t0
                     walls[scene] = res.meta["wall_time_s"]
+                    # what the scene's per-atom outputs add to what every run writes
                     per_atom = res.meta["bytes_written"] - sum(
-                        (out / f).stat().st_size for f in ("in.bk", "data.bk", "log.lammps",
-                                                           "stress.csv"))
+                        res.meta["file_bytes"].get(f, 0) for f in (DECK, DATA, LOG, STRESS))
                     cost_rows.append(
                         f"| {size} | {phi:g} | {scene} | {res.meta['wall_time_s']:.2f} s | "
                         f"{walls[scene] / walls['friction']:.3f} | "

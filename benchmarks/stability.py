@@ -17,24 +17,24 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
 from bkflow import params
 from bkflow.engine import RunError, run
 from bkflow.params import RunSpec
+from bkflow.rundir import LOG, RunDir
+from bkflow.stress import macroscopic_friction
 
 PHIS = (0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0)
 CS = (0.1, 0.5, 1.0, 1.25, 1.5, 1.75, 1.9, 2.0, 2.1, 2.5)
 
 
-def mean_stress(out: Path) -> float:
-    from bkflow.io import read_stress
-
-    t, s = read_stress(out / "stress.csv")
-    late = t >= 0.2 * t[-1]
-    return float(s[late].mean() / 5.0)
+def mean_stress(spec: RunSpec, out) -> float:
+    """<sigma_x>/sigma_n after the run's transient."""
+    t, s = RunDir(out).read_stress()
+    late = t >= spec.transient * t[-1]
+    return float(s[late].mean() / spec.sigma_n)
 
 
 def scan(phis, cs, t_end, seed=1):
@@ -48,7 +48,7 @@ def scan(phis, cs, t_end, seed=1):
                 t0 = time.perf_counter()
                 try:
                     res = run(spec, d, progress=False)
-                    ratio = mean_stress(Path(d))
+                    ratio = mean_stress(spec, d)
                     base = ratio if c == cs[0] else base
                     rows.append((phi, c, "stable", time.perf_counter() - t0,
                                  ratio / base - 1 if base else float("nan"),
@@ -62,13 +62,11 @@ def scan(phis, cs, t_end, seed=1):
 
 
 def long_run(t_end=16000.0):
-    from bkflow.io import read_frames, read_stress
-    from bkflow.stress import macroscopic_friction as friction
-
     spec = RunSpec(phi=1000.0, dt_factor=0.1, t_end=t_end, seed=1, scene="order")
     with tempfile.TemporaryDirectory() as d:
         res = run(spec, d, progress=False)
-        log = (Path(d) / "log.lammps").read_text().splitlines()
+        rd = RunDir(d)
+        log = rd.file(LOG).read_text().splitlines()
         longest = []
         for line in log:  # thermo rows: step time f_bk[1] f_bk[2] f_bk[3] f_bk[5] cpuremain
             parts = line.split()
@@ -77,14 +75,15 @@ def long_run(t_end=16000.0):
                     longest.append(float(parts[5]))  # f_bk[5], the longest bond
             except ValueError:
                 continue
-        f = read_frames(Path(d) / "snapshots.lammpstrj", spec.N)
+        f = rd.read_snapshots(spec.N)
         y_com = f.positions[:, :, 1].mean(axis=1)
         x_com = f.positions[:, :, 0].mean(axis=1)
-        t, s = read_stress(Path(d) / "stress.csv")
+        t, s = rd.read_stress()
         half = t[-1] / 2
-        first = friction(t[t < half], s[t < half], spec.sigma_n, spec.slip_threshold_stress)
-        second = friction(t[t >= half] - half, s[t >= half], spec.sigma_n,
-                          spec.slip_threshold_stress)
+        first = macroscopic_friction(t[t < half], s[t < half], spec.sigma_n,
+                                     spec.slip_threshold_stress)
+        second = macroscopic_friction(t[t >= half] - half, s[t >= half], spec.sigma_n,
+                                      spec.slip_threshold_stress)
         return {
             "steps": spec.n_steps, "wall_s": res.meta["wall_time_s"],
             "finite": bool(np.isfinite(f.positions).all() and np.isfinite(s).all()),

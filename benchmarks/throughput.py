@@ -32,6 +32,7 @@ from pathlib import Path
 
 from bkflow.deck import DeckFiles, data_text, setup_text
 from bkflow.params import RunSpec, parse_size
+from bkflow.rundir import DATA, DECK, LOG, STRESS
 
 BIN = Path(sys.executable).parent
 
@@ -58,18 +59,27 @@ def model_deck(spec: RunSpec, data: str, cutoff: float, stress: str | None = Non
             + setup_text(spec, DeckFiles(data=data, stress=stress), thermo_every=10**7))
 
 
+def write_data(work: Path, spec: RunSpec) -> Path:
+    """The data file of ``spec``'s lattice, in a folder of its own under ``work``."""
+    folder = work / f"{spec.Lx}x{spec.Ly}_phi{spec.phi:g}"
+    folder.mkdir(parents=True, exist_ok=True)
+    data = folder / DATA
+    data.write_text(data_text(spec))
+    return data
+
+
 LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms")
 
 
 def measure(deck: str, steps: int, ranks: int, work: Path) -> tuple[float, dict]:
     """(atom-steps/s of the timed run, {section: % of its time})."""
-    f = work / "in.bench"
+    f = work / DECK
     f.write_text(deck + "run 500\nrun %d\n" % steps)
-    cmd = [str(BIN / "lmp"), "-in", str(f), "-log", "none", "-screen", str(work / "screen")]
+    cmd = [str(BIN / "lmp"), "-in", str(f), "-log", str(work / LOG), "-screen", "none"]
     if ranks > 1:
         cmd = [str(BIN / "mpirun"), "-np", str(ranks)] + cmd
     subprocess.run(cmd, check=True, cwd=work, capture_output=True, timeout=3600)
-    text = (work / "screen").read_text()
+    text = (work / LOG).read_text()
     loops = LOOP.findall(text)
     wall, _, n_steps, atoms = loops[-1]
     timed = text[text.rfind("Loop time"):]
@@ -98,10 +108,9 @@ def compare_output(a) -> None:
     for size in a.sizes:
         lx, ly = parse_size(size)
         spec = RunSpec(phi=10.0, Lx=lx, Ly=ly)
-        data = work / f"data_{lx}x{ly}.bk"
-        data.write_text(data_text(spec))
+        data = write_data(work, spec)
         steps = max(200, int(a.atom_steps / spec.N))
-        stress = str(work / "stress.csv")
+        stress = str(work / STRESS)
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
         m = alternated({"none": model_deck(spec, str(data), 1.0),
@@ -122,9 +131,8 @@ def compare_schemes(a) -> None:
         lx, ly = parse_size(size)
         for phi in a.phi:
             new = RunSpec(phi=phi, Lx=lx, Ly=ly)
-            old = new.replace(friction="reset/step", damping="half")
-            data = work / f"data_{lx}x{ly}_{phi:g}.bk"
-            data.write_text(data_text(new))
+            old = new.replace(contact_rule="reset/step", damping="half")
+            data = write_data(work, new)
             steps = max(200, int(a.atom_steps / new.N))
             m = alternated({"new": model_deck(new, str(data), 1.0),
                             "old": model_deck(old, str(data), 1.0)}, steps, a.repeats, work)
@@ -159,8 +167,7 @@ def main(argv=None):
         lx, ly = parse_size(size)
         for phi in a.phi:
             spec = RunSpec(phi=phi, Lx=lx, Ly=ly)
-            data = work / f"data_{lx}x{ly}_{phi:g}.bk"
-            data.write_text(data_text(spec))
+            data = write_data(work, spec)
             steps = max(200, int(a.atom_steps / spec.N))
             for ranks in a.ranks:
                 cutoff = 1.0 if ranks == 1 else spec.bond_limit + 1.0
@@ -173,7 +180,7 @@ def main(argv=None):
                     if ranks == 1 and phi == 10.0:
                         quiet.append(r)
                         loud.append(measure(model_deck(spec, str(data), cutoff,
-                                                       stress=str(work / "stress.csv")),
+                                                       stress=str(work / STRESS)),
                                             steps, ranks, work)[0])
                 m, b = statistics.median(model), statistics.median(builtin)
                 print(f"| {spec.N} | {phi:g} | {ranks} | {m:.3e} | {b:.3e} | {m / b:.2f} |",

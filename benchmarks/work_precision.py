@@ -12,7 +12,7 @@ the run's own sampling noise. Cost = mean LAMMPS wall time per run (meta.json) m
 runs side by side on the 2 cores, and atom-steps.
 
     python benchmarks/work_precision.py [--phi 0.1 10 1000] [--size 20x5] [--seeds 3]
-        [--friction reset|reset/step] [--damping implicit|half]
+        [--contact-rule reset|reset/step|coulomb] [--damping implicit|half]
         [--out runs/bench/work_precision] [--plot benchmarks/work_precision.png]
 
 Prints markdown tables (one per phi) and writes the plot.
@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.params import RunSpec, parse_size
-from bkflow.sweep import open_project, runs_table, sweep, sweep_specs
+from bkflow.grid import sweep_specs
+from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.sweep import sweep
+from bkflow.tables import read_tables
 
 C_VALUES = (0.025, 0.05, 0.1, 0.2, 0.4)
 T_VALUES = (1000.0, 2000.0, 4000.0, 8000.0)
@@ -48,7 +50,8 @@ def specs_for(phis, size, seeds, **scheme):
     return out
 
 
-def table(runs: pd.DataFrame, phi: float) -> pd.DataFrame:
+def table(runs: pd.DataFrame, phi: float, size=(RunSpec.Lx, RunSpec.Ly)) -> pd.DataFrame:
+    lx, ly = size
     r = runs[np.isclose(runs.phi, phi)]
     g = r.groupby(["dt_factor", "t_end"])
     mean = g[[o for o, _ in OBSERVABLES] + ["wall_time_s"]].mean()
@@ -56,7 +59,7 @@ def table(runs: pd.DataFrame, phi: float) -> pd.DataFrame:
     ref = mean.loc[REFERENCE]
     rows = []
     for (c, t), m in mean.iterrows():
-        spec = RunSpec(phi=phi, dt_factor=c, t_end=t)
+        spec = RunSpec(phi=phi, Lx=lx, Ly=ly, dt_factor=c, t_end=t)
         row = {"C": c, "t_end": t, "wall_s": m.wall_time_s,
                "atom_steps": float(spec.N * spec.n_steps)}
         for o, _ in OBSERVABLES:
@@ -83,7 +86,7 @@ def markdown(df: pd.DataFrame, ref, phi) -> str:
     return "\n".join(out)
 
 
-def plot(tables: dict, path: Path) -> None:
+def plot(tables: dict, path: Path, n_atoms: int = RunSpec.Lx * RunSpec.Ly) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -106,7 +109,7 @@ def plot(tables: dict, path: Path) -> None:
             ax.set_xscale("log")
             ax.set_yscale("log")
             if i == 0:
-                ax.set_title(f"phi = {phi:g}, N = 100", fontsize=9)
+                ax.set_title(f"phi = {phi:g}, N = {n_atoms}", fontsize=9)
             if j == 0:
                 ax.set_ylabel(f"{label} error (%)", fontsize=8)
             if i == len(OBSERVABLES) - 1:
@@ -124,24 +127,26 @@ def main(argv=None) -> None:
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--friction", default="reset", help="reset (default) or reset/step")
-    ap.add_argument("--damping", default="implicit", help="implicit (default) or half")
+    ap.add_argument("--contact-rule", choices=CONTACT_RULES, default=RunSpec.contact_rule)
+    ap.add_argument("--damping", choices=DAMPING_MODES, default=RunSpec.damping)
     ap.add_argument("--out", default="runs/bench/work_precision")
     ap.add_argument("--plot", default=str(Path(__file__).with_name("work_precision.png")))
     a = ap.parse_args(argv)
-    specs = specs_for(a.phi, parse_size(a.size), a.seeds, friction=a.friction,
+    lx, ly = parse_size(a.size)
+    specs = specs_for(a.phi, (lx, ly), a.seeds, contact_rule=a.contact_rule,
                       damping=a.damping)
     rep = sweep(specs, a.out, jobs=a.jobs)
     print(f"{len(rep.finished)} runs done, {rep.finished_before} earlier, {len(rep.failed)} "
           f"failed\n")
-    runs = runs_table(open_project(a.out, create=False))
-    runs = runs[(runs.friction == a.friction) & (runs.get("damping", a.damping) == a.damping)]
+    runs, _ = read_tables(a.out)  # runs.csv, as sweep() wrote it: every run of the directory
+    runs = runs[(runs.contact_rule == a.contact_rule) & (runs.damping == a.damping)
+                & (runs.Lx == lx) & (runs.Ly == ly) & (runs.seed <= a.seeds)]
     tables = {}
     for phi in a.phi:
-        df, ref = table(runs, phi)
+        df, ref = table(runs, phi, (lx, ly))
         tables[phi] = df
         print(markdown(df, ref, phi) + "\n")
-    plot(tables, Path(a.plot))
+    plot(tables, Path(a.plot), lx * ly)
     print(f"plot: {a.plot}")
 
 
