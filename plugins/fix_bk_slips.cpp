@@ -1,4 +1,4 @@
-/* bkflow: fix bk/slips
+/* bkflow LAMMPS plugin: fix bk/slips
 
      fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]
 
@@ -17,41 +17,29 @@
 
 #include "fix_bk_slips.h"
 
-#include "fix_bk_substrate.h"
-
 #include "atom.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
-#include "modify.h"
+#include "fix_bk_substrate.h"
 #include "update.h"
-#include "utils.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstring>
 
 using namespace LAMMPS_NS;
-using namespace FixConst;
 
 namespace {
-const char *USAGE = "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]";
+const char *USAGE =
+    "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]";
 constexpr int NCOL = 5;
 }    // namespace
 
-FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), substrate_id(nullptr), substrate(nullptr), filename(nullptr),
-    fp(nullptr)
+FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
 {
   if (narg < 8) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
-  nevery = utils::inumeric(FLERR, arg[3], false, lmp);
-  if (nevery <= 0) error->all(FLERR, "fix bk/slips: Nevery must be > 0, got {}", arg[3]);
-  substrate_id = utils::strdup(arg[4]);
   threshold = utils::numeric(FLERR, arg[5], false, lmp);
   if (!(threshold > 0.0)) error->all(FLERR, "fix bk/slips: threshold must be > 0, got {}", arg[5]);
-  if (strcmp(arg[6], "file") != 0) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
-  filename = utils::strdup(arg[7]);
-  start = 0;
   int iarg = 8;
   while (iarg < narg) {
     if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
@@ -68,42 +56,7 @@ FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = 0;
 
-  if (comm->me == 0) {
-    fp = fopen(filename, "w");
-    if (!fp) error->one(FLERR, "fix bk/slips: cannot open {}: {}", filename, utils::getsyserror());
-  }
-  falling = 0;
-  smax = smin = 0.0;
-  step_max = step_min = -1;
-  last_step = -1;
-  nevents = nwritten = 0;
-}
-
-FixBKSlips::~FixBKSlips()
-{
-  if (fp) fclose(fp);
-  delete[] substrate_id;
-  delete[] filename;
-}
-
-int FixBKSlips::setmask()
-{
-  return END_OF_STEP;
-}
-
-void FixBKSlips::init()
-{
-  substrate = bk_substrate_for(lmp, "bk/slips", id, substrate_id);
-}
-
-void FixBKSlips::setup(int)
-{
-  if (update->ntimestep % nevery == 0) sample();
-}
-
-void FixBKSlips::end_of_step()
-{
-  sample();
+  open_file(6, narg, arg);
 }
 
 void FixBKSlips::snapshot(std::vector<double> &buf)
@@ -165,8 +118,6 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
 void FixBKSlips::sample()
 {
   const bigint step = update->ntimestep;
-  if (step == last_step) return;
-  last_step = step;
   const double s = substrate->compute_vector(0);
 
   if (step_max < 0) {    // first sample of this fix
@@ -196,7 +147,7 @@ void FixBKSlips::sample()
       if (step_max >= start) {
         write_frame(snap_max, step_max);
         write_frame(snap_min, step_min);
-        if (fp) fflush(fp);
+        flush();    // every event reaches the file at once
         nwritten++;
       }
       falling = 0;
@@ -210,4 +161,11 @@ void FixBKSlips::sample()
 double FixBKSlips::compute_vector(int n)
 {
   return n == 0 ? static_cast<double>(nevents) : static_cast<double>(nwritten);
+}
+
+// the base's file buffer and the two snapshots of local atoms
+double FixBKSlips::memory_usage()
+{
+  return FixBKReader::memory_usage() +
+      static_cast<double>(snap_max.capacity() + snap_min.capacity()) * sizeof(double);
 }

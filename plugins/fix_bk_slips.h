@@ -1,45 +1,35 @@
-/* bkflow: fix bk/slips. Follows sigma_x of a fix bk/substrate on the same samples as the
-   stress series and writes the atom positions at the maximum and at the following minimum
-   of every slip event (zigzag rule, src/bkflow/stress.py), without dumping every step.
-   See plugins/README.md. */
+/* bkflow LAMMPS plugin: fix bk/slips, the atom positions at the maximum and at the following
+   minimum of every slip event of a fix bk/substrate's sigma_x (zigzag rule of
+   src/bkflow/stress.py), without dumping every step. See plugins/README.md. */
 
 #ifndef BKFLOW_FIX_BK_SLIPS_H
 #define BKFLOW_FIX_BK_SLIPS_H
 
-#include "fix.h"
+#include "fix_bk_reader.h"
 
 #include <vector>
 
 namespace LAMMPS_NS {
 
-class FixBKSlips : public Fix {
+class FixBKSlips : public FixBKReader {
  public:
   FixBKSlips(class LAMMPS *, int, char **);
-  ~FixBKSlips() override;
-  int setmask() override;
-  void init() override;
-  void setup(int) override;
-  void end_of_step() override;
   double compute_vector(int) override;
+  double memory_usage() override;
 
  private:
-  char *substrate_id;
-  class Fix *substrate;
-  double threshold;
-  bigint start;          // events whose maximum lies before this step are not written
-  char *filename;
-  FILE *fp;
+  double threshold = 0.0;
+  bigint start = 0;            // events whose maximum lies before this step are not written
 
-  int falling;           // zigzag state: 0 = following a maximum, 1 = following a minimum
-  double smax, smin;     // running maximum / minimum of sigma_x
-  bigint step_max, step_min;
-  bigint last_step;      // last sampled step (setup() and end_of_step() may meet)
-  bigint nevents, nwritten;
+  int falling = 0;             // zigzag state: 0 = following a maximum, 1 = following a minimum
+  double smax = 0.0, smin = 0.0;    // running maximum / minimum of sigma_x
+  bigint step_max = -1, step_min = -1;
+  bigint nevents = 0, nwritten = 0;
 
   // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom)
   std::vector<double> snap_max, snap_min;
 
-  void sample();
+  void sample() override;
   void snapshot(std::vector<double> &buf);
   void write_frame(const std::vector<double> &buf, bigint step);
 };

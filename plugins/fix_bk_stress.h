@@ -1,45 +1,21 @@
-/* bkflow: fix bk/stress, the shear stress series written by the plugin itself */
+/* bkflow LAMMPS plugin: fix bk/stress, the shear stress series t,sigma_x of a fix
+   bk/substrate, written by the plugin itself through a buffer. See plugins/README.md. */
 
-#ifdef FIX_CLASS
-// clang-format off
-FixStyle(bk/stress,FixBKStress);
-// clang-format on
-#else
+#ifndef BKFLOW_FIX_BK_STRESS_H
+#define BKFLOW_FIX_BK_STRESS_H
 
-#ifndef LMP_FIX_BK_STRESS_H
-#define LMP_FIX_BK_STRESS_H
-
-#include "fix.h"
-
-#include <chrono>
-#include <cstdio>
-#include <vector>
+#include "fix_bk_reader.h"
 
 namespace LAMMPS_NS {
 
-class FixBKStress : public Fix {
+class FixBKStress : public FixBKReader {
  public:
   FixBKStress(class LAMMPS *, int, char **);
-  ~FixBKStress() override;
-  int setmask() override;
-  void init() override;
-  void setup(int) override;
-  void end_of_step() override;
-  void post_run() override;
 
  private:
-  char *substrate_id;
-  class Fix *substrate;
-  char *filename;
-  FILE *fp;
-  std::vector<char> buffer;  // stdio buffer of fp: lines reach the disk in blocks
-  bigint last_step;          // last written step (setup() and end_of_step() may meet)
-  std::chrono::steady_clock::time_point last_flush;
-
-  void sample();
+  void sample() override;
 };
 
 }    // namespace LAMMPS_NS
 
-#endif
 #endif

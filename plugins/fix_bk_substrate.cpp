@@ -1,4 +1,5 @@
-/* bkflow: fix bk/substrate. One post-force pass over local atoms applies, per atom i,
+/* bkflow LAMMPS plugin: fix bk/substrate. One post-force pass over local atoms applies, per
+   atom i,
      bonds     F = -k_b (r_ij - r0) d_ij / r_ij over the atom's bonds (topology of the data
                file, newton_bond off so every atom holds all of its bonds). The bond vector
                keeps the periodic image of the lattice: d_ij = x_i - x_j - L m with m chosen so
@@ -9,7 +10,8 @@
                (reset: the contact breaks where |k_e dr_i| crosses the threshold inside the
                step, at the fraction th of v_i dt, and re-forms there: dr_i = (1 - th) v_i dt;
                reset/step: dr_i = 0 at the end of the step, first order in dt;
-               coulomb: dr_i rescaled onto the threshold)
+               coulomb: dr_i rescaled onto the threshold). dr_i starts at (0, 0), or with
+               `start` at (value_i, 0), value_i a per-atom property.
      damping   F = -m gamma v_i, v_i the end-of-step velocity v_i(t+dt) = vh_i + dt/(2m) F_i
                solved with this force in it (implicit, second order; "half": the half-step
                velocity vh_i, first order)
@@ -19,15 +21,13 @@
 #include "fix_bk_substrate.h"
 
 #include "atom.h"
+#include "bkplugin.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
 #include "force.h"
-#include "lammps.h"
 #include "memory.h"
-#include "modify.h"
 #include "update.h"
-#include "utils.h"
 
 #include <array>
 #include <cmath>
@@ -36,13 +36,6 @@
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
-
-#ifndef BK_LAMMPS_VERSION
-#error "BK_LAMMPS_VERSION must name the LAMMPS version the plugin is built against"
-#endif
-#ifndef BK_LAMMPS_GIT
-#error "BK_LAMMPS_GIT must name the LAMMPS git descriptor the plugin is built against"
-#endif
 
 namespace {
 // nearest integer of a small value, without a libm call
@@ -53,7 +46,8 @@ inline double round_small(double v)
 
 const char *USAGE =
     "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
-    "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]]";
+    "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]] "
+    "[start dr_property]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
 {
@@ -62,26 +56,32 @@ double positive(const char *file, int line, const char *what, const char *str, L
     lmp->error->all(file, line, "fix bk/substrate: {} must be > 0, got {}", what, str);
   return value;
 }
+
+// NAME of a per-atom property written d_NAME or NAME
+std::string property_name(const char *file, int line, const char *keyword, const char *str,
+                          LAMMPS *lmp)
+{
+  if (strncmp(str, "d_", 2) == 0) str += 2;
+  if (*str == '\0')
+    lmp->error->all(file, line, "fix bk/substrate {}: empty property name", keyword);
+  return str;
+}
 }    // namespace
 
-FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), bonds_on(0), drive_on(0), friction_on(0), damp_on(0), coulomb(0), locate_break(1), damp_implicit(1), vd(0.0), ke(0.0),
-    fmax(0.0), mus(0.0), sigman(0.0), area(0.0), gamma(0.0), kb(0.0), r0(0.0), kd_name(nullptr),
-    kd_index(-1), state(nullptr), u(nullptr), nmax_u(0), nblist(0), maxblist(0), bl_i(nullptr),
-    bl_j(nullptr), bl_both(nullptr), bl_sx(nullptr), bl_sy(nullptr), t0(0.0), vh_valid(0), sum_fx_drive(0.0),
-    nbreak_step(0), nbreak_total(0), plate_shift(0.0), rmax_local(0.0), reduced(0)
+FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
 {
-  if (strcmp(lmp->version, BK_LAMMPS_VERSION) != 0 ||
-      strcmp(LAMMPS::git_descriptor(), BK_LAMMPS_GIT) != 0)
+  const std::string mismatch = bk_version_mismatch(lmp);
+  if (!mismatch.empty())
     error->all(FLERR,
-               "fix bk/substrate: the bkflow plugin was built for LAMMPS {} ({}) but this is "
-               "LAMMPS {} ({}); rebuild it with `pip install -e .` against this LAMMPS",
-               BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
+               "fix bk/substrate: the bkflow plugin was {}; rebuild it with `pip install -e .` "
+               "against this LAMMPS",
+               mismatch);
 
   if (domain->dimension != 2) error->all(FLERR, "fix bk/substrate requires dimension 2");
   if (domain->triclinic) error->all(FLERR, "fix bk/substrate requires an orthogonal box");
   if (narg < 4) error->all(FLERR, "Illegal fix bk/substrate command: expected {}", USAGE);
 
+  std::string start_name;    // per-atom property holding dr_x at the fix's creation
   int iarg = 3;
   while (iarg < narg) {
     if (strcmp(arg[iarg], "bonds") == 0) {
@@ -93,49 +93,47 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
     } else if (strcmp(arg[iarg], "drive") == 0) {
       if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
       vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      const char *name = arg[iarg + 2];
-      if (strncmp(name, "d_", 2) == 0) name += 2;
-      if (*name == '\0') error->all(FLERR, "fix bk/substrate drive: empty kd_property name");
-      delete[] kd_name;
-      kd_name = utils::strdup(name);
+      kd_name = property_name(FLERR, "drive", arg[iarg + 2], lmp);
       drive_on = 1;
       iarg += 3;
     } else if (strcmp(arg[iarg], "friction") == 0) {
       if (iarg + 6 > narg)
         error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A "
-                 "reset|reset/step|coulomb");
+                          "reset|reset/step|coulomb");
       ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
       mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
       sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
       area = positive(FLERR, "A", arg[iarg + 4], lmp);
-      coulomb = 0;
-      locate_break = 1;
       if (strcmp(arg[iarg + 5], "reset") == 0)
-        ;
+        contact = RESET;
       else if (strcmp(arg[iarg + 5], "reset/step") == 0)
-        locate_break = 0;
+        contact = RESET_STEP;
       else if (strcmp(arg[iarg + 5], "coulomb") == 0)
-        coulomb = 1;
+        contact = COULOMB;
       else
         error->all(FLERR,
                    "fix bk/substrate friction mode must be reset, reset/step or coulomb, got {}",
                    arg[iarg + 5]);
       fmax = mus * sigman * area;
-      friction_on = 1;
       iarg += 6;
     } else if (strcmp(arg[iarg], "damp") == 0) {
-      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
+      if (iarg + 2 > narg)
+        error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
       gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
-      damp_on = gamma > 0.0;
-      damp_implicit = 1;
       iarg += 2;
+      int implicit = 1;
       if (iarg < narg && strcmp(arg[iarg], "implicit") == 0) {
         iarg++;
       } else if (iarg < narg && strcmp(arg[iarg], "half") == 0) {
-        damp_implicit = 0;
+        implicit = 0;
         iarg++;
       }
+      damping = gamma > 0.0 ? (implicit ? IMPLICIT : HALF) : NO_DAMPING;
+    } else if (strcmp(arg[iarg], "start") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
+      start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
+      iarg += 2;
     } else {
       error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", arg[iarg], USAGE);
     }
@@ -143,6 +141,8 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
 
   if (bonds_on && !atom->molecular)
     error->all(FLERR, "fix bk/substrate bonds needs a molecular atom style (atom_style bond)");
+  if (!start_name.empty() && contact == NO_CONTACT)
+    error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
 
   vector_flag = 1;
   size_vector = 5;
@@ -164,6 +164,12 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) :
   atom->add_callback(Atom::RESTART);
 
   for (int i = 0; i < atom->nlocal; i++) set_arrays(i);
+  // contacts already part-way through their cycle; a restart file's state, unpacked after
+  // the constructor, replaces these values as it does the anchors
+  if (!start_name.empty()) {
+    const double *const dr0 = atom->dvector[double_property(start_name.c_str(), "start")];
+    for (int i = 0; i < atom->nlocal; i++) state[i][DRX] = dr0[i];
+  }
   t0 = current_time();
   elapsed_base = 0.0;
   dt_base = update->dt;
@@ -176,12 +182,12 @@ FixBKSubstrate::~FixBKSubstrate()
   atom->delete_callback(id, Atom::RESTART);
   memory->destroy(state);
   memory->destroy(u);
+  memory->destroy(offset);
   memory->destroy(bl_i);
   memory->destroy(bl_j);
   memory->destroy(bl_both);
   memory->destroy(bl_sx);
   memory->destroy(bl_sy);
-  delete[] kd_name;
 }
 
 int FixBKSubstrate::setmask()
@@ -189,21 +195,26 @@ int FixBKSubstrate::setmask()
   return POST_FORCE | POST_NEIGHBOR;
 }
 
+// index of the per-atom double property d_NAME (fix property/atom), for `keyword`
+int FixBKSubstrate::double_property(const char *name, const char *keyword)
+{
+  int flag, cols;
+  const int index = atom->find_custom(name, flag, cols);
+  if (index < 0 || flag != 1 || cols != 0)
+    error->all(FLERR,
+               "fix bk/substrate {}: no per-atom double property d_{}; define it with "
+               "`fix ID all property/atom d_{}` before read_data",
+               keyword, name, name);
+  return index;
+}
+
 void FixBKSubstrate::init()
 {
-  if (drive_on) {
-    int flag, cols;
-    kd_index = atom->find_custom(kd_name, flag, cols);
-    if (kd_index < 0 || flag != 1 || cols != 0)
-      error->all(FLERR,
-                 "fix bk/substrate: per-atom stiffness property d_{} not found; define it with "
-                 "`fix ID all property/atom d_{}` before read_data",
-                 kd_name, kd_name);
-  }
+  if (drive_on) kd_index = double_property(kd_name.c_str(), "drive");
   if (bonds_on && force->newton_bond)
     error->all(FLERR, "fix bk/substrate bonds needs every atom to hold all its bonds: "
                       "use `newton on off` (newton_bond off) before read_data");
-  if (damp_on && !atom->rmass_flag && !atom->mass_setflag)
+  if (damping != NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
 }
 
@@ -212,13 +223,9 @@ double FixBKSubstrate::current_time() const
   return update->atime + static_cast<double>(update->ntimestep - update->atimestep) * update->dt;
 }
 
-/* setup() applies the forces of the current state without advancing the contact history.
-   Damping uses the half-step velocity stored by the last post_force, so that a run split into
-   chunks, or continued from a restart file, follows the same trajectory as one long run. */
-
 double FixBKSubstrate::elapsed()
 {
-  if (update->dt != dt_base) {  // a new time step from here on
+  if (update->dt != dt_base) {    // a new time step from here on
     elapsed_base += static_cast<double>(update->ntimestep - step_base) * dt_base;
     step_base = update->ntimestep;
     dt_base = update->dt;
@@ -226,18 +233,22 @@ double FixBKSubstrate::elapsed()
   return elapsed_base + static_cast<double>(update->ntimestep - step_base) * dt_base;
 }
 
+/* setup() applies the forces of the current state without advancing the contact history.
+   Damping uses the half-step velocity stored by the last post_force, so that a run split into
+   chunks, or continued from a restart file, follows the same trajectory as one long run. */
+
 void FixBKSubstrate::setup(int /*vflag*/)
 {
   plate_shift = vd * elapsed();
   update_displacements(0);
-  dispatch(0);
+  apply_forces(0);
 }
 
 void FixBKSubstrate::post_force(int /*vflag*/)
 {
   plate_shift = vd * elapsed();
   update_displacements(0);
-  dispatch(1);
+  apply_forces(1);
 }
 
 void FixBKSubstrate::setup_post_neighbor()
@@ -247,6 +258,7 @@ void FixBKSubstrate::setup_post_neighbor()
 
 void FixBKSubstrate::post_neighbor()
 {
+  if (drive_on || bonds_on) update_offsets();
   if (bonds_on) build_bond_list();
 }
 
@@ -278,8 +290,10 @@ void FixBKSubstrate::build_bond_list()
     for (int k = 0; k < atom->num_bond[i]; k++) {
       const int j = atom->map(atom->bond_atom[i][k]);
       if (j < 0)
-        error->one(FLERR, "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
-                   "increase comm_modify cutoff", atom->bond_atom[i][k], atom->tag[i]);
+        error->one(FLERR,
+                   "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
+                   "increase comm_modify cutoff",
+                   atom->bond_atom[i][k], atom->tag[i]);
       const int both = j < nlocal && (mask[j] & groupbit);
       if (both && j < i) continue;    // the same bond, listed by j with i as partner
       const double wx = x[i][0] - x[j][0], wy = x[i][1] - x[j][1];
@@ -293,24 +307,45 @@ void FixBKSubstrate::build_bond_list()
   }
 }
 
+void FixBKSubstrate::grow_displacements()
+{
+  if (atom->nmax <= nmax_u) return;
+  nmax_u = atom->nmax;
+  memory->grow(u, nmax_u, 2, "bk/substrate:u");
+  memory->grow(offset, nmax_u, 2, "bk/substrate:offset");
+}
+
+/* The unwrapped position of a local atom is x + offset, offset = (ix Lx, iy Ly) from its image
+   flags. LAMMPS changes image flags only where it wraps atoms back into the box, at
+   reneighbouring (the invariant the bond list rests on too), so the offsets are taken then,
+   exactly as Domain::unmap() adds them (the unmap of the origin), and serve every step until
+   the next: one unmap call per atom per reneighbouring instead of per step. */
+
+void FixBKSubstrate::update_offsets()
+{
+  grow_displacements();
+  static constexpr double origin[3] = {0.0, 0.0, 0.0};
+  const imageint *const image = atom->image;
+  const int nlocal = atom->nlocal;
+  double o[3];
+  for (int i = 0; i < nlocal; i++) {
+    domain->unmap(origin, image[i], o);
+    offset[i][0] = o[0];
+    offset[i][1] = o[1];
+  }
+}
+
 // u = r(t) - r(t0) of local atoms; with ghosts, ghosts get theirs by forward communication
 void FixBKSubstrate::update_displacements(int ghosts)
 {
   // the drive reads u every step; the bonds only when their list is rebuilt
   if (!drive_on && !(ghosts && bonds_on)) return;
-  if (atom->nmax > nmax_u) {
-    nmax_u = atom->nmax;
-    memory->destroy(u);
-    memory->create(u, nmax_u, 2, "bk/substrate:u");
-  }
+  grow_displacements();
   double *const *const x = atom->x;
-  const imageint *const image = atom->image;
   const int nlocal = atom->nlocal;
-  const double xprd = domain->xprd, yprd = domain->yprd;
   for (int i = 0; i < nlocal; i++) {
-    u[i][0] = x[i][0] + static_cast<double>((image[i] & IMGMASK) - IMGMAX) * xprd - state[i][AX];
-    u[i][1] = x[i][1] + static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX) * yprd -
-        state[i][AY];
+    u[i][0] = x[i][0] + offset[i][0] - state[i][AX];
+    u[i][1] = x[i][1] + offset[i][1] - state[i][AY];
   }
   if (ghosts && comm->nprocs > 1) comm->forward_comm(this);
 }
@@ -354,49 +389,52 @@ double FixBKSubstrate::compute_scalar()
   return all;
 }
 
-template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE>
-void FixBKSubstrate::eval()
+// the bond forces of this step; returns the largest squared bond length (local bonds)
+double FixBKSubstrate::bond_forces()
 {
   double *const *const x = atom->x;
+  double *const *const f = atom->f;
+  double r2max = 0.0;
+  for (int b = 0; b < nblist; b++) {
+    const int i = bl_i[b], j = bl_j[b];
+    const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
+    const double r2 = dx * dx + dy * dy;
+    const double r = sqrt(r2);
+    const double fb = -kb * (r - r0) / r;
+    f[i][0] += fb * dx;
+    f[i][1] += fb * dy;
+    if (bl_both[b]) {
+      f[j][0] -= fb * dx;
+      f[j][1] -= fb * dy;
+    }
+    if (r2 > r2max) r2max = r2;
+  }
+  return r2max;
+}
+
+template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate::eval()
+{
   double *const *const v = atom->v;
   double *const *const f = atom->f;
   const int *const mask = atom->mask;
-  const imageint *const image = atom->image;
   const int nlocal = atom->nlocal;
   const double *const kd = DRIVE ? atom->dvector[kd_index] : nullptr;
   const double *const rmass = atom->rmass;
   const double *const mass = atom->mass;
   const int *const type = atom->type;
-  const double xprd = domain->xprd, yprd = domain->yprd;
   const double dt = update->dt;
   const double shift = plate_shift;
   const double fmax2 = fmax * fmax, ke2 = ke * ke;
   const int use_vh = !ADVANCE && vh_valid;
   double *const *const uu = u;
 
-  double sfx = 0.0, r2max = 0.0;
+  double sfx = 0.0;
   bigint nb = 0;
-  if (BONDS) {
-    for (int b = 0; b < nblist; b++) {
-      const int i = bl_i[b], j = bl_j[b];
-      const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
-      const double r2 = dx * dx + dy * dy;
-      const double r = sqrt(r2);
-      const double fb = -kb * (r - r0) / r;
-      f[i][0] += fb * dx;
-      f[i][1] += fb * dy;
-      if (bl_both[b]) {
-        f[j][0] -= fb * dx;
-        f[j][1] -= fb * dy;
-      }
-      if (r2 > r2max) r2max = r2;
-    }
-  }
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     double *const s = state[i];
     double fx = 0.0, fy = 0.0;
-    if (DRIVE) {
+    if constexpr (DRIVE) {
       const double fdx = kd[i] * (shift - uu[i][0]);
       fx += fdx;
       fy -= kd[i] * uu[i][1];
@@ -404,18 +442,18 @@ void FixBKSubstrate::eval()
     }
     const double vx = use_vh ? s[VHX] : v[i][0];
     const double vy = use_vh ? s[VHY] : v[i][1];
-    if (FRIC) {
-      if (ADVANCE) {
+    if constexpr (CONTACT != NO_CONTACT) {
+      if constexpr (ADVANCE) {
         s[DRX] += vx * dt;
         s[DRY] += vy * dt;
         const double r2 = s[DRX] * s[DRX] + s[DRY] * s[DRY];
         if (ke2 * r2 > fmax2) {
           nb++;
-          if (COULOMB) {
+          if constexpr (CONTACT == COULOMB) {
             const double scale = fmax / (ke * sqrt(r2));
             s[DRX] *= scale;
             s[DRY] *= scale;
-          } else if (locate_break) {
+          } else if constexpr (CONTACT == RESET) {
             // the contact broke at the fraction th of the step where |dr| reached the
             // threshold, and the re-formed contact carried the rest of the step's motion
             const double wx = vx * dt, wy = vy * dt;
@@ -426,7 +464,7 @@ void FixBKSubstrate::eval()
             th = th < 0.0 ? 0.0 : (th > 1.0 ? 1.0 : th);
             s[DRX] = (1.0 - th) * wx;
             s[DRY] = (1.0 - th) * wy;
-          } else {
+          } else {    // RESET_STEP
             s[DRX] = 0.0;
             s[DRY] = 0.0;
           }
@@ -435,20 +473,20 @@ void FixBKSubstrate::eval()
       fx -= ke * s[DRX];
       fy -= ke * s[DRY];
     }
-    if (DAMP) {
+    if constexpr (DAMPING != NO_DAMPING) {
       const double m = rmass ? rmass[i] : mass[type[i]];
       const double mg = m * gamma;
-      if (damp_implicit) {
+      if constexpr (DAMPING == IMPLICIT) {
         // -m gamma v at the end of the step, v1 = vh + dt/(2m) (F_other - m gamma v1)
         // solved for v1: second order, where the half-step velocity is first order
         const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
         fx -= mg * (vx + h * (f[i][0] + fx)) * den;
         fy -= mg * (vy + h * (f[i][1] + fy)) * den;
-      } else {
+      } else {    // HALF
         fx -= mg * vx;
         fy -= mg * vy;
       }
-      if (ADVANCE) {
+      if constexpr (ADVANCE) {
         s[VHX] = vx;
         s[VHY] = vy;
       }
@@ -458,35 +496,43 @@ void FixBKSubstrate::eval()
   }
 
   sum_fx_drive = sfx;
-  rmax_local = sqrt(r2max);
   nbreak_step = nb;
   nbreak_total += nb;
-  reduced = 0;
-  if (ADVANCE && DAMP) vh_valid = 1;
-}
-
-namespace {
-using EvalFn = void (FixBKSubstrate::*)();
+  if (ADVANCE && DAMPING != NO_DAMPING) vh_valid = 1;
 }
 
 namespace LAMMPS_NS {
-// one specialisation per combination of parts, so the hot loop carries no unused branch
+// eval() specialisations indexed by drive (0, 1), contact rule, damping and advance (0, 1)
 struct BKSubstrateTable {
-  template <std::size_t... I> static constexpr auto make(std::index_sequence<I...>)
+  using Eval = void (FixBKSubstrate::*)();
+  static constexpr int NC = FixBKSubstrate::NCONTACT, ND = FixBKSubstrate::NDAMPING;
+  static constexpr std::size_t SIZE = 2 * NC * ND * 2;
+
+  static constexpr int index(int drive, int contact, int damping, int advance)
   {
-    return std::array<EvalFn, sizeof...(I)>{
-        {&FixBKSubstrate::eval<I & 1, (I >> 1) & 1, (I >> 2) & 1, (I >> 3) & 1, (I >> 4) & 1,
-                               (I >> 5) & 1>...}};
+    return drive + 2 * (contact + NC * (damping + ND * advance));
+  }
+  template <std::size_t... I>
+  static constexpr std::array<Eval, sizeof...(I)> make(std::index_sequence<I...>)
+  {
+    return {{&FixBKSubstrate::eval<I % 2, I / 2 % NC, I / (2 * NC) % ND, I / (2 * NC * ND)>...}};
   }
 };
 }    // namespace LAMMPS_NS
 
-void FixBKSubstrate::dispatch(int advance)
+/* The forces of one step: the bonds over the bond list, then the drive, contact and damping
+   forces of each local atom in one specialisation of eval() (one per combination of the parts
+   that change its loop, so that the loop carries no branch on the parameters). The damping
+   force reads f, so the bonds come first. advance = 0 (setup) applies the stored state. */
+
+void FixBKSubstrate::apply_forces(int advance)
 {
-  static const auto table = BKSubstrateTable::make(std::make_index_sequence<64>{});
-  const int idx = bonds_on | drive_on << 1 | friction_on << 2 | (friction_on & coulomb) << 3 |
-      damp_on << 4 | (advance ? 1 : 0) << 5;
-  (this->*table[idx])();
+  static const auto table =
+      BKSubstrateTable::make(std::make_index_sequence<BKSubstrateTable::SIZE>{});
+  const double r2max = bonds_on ? bond_forces() : 0.0;
+  (this->*table[BKSubstrateTable::index(drive_on, contact, damping, advance ? 1 : 0)])();
+  rmax_local = sqrt(r2max);
+  reduced = 0;
 }
 
 /* vector: 1 sigma_x = sum_i k_d^i (anchor_x - x_i) / (Lx Ly); 2 contact breaks in the last
@@ -537,9 +583,13 @@ void FixBKSubstrate::restart(char *buf)
   dt_base = list[5];
 }
 
+// per-atom state, displacements u and offsets, and the bond list
 double FixBKSubstrate::memory_usage()
 {
-  return static_cast<double>(atom->nmax) * NSTATE * sizeof(double);
+  double bytes = static_cast<double>(atom->nmax) * NSTATE * sizeof(double);
+  bytes += static_cast<double>(nmax_u) * 4 * sizeof(double);
+  bytes += static_cast<double>(maxblist) * (3 * sizeof(int) + 2 * sizeof(double));
+  return bytes;
 }
 
 void FixBKSubstrate::grow_arrays(int nmax)
@@ -556,10 +606,10 @@ void FixBKSubstrate::copy_arrays(int i, int j, int /*delflag*/)
 // a new atom: anchored where it stands, no contact history, velocity as given
 void FixBKSubstrate::set_arrays(int i)
 {
-  const imageint img = atom->image[i];
-  state[i][AX] = atom->x[i][0] + static_cast<double>((img & IMGMASK) - IMGMAX) * domain->xprd;
-  state[i][AY] =
-      atom->x[i][1] + static_cast<double>((img >> IMGBITS & IMGMASK) - IMGMAX) * domain->yprd;
+  double r[3];
+  domain->unmap(atom->x[i], atom->image[i], r);
+  state[i][AX] = r[0];
+  state[i][AY] = r[1];
   state[i][DRX] = state[i][DRY] = 0.0;
   state[i][VHX] = atom->v[i][0];
   state[i][VHY] = atom->v[i][1];
@@ -602,19 +652,4 @@ int FixBKSubstrate::size_restart(int /*nlocal*/)
 int FixBKSubstrate::maxsize_restart()
 {
   return NSTATE + 1;
-}
-
-Fix *LAMMPS_NS::bk_substrate_for(LAMMPS *lmp, const char *reader_style, const char *reader_id,
-                                 const char *substrate_id)
-{
-  Fix *substrate = lmp->modify->get_fix_by_id(substrate_id);
-  if (!substrate)
-    lmp->error->all(FLERR, "fix {}: no fix with ID {} (the bk/substrate fix)", reader_style,
-                    substrate_id);
-  if (strcmp(substrate->style, "bk/substrate") != 0)
-    lmp->error->all(FLERR, "fix {}: fix {} is {}, not bk/substrate", reader_style, substrate_id,
-                    substrate->style);
-  if (lmp->modify->find_fix(reader_id) < lmp->modify->find_fix(substrate_id))
-    lmp->error->all(FLERR, "fix {} must be defined after fix {}", reader_style, substrate_id);
-  return substrate;
 }

@@ -1,6 +1,6 @@
-/* bkflow: the substrate of the 2D Burridge-Knopoff layer of ../shared/MODEL.md
-   (drive spring to a moving plate, shear-history friction, viscous damping),
-   fused into one post-force pass over local atoms. See plugins/README.md. */
+/* bkflow LAMMPS plugin: fix bk/substrate, the forces on the 2D Burridge-Knopoff layer of
+   ../shared/MODEL.md (bonds, drive spring to a moving plate, shear-history friction, viscous
+   damping), fused into one post-force pass over local atoms. See plugins/README.md. */
 
 #ifndef BKFLOW_FIX_BK_SUBSTRATE_H
 #define BKFLOW_FIX_BK_SUBSTRATE_H
@@ -38,63 +38,68 @@ class FixBKSubstrate : public Fix {
   int size_restart(int) override;
   int maxsize_restart() override;
 
+  // LAMMPS's simulation time at the current step (the t of bk/stress; t0 of the anchors)
+  double current_time() const;
+
   // per-atom state columns
   enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };
+  // contact rule of the friction part (NO_CONTACT: no friction)
+  enum Contact { NO_CONTACT, RESET, RESET_STEP, COULOMB, NCONTACT };
+  // velocity in the damping force -m gamma v (NO_DAMPING: no damping, or gamma = 0)
+  enum Damping { NO_DAMPING, IMPLICIT, HALF, NDAMPING };
 
  private:
   friend struct BKSubstrateTable;
   // model parameters (MODEL.md "Forces on particle i")
-  int bonds_on, drive_on, friction_on, damp_on, coulomb;
-  int locate_break;    // reset: locate the break inside the step (0: at its end, reset/step)
-  int damp_implicit;   // damping with the end-of-step velocity (0: the half-step one)
-  double kb, r0;         // bond stiffness (force k_b (r - r0)) and rest length
-  double vd;             // plate velocity along +x
-  double ke, fmax;       // contact spring, break threshold mu_s*sigma_n*A
-  double mus, sigman, area;
-  double gamma;          // damping rate
-  char *kd_name;         // name of the per-atom double property holding k_d^i
-  int kd_index;
+  int bonds_on = 0, drive_on = 0;
+  int contact = NO_CONTACT;      // reset: the break is located inside the step
+  int damping = NO_DAMPING;      // implicit: the end-of-step velocity; half: the half-step one
+  double kb = 0.0, r0 = 0.0;     // bond stiffness (force k_b (r - r0)) and rest length
+  double vd = 0.0;               // plate velocity along +x
+  double ke = 0.0, fmax = 0.0;   // contact spring, break threshold mu_s*sigma_n*A
+  double mus = 0.0, sigman = 0.0, area = 0.0;
+  double gamma = 0.0;            // damping rate
+  std::string kd_name;           // name of the per-atom double property holding k_d^i
+  int kd_index = -1;
 
-  double **state;        // AX, AY: anchor at t0 (unwrapped); DR*: contact displacement;
-                         // VH*: half-step velocity of the last post_force
-  double **u;            // displacement r_i(t) - r_i(t0), local atoms and ghosts
-  int nmax_u;
+  double **state = nullptr;      // AX, AY: anchor at t0 (unwrapped); DR*: contact
+                                 // displacement; VH*: half-step velocity of the last post_force
+  double **u = nullptr;          // displacement r_i(t) - r_i(t0), local atoms and ghosts
+  double **offset = nullptr;     // periodic offset (ix Lx, iy Ly) of local atoms: r = x + offset
+  int nmax_u = 0;                // rows of u and offset
 
   // bond list, rebuilt at every reneighbouring: pair (i, j), the periodic shift that puts j
   // at its lattice image of i, and whether j is local (force applied to both ends)
-  int nblist, maxblist;
-  int *bl_i, *bl_j, *bl_both;
-  double *bl_sx, *bl_sy;
-  double t0;             // simulation time at which anchors were taken
+  int nblist = 0, maxblist = 0;
+  int *bl_i = nullptr, *bl_j = nullptr, *bl_both = nullptr;
+  double *bl_sx = nullptr, *bl_sy = nullptr;
+  double t0 = 0.0;               // simulation time at which anchors were taken
   // the plate's clock, time since t0 counted in whole steps: elapsed = elapsed_base +
   // (ntimestep - step_base) * dt_base, rebased only when the time step changes. LAMMPS's
   // own clock (atime) is re-summed at every run command, so a run split into chunks would
   // otherwise differ from one long run in the last bits, which the dynamics then amplify.
-  double elapsed_base, dt_base;
-  bigint step_base;
-  int vh_valid;          // VH* hold the velocity used by the last post_force
+  double elapsed_base = 0.0, dt_base = 0.0;
+  bigint step_base = 0;
+  int vh_valid = 0;              // VH* hold the velocity used by the last post_force
 
   // per-step accumulators (local), reduced lazily in compute_vector()
-  double sum_fx_drive;
-  bigint nbreak_step, nbreak_total;
-  double plate_shift;
-  double rmax_local;     // longest bond seen in the last step (local atoms)
-  int reduced;
-  double reduced_vec[3];
+  double sum_fx_drive = 0.0;
+  bigint nbreak_step = 0, nbreak_total = 0;
+  double plate_shift = 0.0;
+  double rmax_local = 0.0;       // longest bond seen in the last step (local atoms)
+  int reduced = 0;
+  double reduced_vec[3] = {0.0, 0.0, 0.0};
 
-  double current_time() const;
+  int double_property(const char *name, const char *keyword);
   double elapsed();
+  void grow_displacements();
+  void update_offsets();
   void update_displacements(int ghosts);
   void build_bond_list();
-  template <int BONDS, int DRIVE, int FRIC, int COULOMB, int DAMP, int ADVANCE> void eval();
-  void dispatch(int advance);
+  void apply_forces(int advance);
+  double bond_forces();
+  template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void eval();
 };
-
-// The bk/substrate fix that a fix reading its sigma_x (bk/stress, bk/slips) samples: it must
-// exist, be of that style, and be defined before the reader, so that sigma_x is the current
-// step's at end_of_step. Stops with an error naming the reader otherwise.
-class Fix *bk_substrate_for(class LAMMPS *lmp, const char *reader_style, const char *reader_id,
-                            const char *substrate_id);
 
 }    // namespace LAMMPS_NS
 

@@ -1,0 +1,115 @@
+/* bkflow LAMMPS plugin: FixBKReader, the base of fix bk/stress and fix bk/slips (see
+   fix_bk_reader.h): Nevery, the substrate fix it samples, and its buffered output file. */
+
+#include "fix_bk_reader.h"
+
+#include "comm.h"
+#include "error.h"
+#include "fix_bk_substrate.h"
+#include "modify.h"
+#include "update.h"
+
+#include <cstring>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+constexpr auto FLUSH_EVERY = std::chrono::seconds(1);
+constexpr std::size_t BUFFER_SIZE = 1 << 20;
+}    // namespace
+
+FixBKReader::FixBKReader(LAMMPS *lmp, int narg, char **arg, const char *usage_text) :
+    Fix(lmp, narg, arg), usage(usage_text)
+{
+  if (narg < 5) error->all(FLERR, "Illegal fix {} command: {}", style, usage);
+  nevery = utils::inumeric(FLERR, arg[3], false, lmp);
+  if (nevery <= 0) error->all(FLERR, "fix {}: Nevery must be > 0, got {}", style, arg[3]);
+  substrate_id = utils::strdup(arg[4]);
+  last_flush = std::chrono::steady_clock::now();
+}
+
+FixBKReader::~FixBKReader()
+{
+  if (fp) fclose(fp);    // before the buffer it uses goes
+  delete[] substrate_id;
+  delete[] filename;
+}
+
+int FixBKReader::open_file(int iarg, int narg, char **arg)
+{
+  if (iarg + 2 > narg || strcmp(arg[iarg], "file") != 0)
+    error->all(FLERR, "Illegal fix {} command: {}", style, usage);
+  delete[] filename;
+  filename = utils::strdup(arg[iarg + 1]);
+  if (comm->me == 0) {
+    fp = fopen(filename, "w");
+    if (!fp) error->one(FLERR, "fix {}: cannot open {}: {}", style, filename, utils::getsyserror());
+    buffer.resize(BUFFER_SIZE);
+    setvbuf(fp, buffer.data(), _IOFBF, buffer.size());
+  }
+  return iarg + 2;
+}
+
+int FixBKReader::setmask()
+{
+  return END_OF_STEP | POST_RUN;
+}
+
+/* the bk/substrate fix to sample: it must exist, be of that style, and be defined before the
+   reader, so that sigma_x is the current step's at end_of_step */
+
+void FixBKReader::init()
+{
+  Fix *fix = modify->get_fix_by_id(substrate_id);
+  if (!fix)
+    error->all(FLERR, "fix {}: no fix with ID {} (the bk/substrate fix)", style, substrate_id);
+  substrate = dynamic_cast<FixBKSubstrate *>(fix);
+  if (!substrate)
+    error->all(FLERR, "fix {}: fix {} is {}, not bk/substrate", style, substrate_id, fix->style);
+  if (modify->find_fix(id) < modify->find_fix(substrate_id))
+    error->all(FLERR, "fix {} must be defined after fix {}", style, substrate_id);
+}
+
+void FixBKReader::setup(int /*vflag*/)
+{
+  if (update->ntimestep % nevery == 0) sample_once();
+}
+
+void FixBKReader::end_of_step()
+{
+  sample_once();
+}
+
+void FixBKReader::post_run()
+{
+  flush();
+}
+
+void FixBKReader::sample_once()
+{
+  if (update->ntimestep == last_step) return;
+  last_step = update->ntimestep;
+  sample();
+}
+
+void FixBKReader::flush()
+{
+  if (fp) fflush(fp);
+  last_flush = std::chrono::steady_clock::now();
+}
+
+void FixBKReader::flush_if_due()
+{
+  if (!fp) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_flush > FLUSH_EVERY) {
+    fflush(fp);
+    last_flush = now;
+  }
+}
+
+double FixBKReader::memory_usage()
+{
+  return static_cast<double>(buffer.size());
+}

@@ -1,0 +1,58 @@
+/* bkflow LAMMPS plugin: FixBKReader, the common part of the fixes that sample sigma_x of a
+   fix bk/substrate every Nevery steps and write what they find to a file (bk/stress,
+   bk/slips). Their arguments start alike:
+
+     fix ID group style Nevery substrate-fix-ID ... file FILE ...
+
+   The base parses Nevery and the substrate ID, opens FILE on rank 0 behind a 1 MB buffer,
+   finds and checks the substrate fix at init(), and calls sample() once per sampled step:
+   every Nevery steps, and at the first step of a run when it is a multiple of Nevery. */
+
+#ifndef BKFLOW_FIX_BK_READER_H
+#define BKFLOW_FIX_BK_READER_H
+
+#include "fix.h"
+
+#include <chrono>
+#include <cstdio>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixBKReader : public Fix {
+ public:
+  // reads arg[3] (Nevery) and arg[4] (substrate-fix-ID); usage names the full syntax
+  FixBKReader(class LAMMPS *, int, char **, const char *usage_text);
+  ~FixBKReader() override;
+  int setmask() override;
+  void init() override;
+  void setup(int) override;
+  void end_of_step() override;
+  void post_run() override;
+  double memory_usage() override;
+
+ protected:
+  const char *usage;
+  class FixBKSubstrate *substrate = nullptr;    // set by init()
+  FILE *fp = nullptr;                           // FILE on rank 0, nullptr elsewhere
+
+  // parses `file FILE` at arg[iarg] and opens FILE (rank 0); returns the next iarg
+  int open_file(int iarg, int narg, char **arg);
+  void flush();
+  void flush_if_due();    // when the last flush is more than a second old
+  // one sample at the current step, called on every rank (compute_vector is collective)
+  virtual void sample() = 0;
+
+ private:
+  char *substrate_id = nullptr;
+  char *filename = nullptr;
+  std::vector<char> buffer;    // stdio buffer of fp: lines reach the disk in blocks
+  bigint last_step = -1;       // last sampled step (setup() and end_of_step() may meet)
+  std::chrono::steady_clock::time_point last_flush;
+
+  void sample_once();
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
