@@ -1,4 +1,4 @@
-"""Independent NumPy implementation of ../shared/MODEL.md, for checking the LAMMPS plugin.
+"""Independent NumPy implementation of the model (docs: the model), for checking the LAMMPS plugin.
 
 Written from MODEL.md, not from the plugin's source, with LAMMPS's order of operations
 (velocity Verlet as in ``fix nve``; post-force terms with the half-step velocity):
@@ -112,16 +112,18 @@ class Reference:
         return f
 
     # integration ----------------------------------------------------------------------
-    def start(self, x, v=None, anchor=None) -> ReferenceState:
+    def start(self, x, v=None, anchor=None, dr=None) -> ReferenceState:
         """Initial state; the bond images are fixed here, from the lattice ``anchor`` (default
-        ``x``), which must have every bond shorter than half the box."""
+        ``x``), which must have every bond shorter than half the box. ``dr`` (N, 2): the
+        contacts' initial displacements (MODEL.md's random start; default 0, synchronized)."""
         x = np.array(x, dtype=float)
         lattice = x if anchor is None else np.asarray(anchor, float)
         d0 = lattice[self.bonds[:, 0]] - lattice[self.bonds[:, 1]]
         self.shift = -self.L * np.round(d0 / self.L)
         x = np.array(x, dtype=float)
         s = ReferenceState(x=x, v=np.zeros_like(x) if v is None else np.array(v, float),
-                           dr=np.zeros_like(x), anchor=x.copy() if anchor is None else
+                           dr=np.zeros_like(x) if dr is None else np.array(dr, float),
+                           anchor=x.copy() if anchor is None else
                            np.array(anchor, float))
         fb = self.bond_forces(s.x)
         s.f = fb + self.substrate_forces(s, s.v, advance=False, f_other=fb)

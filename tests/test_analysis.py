@@ -8,6 +8,7 @@ from scipy.integrate import quad
 from scipy.special import j0, j1
 
 from bkflow import clusters, order, stress
+from bkflow.stationarity import mean_error
 from bkflow.lattice import square_lattice
 
 
@@ -290,17 +291,17 @@ def test_standard_error_shrinks_like_one_over_sqrt_n():
     ns = np.array([64, 256, 1024, 4096])
     errs = []
     for n in ns:
-        e = [stress.blocking_error(rng.normal(0.6, 0.05, n)) for _ in range(40)]
-        assert np.mean([x.level == 0 for x in e]) > 0.9  # independent: the naive level
+        e = [mean_error(rng.normal(0.6, 0.05, n)) for _ in range(40)]
+        assert np.median([x.g for x in e]) < 1.1  # independent: mostly no inefficiency
         errs.append(np.mean([x.error for x in e]))
     slope = np.polyfit(np.log(ns), np.log(errs), 1)[0]
     assert slope == pytest.approx(-0.5, abs=0.03)
     np.testing.assert_allclose(np.array(errs) * np.sqrt(ns), 0.05, rtol=0.05)
 
 
-def test_blocking_error_accounts_for_correlation():
+def test_mean_error_accounts_for_correlation():
     """AR(1) slips with rho = 0.8: the error of the mean is sqrt((1+rho)/(1-rho)) = 3x the naive
-    one; blocking finds it, the naive formula would not."""
+    one; the statistical inefficiency finds it, the naive formula would not."""
     rng = np.random.default_rng(9)
     rho, n = 0.8, 2 ** 14
     found = []
@@ -310,7 +311,7 @@ def test_blocking_error_accounts_for_correlation():
         x[0] = e[0] / math.sqrt(1 - rho ** 2)
         for i in range(1, n):
             x[i] = rho * x[i - 1] + e[i]
-        found.append(stress.blocking_error(x).error)
+        found.append(mean_error(x).error)
     exact = math.sqrt(1 / (1 - rho ** 2) / n * (1 + rho) / (1 - rho))
     assert np.mean(found) == pytest.approx(exact, rel=0.15)
 

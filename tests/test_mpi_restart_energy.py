@@ -25,9 +25,11 @@ def _state_after(lmp, steps, chunks=1):
     return out
 
 
-def test_two_ranks_follow_the_one_rank_trajectory(workdir):
-    """mpirun -np 2 lmp -in deck (plugin auto-loaded by the wheel's lmp) == lmp -in deck."""
-    spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
+@pytest.mark.parametrize("start", ["synchronized", "random"])
+def test_two_ranks_follow_the_one_rank_trajectory(workdir, start):
+    """mpirun -np 2 lmp -in deck (plugin auto-loaded by the wheel's lmp) == lmp -in deck, the
+    contact state included (with the random start, each atom's initial dr travels with it)."""
+    spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start=start)
     lattice, _, v0 = lively_start(spec)
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     deck = setup_text(spec, DeckFiles(stress=None), thermo_every=500)
@@ -51,8 +53,9 @@ def test_two_ranks_follow_the_one_rank_trajectory(workdir):
     np.testing.assert_allclose(two[:, 6:8], one[:, 6:8], rtol=0, atol=1e-9)
 
 
-def test_restart_continues_the_uninterrupted_run(workdir):
-    spec = RunSpec(phi=10.0, Lx=6, Ly=6, seed=2)
+@pytest.mark.parametrize("start", ["synchronized", "random"])
+def test_restart_continues_the_uninterrupted_run(workdir, start):
+    spec = RunSpec(phi=10.0, Lx=6, Ly=6, seed=2, start=start)
     lattice, _, v0 = lively_start(spec)
     whole = _state_after(lammps_with(spec, lattice, v0, workdir, preload=1.2), STEPS)
 

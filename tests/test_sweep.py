@@ -147,7 +147,7 @@ def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
     assert np.isfinite(runs.mu_bar).all() and np.isfinite(runs.psi_inf).all()
     # the table printed is the table written
     for phi, mu in zip(res.phi, res.mu_bar):
-        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+{mu:.4f}", proc.stdout), proc.stdout
+        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+\d/1\s+{mu:.4f}", proc.stdout), proc.stdout
     for d in job_dirs(out):
         assert run_problem(d) is None
         assert (d / "summary.json").exists() and (d / "clusters.csv").exists()

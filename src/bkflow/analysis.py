@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, clusters, order, stress
+from . import __version__, clusters, order, stationarity, stress
 from .lattice import square_lattice
 from .params import AnalysisSettings, RunSpec, transient_step
 from .rundir import CLUSTERS, EVENTS, PSI, RunDir
@@ -28,7 +28,7 @@ def _key(fraction: float) -> str:
 
 @dataclass(frozen=True)
 class FrictionResult:
-    """mu_bar over the slips after the transient with its blocking error, the time-averaged
+    """mu_bar over the slips after the transient with its standard error, the time-averaged
     stress ratio, and mu_bar at each of the report thresholds (MODEL.md "Macroscopic
     friction")."""
 
@@ -45,6 +45,40 @@ class FrictionResult:
                 "mu_bar_err_by_threshold": {k: v.mu_bar_err
                                             for k, v in self.by_threshold.items()},
                 "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()}}
+
+
+@dataclass(frozen=True)
+class LargeDropResult:
+    """mu_bar over the run's large drops only (MODEL.md "Macroscopic friction", the relative
+    reading): slips after the transient whose drop exceeds ``factor`` times the mean drop of
+    those slips. The paper averages sigma_fail "right before large stress drops" and never says
+    what large is; the run's own mean drop needs no scale and adapts to every phi: a stiff
+    layer's bimodal drops (small reloading drops, system-wide ones) are split between the
+    modes, and of a broad distribution its upper part is kept."""
+
+    threshold: float          # the drop that counts as large (stress units)
+    large: np.ndarray         # per event (all events): large or not
+    estimate: "stationarity.MeanEstimate"
+
+    def row(self) -> dict:
+        e = self.estimate
+        return {"mu_bar_large": e.mean, "mu_bar_large_err": e.error,
+                "n_slips_large": e.n, "large_drop_threshold": self.threshold}
+
+
+@dataclass(frozen=True)
+class StationarityResult:
+    """The trend test of the stress over the analysed window, and the detected transient."""
+
+    test: "stationarity.Stationarity"
+    t_equil: float
+
+    def row(self) -> dict:
+        s = self.test
+        return {"stationary": s.stationary, "drift": s.drift, "drift_err": s.drift_err,
+                "drift_z": s.drift_z, "drift_p": s.p_value, "drift_bound": s.drift_bound,
+                "block_t": s.block_t.tolist(), "block_means": s.block_means.tolist(),
+                "t_equil": self.t_equil}
 
 
 @dataclass(frozen=True)
@@ -73,26 +107,35 @@ class OrderResult:
 
 @dataclass(frozen=True)
 class ClusterResult:
-    """Every cluster of the slips after the transient, their mean shape and the regime."""
+    """Every cluster of the slips after the transient, their mean shape and the regime; the
+    same for the clusters of the large slips only (keys ``..._large``)."""
 
     table: dict              # columns of clusters.csv
     shape: clusters.ClusterShape
     n_events: int            # slips whose frames were found
     n_without_snapshots: int
+    shape_large: clusters.ClusterShape
 
     def row(self) -> dict:
-        s = self.shape
+        s, g = self.shape, self.shape_large
         return {"lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
                 "lx_over_ly": s.lx_over_ly, "n_clusters": s.n_clusters,
                 "n_cluster_events": self.n_events,
                 "n_slips_without_snapshots": self.n_without_snapshots,
-                "regime": s.regime, "regime_fractions": s.regime_fractions}
+                "regime": s.regime, "regime_fractions": s.regime_fractions,
+                "lx_mean_over_Lx_large": g.lx_mean_over_Lx,
+                "ly_mean_over_Ly_large": g.ly_mean_over_Ly, "lx_over_ly_large": g.lx_over_ly,
+                "n_clusters_large": g.n_clusters, "regime_large": g.regime,
+                "regime_fractions_large": g.regime_fractions}
 
 
 #: the keys of an observable a scene did not record (None in summary.json, empty in tables)
 _NOT_MEASURED = {"psi_inf": math.nan, "lx_mean_over_Lx": math.nan, "ly_mean_over_Ly": math.nan,
                  "lx_over_ly": math.nan, "n_clusters": None, "n_cluster_events": None,
-                 "n_slips_without_snapshots": None, "regime": None, "regime_fractions": None}
+                 "n_slips_without_snapshots": None, "regime": None, "regime_fractions": None,
+                 "lx_mean_over_Lx_large": math.nan, "ly_mean_over_Ly_large": math.nan,
+                 "lx_over_ly_large": math.nan, "n_clusters_large": None, "regime_large": None,
+                 "regime_fractions_large": None}
 
 
 @dataclass(frozen=True)
@@ -104,6 +147,8 @@ class RunAnalysis:
     settings: AnalysisSettings
     events: stress.SlipEvents
     friction: FrictionResult
+    steady: StationarityResult
+    large: LargeDropResult
     drops: DropResult
     order: OrderResult | None = None
     clusters: ClusterResult | None = None
@@ -114,7 +159,8 @@ class RunAnalysis:
         row = {"bkflow": __version__, "params": self.spec.to_dict(),
                "settings": self.settings.to_dict(), "N": self.spec.N,
                "t_run": self.spec.t_end, **_NOT_MEASURED}
-        for part in (self.friction, self.drops, self.order, self.clusters):
+        for part in (self.friction, self.steady, self.large, self.drops, self.order,
+                     self.clusters):
             if part is not None:
                 row.update(part.row())
         row.update(self.extra)
@@ -125,7 +171,8 @@ class RunAnalysis:
         ev = self.events
         t0 = self.friction.friction.t_transient
         out = {EVENTS: {"t_max": ev.t_max, "t_min": ev.t_min, "sigma_fail": ev.sigma_fail,
-                        "drop": ev.drop, "late": (ev.t_max >= t0).astype(int)}}
+                        "drop": ev.drop, "late": (ev.t_max >= t0).astype(int),
+                        "large": self.large.large.astype(int)}}
         if self.order is not None:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
@@ -133,8 +180,16 @@ class RunAnalysis:
         return out
 
 
-def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma) -> FrictionResult:
-    t_transient = transient_step(settings.transient, spec.n_steps) * spec.dt
+def transient_time(spec: RunSpec, settings: AnalysisSettings, t_equil: float) -> float:
+    """The end of the transient: the fixed fraction of the run (the same rule as the engine's
+    and fix bk/slips's), or the detected equilibration time."""
+    if settings.transient_rule == "detect" and math.isfinite(t_equil):
+        return t_equil
+    return transient_step(settings.transient, spec.n_steps) * spec.dt
+
+
+def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
+                    t_transient: float) -> FrictionResult:
     unit = spec.mu_s * spec.sigma_n
 
     def at(fraction):
@@ -143,6 +198,22 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma) -> Fric
 
     return FrictionResult(at(settings.slip_threshold),
                           {_key(f): at(f) for f in settings.report_thresholds})
+
+
+def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
+                      t_transient: float) -> LargeDropResult:
+    late = events.t_max >= t_transient
+    threshold = settings.large_drop_factor * float(np.mean(events.drop[late])) \
+        if late.any() else math.nan
+    large = late & (events.drop > threshold)
+    return LargeDropResult(threshold, large,
+                           stationarity.mean_error(events.sigma_fail[large] / spec.sigma_n))
+
+
+def stationarity_result(settings: AnalysisSettings, t, sigma,
+                        t_transient: float, t_equil: float) -> StationarityResult:
+    return StationarityResult(stationarity.stationarity(t, sigma, t_transient, settings.n_blocks,
+                                                        settings.alpha), t_equil)
 
 
 def drop_result(settings: AnalysisSettings, late: stress.SlipEvents) -> DropResult:
@@ -160,9 +231,11 @@ def order_result(spec: RunSpec, settings: AnalysisSettings, steps, positions) ->
 
 
 def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
-                   t_transient: float, steps, positions, psi_inf: float) -> ClusterResult:
+                   t_transient: float, steps, positions, psi_inf: float,
+                   large=None) -> ClusterResult:
     """Clusters of every slip after the transient whose frames (maximum, minimum) fix
-    bk/slips wrote; frames are matched to events by step."""
+    bk/slips wrote; frames are matched to events by step. ``large`` (per event): which slips
+    are large, for the shape of their clusters alone."""
     steps = np.asarray(steps)
     if len(steps) % 2:
         raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
@@ -186,8 +259,13 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
         rows["l_y"] += ext.l_y.tolist()
     shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, psi_inf,
                                    settings.span_fraction, settings.psi_crystal)
+    big = np.zeros(len(rows["event"]), bool) if large is None else \
+        np.asarray(large, bool)[np.asarray(rows["event"], dtype=int)]
+    shape_large = clusters.cluster_shape(np.asarray(rows["l_x"])[big],
+                                         np.asarray(rows["l_y"])[big], lat.box, psi_inf,
+                                         settings.span_fraction, settings.psi_crystal)
     n_late = int(np.sum(events.t_max >= t_transient))
-    return ClusterResult(rows, shape, matched, n_late - matched)
+    return ClusterResult(rows, shape, matched, n_late - matched, shape_large)
 
 
 def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
@@ -201,15 +279,18 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     settings = settings.resolved(spec)
     t = np.asarray(t, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
-    fr = friction_result(spec, settings, t, sigma)
+    t_equil = stationarity.equilibration_time(t, sigma)
+    t0 = transient_time(spec, settings, t_equil)
+    fr = friction_result(spec, settings, t, sigma, t0)
     events = fr.friction.events
-    t0 = fr.friction.t_transient
+    steady = stationarity_result(settings, t, sigma, t0, t_equil)
+    large = large_drop_result(spec, settings, events, t0)
     drops = drop_result(settings, events.after(t0))
     orders = None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan
     clus = None if slip_frames is None else cluster_result(spec, settings, events, t0,
-                                                           *slip_frames, psi_inf)
-    return RunAnalysis(spec, settings, events, fr, drops, orders, clus)
+                                                           *slip_frames, psi_inf, large.large)
+    return RunAnalysis(spec, settings, events, fr, steady, large, drops, orders, clus)
 
 
 class AnalysisError(ValueError):

@@ -15,8 +15,9 @@ import sys
 from . import __version__
 from . import rundir as rd
 from .grid import ASPECT, POINTS_PER_DECADE, SEEDS
-from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, PAPER_SIZES, SCENES,
-                     AnalysisSettings, RunSpec, SpecError, parse_size, size_from_n)
+from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, PAPER_SIZES,
+                     SCENES, STARTS, STATIONARY_DRIFT_BOUND, AnalysisSettings, RunSpec,
+                     SpecError, parse_size, size_from_n)
 
 EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
@@ -55,11 +56,25 @@ def _analysis_arg(p: argparse.ArgumentParser) -> None:
                        f"{k}={v}" for k, v in AnalysisSettings().to_dict().items()))
 
 
+def _state_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--start", choices=STARTS, default=RunSpec.start,
+                   help="starting state of the contacts: synchronized (the paper's, every "
+                        "contact formed at t = 0; default) or random (each contact part-way "
+                        "through its cycle: the steady state comes sooner)")
+    p.add_argument("--until-stationary", action="store_true",
+                   help="run until the stress is stationary over the analysed window (a trend "
+                        "test that excludes a drift above "
+                        f"{100 * STATIONARY_DRIFT_BOUND:g}%%; checked every "
+                        f"{ADAPTIVE_CHUNK_T:g} time units), at most --t-end; with "
+                        "--target-error, until both hold")
+
+
 def _accuracy(a) -> dict:
     """dt_factor, t_end and target_error from the preset and the explicit options."""
     c, t = ACCURACY[a.accuracy]
     return {"dt_factor": c if a.dt_factor is None else a.dt_factor,
-            "t_end": t if a.t_end is None else a.t_end, "target_error": a.target_error}
+            "t_end": t if a.t_end is None else a.t_end, "target_error": a.target_error,
+            "until_stationary": a.until_stationary, "start": a.start}
 
 
 def _spec_args(p: argparse.ArgumentParser) -> None:
@@ -69,6 +84,7 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     size.add_argument("--n", type=int, help="the paper's sizes: " + ", ".join(
         f"{n} ({lx}x{ly})" for n, (lx, ly) in PAPER_SIZES.items()))
     _accuracy_args(p)
+    _state_args(p)
     p.add_argument("--seed", type=int, default=RunSpec.seed, help="seed of the k_d^i draw")
     _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
@@ -116,6 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--seeds", type=int, default=SEEDS,
                     help=f"seeds 1..K per (phi, size) (default {SEEDS})")
     _accuracy_args(sw)
+    _state_args(sw)
     _contact_rule_arg(sw)
     _analysis_arg(sw)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
@@ -134,6 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
     pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
     pl.add_argument("--format", default="png,pdf", help="comma-separated formats (default png,pdf)")
+    pl.add_argument("--where", action="append", default=[], metavar="COLUMN=VALUE",
+                    help="plot only the runs with this parameter value (repeatable), e.g. "
+                         "t_end=16000 or start=random, when the directory holds several sweeps")
     an = sub.add_parser("analyze", help=f"analyse a finished run: writes DIR/{rd.SUMMARY}, "
                                         f"{rd.EVENTS} (+ {rd.PSI}, {rd.CLUSTERS})")
     an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {rd.DECK})")
@@ -146,9 +166,17 @@ def _print_summary(s: dict) -> None:
         v = s.get(key)
         return "n/a" if v is None else format(v, fmt)
 
+    state = ("stationary" if s.get("stationary") else "NOT stationary")
+    print(f"  {state} over t = {g('t_transient', '.0f')}..{g('t_run', '.0f')}: stress drift "
+          f"{100 * (s.get('drift') or float('nan')):+.2f}% +- "
+          f"{100 * (s.get('drift_err') or float('nan')):.2f}% across the window "
+          f"(z = {g('drift_z', '.1f')}); equilibration detected at t = {g('t_equil', '.0f')}")
     print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} over {s['n_slips']} "
           f"slips (threshold {s['slip_threshold_stress']:g}); <sigma_x>/sigma_n = "
           f"{g('mean_stress_ratio', '.4f')}")
+    print(f"  mu_bar over large drops (> {g('large_drop_threshold', '.3g')}) = "
+          f"{g('mu_bar_large', '.4f')} +- {g('mu_bar_large_err', '.4f')} over "
+          f"{s.get('n_slips_large')} slips")
     by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
                    for k, v in s["mu_bar_by_threshold"].items())
     print(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}")
@@ -159,6 +187,8 @@ def _print_summary(s: dict) -> None:
               f"<l_x/Lx> = {g('lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
               f"{g('ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = {g('lx_over_ly', '.3f')}, "
               f"regime {s.get('regime') or 'n/a'}")
+        print(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
+              f"{g('lx_over_ly_large', '.3f')}, regime {s.get('regime_large') or 'n/a'}")
     print(f"  stress drops: exponent {g('drop_exponent', '.2f')} +- "
           f"{g('drop_exponent_err', '.2f')} above {g('drop_x_min', '.3g')} "
           f"({s['drop_n_tail']} drops)")
@@ -205,7 +235,14 @@ def _sweep(a) -> int:
                   & (res.contact_rule == a.contact_rule) & (res.scene == a.scene)]
         res = res[res.target_error.isna() if s0.target_error is None
                   else res.target_error == s0.target_error]
+        res = res[(res.start == s0.start) & (res.until_stationary == s0.until_stationary)]
         _print_results(res)
+    if len(res):
+        unsteady = int((res.n_seeds - res.n_stationary).sum())
+        print(f"{unsteady} of {int(res.n_seeds.sum())} runs are NOT stationary over their "
+              "analysed window (column 'stationary': stationary runs / seeds)"
+              + ("; their numbers are a transient's: run longer, --until-stationary, or "
+                 "--start random" if unsteady else ""))
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
     for job_id, msg in rep.failed.items():
         print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
@@ -222,11 +259,14 @@ def _print_results(res) -> None:
             return "n/a"
         return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
 
-    print(f"  {'phi':>8} {'size':>6} {'seeds':>5}  {'mu_bar':>18}  {'<sigma_x>/sigma_n':>18}  "
+    print(f"  {'phi':>8} {'size':>6} {'seeds':>5} {'stationary':>10}  {'mu_bar':>18}  "
+          f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
           f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime")
     for _, r in res.iterrows():
-        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6} {r.n_seeds:>5}  "
+        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6} {r.n_seeds:>5} "
+              f"{f'{r.n_stationary}/{r.n_seeds}':>10}  "
               f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>18}  "
+              f"{pm(r.mu_bar_large, r.mu_bar_large_sem, '.4f'):>18}  "
               f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>18}  "
               f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>16}  "
               f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
@@ -257,10 +297,11 @@ def _collect(a) -> int:
 
 
 def _plot(a) -> int:
-    from .plot import PlotError, plot
+    from .plot import PlotError, parse_where, plot
 
     try:
-        paths, skipped = plot(a.dir, a.out, tuple(f.strip() for f in a.format.split(",")))
+        paths, skipped = plot(a.dir, a.out, tuple(f.strip() for f in a.format.split(",")),
+                              parse_where(a.where))
     except PlotError as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -302,9 +343,10 @@ def main(argv=None) -> int:
         if a.cmd == "collect":
             return _collect(a)
         spec = _spec(a)
-        if a.cmd == "deck" and spec.target_error is not None:
-            raise SpecError("--target-error needs the engine, which checks the error between "
-                            "chunks (bkflow run); a deck runs exactly --t-end")
+        if a.cmd == "deck" and spec.adaptive:
+            raise SpecError("an adaptive run (--target-error, --until-stationary) needs the "
+                            "engine, which checks between chunks (bkflow run); a deck runs "
+                            "exactly --t-end")
         if a.cmd == "deck":
             from .deck import write_deck
 
@@ -320,11 +362,9 @@ def main(argv=None) -> int:
               f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
         ad = m.get("adaptive")
         if ad:
-            print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}; "
-                  + (f"mu_bar error {ad['mu_bar_err_at_stop']:.2g} <= target "
-                     f"{ad['target_error']:g}" if ad["reached"] else
-                     f"target {ad['target_error']:g} NOT reached (error at the end: "
-                     f"{ad['mu_bar_err_at_stop']:.2g}); raise --t-end"))
+            print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
+                  f"stopped because {ad['stopped_because']}"
+                  + ("" if ad["reached"] else "; raise --t-end"))
         if not a.no_analyze:
             from .analysis import analyze
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from . import __version__
-from .lattice import Lattice, lattice_for
+from .lattice import Lattice, contact_start, lattice_for
 from .params import RunSpec
 from .rundir import DATA, DECK, PARAMS, SLIPS, SNAPSHOTS, STRESS
 
@@ -46,7 +46,8 @@ def _f(x: float) -> str:
 
 
 def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) -> str:
-    """LAMMPS data file (atom_style bond) with the lattice, its bonds and k_d^i.
+    """LAMMPS data file (atom_style bond) with the lattice, its bonds, k_d^i and, for the
+    random start, the contacts' initial displacements (section ``ContactStart``).
 
     ``lattice`` replaces the run's lattice (positions must lie in the box); ``velocities``
     (N, 2) adds a Velocities section (default: all particles at rest, as in MODEL.md).
@@ -80,6 +81,9 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
     lines += [f"{k + 1} 1 {a + 1} {b + 1}" for k, (a, b) in enumerate(lat.bonds)]
     lines += ["", "DriveStiffness", ""]
     lines += [f"{i + 1} {_f(k)}" for i, k in enumerate(lat.k_d)]
+    if spec.start != "synchronized":
+        lines += ["", "ContactStart", ""]
+        lines += [f"{i + 1} {_f(u)}" for i, u in enumerate(contact_start(spec))]
     return "\n".join(lines) + "\n"
 
 
@@ -94,6 +98,8 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
                      f"{_f(spec.area)} {spec.contact_rule}")
     if damp:
         parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
+    if contact and spec.start != "synchronized":
+        parts.append("start d_dr0")
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 
@@ -101,7 +107,7 @@ def _header(spec: RunSpec) -> list[str]:
     return [
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
-        f"contact rule {spec.contact_rule}",
+        f"contact rule {spec.contact_rule}, {spec.start} start",
         f"# dt = {spec.dt_factor:g} / sqrt(4 k_b + k_e + k_d + dk_d) = {spec.dt:.6g}; "
         f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
@@ -110,7 +116,7 @@ def _header(spec: RunSpec) -> list[str]:
     ]
 
 
-def _system(files: DeckFiles) -> list[str]:
+def _system(spec: RunSpec, files: DeckFiles) -> list[str]:
     return [
         "units           lj",
         "dimension       2",
@@ -120,8 +126,13 @@ def _system(files: DeckFiles) -> list[str]:
         # every atom holds all four of its bonds: the fix sums them without reverse comm
         "newton          on off",
         "fix             kd all property/atom d_kd",
+    ] + ([
+        # the random start: each contact's initial displacement, taken by fix bk/substrate
+        "fix             dr0 all property/atom d_dr0",
+        f"read_data       {files.data} fix kd NULL DriveStiffness fix dr0 NULL ContactStart",
+    ] if spec.start != "synchronized" else [
         f"read_data       {files.data} fix kd NULL DriveStiffness",
-    ]
+    ])
 
 
 #: ghost cutoff for one rank, where every bond partner is a local atom
@@ -191,7 +202,7 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
 def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
                drive: bool = True, contact: bool = True, damp: bool = True) -> str:
     """Everything of the deck before ``run``: system, forces, integrator, outputs."""
-    lines = (_header(spec) + _system(files) + _dynamics(spec, drive, contact, damp)
+    lines = (_header(spec) + _system(spec, files) + _dynamics(spec, drive, contact, damp)
              + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
@@ -203,7 +214,9 @@ def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data
     The substrate fix is re-specified with the same ID, so its contact history, anchors and
     clock come back from the restart file; k_d^i come back with ``fix kd``.
     """
-    lines = (_header(spec) + [f"read_restart    {restart}", "fix             kd all property/atom d_kd"]
+    props = ["fix             kd all property/atom d_kd"] + (
+        ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
+    lines = (_header(spec) + [f"read_restart    {restart}"] + props
              + _dynamics(spec, True, True, True) + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
@@ -217,6 +230,9 @@ def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles()) -> str:
 STANDARD_DECKS = {
     "N100_phi10": RunSpec(phi=10.0, Lx=20, Ly=5, seed=1),
     "N900_phi10": RunSpec(phi=10.0, Lx=60, Ly=15, seed=1),
+    # the random start of the contacts (the model's "Starting state"): a stiff layer that
+    # reaches its steady state without the paper's long synchronized transient
+    "N100_phi1000_random": RunSpec(phi=1000.0, Lx=20, Ly=5, seed=1, start="random"),
 }
 
 

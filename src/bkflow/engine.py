@@ -5,8 +5,9 @@ finished run refused, a partial one cleared), write the deck, advance LAMMPS chu
 with the guards and the progress line, and commit meta.json. Between chunks the engine checks
 for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
 :class:`RunError` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
-stops when the error of mu_bar is below its target (:class:`AdaptiveStop`, on
-:class:`bkflow.stress.RunningFriction`).
+stops when the error of mu_bar is below its target and/or the stress is stationary
+(:class:`AdaptiveStop`, on :class:`bkflow.stress.RunningFriction` and
+:func:`bkflow.stationarity.stationarity`).
 """
 
 from __future__ import annotations
@@ -23,9 +24,11 @@ import numpy as np
 from . import __version__
 from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_text, \
     deck_text, setup_text
-from .params import ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, RunSpec, transient_step
+from .params import (ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, STATIONARY_DRIFT_BOUND, RunSpec,
+                     transient_step)
 from .plugin import build_info, lammps_version, open_lammps
 from .rundir import DATA, DECK, LOG, META, SLIPS, SNAPSHOTS, STRESS, RunDir
+from .stationarity import stationarity
 from .stress import RunningFriction
 
 class RunError(RuntimeError):
@@ -43,16 +46,23 @@ class RunResult:
 
 
 class AdaptiveStop:
-    """The stop rule of an adaptive run (RunSpec.target_error): mu_bar's standard error over
-    the slips after the transient of the run so far (the transient rule of a fixed run of
-    that length) is below the target and judged reliable, and the run is at least
-    ADAPTIVE_T_MIN long. The stress series is read incrementally, so each check costs what
-    the new samples cost; the summary of the finished run finds the very same slips."""
+    """The stop rule of an adaptive run (RunSpec.adaptive), checked between chunks once the
+    run is ADAPTIVE_T_MIN long, over the analysed window of the run so far (the transient
+    rule of a fixed run of that length):
+
+    - ``target_error``: mu_bar's standard error is below the target and reliable;
+    - ``until_stationary``: the stress passes the trend test of :mod:`bkflow.stationarity`
+      and the test excludes a drift above STATIONARY_DRIFT_BOUND.
+
+    The stress series is read incrementally and its slips found once, so each check costs
+    what the new samples cost (and one pass over block means); the summary of the finished
+    run finds the very same slips, error and trend."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
         self.spec, self.tail = spec, run_dir.stress_reader()
         self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
-        self.met, self.last_error, self.checks = False, None, 0
+        self.met, self.checks = False, 0
+        self.last_error = self.last_trend = None
 
     def reached(self, step: int) -> bool:
         spec = self.spec
@@ -60,17 +70,43 @@ class AdaptiveStop:
         if step * spec.dt < min(ADAPTIVE_T_MIN, spec.t_end):
             return False
         self.checks += 1
-        est = self.stat.error(transient_step(spec.transient, step) * spec.dt)
-        if est.n_blocks < 2:
-            return False
-        self.last_error = est.error
-        self.met = bool(est.reliable and est.error <= spec.target_error)
-        return self.met
+        t0 = transient_step(spec.transient, step) * spec.dt
+        met = True
+        if spec.target_error is not None:
+            est = self.stat.error(t0)
+            if est.n < 2:
+                return False
+            self.last_error = est.error
+            met &= bool(est.reliable and est.error <= spec.target_error)
+        if spec.until_stationary:
+            self.last_trend = stationarity(self.stat.t, self.stat.sigma, t0)
+            met &= bool(self.last_trend.stationary
+                        and self.last_trend.drift_bound <= STATIONARY_DRIFT_BOUND)
+        self.met = met
+        return met
 
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
-        return {"target_error": requested.target_error, "t_cap": requested.t_end,
-                "t_run": t_run, "reached": stopped_early or self.met,
-                "mu_bar_err_at_stop": self.last_error, "checks": self.checks}
+        trend = self.last_trend
+        rules = []
+        if requested.target_error is not None:
+            rules.append(f"mu_bar error <= {requested.target_error:g}")
+        if requested.until_stationary:
+            rules.append(f"stationary (drift bound <= {STATIONARY_DRIFT_BOUND:g})")
+        rules = " and ".join(rules)
+        met = stopped_early or self.met
+        return {"target_error": requested.target_error,
+                "until_stationary": requested.until_stationary,
+                "drift_bound_required": STATIONARY_DRIFT_BOUND if requested.until_stationary
+                else None,
+                "t_cap": requested.t_end, "t_run": t_run, "reached": met,
+                "stopped_because": (f"{rules} at t = {t_run:g}" if met else
+                                    f"the cap t_end = {requested.t_end:g} came first: not "
+                                    f"{rules}"),
+                "mu_bar_err_at_stop": self.last_error,
+                "drift_at_stop": None if trend is None else trend.drift,
+                "drift_z_at_stop": None if trend is None else trend.drift_z,
+                "drift_bound_at_stop": None if trend is None else trend.drift_bound,
+                "checks": self.checks}
 
 
 class _Progress:
@@ -173,7 +209,7 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
     if chunk_steps:
         return chunk_steps
     chunk = max(1000, spec.n_steps // 100)
-    if spec.target_error is not None:
+    if spec.adaptive:
         chunk = max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
     return chunk
 
@@ -192,7 +228,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         _claim(rd, overwrite)
         files = _write_inputs(spec, rd)
         started = time.time()
-        adaptive = AdaptiveStop(spec, rd) if spec.target_error is not None else None
+        adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
         bar = _Progress(spec.label, spec.n_steps, progress)
         lmp = open_lammps(log=rd.file(LOG))
         try:

@@ -58,6 +58,17 @@ def drive_stiffness(spec: RunSpec) -> np.ndarray:
     return rng.uniform(spec.k_d - spec.dk_d, spec.k_d + spec.dk_d, spec.N)
 
 
+def contact_start(spec: RunSpec) -> np.ndarray:
+    """The contact displacement of each particle at t = 0, along x (MODEL.md "Starting
+    state"): 0 for the synchronized start; for the random start u_i uniform in
+    [0, mu_s sigma_n A / k_e), from a stream of the run's seed that is independent of the
+    k_d^i draw (the child ``spawn_key=(1,)`` of the seed's ``numpy.random.SeedSequence``)."""
+    if spec.start == "synchronized":
+        return np.zeros(spec.N)
+    rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(1,)))
+    return rng.uniform(0.0, spec.friction_threshold / spec.k_e, spec.N)
+
+
 def lattice_for(spec: RunSpec) -> Lattice:
     """The lattice of a run, with its seeded drive stiffnesses."""
     lat = square_lattice(spec.Lx, spec.Ly)

@@ -47,6 +47,14 @@ ADAPTIVE_T_MIN = 500.0
 #: an adaptive run checks its error every this many time units
 ADAPTIVE_CHUNK_T = 100.0
 
+#: starting states (MODEL.md "Starting state"): synchronized, the paper's (every contact formed
+#: at t = 0, dr_i = 0); random (dr_i = (u_i, 0), u_i uniform in [0, mu_s sigma_n A / k_e))
+STARTS = ("synchronized", "random")
+
+#: a run until stationary (RunSpec.until_stationary) must be able to exclude a drift of the
+#: stress larger than this across its analysed window (|drift| + 2 standard errors, relative)
+STATIONARY_DRIFT_BOUND = 0.01
+
 #: what a run records (MODEL.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
 SCENES = ("friction", "order", "clusters", "full")
@@ -65,6 +73,11 @@ PSI_CRYSTAL = 0.9
 PSI_LATE_FRACTION = 0.2
 #: thresholds (fractions of mu_s sigma_n) that the summary reports mu_bar for
 REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
+#: how the transient is found: a fixed fraction of the run, or detected (Chodera 2016)
+TRANSIENT_RULES = ("fixed", "detect")
+#: a "large" drop is larger than this times the mean drop of the run's slips after the
+#: transient (MODEL.md "Macroscopic friction": the relative reading)
+LARGE_DROP_FACTOR = 1.0
 
 
 def transient_step(fraction: float, n_steps: int) -> int:
@@ -109,6 +122,8 @@ class RunSpec:
     dt_factor: float = ACCURACY["default"][0]
     #: rule at a contact break (CONTACT_RULES)
     contact_rule: str = "reset"
+    #: starting state of the contacts (STARTS)
+    start: str = "synchronized"
     #: velocity of the damping force (DAMPING_MODES; benchmarks/RESULTS.md "Convergence order")
     damping: str = "implicit"
     k_d: float = 1.0
@@ -137,6 +152,10 @@ class RunSpec:
     #: adaptive run length: stop once mu_bar's standard error is below this (t_end is then
     #: the cap); None = run exactly t_end
     target_error: float | None = None
+    #: adaptive run length: go on until the stress is stationary over the analysed window (a
+    #: trend test, bkflow.stationarity) and a drift above STATIONARY_DRIFT_BOUND is excluded,
+    #: with target_error if given too; t_end is then the cap
+    until_stationary: bool = False
 
     def __post_init__(self):
         def finite(name):
@@ -174,6 +193,11 @@ class RunSpec:
         if self.target_error is not None and not finite("target_error") > 0:
             raise SpecError(f"target_error must be > 0 (a standard error of mu_bar), "
                             f"got {self.target_error!r}")
+        if self.start not in STARTS:
+            raise SpecError(f"start must be one of {', '.join(STARTS)}, got {self.start!r}")
+        if not isinstance(self.until_stationary, bool):
+            raise SpecError(f"until_stationary must be true or false, "
+                            f"got {self.until_stationary!r}")
         if self.scene not in SCENES:
             raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
         if self.damping not in DAMPING_MODES:
@@ -230,10 +254,15 @@ class RunSpec:
     def slips_start_step(self) -> int:
         """First step whose slips fix bk/slips records: the transient's end, or for an
         adaptive run (whose end is not known in advance) that of its shortest length."""
-        if self.target_error is None:
+        if not self.adaptive:
             return self.transient_step
         return transient_step(self.transient, int(round(min(self.t_end, ADAPTIVE_T_MIN)
                                                         / self.dt)))
+
+    @property
+    def adaptive(self) -> bool:
+        """The run chooses its own length (target_error or until_stationary), up to t_end."""
+        return self.target_error is not None or self.until_stationary
 
     @property
     def writes_snapshots(self) -> bool:
@@ -270,7 +299,7 @@ class RunSpec:
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
 #: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 1
+ANALYSIS_REVISION = 2
 
 
 @dataclass(frozen=True)
@@ -286,8 +315,17 @@ class AnalysisSettings:
 
     #: slip threshold, fraction of mu_s sigma_n (None: the run's RunSpec.slip_threshold)
     slip_threshold: float | None = None
-    #: transient, fraction of the run (None: the run's RunSpec.transient)
+    #: transient, fraction of the run (None: the run's RunSpec.transient); used by the
+    #: transient_rule "fixed"
     transient: float | None = None
+    #: fixed: the first ``transient`` of the run; detect: from the stress series by
+    #: equilibration detection (bkflow.stationarity.equilibration_time)
+    transient_rule: str = "fixed"
+    #: blocks and level of the trend test (bkflow.stationarity)
+    n_blocks: int = 10
+    alpha: float = 0.05
+    #: large drops: drop > large_drop_factor * mean drop after the transient
+    large_drop_factor: float = LARGE_DROP_FACTOR
     s_x: float = S_X
     span_fraction: float = SPAN_FRACTION
     psi_crystal: float = PSI_CRYSTAL
@@ -300,8 +338,16 @@ class AnalysisSettings:
     def __post_init__(self):
         object.__setattr__(self, "report_thresholds",
                            tuple(float(v) for v in self.report_thresholds))
+        if self.transient_rule not in TRANSIENT_RULES:
+            raise SpecError(f"analysis setting transient_rule must be one of "
+                            f"{', '.join(TRANSIENT_RULES)}, got {self.transient_rule!r}")
+        if not (isinstance(self.n_blocks, int) and self.n_blocks >= 3):
+            raise SpecError(f"analysis setting n_blocks must be an integer >= 3, "
+                            f"got {self.n_blocks!r}")
+        if not (isinstance(self.alpha, float) and 0 < self.alpha < 1):
+            raise SpecError(f"analysis setting alpha must lie in (0, 1), got {self.alpha!r}")
         for name in ("slip_threshold", "s_x", "span_fraction", "psi_crystal",
-                     "psi_late_fraction", "drop_x_min_over_threshold"):
+                     "psi_late_fraction", "drop_x_min_over_threshold", "large_drop_factor"):
             v = getattr(self, name)
             if v is None and name in ("slip_threshold", "drop_x_min_over_threshold"):
                 continue
@@ -353,6 +399,10 @@ class AnalysisSettings:
             try:
                 if text.lower() in ("none", "run", ""):
                     value = None
+                elif name == "transient_rule":
+                    value = text
+                elif name == "n_blocks":
+                    value = int(text)
                 elif name == "report_thresholds":
                     value = tuple(float(v) for v in text.split(",") if v.strip())
                 else:

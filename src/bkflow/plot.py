@@ -15,7 +15,7 @@ and what the analysis wrote: events.csv, psi.csv, clusters.csv), through
 ``fig_drops``          stress-drop size distribution for four phi, with the fitted exponent
 =====================  ===============================================================
 
-Error bars are standard errors over seeds; with a single seed, the run's own blocking error.
+Error bars are standard errors over seeds; with a single seed, the run's own standard error.
 A figure whose data the sweep did not record (e.g. scene ``friction``: no clusters) is
 skipped with a note, never drawn empty.
 """
@@ -67,15 +67,45 @@ def _nearest(values, target) -> float:
 
 def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
     sem = g[f"{field}_sem"].to_numpy(dtype=float)
-    if field == "mu_bar":  # one seed: the run's own (blocking) error
+    if field == "mu_bar":  # one seed: the run's own standard error
         sem = np.where(np.isfinite(sem), sem, g["mu_bar_err_within_run"].to_numpy(dtype=float))
     return np.where(np.isfinite(sem), sem, 0.0)
 
 
-class SweepData:
-    """The tables and per-run files of a sweep directory."""
+def parse_where(items) -> dict:
+    """``["t_end=16000", "start=random"]`` -> {column: value} (numbers where they parse)."""
+    out = {}
+    for item in items or ():
+        key, sep, text = str(item).partition("=")
+        if not sep or not key.strip():
+            raise PlotError(f"--where {item!r}: give COLUMN=VALUE, e.g. t_end=16000")
+        try:
+            value = float(text)
+        except ValueError:
+            value = {"true": True, "false": False}.get(text.strip().lower(), text.strip())
+        out[key.strip()] = value
+    return out
 
-    def __init__(self, root):
+
+def _select(df: pd.DataFrame, where: dict) -> pd.DataFrame:
+    for key, value in where.items():
+        if key not in df:
+            raise PlotError(f"--where {key}=...: the tables have no column {key!r}")
+        col = df[key]
+        if isinstance(value, bool):
+            df = df[col.astype(str).str.lower() == str(value).lower()]
+        elif isinstance(value, float):
+            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), value)]
+        else:
+            df = df[col.astype(str) == value]
+    return df
+
+
+class SweepData:
+    """The tables and per-run files of a sweep directory; ``where`` ({column: value}) keeps
+    the runs of those parameters only (a directory may hold several sweeps)."""
+
+    def __init__(self, root, where: dict | None = None):
         self.root = Path(root)
         try:
             self.runs, self.results = read_tables(self.root)
@@ -84,6 +114,11 @@ class SweepData:
                             "sweep directory (bkflow sweep --out DIR)?") from None
         except pd.errors.EmptyDataError:
             raise PlotError(f"{self.root}: no finished runs to plot yet") from None
+        if where:
+            self.runs, self.results = _select(self.runs, where), _select(self.results, where)
+            if self.runs.empty:
+                raise PlotError(f"{self.root}: no finished run has "
+                                + ", ".join(f"{k} = {v}" for k, v in where.items()))
         if self.runs.empty:
             raise PlotError(f"{self.root}: no finished runs to plot yet")
         self.sizes = sorted({(int(a), int(b)) for a, b in zip(self.runs.Lx, self.runs.Ly)},
@@ -146,23 +181,46 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     return fig
 
 
+def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
+    """One curve against phi with error bars: filled markers where every seed's run was
+    stationary over its analysed window, open markers where some were not."""
+    line = ax.errorbar(g.phi, g[field], yerr=_errors(g, field), marker="none", capsize=2,
+                       lw=0.8, label=label)
+    colour = line[0].get_color()
+    steady = g["stationary"].fillna(False).astype(bool).to_numpy() if "stationary" in g \
+        else np.zeros(len(g), bool)
+    ax.plot(g.phi[steady], g[field][steady], marker, color=colour, ls="none")
+    ax.plot(g.phi[~steady], g[field][~steady], marker, color=colour, mfc="white", ls="none")
+    return line
+
+
+def _stationarity_note(ax, data: SweepData) -> None:
+    if "stationary" in data.results and not data.results.stationary.fillna(False).all():
+        ax.text(0.99, 0.01, "open: not stationary", transform=ax.transAxes, ha="right",
+                va="bottom", fontsize=6, color="grey")
+
+
 def fig2a_friction(data: SweepData, plt):
-    """mu_bar(phi) and <sigma_x>/sigma_n(phi), per size, with error bars."""
-    fig, (a, b) = plt.subplots(1, 2, figsize=(7.0, 2.8))
+    """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
+    <sigma_x>/sigma_n(phi), per size, with error bars; open symbols: not stationary."""
+    fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 2.9))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
-        for ax, f in ((a, "mu_bar"), (b, "mean_stress_ratio")):
-            ax.errorbar(g.phi, g[f], yerr=_errors(g, f), marker=m, capsize=2, lw=0.8,
-                        label=_size_label(lx, ly))
+        for ax, f in ((a, "mu_bar"), (c, "mu_bar_large"), (b, "mean_stress_ratio")):
+            if f in g:
+                _series(ax, g, f, m, _size_label(lx, ly))
     _regime_labels(a, data)
     a.set_ylabel(r"$\overline{\mu} = \langle\sigma_{\rm fail}\rangle/\sigma_n$")
+    c.set_ylabel(r"$\overline{\mu}$ over large drops")
     b.set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$")
-    for ax in (a, b):
+    for ax in (a, c, b):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
+        _stationarity_note(ax, data)
     a.legend(frameon=False, loc="lower left")
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
                 f"{data.sizes[0][1]})", fontsize=8)
+    c.set_title("large drops only (drop > mean drop)", fontsize=8)
     b.set_title("time-averaged stress", fontsize=9)
     fig.tight_layout()
     return fig
@@ -187,8 +245,7 @@ def fig2b_asymmetry(data: SweepData, plt):
     fig, ax = plt.subplots(figsize=(3.6, 2.8))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
-        ax.errorbar(g.phi, g.lx_over_ly, yerr=_errors(g, "lx_over_ly"), marker=m, capsize=2,
-                    lw=0.8, label=_size_label(lx, ly))
+        _series(ax, g, "lx_over_ly", m, _size_label(lx, ly))
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)
@@ -208,8 +265,7 @@ def fig3_order(data: SweepData, plt):
     fig, ax = plt.subplots(figsize=(4.4, 3.2))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
-        ax.errorbar(g.phi, g.psi_inf, yerr=_errors(g, "psi_inf"), marker=m, capsize=2, lw=0.8,
-                    label=_size_label(lx, ly))
+        _series(ax, g, "psi_inf", m, _size_label(lx, ly))
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel(r"$\Psi(\infty)$")
@@ -360,10 +416,11 @@ _NEEDS = {"fig2b_asymmetry": "lx_over_ly", "fig3_order": "psi_inf",
           "fig4a_clusters": "lx_over_ly"}
 
 
-def plot(root, out=None, formats=FORMATS) -> tuple[list[Path], dict]:
+def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[list[Path], dict]:
     """Write every figure that the sweep in ``root`` has data for into ``out`` (default
-    ``root/figures``). Returns (paths written, {figure: why it was skipped})."""
-    data = SweepData(root)
+    ``root/figures``), of the runs matching ``where`` ({column: value}; all by default).
+    Returns (paths written, {figure: why it was skipped})."""
+    data = SweepData(root, where)
     plt = _style()
     supported = plt.figure().canvas.get_supported_filetypes()
     plt.close("all")

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import TRANSIENT
+from .stationarity import MeanEstimate, mean_error
 
 
 @dataclass(frozen=True)
@@ -128,78 +129,12 @@ def slip_events(t, sigma, threshold: float) -> SlipEvents:
 
 
 @dataclass(frozen=True)
-class BlockingEstimate:
-    """Mean of a correlated series with its standard error from blocking.
-
-    ``level``: number of pairwise averagings applied (0 = the naive formula was accepted);
-    ``n_blocks``: samples left at that level; ``reliable``: False when no level passed the
-    test of independence, in which case ``error`` comes from the coarsest level and is a
-    lower bound.
-    """
-
-    mean: float
-    error: float
-    level: int
-    n_blocks: int
-    reliable: bool
-
-
-def blocking_error(x, min_blocks: int = 4) -> BlockingEstimate:
-    """Mean and standard error of a correlated series by automated blocking.
-
-    Blocking (Flyvbjerg and Petersen, J. Chem. Phys. 91, 461 (1989)) averages neighbours in
-    pairs, level after level, until the blocks are uncorrelated; the naive error of the block
-    means is then the error of the mean. The level is chosen automatically after Jonsson,
-    Phys. Rev. E 98, 043304 (2018): the smallest level j at which
-    M_j = sum_{k >= j} n_k (gamma_k / s_k^2)^2 (gamma_k the lag-one autocovariance, s_k^2 the
-    variance, n_k the number of blocks at level k) is below the 99% quantile of chi^2 with as
-    many degrees of freedom as terms. On independent data level 0 passes (the naive error).
-    Levels with fewer than ``min_blocks`` blocks are not used; an odd last sample is dropped
-    at each halving.
-    """
-    from scipy.stats import chi2
-
-    x = np.asarray(x, dtype=float)
-    n = len(x)
-    if n == 0:
-        return BlockingEstimate(math.nan, math.nan, 0, 0, False)
-    mean = float(x.mean())
-    if n < 2:
-        return BlockingEstimate(mean, math.nan, 0, n, False)
-    var, gam, nk = [], [], []
-    b = x
-    while True:
-        m = len(b)
-        mu = b.mean()
-        var.append(b.var())
-        gam.append(float(np.sum((b[:-1] - mu) * (b[1:] - mu)) / m))
-        nk.append(m)
-        if m // 2 < max(2, min_blocks):
-            break
-        m2 = m - m % 2
-        b = 0.5 * (b[0:m2:2] + b[1:m2:2])
-    var, gam, nk = np.array(var), np.array(gam), np.array(nk)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        terms = np.where(var > 0, nk * (gam / var) ** 2, 0.0)
-    d = len(nk)
-    m_stat = np.cumsum(terms[::-1])[::-1]
-    level, reliable = d - 1, False
-    for j in range(d):
-        if m_stat[j] < chi2.ppf(0.99, d - j):
-            level, reliable = j, True
-            break
-    # var is the biased variance of the n_k block means: the error of the mean is
-    # sqrt(var / (n_k - 1))
-    err = math.sqrt(var[level] / (nk[level] - 1)) if nk[level] > 1 else math.nan
-    return BlockingEstimate(mean, err, int(level), int(nk[level]), reliable)
-
-
-@dataclass(frozen=True)
 class MacroscopicFriction:
     """Macroscopic friction of one run (MODEL.md, "Macroscopic friction").
 
     ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
-    standard error by blocking over successive slips (:func:`blocking_error`);
+    standard error over successive (correlated) slips
+    (:func:`bkflow.stationarity.mean_error`, ``g`` the statistical inefficiency);
     ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
     threshold involved). ``events``: every slip of the series, transient included.
     """
@@ -210,7 +145,7 @@ class MacroscopicFriction:
     mean_stress_ratio: float
     threshold: float
     t_transient: float
-    blocking_level: int
+    g: float
     error_reliable: bool
     events: SlipEvents
 
@@ -233,21 +168,22 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     t0 = t[0] + transient_fraction * (t[-1] - t[0]) if t_transient is None else t_transient
     events = slip_events(t, s, threshold)
     ev = events.after(t0)
-    est = blocking_error(ev.sigma_fail / sigma_n)
+    est = mean_error(ev.sigma_fail / sigma_n)
     late = t >= t0
     return MacroscopicFriction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
                                mean_stress_ratio=float(s[late].mean() / sigma_n),
                                threshold=float(threshold), t_transient=float(t0),
-                               blocking_level=est.level, error_reliable=est.reliable,
+                               g=est.g, error_reliable=est.reliable,
                                events=events)
 
 
 class RunningFriction:
     """mu_bar's standard error of a series that grows (a run in progress), for the stop rule
     of an adaptive run: samples are fed in order (:meth:`feed`), slips found once by the
-    :class:`Zigzag` rule, and :meth:`error` is the blocking error of sigma_fail / sigma_n over
-    the slips after the transient of the series so far, exactly what
-    :func:`macroscopic_friction` gives on the whole series at that point."""
+    :class:`Zigzag` rule, and :meth:`error` is the error of sigma_fail / sigma_n over the
+    slips after the transient of the series so far, exactly what :func:`macroscopic_friction`
+    gives on the whole series at that point. The series itself is kept (``t``, ``sigma``)
+    for the stationarity test of a run until stationary."""
 
     def __init__(self, threshold: float, sigma_n: float):
         self.zigzag = Zigzag(threshold)
@@ -264,9 +200,9 @@ class RunningFriction:
         self.t_max += [self.t[i] for i in i_max]
         self.fail += [self.sigma[i] for i in i_max]
 
-    def error(self, t_transient: float) -> BlockingEstimate:
+    def error(self, t_transient: float) -> MeanEstimate:
         fail = np.array([f for t, f in zip(self.t_max, self.fail) if t >= t_transient])
-        return blocking_error(fail / self.sigma_n)
+        return mean_error(fail / self.sigma_n)
 
 
 @dataclass(frozen=True)

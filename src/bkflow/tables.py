@@ -18,8 +18,9 @@ RESULTS_FILE = "results.csv"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"
 #: summary fields averaged over seeds in results.csv (mean and standard error)
-RESULT_FIELDS = ("mu_bar", "mean_stress_ratio", "psi_inf", "lx_over_ly", "lx_mean_over_Lx",
-                 "ly_mean_over_Ly", "drop_exponent", "n_slips", "t_run")
+RESULT_FIELDS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_over_ly",
+                 "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent",
+                 "n_slips", "n_slips_large", "drift", "t_equil", "t_run")
 #: state-point keys that are not physics: averaged over
 _NOT_GROUPED = ("seed",)
 #: summary entries that are not results (nested parameters and settings, bookkeeping)
@@ -56,8 +57,9 @@ def runs_table(finished_runs) -> pd.DataFrame:
 def results_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (phi, size, and every other parameter but the seed): the mean over seeds and its
     standard error (sample standard deviation / sqrt(n); NaN for one seed) of
-    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run error of mu_bar, and the
-    regime most seeds report."""
+    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run error of mu_bar, the regime
+    most seeds report, and how many of the seeds' runs were stationary (``n_stationary``;
+    ``stationary`` is true only when all were)."""
     if runs.empty:
         return pd.DataFrame()
     params = [f for f in RunSpec.__dataclass_fields__ if f not in _NOT_GROUPED]
@@ -79,6 +81,10 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
             else math.nan
         regimes = g["regime"].dropna()
         row["regime"] = regimes.mode().iloc[0] if len(regimes) else None
+        stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
+            else pd.Series(False, index=g.index)
+        row["n_stationary"] = int(stationary.sum())
+        row["stationary"] = bool(stationary.all())
         rows.append(row)
     first = ["phi", "Lx", "Ly", "N", "n_seeds"]
     df = pd.DataFrame(rows)

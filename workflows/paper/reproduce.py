@@ -1,20 +1,28 @@
-"""Reproduce the paper's grid with one command, locally (signac-flow, all cores).
+"""Reproduce the paper's claims with one command, under its protocol and in the steady state.
 
     python workflows/paper/reproduce.py [--out runs/paper] [--jobs J] [--seeds 3]
-        [--t-end T] [--dt-factor C] [--figures DIR] [--numbers FILE]
+        [--protocols paper,steady,steady_3600,sync_steady,aspect] [--figures DIR]
+        [--numbers FILE]
 
-1. The grid of Giacco et al. (2014): N = 100, 400, 900 (20x5, 40x10, 60x15), phi from 1e-1
-   to 1e3 with 3 points per decade (13 values), seeds 1..3, the default accuracy preset
-   (C = 0.2, t_end = 8000), scene full: 117 runs into OUT/grid. The same runs as
-   ``bkflow sweep --phi 1e-1:1e3 --sizes 20x5,40x10,60x15 --seeds 3 --out OUT/grid``.
-2. The aspect-ratio check of MODEL.md ("with Lx <= Ly the DT regime does not appear"): the
-   same phi and seeds at N = 100 on 10x10 (Lx = Ly) and 5x20 (Lx < Ly), beside the grid's
-   20x5, into OUT/aspect.
-3. The figures (``bkflow plot``) of both sweeps as PNG into workflows/paper/figures/, one
-   figure of the DT share per aspect ratio, and workflows/paper/numbers.md: every number
-   REPRODUCTION.md cites, computed from OUT/grid/results.csv and OUT/aspect/runs.csv.
+Every sweep uses the default time step (C = 0.2) and scene full, seeds 1..3, 13 phi from 1e-1
+to 1e3 (3 per decade) unless said otherwise; each goes into OUT/<name>:
 
-Finished runs are never redone: re-running after an interruption resumes.
+paper        the paper's protocol: the synchronized start (every contact formed at t = 0)
+             run for a finite length, t_end = 1000, 4000 and 16000, at N = 100, 400, 900
+             (20x5, 40x10, 60x15): how the curves move with run length.
+steady       the steady state: the random start (every contact part-way through its cycle),
+             each run until its stress is stationary (bkflow run --start random
+             --until-stationary), capped at t_end = 32000, at N = 100, 400, 900.
+steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade, 2 seeds.
+sync_steady  the synchronized start run until stationary (cap 64000) at N = 100, phi = 10,
+             100, 1000: does the paper's start reach the same steady state?
+aspect       the aspect-ratio check ("with Lx <= Ly the DT regime does not appear"): N = 100
+             on 20x5, 10x10 and 5x20, t_end = 8000.
+
+Then the figures (``bkflow plot`` of each protocol, and the comparisons below) as PNG into
+workflows/paper/figures/, and workflows/paper/numbers.md: every number REPRODUCTION.md cites,
+computed from the sweeps' tables. Finished runs are never redone: re-running resumes, and a
+changed analysis re-analyses without running LAMMPS.
 """
 
 from __future__ import annotations
@@ -39,13 +47,39 @@ from bkflow.tables import SETTINGS_FILE, read_tables
 HERE = Path(__file__).resolve().parent
 PHI = "1e-1:1e3"
 ASPECT_SIZES = [(20, 5), (10, 10), (5, 20)]
+GRID_SIZES = [PAPER_SIZES[n] for n in (100, 400, 900)]
+#: the paper's protocol: the synchronized start run for a finite length, at three lengths
+PAPER_LENGTHS = (1000.0, 4000.0, 16000.0)
+#: the steady state: the random start run until stationary, capped at this length
+STEADY_CAP = 32000.0
+#: beyond the paper: N = 3600 in the steady state, one phi per decade
+LARGE_SIZE, LARGE_PHI = (120, 30), "1e-1,1,10,100,1e3"
+#: the synchronized start run until stationary, on a few points: does it reach the random
+#: start's steady state?
+SYNC_STEADY_PHI, SYNC_STEADY_CAP = "10,100,1e3", 64000.0
 
 
-def run_sweep(name, sizes, args, out):
-    specs = sweep_specs(phi_values(PHI), sizes, args.seeds, t_end=args.t_end,
-                        dt_factor=args.dt_factor)
+def protocols(seeds: int, dt_factor: float) -> dict[str, list[RunSpec]]:
+    """Every sweep of the reproduction: name -> its RunSpecs (the directory OUT/name)."""
+    grid = phi_values(PHI)
+    common = {"dt_factor": dt_factor}
+    return {
+        "paper": [s for t_end in PAPER_LENGTHS for s in
+                  sweep_specs(grid, GRID_SIZES, seeds, t_end=t_end, **common)],
+        "steady": sweep_specs(grid, GRID_SIZES, seeds, t_end=STEADY_CAP, start="random",
+                              until_stationary=True, **common),
+        "steady_3600": sweep_specs(phi_values(LARGE_PHI), [LARGE_SIZE], min(seeds, 2),
+                                   t_end=STEADY_CAP, start="random", until_stationary=True,
+                                   **common),
+        "sync_steady": sweep_specs(phi_values(SYNC_STEADY_PHI), [PAPER_SIZES[100]], seeds,
+                                   t_end=SYNC_STEADY_CAP, until_stationary=True, **common),
+        "aspect": sweep_specs(grid, ASPECT_SIZES, seeds, **common),
+    }
+
+
+def run_sweep(name, specs, jobs, out):
     print(f"{name}: {len(specs)} runs into {out}", flush=True)
-    rep = sweep(specs, out, jobs=args.jobs)
+    rep = sweep(specs, out, jobs=jobs)
     print(f"{name}: {len(rep.finished)} run(s) in {fmt_duration(rep.wall_time_s)}, "
           f"{rep.finished_before} finished earlier, {len(rep.failed)} failed", flush=True)
     for job, msg in rep.failed.items():
@@ -76,73 +110,175 @@ def span_fraction(sweep_dir: Path) -> float:
     return AnalysisSettings.from_dict(settings).span_fraction
 
 
-def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
+#: the curves compared in the figures and tables: label -> (protocol directory, selection)
+CURVES = {
+    "paper, t_end = 1000": ("paper", {"t_end": 1000.0}),
+    "paper, t_end = 4000": ("paper", {"t_end": 4000.0}),
+    "paper, t_end = 16000": ("paper", {"t_end": 16000.0}),
+    "steady (random start)": ("steady", {}),
+    "steady, N = 3600": ("steady_3600", {}),
+}
+OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)"),
+               ("mu_bar_large", "mu_bar (large drops: drop > mean drop)"),
+               ("mean_stress_ratio", "<sigma_x>/sigma_n"))
+
+
+def _tables(out: Path, name: str, where: dict | None = None):
+    """(runs, results) of a protocol's sweep, restricted to ``where``; None when not run."""
+    try:
+        runs, res = read_tables(out / name)
+    except (FileNotFoundError, pd.errors.EmptyDataError):
+        return None
+    for k, v in (where or {}).items():
+        runs, res = runs[np.isclose(runs[k], v)], res[np.isclose(res[k], v)]
+    return (runs, res) if len(runs) else None
+
+
+def curves(out: Path) -> dict:
+    """label -> (runs, results) of every curve that has been run."""
+    found = {}
+    for label, (name, where) in CURVES.items():
+        t = _tables(out, name, where)
+        if t is not None:
+            found[label] = t
+    return found
+
+
+def minimum(g: pd.DataFrame, field: str) -> dict:
+    """Where ``field`` of one curve (one N, sorted by phi) is lowest, and whether that
+    minimum is an interior one below both ends by more than two combined errors."""
+    g = g.sort_values("phi").reset_index(drop=True)
+    y, e = g[field].to_numpy(float), g[f"{field}_sem"].to_numpy(float)
+    e = np.where(np.isfinite(e), e, 0.0)
+    i = int(np.nanargmin(y))
+    below = [(y[k] - y[i]) / math.hypot(e[k], e[i]) if math.hypot(e[k], e[i]) > 0 else math.inf
+             for k in (0, len(y) - 1)]
+    return {"phi": g.phi[i], "min": y[i], "sem": e[i], "lo": y[0], "lo_sem": e[0],
+            "hi": y[-1], "hi_sem": e[-1], "z_lo": below[0], "z_hi": below[1],
+            "interior": 0 < i < len(y) - 1,
+            "non_monotonic": 0 < i < len(y) - 1 and min(below) > 2,
+            "depth": max(y[0], y[-1]) - y[i]}
+
+
+def numbers(out: Path, wall: dict) -> str:
     """The tables REPRODUCTION.md cites, as markdown."""
-    runs, res = read_tables(grid_dir)
-    out = ["# Numbers of the paper-grid reproduction (generated by reproduce.py)", ""]
-    a, _ = read_tables(aspect_dir)
-    seeds = sorted({int(n) for n in res.n_seeds})
-    n_seeds = str(seeds[0]) if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
-    core_s = {name: df.wall_time_s.sum() for name, df in (("grid", runs), ("aspect check", a))}
-    out += [f"LAMMPS time summed over runs (core-seconds, without analysis): "
-            f"{', '.join(f'{k} {v:.0f} s ({len(d)} runs)' for (k, v), d in zip(core_s.items(), (runs, a)))}.",
-            f"This invocation of reproduce.py: {', '.join(f'{k} {v}' for k, v in wall.items())} "
-            "wall (runs finished earlier are not redone).",
-            f"Errors are standard errors over seeds (n = {n_seeds} unless stated).", ""]
+    cs = curves(out)
+    lines = ["# Numbers of the reproduction (generated by workflows/paper/reproduce.py)", "",
+             "Errors are standard errors over seeds. `stationary` counts the runs whose stress "
+             "passed the trend test over their analysed window (bkflow.stationarity).",
+             f"This invocation: {', '.join(f'{k} {v}' for k, v in wall.items()) or 'no runs'} "
+             "wall (runs finished earlier are not redone).", "",
+             "## The runs", "",
+             "| curve | runs | stationary | t_run (min - max) | LAMMPS core-seconds |",
+             "|---|---|---|---|---|"]
+    for label, (runs, _) in cs.items():
+        st = runs.stationary.astype(bool)
+        lines.append(f"| {label} | {len(runs)} | {int(st.sum())} | {runs.t_run.min():.0f} - "
+                     f"{runs.t_run.max():.0f} | {runs.wall_time_s.sum():.0f} |")
 
-    out += ["## Per phi and size", "",
-            "| N | phi | mu_bar | <sigma_x>/sigma_n | Psi(inf) | <l_x>/<l_y> | l_x/Lx | l_y/Ly "
-            "| drop exponent | slips/run | regime |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for _, r in res.iterrows():
-        out.append(f"| {r.N} | {r.phi:g} | {_pm(r.mu_bar, r.mu_bar_sem)} | "
-                   f"{_pm(r.mean_stress_ratio, r.mean_stress_ratio_sem)} | "
-                   f"{_pm(r.psi_inf, r.psi_inf_sem, '.3f')} | "
-                   f"{_pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f')} | "
-                   f"{_pm(r.lx_mean_over_Lx, r.lx_mean_over_Lx_sem, '.2f')} | "
-                   f"{_pm(r.ly_mean_over_Ly, r.ly_mean_over_Ly_sem, '.2f')} | "
-                   f"{_pm(r.drop_exponent, r.drop_exponent_sem, '.2f')} | {r.n_slips:.0f} | "
-                   f"{r.regime} |")
+    for field, title in OBSERVABLES:
+        lines += ["", f"## {title}: minimum against the ends", "",
+                  "non-monotonic = the lowest point is interior and below both ends by more "
+                  "than 2 combined standard errors (z_lo, z_hi).", "",
+                  "| curve | N | phi at min | min | 1 - min/mu_s | phi = 0.1 | phi = 1e3 | z_lo "
+                  "| z_hi | non-monotonic |", "|---|---|---|---|---|---|---|---|---|---|"]
+        for label, (_, res) in cs.items():
+            for n, g in res.groupby("N"):
+                if field not in g or g[field].isna().all():
+                    continue
+                m = minimum(g, field)
+                mu_s = float(g.mu_s.iloc[0])
+                lines.append(f"| {label} | {n} | {m['phi']:g} | {_pm(m['min'], m['sem'])} | "
+                             f"{1 - m['min'] / mu_s:.3f} | {_pm(m['lo'], m['lo_sem'])} | "
+                             f"{_pm(m['hi'], m['hi_sem'])} | {m['z_lo']:.1f} | "
+                             f"{m['z_hi']:.1f} | {'yes' if m['non_monotonic'] else 'no'} |")
 
-    out += ["", "## mu_bar(phi): minimum, depth, ends", "",
-            "| N | phi at min | mu_bar min | 1 - mu_bar_min/mu_s | mu_bar(phi=0.1) | "
-            "mu_bar(phi=1e3) | max(ends) - min | in units of the combined error | "
-            "phi at max <l_x>/<l_y> | phi at min <sigma_x>/sigma_n |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
-    for n, g in res.groupby("N"):
-        g = g.sort_values("phi")
-        i = g.mu_bar.idxmin()
-        m, e = g.mu_bar[i], g.mu_bar_sem[i]
-        lo, hi = g.iloc[0], g.iloc[-1]
-        end = lo if lo.mu_bar > hi.mu_bar else hi
-        depth = end.mu_bar - m
-        sig = depth / math.hypot(e, end.mu_bar_sem) if e > 0 else math.nan
-        phi_lx = g.phi[g.lx_over_ly.idxmax()] if g.lx_over_ly.notna().any() else math.nan
-        phi_s = g.phi[g.mean_stress_ratio.idxmin()]
-        out.append(f"| {n} | {g.phi[i]:g} | {_pm(m, e)} | {1 - m / g.mu_s[i]:.3f} | "
-                   f"{_pm(lo.mu_bar, lo.mu_bar_sem)} | {_pm(hi.mu_bar, hi.mu_bar_sem)} | "
-                   f"{depth:.4f} | {sig:.1f} | {phi_lx:g} | {phi_s:g} |")
+    lines += ["", "## Per phi: every curve", "",
+              "| curve | N | phi | stationary | t_run | mu_bar | mu_bar (large) | "
+              "<sigma_x>/sigma_n | Psi(inf) | <l_x>/<l_y> | <l_x>/<l_y> (large) | regime | "
+              "t_equil |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label, (_, res) in cs.items():
+        for _, r in res.sort_values(["N", "phi"]).iterrows():
+            lines.append(
+                f"| {label} | {r.N} | {r.phi:g} | {r.n_stationary}/{r.n_seeds} | "
+                f"{r.t_run:.0f} | {_pm(r.mu_bar, r.mu_bar_sem)} | "
+                f"{_pm(r.mu_bar_large, r.mu_bar_large_sem)} | "
+                f"{_pm(r.mean_stress_ratio, r.mean_stress_ratio_sem)} | "
+                f"{_pm(r.psi_inf, r.psi_inf_sem, '.3f')} | "
+                f"{_pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f')} | "
+                f"{_pm(r.lx_over_ly_large, r.lx_over_ly_large_sem, '.2f')} | {r.regime} | "
+                f"{r.t_equil:.0f} |")
 
-    out += ["", "## Psi(inf): spread across N", "",
-            "| phi | " + " | ".join(f"N={n}" for n in sorted(res.N.unique()))
-            + " | max - min | largest sem |", "|---|" + "---|" * (res.N.nunique() + 2)]
-    for phi, g in res.groupby("phi"):
-        g = g.set_index("N").sort_index()
-        vals = " | ".join(_pm(g.psi_inf[n], g.psi_inf_sem[n], ".3f") for n in g.index)
-        out.append(f"| {phi:g} | {vals} | {g.psi_inf.max() - g.psi_inf.min():.3f} | "
-                   f"{g.psi_inf_sem.max():.3f} |")
+    lines += ["", "## Psi(inf): spread across N", "",
+              "| curve | phi | " + " | ".join(f"N={n}" for n in (100, 400, 900, 3600))
+              + " | max - min |", "|---|---|---|---|---|---|---|"]
+    for label, (_, res) in cs.items():
+        for phi, g in res.groupby("phi"):
+            g = g.set_index("N")
+            cells = [(_pm(g.psi_inf[n], g.psi_inf_sem[n], ".3f") if n in g.index else "")
+                     for n in (100, 400, 900, 3600)]
+            lines.append(f"| {label} | {phi:g} | " + " | ".join(cells)
+                         + f" | {g.psi_inf.max() - g.psi_inf.min():.3f} |")
 
-    out += ["", "## Regimes: share of slip clusters (all seeds), N = 100 (20x5)", "",
-            "| phi | C | LC | DP | DT | clusters |", "|---|---|---|---|---|---|"]
-    r100 = runs[(runs.Lx == 20) & (runs.Ly == 5)]
-    for phi, g in r100.groupby("phi"):
-        fr = [cluster_share(g, k) for k in ("C", "LC", "DP", "DT")]
-        out.append(f"| {phi:g} | " + " | ".join(f"{f:.2f}" for f in fr)
-                   + f" | {g.n_clusters.sum():.0f} |")
+    lines += ["", "## Where <l_x>/<l_y> peaks and mu_bar dips", "",
+              "| curve | N | phi at max <l_x>/<l_y> | phi at max (large slips) | phi at min mu_bar "
+              "| phi at min mu_bar (large) | phi at min <sigma_x>/sigma_n |",
+              "|---|---|---|---|---|---|---|"]
+    for label, (_, res) in cs.items():
+        for n, g in res.groupby("N"):
+            def arg(f, fn):
+                v = g[f]
+                return f"{g.phi[getattr(v, fn)()]:g}" if v.notna().any() else "n/a"
+            lines.append(f"| {label} | {n} | {arg('lx_over_ly', 'idxmax')} | "
+                         f"{arg('lx_over_ly_large', 'idxmax')} | {arg('mu_bar', 'idxmin')} | "
+                         f"{arg('mu_bar_large', 'idxmin')} | {arg('mean_stress_ratio', 'idxmin')} |")
 
-    out += ["", "## Aspect ratio (N = 100): share of DT clusters", "",
-            "| phi | " + " | ".join(f"{lx}x{ly} (Lx/Ly = {lx / ly:g})" for lx, ly in ASPECT_SIZES)
-            + " |", "|---|" + "---|" * len(ASPECT_SIZES)]
+    lines += ["", "## Regimes: share of slip clusters (all seeds), N = 100 (20x5)", "",
+              "| curve | phi | C | LC | DP | DT | clusters |", "|---|---|---|---|---|---|---|"]
+    for label, (runs, _) in cs.items():
+        r100 = runs[(runs.Lx == 20) & (runs.Ly == 5)]
+        for phi, g in r100.groupby("phi"):
+            fr = [cluster_share(g, k) for k in ("C", "LC", "DP", "DT")]
+            lines.append(f"| {label} | {phi:g} | " + " | ".join(f"{f:.2f}" for f in fr)
+                         + f" | {g.n_clusters.sum():.0f} |")
+
+    sync = _tables(out, "sync_steady")
+    steady = _tables(out, "steady")
+    if sync is not None:
+        lines += ["", "## One steady state from both starts? (N = 100, until stationary)", "",
+                  "| phi | start | stationary | t_run (mean, max) | mu_bar | mu_bar (large) | "
+                  "<sigma_x>/sigma_n | difference / combined error (<sigma_x>) |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for phi, g in sync[1].groupby("phi"):
+            rnd = steady[1][(steady[1].N == 100) & np.isclose(steady[1].phi, phi)] \
+                if steady is not None else pd.DataFrame()
+            for start, r in (("synchronized", g.iloc[0]),
+                             ("random", rnd.iloc[0] if len(rnd) else None)):
+                if r is None:
+                    continue
+                runs = (sync[0] if start == "synchronized" else steady[0])
+                rr = runs[(runs.N == 100) & np.isclose(runs.phi, phi)]
+                diff = ""
+                if start == "random":
+                    s0 = g.iloc[0]
+                    d = r.mean_stress_ratio - s0.mean_stress_ratio
+                    diff = f"{d / math.hypot(r.mean_stress_ratio_sem, s0.mean_stress_ratio_sem):.1f}"
+                lines.append(f"| {phi:g} | {start} | {r.n_stationary}/{r.n_seeds} | "
+                             f"{rr.t_run.mean():.0f}, {rr.t_run.max():.0f} | "
+                             f"{_pm(r.mu_bar, r.mu_bar_sem)} | "
+                             f"{_pm(r.mu_bar_large, r.mu_bar_large_sem)} | "
+                             f"{_pm(r.mean_stress_ratio, r.mean_stress_ratio_sem)} | {diff} |")
+
+    aspect = _tables(out, "aspect")
+    if aspect is not None:
+        lines += aspect_numbers(out / "aspect", aspect[0])
+    return "\n".join(lines) + "\n"
+
+
+def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
+    out = ["", "## Aspect ratio (N = 100, t_end = 8000): share of DT clusters", "",
+           "| phi | " + " | ".join(f"{lx}x{ly} (Lx/Ly = {lx / ly:g})" for lx, ly in ASPECT_SIZES)
+           + " |", "|---|" + "---|" * len(ASPECT_SIZES)]
     for phi, g in a.groupby("phi"):
         cells = []
         for lx, ly in ASPECT_SIZES:
@@ -154,7 +290,6 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
         s = a[(a.Lx == lx) & (a.Ly == ly)]
         tot.append(f"{cluster_share(s, 'DT'):.3f} of {s.n_clusters.sum():.0f}")
     out.append("| all phi | " + " | ".join(tot) + " |")
-
     span = span_fraction(aspect_dir)
     out += ["", "## Aspect ratio (N = 100): cluster shapes over all phi and seeds", "",
             "DT by the regime rule of bkflow.clusters.regime; 'DT, x not spanned' also leaves "
@@ -171,12 +306,103 @@ def numbers(grid_dir: Path, aspect_dir: Path, wall: dict) -> str:
             continue
         c = pd.concat(tables)
         fx, fy = c.l_x / lx, c.l_y / ly
-        dt_rule = cluster_share(s, "DT")
-        out.append(f"| {lx}x{ly} | {len(c)} | {dt_rule:.3f} | "
+        out.append(f"| {lx}x{ly} | {len(c)} | {cluster_share(s, 'DT'):.3f} | "
                    f"{((fx < fy) & (fx < span)).mean():.3f} | "
                    f"{((fx >= span) & (fy >= span)).mean():.3f} | "
                    f"{(c.l_y > c.l_x).mean():.3f} |")
-    return "\n".join(out) + "\n"
+    return out
+
+
+def protocols_figure(out: Path, figs: Path) -> Path | None:
+    """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
+    one curve per protocol and run length; open symbols: not every seed stationary."""
+    cs = curves(out)
+    if not cs:
+        return None
+    plt = _style()
+    ns = sorted({int(n) for _, res in cs.values() for n in res.N})
+    fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns), 7.2),
+                             squeeze=False, sharex=True)
+    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:blue")))
+    for col, n in enumerate(ns):
+        for row, (field, title) in enumerate(OBSERVABLES):
+            ax = axes[row, col]
+            for label, (_, res) in cs.items():
+                g = res[res.N == n].sort_values("phi")
+                if not len(g) or field not in g:
+                    continue
+                steady = g.stationary.astype(bool).to_numpy()
+                c = colours[label]
+                ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.8,
+                            capsize=1.5, marker="none", label=label)
+                ax.plot(g.phi[steady], g[field][steady], "o", color=c, ms=3.5)
+                ax.plot(g.phi[~steady], g[field][~steady], "o", color=c, ms=3.5, mfc="white")
+            ax.set_xscale("log")
+            if col == 0:
+                ax.set_ylabel(title, fontsize=7.5)
+            if row == 0:
+                ax.set_title(f"N = {n}", fontsize=9)
+            if row == len(OBSERVABLES) - 1:
+                ax.set_xlabel(r"$\phi$")
+    axes[0, 0].legend(frameon=False, fontsize=6, loc="best")
+    fig.text(0.99, 0.005, "open symbols: some seed not stationary", ha="right", fontsize=6.5,
+             color="grey")
+    fig.tight_layout()
+    path = figs / "fig2a_protocols.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def relaxation_figure(out: Path, figs: Path) -> Path | None:
+    """The equilibration time t_equil of the stress (Chodera's detection) against phi: from
+    the synchronized start (t_end = 16000) and from the random start (until stationary)."""
+    cs = curves(out)
+    plt = _style()
+    fig, ax = plt.subplots(figsize=(4.6, 3.2))
+    drawn = False
+    for label, ls in (("paper, t_end = 16000", "-"), ("steady (random start)", ":"),
+                      ("steady, N = 3600", ":")):
+        if label not in cs:
+            continue
+        runs = cs[label][0]
+        for (n, g), m in zip(runs.groupby("N"), "os^D"):
+            med = g.groupby("phi").t_equil.median()
+            ax.plot(med.index, med.to_numpy(), m + ls, lw=0.8, ms=3.5,
+                    mfc="none" if ls == ":" else None,
+                    label=f"{'synchronized' if ls == '-' else 'random'}, N = {n}")
+            drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    ax.set_xscale("log")
+    ax.set_yscale("symlog", linthresh=10)
+    ax.set_xlabel(r"$\phi$")
+    ax.set_ylabel(r"$t_{\rm equil}$ of $\sigma_x$ (median over seeds)")
+    ax.set_title("how long the start is remembered", fontsize=9)
+    ax.legend(frameon=False, fontsize=6)
+    fig.tight_layout()
+    path = figs / "relaxation.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def figures(out: Path, figs: Path) -> list[Path]:
+    written = []
+    for label, (name, where) in CURVES.items():
+        if _tables(out, name, where) is None:
+            continue
+        sub = figs / label.split(" (")[0].replace(", ", "_").replace(" = ", "").replace(" ", "_")
+        paths, _ = plot(out / name, sub, formats=("png",), where=where)
+        written += paths
+    for make in (protocols_figure, relaxation_figure):
+        path = make(out, figs)
+        if path is not None:
+            written.append(path)
+    if _tables(out, "aspect") is not None:
+        written += aspect_figures(out / "aspect", figs)
+    return written
 
 
 def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
@@ -223,30 +449,33 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="runs/paper", help="where the runs go (default runs/paper)")
     p.add_argument("--jobs", type=int, default=available_cores())
     p.add_argument("--seeds", type=int, default=3)
-    p.add_argument("--t-end", type=float, default=RunSpec.t_end,
-                   help="run length (default: the default accuracy preset's)")
     p.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor)
+    p.add_argument("--protocols", default=",".join(protocols(1, RunSpec.dt_factor)),
+                   help="which sweeps to run (default: all)")
     p.add_argument("--figures", default=str(HERE / "figures"))
     p.add_argument("--numbers", default=str(HERE / "numbers.md"),
                    help="where the numbers REPRODUCTION.md cites go (default: beside it)")
     a = p.parse_args(argv)
     out, figs = Path(a.out), Path(a.figures)
     figs.mkdir(parents=True, exist_ok=True)
-    wall = {}
-    t0 = time.perf_counter()
-    rep = run_sweep("grid", [PAPER_SIZES[n] for n in (100, 400, 900)], a, out / "grid")
-    wall["grid"] = fmt_duration(time.perf_counter() - t0) + f" ({len(rep.finished)} runs)"
-    t1 = time.perf_counter()
-    rep_a = run_sweep("aspect", ASPECT_SIZES, a, out / "aspect")
-    wall["aspect check"] = fmt_duration(time.perf_counter() - t1) + \
-        f" ({len(rep_a.finished)} runs)"
-    written, skipped = plot(out / "grid", figs, formats=("png",))
-    written += aspect_figures(out / "aspect", figs)
+    every = protocols(a.seeds, a.dt_factor)
+    chosen = [n.strip() for n in a.protocols.split(",") if n.strip()]
+    unknown = set(chosen) - set(every)
+    if unknown:
+        p.error(f"unknown protocol(s) {', '.join(sorted(unknown))}; choose from "
+                f"{', '.join(every)}")
+    wall, failed = {}, False
+    for name in chosen:
+        t0 = time.perf_counter()
+        rep = run_sweep(name, every[name], a.jobs, out / name)
+        wall[name] = fmt_duration(time.perf_counter() - t0) + f" ({len(rep.finished)} runs)"
+        failed |= bool(rep.failed)
+    written = figures(out, figs)
     for pth in written:
         print(f"wrote {pth}")
-    Path(a.numbers).write_text(numbers(out / "grid", out / "aspect", wall))
+    Path(a.numbers).write_text(numbers(out, wall))
     print(f"wrote {a.numbers}")
-    return 1 if rep.failed or rep_a.failed else 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

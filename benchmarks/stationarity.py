@@ -1,0 +1,225 @@
+"""Steady state or transient: how long a stiff layer remembers the paper's synchronized
+start, what a stationary result costs from each start, and whether the error bars are honest.
+
+    python benchmarks/stationarity.py relaxation [--out runs/paper/paper] [--sizes 20x5,40x10]
+    python benchmarks/stationarity.py cost [--out runs/bench/cost] [--phi 0.1,10,1000]
+    python benchmarks/stationarity.py calibration [--steady runs/paper/steady]
+    python benchmarks/stationarity.py all
+
+relaxation
+    Synchronized start, t_end = 16000 (the default C), seeds 1..3, 13 phi from 1e-1 to 1e3, at
+    N = 100 and 400: the stress's block means over time (40 blocks), and two relaxation
+    times of <sigma_x>: ``tau``, fitted to the block means from t = 400 on as
+    s_inf + A exp(-t / tau) (scipy.optimize.curve_fit, weighted equally), and ``t_equil``,
+    Chodera's equilibration detection (bkflow.stationarity.equilibration_time). The same
+    specs as reproduce.py's "paper" protocol: pointed at its directory, nothing is run again.
+    Writes benchmarks/relaxation.png.
+cost
+    Until stationary (bkflow run --until-stationary, cap 64000) from each start, N = 100,
+    3 seeds: the length each run needed and its LAMMPS wall time, mean over seeds.
+calibration
+    The error of a correlated mean on AR(1) series with known answers (n = 100, 400, 1000;
+    rho = 0 .. 0.9; 2000 series each): the mean estimate over the true error, for bkflow's
+    estimator (bkflow.stationarity.mean_error) and for the blocking it replaced; and on real
+    runs, the scatter of mu_bar over seeds against the runs' own errors (the ratio is 1 for
+    calibrated errors of independent seeds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bkflow.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.params import RunSpec
+from bkflow.project import open_project
+from bkflow.rundir import RunDir
+from bkflow.stationarity import block_means, equilibration_time, mean_error
+from bkflow.sweep import sweep
+from bkflow.tables import read_tables
+
+HERE = Path(__file__).resolve().parent
+
+
+# --------------------------------------------------------------------------- relaxation
+def _tau(tc, means, t_fit=400.0):
+    from scipy.optimize import curve_fit
+
+    keep = tc >= t_fit
+    x, y = tc[keep], means[keep]
+    if len(x) < 5:
+        return math.nan, math.nan
+    s_inf, a0 = y[-5:].mean(), y[0] - y[-5:].mean()
+    try:
+        (s, a, tau), cov = curve_fit(lambda t, s, a, tau: s + a * np.exp(-t / tau), x, y,
+                                     p0=(s_inf, a0, 2000.0), maxfev=20000)
+    except RuntimeError:
+        return math.nan, math.nan
+    if not (tau > 0) or tau > 1e6:
+        return math.nan, math.nan
+    return float(tau), float(a / s)
+
+
+def relaxation(out: str, sizes: str, seeds: int, jobs: int) -> pd.DataFrame:
+    specs = sweep_specs(phi_values("1e-1:1e3"), parse_sizes(sizes), seeds, t_end=16000.0)
+    sweep(specs, out, jobs=jobs, progress=False)
+    project = open_project(out, create=False)
+    rows, curves = [], {}
+    for spec in specs:
+        job = project.open_job(spec.to_dict())
+        t, s = RunDir(job.path).read_stress()
+        tc, m = block_means(t, s / spec.sigma_n, 0.0, 40)
+        tau, amp = _tau(tc, m)
+        rows.append({"N": spec.N, "phi": spec.phi, "seed": spec.seed, "tau": tau,
+                     "amplitude": amp, "t_equil": equilibration_time(t, s),
+                     "late_mean": float(m[-10:].mean())})
+        curves.setdefault((spec.N, spec.phi), []).append((tc, m))
+    df = pd.DataFrame(rows)
+    _relaxation_figure(df, curves)
+    return df
+
+
+def _relaxation_figure(df: pd.DataFrame, curves: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(8.5, 3.2))
+    for (n, phi), cs in sorted(curves.items()):
+        if n != df.N.min() or phi not in (0.1, 10.0, 100.0, 1000.0):
+            continue
+        tc = cs[0][0]
+        a.plot(tc, np.mean([m for _, m in cs], axis=0), lw=0.9, label=f"phi = {phi:g}")
+    a.set_xlabel("t")
+    a.set_ylabel(r"block mean of $\sigma_x/\sigma_n$ (3 seeds)")
+    a.set_title(f"synchronized start, N = {df.N.min()}", fontsize=9)
+    a.legend(frameon=False, fontsize=7)
+    for (n, g), m in zip(df.groupby("N"), "os^"):
+        med = g.groupby("phi")[["tau", "t_equil"]].median()
+        b.plot(med.index, med.tau, m + "-", lw=0.8, label=f"tau, N = {n}")
+        b.plot(med.index, med.t_equil, m + ":", mfc="none", lw=0.8, label=f"t_equil, N = {n}")
+    b.set_xscale("log")
+    b.set_yscale("log")
+    b.set_xlabel(r"$\phi$")
+    b.set_ylabel("time (median over seeds)")
+    b.set_title("relaxation of the stress from the synchronized start", fontsize=9)
+    b.legend(frameon=False, fontsize=6.5)
+    fig.tight_layout()
+    fig.savefig(HERE / "relaxation.png", dpi=150)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- cost
+def cost(out: str, phis: str, seeds: int, jobs: int) -> pd.DataFrame:
+    specs = [s for start in ("random", "synchronized") for s in
+             sweep_specs(phi_values(phis), [(20, 5)], seeds, t_end=64000.0, start=start,
+                         until_stationary=True)]
+    sweep(specs, out, jobs=jobs, progress=False)
+    runs, _ = read_tables(out)
+    runs = runs[runs.until_stationary.astype(bool) & (runs.t_end == 64000.0)]
+    return (runs.groupby(["phi", "start"])
+            .agg(t_run=("t_run", "mean"), t_run_max=("t_run", "max"),
+                 wall_s=("wall_time_s", "mean"), stationary=("stationary", "mean"),
+                 mu_bar=("mu_bar", "mean"), mean_stress_ratio=("mean_stress_ratio", "mean"))
+            .reset_index())
+
+
+# --------------------------------------------------------------------------- calibration
+def _blocking(x, min_blocks=4):
+    """bkflow's former estimator (Flyvbjerg-Petersen blocking, level by Jonsson's M-test),
+    kept here only to show what it gave."""
+    from scipy.stats import chi2
+
+    var, gam, nk, b = [], [], [], np.asarray(x, float)
+    while True:
+        m = len(b)
+        mu = b.mean()
+        var.append(b.var())
+        gam.append(float(np.sum((b[:-1] - mu) * (b[1:] - mu)) / m))
+        nk.append(m)
+        if m // 2 < max(2, min_blocks):
+            break
+        b = 0.5 * (b[0:m - m % 2:2] + b[1:m - m % 2:2])
+    var, gam, nk = map(np.array, (var, gam, nk))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        terms = np.where(var > 0, nk * (gam / var) ** 2, 0.0)
+    stat = np.cumsum(terms[::-1])[::-1]
+    level = next((j for j in range(len(nk)) if stat[j] < chi2.ppf(0.99, len(nk) - j)),
+                 len(nk) - 1)
+    return math.sqrt(var[level] / (nk[level] - 1))
+
+
+def calibration(steady: str | None) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+    rng = np.random.default_rng(2024)
+    rows = []
+    for n in (100, 400, 1000):
+        for rho in (0.0, 0.2, 0.5, 0.8, 0.9):
+            e = rng.standard_normal((2000, n))
+            x = np.empty_like(e)
+            x[:, 0] = e[:, 0] / math.sqrt(1 - rho ** 2)
+            for i in range(1, n):
+                x[:, i] = rho * x[:, i - 1] + e[:, i]
+            k = np.arange(1, n)
+            truth = math.sqrt((n + 2 * np.sum((n - k) * rho ** k)) / (1 - rho ** 2)) / n
+            rows.append({"n": n, "rho": rho,
+                         "mean_error / truth": np.mean([mean_error(s).error for s in x]) / truth,
+                         "blocking / truth": np.mean([_blocking(s) for s in x]) / truth})
+    ar = pd.DataFrame(rows)
+    real = None
+    if steady and Path(steady, "runs.csv").exists():
+        runs, _ = read_tables(steady)
+        g = runs.groupby(["Lx", "Ly", "phi"])
+        real = pd.DataFrame({
+            "seeds": g.mu_bar.count(),
+            "sd over seeds": g.mu_bar.std(ddof=1),
+            "mean within-run error": g.mu_bar_err.mean()}).reset_index()
+        real["ratio"] = real["sd over seeds"] / real["mean within-run error"]
+    return ar, real
+
+
+def _md(df: pd.DataFrame, index: bool = True) -> str:
+    """A DataFrame as a markdown table (pandas' to_markdown needs tabulate)."""
+    if index:
+        df = df.reset_index()
+    cells = [[f"{v:.4g}" if isinstance(v, float) else str(v) for v in row]
+             for row in df.itertuples(index=False)]
+    lines = ["| " + " | ".join(map(str, df.columns)) + " |", "|" + "---|" * len(df.columns)]
+    return "\n".join(lines + ["| " + " | ".join(c) + " |" for c in cells])
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=("relaxation", "cost", "calibration", "all"))
+    ap.add_argument("--out", default=None, help="sweep directory (default per study)")
+    ap.add_argument("--sizes", default="20x5,40x10")
+    ap.add_argument("--phi", default="0.1,10,1000")
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--steady", default="runs/paper/steady",
+                    help="a steady-state sweep for the real-data calibration")
+    a = ap.parse_args(argv)
+    pd.set_option("display.width", 160)
+    if a.what in ("relaxation", "all"):
+        df = relaxation(a.out or "runs/paper/paper", a.sizes, a.seeds, a.jobs)
+        print("## Relaxation from the synchronized start (median over seeds)\n")
+        print(_md(df.groupby(["N", "phi"])[["tau", "amplitude", "t_equil", "late_mean"]]
+                  .median()))
+    if a.what in ("cost", "all"):
+        print("\n## Cost to a stationary result (until stationary, cap 64000)\n")
+        print(_md(cost(a.out or "runs/bench/cost", a.phi, a.seeds, a.jobs), index=False))
+    if a.what in ("calibration", "all"):
+        ar, real = calibration(a.steady)
+        print("\n## Calibration of the error of a mean (AR(1), 2000 series each)\n")
+        print(_md(ar, index=False))
+        if real is not None:
+            print("\n## Real runs: scatter of mu_bar over seeds / within-run error\n")
+            print(_md(real, index=False))
+
+
+if __name__ == "__main__":
+    main()
