@@ -2,7 +2,7 @@
 start, what a stationary result costs from each start, and whether the error bars are honest.
 
     python benchmarks/stationarity.py relaxation [--out runs/paper/paper] [--sizes 20x5,40x10]
-    python benchmarks/stationarity.py cost [--out runs/bench/cost] [--phi 0.1,10,1000]
+    python benchmarks/stationarity.py cost [--steady DIR] [--sync DIR] [--phi 10,100,1000]
     python benchmarks/stationarity.py calibration [--steady runs/paper/steady]
     python benchmarks/stationarity.py all
 
@@ -15,8 +15,9 @@ relaxation
     specs as reproduce.py's "paper" protocol: pointed at its directory, nothing is run again.
     Writes benchmarks/relaxation.png.
 cost
-    Until stationary (bkflow run --until-stationary, cap 64000) from each start, N = 100,
-    3 seeds: the length each run needed and its LAMMPS wall time, mean over seeds.
+    Until stationary (bkflow run --until-stationary) from each start, N = 100, 3 seeds: the
+    length each run needed and its LAMMPS wall time, mean over seeds (the random start capped
+    at 32000, the synchronized at 64000: reproduce.py's "steady" and "sync_steady").
 calibration
     The error of a correlated mean on AR(1) series with known answers (n = 100, 400, 1000;
     rho = 0 .. 0.9; 2000 series each): the mean estimate over the true error, for bkflow's
@@ -115,17 +116,24 @@ def _relaxation_figure(df: pd.DataFrame, curves: dict) -> None:
 
 
 # --------------------------------------------------------------------------- cost
-def cost(out: str, phis: str, seeds: int, jobs: int) -> pd.DataFrame:
-    specs = [s for start in ("random", "synchronized") for s in
-             sweep_specs(phi_values(phis), [(20, 5)], seeds, t_end=64000.0, start=start,
-                         until_stationary=True)]
-    sweep(specs, out, jobs=jobs, progress=False)
-    runs, _ = read_tables(out)
-    runs = runs[runs.until_stationary.astype(bool) & (runs.t_end == 64000.0)]
+def cost(steady: str, sync: str, phis: str, seeds: int, jobs: int) -> pd.DataFrame:
+    """Until stationary at N = 100 from each start: the random start as reproduce.py's
+    "steady" protocol runs it (cap 32000), the synchronized one as its "sync_steady" (cap
+    64000); pointed at those directories, nothing is run again."""
+    for start, out, cap in (("random", steady, 32000.0), ("synchronized", sync, 64000.0)):
+        sweep(sweep_specs(phi_values(phis), [(20, 5)], seeds, t_end=cap, start=start,
+                          until_stationary=True), out, jobs=jobs, progress=False)
+    frames = []
+    for out in (steady, sync):
+        runs, _ = read_tables(out)
+        frames.append(runs[(runs.Lx == 20) & (runs.Ly == 5) & runs.until_stationary.astype(bool)
+                           & runs.phi.isin(phi_values(phis))])
+    runs = pd.concat(frames)
     return (runs.groupby(["phi", "start"])
-            .agg(t_run=("t_run", "mean"), t_run_max=("t_run", "max"),
+            .agg(seeds=("seed", "count"), t_run=("t_run", "mean"), t_run_max=("t_run", "max"),
                  wall_s=("wall_time_s", "mean"), stationary=("stationary", "mean"),
-                 mu_bar=("mu_bar", "mean"), mean_stress_ratio=("mean_stress_ratio", "mean"))
+                 mu_bar=("mu_bar", "mean"), mu_bar_large=("mu_bar_large", "mean"),
+                 mean_stress_ratio=("mean_stress_ratio", "mean"))
             .reset_index())
 
 
@@ -197,11 +205,13 @@ def main(argv=None) -> None:
     ap.add_argument("what", choices=("relaxation", "cost", "calibration", "all"))
     ap.add_argument("--out", default=None, help="sweep directory (default per study)")
     ap.add_argument("--sizes", default="20x5,40x10")
-    ap.add_argument("--phi", default="0.1,10,1000")
+    ap.add_argument("--phi", default="10,100,1000")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--steady", default="runs/paper/steady",
-                    help="a steady-state sweep for the real-data calibration")
+                    help="the random-start sweep until stationary (reproduce.py's 'steady')")
+    ap.add_argument("--sync", default="runs/paper/sync_steady",
+                    help="the synchronized-start sweep until stationary ('sync_steady')")
     a = ap.parse_args(argv)
     pd.set_option("display.width", 160)
     if a.what in ("relaxation", "all"):
@@ -210,8 +220,8 @@ def main(argv=None) -> None:
         print(_md(df.groupby(["N", "phi"])[["tau", "amplitude", "t_equil", "late_mean"]]
                   .median()))
     if a.what in ("cost", "all"):
-        print("\n## Cost to a stationary result (until stationary, cap 64000)\n")
-        print(_md(cost(a.out or "runs/bench/cost", a.phi, a.seeds, a.jobs), index=False))
+        print("\n## Cost to a stationary result (until stationary, N = 100)\n")
+        print(_md(cost(a.steady, a.sync, a.phi, a.seeds, a.jobs), index=False))
     if a.what in ("calibration", "all"):
         ar, real = calibration(a.steady)
         print("\n## Calibration of the error of a mean (AR(1), 2000 series each)\n")

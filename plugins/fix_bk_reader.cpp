@@ -93,9 +93,19 @@ void FixBKReader::sample_once()
   sample();
 }
 
+void FixBKReader::write(const char *data, std::size_t n)
+{
+  if (fwrite(data, 1, n, fp) != n) write_failed();
+}
+
+void FixBKReader::write_failed()
+{
+  error->one(FLERR, "fix {}: writing {} failed: {}", style, filename, utils::getsyserror());
+}
+
 void FixBKReader::flush()
 {
-  if (fp) fflush(fp);
+  if (fp && fflush(fp) != 0) write_failed();
   last_flush = std::chrono::steady_clock::now();
 }
 
@@ -103,10 +113,7 @@ void FixBKReader::flush_if_due()
 {
   if (!fp) return;
   const auto now = std::chrono::steady_clock::now();
-  if (now - last_flush > FLUSH_EVERY) {
-    fflush(fp);
-    last_flush = now;
-  }
+  if (now - last_flush > FLUSH_EVERY) flush();
 }
 
 double FixBKReader::memory_usage()

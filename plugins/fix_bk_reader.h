@@ -15,6 +15,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -38,6 +39,9 @@ class FixBKReader : public Fix {
 
   // parses `file FILE` at arg[iarg] and opens FILE (rank 0); returns the next iarg
   int open_file(int iarg, int narg, char **arg);
+  // writes to FILE (rank 0); a failed write (a full disk) stops the run with error->one
+  void write(const char *data, std::size_t n);
+  void write(const std::string &text) { write(text.data(), text.size()); }
   void flush();
   void flush_if_due();    // when the last flush is more than a second old
   // one sample at the current step, called on every rank (compute_vector is collective)
@@ -51,6 +55,7 @@ class FixBKReader : public Fix {
   std::chrono::steady_clock::time_point last_flush;
 
   void sample_once();
+  [[noreturn]] void write_failed();
 };
 
 }    // namespace LAMMPS_NS

@@ -102,17 +102,18 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
   for (size_t k = 0; k < natom; k++) order[k] = k;
   std::sort(order.begin(), order.end(),
             [&](size_t a, size_t b) { return all[a * NCOL] < all[b * NCOL]; });
-  fmt::print(fp, "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n",
-             step, natom);
-  fmt::print(fp, "{:.17g} {:.17g}\n{:.17g} {:.17g}\n{:.17g} {:.17g}\n", domain->boxlo[0],
-             domain->boxhi[0], domain->boxlo[1], domain->boxhi[1], domain->boxlo[2],
-             domain->boxhi[2]);
-  fputs("ITEM: ATOMS id type x y z ix iy iz\n", fp);
+  std::string frame = fmt::format(
+      "ITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\nITEM: BOX BOUNDS pp pp pp\n", step, natom);
+  frame += fmt::format("{:.17g} {:.17g}\n{:.17g} {:.17g}\n{:.17g} {:.17g}\n", domain->boxlo[0],
+                       domain->boxhi[0], domain->boxlo[1], domain->boxhi[1], domain->boxlo[2],
+                       domain->boxhi[2]);
+  frame += "ITEM: ATOMS id type x y z ix iy iz\n";
   for (size_t k : order) {
     const double *r = &all[k * NCOL];
-    fmt::print(fp, "{} 1 {:.9g} {:.9g} 0 {} {} 0\n", static_cast<tagint>(r[0]), r[1], r[2],
-               static_cast<int>(r[3]), static_cast<int>(r[4]));
+    frame += fmt::format("{} 1 {:.9g} {:.9g} 0 {} {} 0\n", static_cast<tagint>(r[0]), r[1],
+                         r[2], static_cast<int>(r[3]), static_cast<int>(r[4]));
   }
+  write(frame);
 }
 
 void FixBKSlips::sample()

@@ -28,7 +28,7 @@ FixBKStress::FixBKStress(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
 {
   if (narg != 7) error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
   open_file(5, narg, arg);
-  if (fp) fputs("t,sigma_x\n", fp);
+  if (fp) write(std::string("t,sigma_x\n"));
 }
 
 void FixBKStress::sample()
@@ -42,6 +42,6 @@ void FixBKStress::sample()
   *end++ = ',';
   end = std::to_chars(end, line + 62, sigma).ptr;
   *end++ = '\n';
-  fwrite(line, 1, end - line, fp);
+  write(line, end - line);
   flush_if_due();
 }

@@ -19,7 +19,7 @@ SRC = Path(bkflow.__file__).parent
 #: the data flow of the package, bottom to top: a module imports only modules before it
 #: (README, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
-ORDER = ("params", "lattice", "stationarity", "stress", "order", "clusters", "io", "rundir", "deck", "plugin",
+ORDER = ("params", "limits", "lattice", "stationarity", "stress", "order", "clusters", "io", "rundir", "deck", "plugin",
          "engine", "analysis", "grid", "job", "flowcompat", "project", "tables", "sweep",
          "plot", "cli")
 
@@ -151,7 +151,7 @@ def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
     fd = os.open(tmp_path / LOCK, os.O_RDWR | os.O_CREAT)
     fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as another process would
     try:
-        with pytest.raises(RunBusyError, match="another process"):
+        with pytest.raises(RunBusyError, match="another bkflow process"):
             with rd.lock():
                 pass
     finally:

@@ -258,7 +258,7 @@ def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(tmp_path
 def test_a_run_locked_by_another_process_is_not_touched(tmp_path):
     spec = sweep_specs([10.0], [(20, 5)], 1, t_end=50.0)[0]
     with _job_lock(tmp_path):
-        with pytest.raises(RunBusyError, match="another process"):
+        with pytest.raises(RunBusyError, match="another bkflow process"):
             run_one(spec, tmp_path)
     assert not (tmp_path / "meta.json").exists()
     s = run_one(spec, tmp_path)

@@ -19,7 +19,7 @@ import numpy as np
 from . import __version__, clusters, order, stationarity, stress
 from .lattice import square_lattice
 from .params import AnalysisSettings, RunSpec, transient_step
-from .rundir import CLUSTERS, EVENTS, PSI, RunDir
+from .rundir import CLUSTERS, EVENTS, PSI, DamagedRunError, RunDir
 
 
 def _key(fraction: float) -> str:
@@ -314,6 +314,11 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
         if why is not None:
             raise AnalysisError(why)
         meta = {}
+    else:
+        why = rd.problem()  # every file as large as the run left it
+        if why is not None:
+            raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
+                                  "(bkflow run --overwrite, or the sweep redoes it)")
     spec = rd.spec()
     t, sigma = rd.read_stress()
     snaps = slips = None

@@ -1,9 +1,9 @@
 """Command line: ``bkflow run``, ``bkflow sweep``, ``bkflow plot``, ``bkflow analyze`` and
 ``bkflow deck``.
 
-Bad input gets one line on stderr naming the problem and exit code 2; a run that fails
-(blow-up, LAMMPS error) exits 1. Nothing half-written is left looking complete: a run
-directory counts as finished only once its meta.json says so.
+Every expected failure is one line on stderr and an exit code of :data:`EXIT_CODES`: bad
+input 2, a failed run 1, another process busy 3, the file system 4. Nothing half-written is
+left looking complete: a run directory counts as finished only once its meta.json says so.
 """
 
 from __future__ import annotations
@@ -19,8 +19,26 @@ from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, 
                      SCENES, STARTS, STATIONARY_DRIFT_BOUND, AnalysisSettings, RunSpec,
                      SpecError, parse_size, size_from_n)
 
-EXIT_BAD_INPUT = 2
 EXIT_RUN_FAILED = 1
+EXIT_BAD_INPUT = 2
+EXIT_BUSY = 3
+EXIT_FILE_SYSTEM = 4
+EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141
+#: what every exit code of bkflow means (README, "Exit codes")
+EXIT_CODES = {
+    0: "done",
+    EXIT_RUN_FAILED: "a run failed (blew up, tore apart, LAMMPS error); nothing of it looks "
+                     "finished",
+    EXIT_BAD_INPUT: "bad input or a refused request (a bad argument, a directory that is not "
+                    "bkflow's, a finished run without --overwrite, a damaged run, a request "
+                    "above the cost limits without --force)",
+    EXIT_BUSY: "another bkflow process is writing the same run or sweep",
+    EXIT_FILE_SYSTEM: "the file system refused (permissions, full disk, a file where a "
+                      "directory should be, a name too long)",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C); the same command resumes",
+    EXIT_BROKEN_PIPE: "the output's reader went away (e.g. | head)",
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -112,6 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    f"{rd.META}")
     _spec_args(r)
     r.add_argument("--overwrite", action="store_true", help="redo a finished run in --out")
+    r.add_argument("--force", action="store_true",
+                   help="run even above the cost limits (work, memory, disk; bkflow.limits)")
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.add_argument("--no-analyze", action="store_true",
                    help=f"skip the analysis ({rd.SUMMARY}); run bkflow analyze DIR later")
@@ -141,6 +161,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="runs at a time, one process each (default: all cores)")
     sw.add_argument("--out", default="runs/sweep", help="sweep directory (default runs/sweep)")
     sw.add_argument("--quiet", action="store_true", help="no progress output")
+    sw.add_argument("--force", action="store_true",
+                    help="run even above the limits (runs, processes, work, memory, disk)")
     sw.add_argument("--init", action="store_true",
                     help="only create the jobs (for workflows/project.py submit); run nothing")
     co = sub.add_parser("collect", help="re-analyse what is stale, (re)write the tables from the "
@@ -207,13 +229,19 @@ def _sweep(a) -> int:
                         **_accuracy(a))
     settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
+    from .limits import check_sweep
+
+    check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         from .project import finished, open_project, set_settings
 
-        project = open_project(a.out)
-        if settings is not None:
-            set_settings(project, settings)
-        done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
+        from .rundir import RunDir
+
+        with RunDir(a.out).lock():
+            project = open_project(a.out)
+            if settings is not None:
+                set_settings(project, settings)
+            done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
               f"(cd {a.out} && python <bkflow>/workflows/project.py run|submit ...)")
         return 0
@@ -312,74 +340,132 @@ def _plot(a) -> int:
     return 0
 
 
+def _run(a, argv) -> int:
+    from .analysis import analyze
+    from .engine import run
+    from .rundir import RunDir
+
+    spec = _spec(a)
+    target = RunDir(a.out)
+    meta = target.meta() if target.is_complete() else None
+    if (meta is not None and not a.overwrite and meta.get("requested") == spec.to_dict()
+            and target.problem() is None and target.analysis_problem() is not None
+            and not a.no_analyze):
+        # the same command again after its analysis was cut short: only the analysis is left
+        print(f"{a.out}: this run finished earlier; analysing it")
+        _print_summary(analyze(a.out))
+        return 0
+    res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
+              command="bkflow " + shlex.join(argv), force=a.force)
+    m = res.meta
+    print(f"{a.out}: {m['derived']['n_steps']} steps in {m['wall_time_s']:.1f} s "
+          f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
+    ad = m.get("adaptive")
+    if ad:
+        print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
+              f"stopped because {ad['stopped_because']}"
+              + ("" if ad["reached"] else "; raise --t-end"))
+    if not a.no_analyze:
+        try:
+            summary = analyze(a.out)
+        except KeyboardInterrupt:
+            print(f"\nbkflow: interrupted during the analysis; the run itself is finished: "
+                  f"bkflow analyze {shlex.quote(str(a.out))} (or the same command) analyses it",
+                  file=sys.stderr)
+            return EXIT_INTERRUPTED
+        _print_summary(summary)
+    return 0
+
+
+def _analyze(a) -> int:
+    from .analysis import analyze
+    from .rundir import RunDir
+
+    settings = AnalysisSettings().with_assignments(a.analysis)
+    d = RunDir(a.dir)
+    why = d.analysis_problem(settings) if d.is_complete() and d.problem() is None else None
+    summary = analyze(a.dir, settings)
+    print(f"{a.dir}/{rd.SUMMARY} written"
+          + (f" (re-analysed: {why})" if why and not why.startswith("no ") else ""))
+    _print_summary(summary)
+    return 0
+
+
+def _deck(a) -> int:
+    from .deck import write_deck
+    from .rundir import RunDir
+
+    spec = _spec(a)
+    if spec.adaptive:
+        raise SpecError("an adaptive run (--target-error, --until-stationary) needs the "
+                        "engine, which checks between chunks (bkflow run); a deck runs "
+                        "exactly --t-end")
+    d = RunDir(a.out)
+    if d.meta() is not None or d.file(rd.STRESS).exists():
+        raise SpecError(f"{a.out} holds a run ({rd.META if d.meta() is not None else rd.STRESS}"
+                        "); a deck is written only into an empty directory or over a deck: "
+                        "choose another --out")
+    why = d.foreign()
+    if why is not None and not why.startswith("holds a deck"):
+        raise SpecError(f"{a.out} {why}: choose another --out")
+    paths = write_deck(spec, a.out)
+    print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
+    return 0
+
+
+def _fs_message(exc: OSError) -> str:
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
 def main(argv=None) -> int:
+    """The command line; returns the exit code (:data:`EXIT_CODES`)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     a = build_parser().parse_args(argv)
-    from .engine import RunError, RunExistsError
+    from .analysis import AnalysisError
+    from .engine import RunDiskError, RunError, RunExistsError
     from .plugin import PluginError
-    from .rundir import RunBusyError
+    from .rundir import DamagedRunError, RunBusyError
 
+    commands = {"analyze": _analyze, "sweep": _sweep, "plot": _plot, "collect": _collect,
+                "deck": _deck}
     try:
-        if a.cmd == "analyze":
-            from .analysis import analyze
-            from .rundir import RunDir
-
-            settings = AnalysisSettings().with_assignments(a.analysis)
-            why = RunDir(a.dir).analysis_problem(settings) if RunDir(a.dir).is_complete() \
-                else None
-            try:
-                summary = analyze(a.dir, settings)
-            except (ValueError, OSError) as exc:  # missing, partial or corrupt run files
-                print(f"bkflow: error: cannot analyse {a.dir}: {exc}", file=sys.stderr)
-                return EXIT_BAD_INPUT
-            print(f"{a.dir}/{rd.SUMMARY} written"
-                  + (f" (re-analysed: {why})" if why and not why.startswith("no ") else ""))
-            _print_summary(summary)
-            return 0
-        if a.cmd == "sweep":
-            return _sweep(a)
-        if a.cmd == "plot":
-            return _plot(a)
-        if a.cmd == "collect":
-            return _collect(a)
-        spec = _spec(a)
-        if a.cmd == "deck" and spec.adaptive:
-            raise SpecError("an adaptive run (--target-error, --until-stationary) needs the "
-                            "engine, which checks between chunks (bkflow run); a deck runs "
-                            "exactly --t-end")
-        if a.cmd == "deck":
-            from .deck import write_deck
-
-            paths = write_deck(spec, a.out)
-            print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
-            return 0
-        from .engine import run
-
-        res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
-                  command="bkflow " + shlex.join(argv))
-        m = res.meta
-        print(f"{a.out}: {m['derived']['n_steps']} steps in {m['wall_time_s']:.1f} s "
-              f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
-        ad = m.get("adaptive")
-        if ad:
-            print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
-                  f"stopped because {ad['stopped_because']}"
-                  + ("" if ad["reached"] else "; raise --t-end"))
-        if not a.no_analyze:
-            from .analysis import analyze
-
-            _print_summary(analyze(a.out))
-        return 0
-    except (SpecError, RunExistsError, RunBusyError, PluginError, FileNotFoundError) as exc:
+        if a.cmd == "run":
+            return _run(a, argv)
+        return commands[a.cmd](a)
+    except (AnalysisError, DamagedRunError) as exc:
+        print(f"bkflow: error: cannot analyse {a.dir if a.cmd == 'analyze' else a.out}: {exc}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (SpecError, RunExistsError, PluginError) as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except RunBusyError as exc:
+        print(f"bkflow: busy: {exc}", file=sys.stderr)
+        return EXIT_BUSY
+    except RunDiskError as exc:
+        print(f"bkflow: file system: {exc}", file=sys.stderr)
+        return EXIT_FILE_SYSTEM
     except RunError as exc:
         print(f"bkflow: run failed: {exc}", file=sys.stderr)
         return EXIT_RUN_FAILED
+    except FileNotFoundError as exc:
+        print(f"bkflow: error: {_fs_message(exc)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # the reader of our output went away (| head): say nothing more
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+    except OSError as exc:  # permissions, a full disk, a name too long, a file for a directory
+        print(f"bkflow: file system: {_fs_message(exc)}; nothing finished was changed",
+              file=sys.stderr)
+        return EXIT_FILE_SYSTEM
     except KeyboardInterrupt:
         print("\nbkflow: interrupted; finished runs are kept, an interrupted one is redone: "
               "run the same command again to resume", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ stops when the error of mu_bar is below its target and/or the stress is stationa
 
 from __future__ import annotations
 
+import contextlib
 import math
 import platform
 import sys
@@ -24,15 +25,20 @@ import numpy as np
 from . import __version__
 from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_text, \
     deck_text, setup_text
+from .limits import check_cost
 from .params import (ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, STATIONARY_DRIFT_BOUND, RunSpec,
                      transient_step)
 from .plugin import build_info, lammps_version, open_lammps
-from .rundir import DATA, DECK, LOG, META, SLIPS, SNAPSHOTS, STRESS, RunDir
+from .rundir import DATA, DECK, LOG, META, RunDir
 from .stationarity import stationarity
 from .stress import RunningFriction
 
 class RunError(RuntimeError):
     """A run that cannot go on (blown up, lost atoms, torn bond, LAMMPS error)."""
+
+
+class RunDiskError(RunError):
+    """A run whose output could not be written (a full disk, a file system that failed)."""
 
 
 class RunExistsError(RuntimeError):
@@ -43,6 +49,11 @@ class RunExistsError(RuntimeError):
 class RunResult:
     out: Path
     meta: dict
+
+
+#: a layer that tears at a time step this accurate (C <= 0.5: stable and within percents of
+#: the converged stress, benchmarks/RESULTS.md) tears because of its physics, not of dt
+TEAR_IS_PHYSICAL_BELOW_C = 0.5
 
 
 class AdaptiveStop:
@@ -152,15 +163,26 @@ def _check(lmp, spec: RunSpec, step: int) -> float:
                        "try a smaller --dt-factor")
     longest = _fix_vector(lmp, SUBSTRATE_FIX, 4)
     if not longest < spec.bond_limit:
+        if spec.dt_factor <= TEAR_IS_PHYSICAL_BELOW_C:
+            # at an accurate time step a torn layer is the model's own answer: bonds this
+            # soft cannot hold the layer against its heterogeneous drive, whatever dt
+            advice = (f"bonds of k_b = {spec.k_b:g} cannot hold the layer against the "
+                      f"drive's heterogeneity (dk_d = {spec.dk_d:g}) whatever the time step; "
+                      "raise phi, or bond_limit if a longer stretch is meant")
+        else:
+            advice = "try a smaller --dt-factor"
         raise RunError(f"{where}: a bond stretched to {longest:.3g} l (limit "
-                       f"{spec.bond_limit:g} l); the layer tore apart, try a smaller "
-                       "--dt-factor")
+                       f"{spec.bond_limit:g} l); the layer tore apart: {advice}")
     return sx
 
 
 def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Path) -> RunError:
     """A LAMMPS exception as a RunError that says what happened."""
     msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    if "writing" in msg and "failed" in msg or "No space left" in msg:
+        core = msg.split(": ", 1)[-1].split(" (/")[0]
+        return RunDiskError(f"{spec.label}, step {step}: {core}; free space (or choose "
+                            "another --out) and run the same command again")
     if "bond partner" in msg and "missing" in msg:
         # one rank holds every atom: a partner is "missing" only when an atom jumped past
         # the ghost cutoff within a chunk, i.e. the integration blew up
@@ -171,32 +193,50 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
 
 
 def _claim(rd: RunDir, overwrite: bool) -> None:
-    """Refuse a finished run (unless ``overwrite``); clear a partial one."""
+    """Refuse a finished run (unless ``overwrite``) and anything that is not bkflow's run;
+    clear a partial one."""
     if rd.is_complete() and not overwrite:
         raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
                              "another --out or pass --overwrite")
+    why = rd.foreign()
+    if why is not None:
+        raise RunExistsError(f"{rd.path} {why}: bkflow writes only into an empty directory or "
+                             "its own run; choose another --out")
     rd.clear()
+    rd.mark()
 
 
-def _write_inputs(spec: RunSpec, rd: RunDir) -> DeckFiles:
+def _write_inputs(spec: RunSpec, rd: RunDir) -> None:
     rd.file(DATA).write_text(data_text(spec))
     rd.file(DECK).write_text(deck_text(spec))
-    return DeckFiles(**{k: str(rd.file(name).resolve()) for k, name in
-                        (("data", DATA), ("stress", STRESS), ("snapshots", SNAPSHOTS),
-                         ("slips", SLIPS))})
+
+
+#: wall time one piece of a chunk should take: LAMMPS returns to Python (where Ctrl-C is
+#: honoured) at least this often, however long a chunk is
+PIECE_WALL_S = 0.5
 
 
 def _advance(lmp, spec: RunSpec, rd: RunDir, chunk: int, bar: _Progress,
              adaptive: AdaptiveStop | None) -> int:
-    """Run up to spec.n_steps in chunks, checking after each; the steps run."""
+    """Run up to spec.n_steps in chunks, checking after each; the steps run.
+
+    Chunks end at fixed steps (every ``chunk`` steps), so that an adaptive run stops at the
+    same step every time; each chunk runs in pieces of about PIECE_WALL_S of wall time."""
     step, n_total = 0, spec.n_steps
+    piece = max(10, min(chunk, int(2e7 * PIECE_WALL_S / spec.N)))
     while step < n_total:
-        n = min(chunk, n_total - step)
-        try:
-            lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
-        except Exception as exc:  # LAMMPS errors arrive as plain exceptions
-            raise _lammps_error(spec, exc, step, n, rd.file(LOG)) from None
-        step += n
+        end = min(step + chunk, n_total)
+        while step < end:
+            n = min(piece, end - step)
+            t0 = time.perf_counter()
+            try:
+                lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
+            except Exception as exc:  # LAMMPS errors arrive as plain exceptions
+                raise _lammps_error(spec, exc, step, n, rd.file(LOG)) from None
+            step += n
+            wall = time.perf_counter() - t0
+            if wall > 0:
+                piece = max(10, min(chunk, int(n * PIECE_WALL_S / wall)))
         bar.update(step, _check(lmp, spec, step))
         if adaptive is not None and adaptive.reached(step):
             break
@@ -215,41 +255,48 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
 
 
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
-        chunk_steps: int | None = None, command: str | None = None) -> RunResult:
+        chunk_steps: int | None = None, command: str | None = None,
+        force: bool = False) -> RunResult:
     """Run ``spec`` into directory ``out`` (the files of :mod:`bkflow.rundir` its scene
     writes) and commit it with meta.json.
 
-    ``overwrite``: redo a finished run instead of refusing. A partial run (no complete
-    meta.json) is always cleared and redone. ``chunk_steps``: steps between checks and
-    progress updates (default: 1% of the run, at least 1000 steps).
+    ``overwrite``: redo a finished run instead of refusing. A partial run of bkflow's is
+    always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
+    steps between checks and progress updates (default: 1% of the run, at least 1000 steps).
+    ``force``: run even when the cost estimate (:func:`bkflow.limits.check_cost`) is above
+    the limits.
     """
-    rd = RunDir(out)
+    check_cost(spec, out, force)  # before anything is created
+    rd = RunDir(Path(out).absolute())
     with rd.lock():
         _claim(rd, overwrite)
-        files = _write_inputs(spec, rd)
+        _write_inputs(spec, rd)
         started = time.time()
         adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
         bar = _Progress(spec.label, spec.n_steps, progress)
-        lmp = open_lammps(log=rd.file(LOG))
-        try:
-            # one rank: every bond partner is local, ghosts beyond that are pure overhead
-            lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
+        # LAMMPS runs inside the run directory and names its files relative to it, so that
+        # no path (with spaces, quotes, $, # or any other character) is parsed as input
+        with contextlib.chdir(rd.path):
+            lmp = open_lammps(log=LOG)
             try:
-                lmp.commands_string(setup_text(spec, files))
-            except Exception as exc:
-                raise _lammps_error(spec, exc, 0, 0, rd.file(LOG)) from None
-            t_wall = time.perf_counter()
-            step = _advance(lmp, spec, rd, _chunk(spec, chunk_steps), bar, adaptive)
-            wall = time.perf_counter() - t_wall
-            counters = {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
-                        "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i)) for i, k in
-                                           enumerate(("events", "written"))}
-                        if spec.writes_slips else None}
-        finally:
-            bar.close()
-            lmp.close()
+                # one rank: every bond partner is local, ghosts beyond that are pure overhead
+                lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
+                try:
+                    lmp.commands_string(setup_text(spec, DeckFiles()))
+                except Exception as exc:
+                    raise _lammps_error(spec, exc, 0, 0, rd.file(LOG)) from None
+                t_wall = time.perf_counter()
+                step = _advance(lmp, spec, rd, _chunk(spec, chunk_steps), bar, adaptive)
+                wall = time.perf_counter() - t_wall
+                counters = {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
+                            "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
+                                               for i, k in enumerate(("events", "written"))}
+                            if spec.writes_slips else None}
+            finally:
+                bar.close()
+                lmp.close()
         meta = _meta(spec, step, wall, started, counters, adaptive, command)
-        return RunResult(rd.path, rd.commit(meta))
+        return RunResult(Path(out), rd.commit(meta))
 
 
 def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,

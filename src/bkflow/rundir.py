@@ -46,6 +46,10 @@ EVENTS = "events.csv"
 PSI = "psi.csv"
 CLUSTERS = "clusters.csv"
 LOCK = ".bkflow.lock"
+#: written when bkflow claims a directory for a run: it is bkflow's from then on
+MARK = ".bkflow-run"
+#: files signac keeps in a sweep's job directory
+SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 
 #: what a run writes (the engine); a partial run's are removed before it is redone
 RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, LOG, META)
@@ -66,6 +70,15 @@ _HELD: set[str] = set()
 
 class RunBusyError(RuntimeError):
     """Another process is writing this run directory now (its lock is held)."""
+
+
+class DamagedRunError(ValueError):
+    """A run directory whose files are not what its completion record says, or unreadable."""
+
+
+#: the file systems without flock (Lustre mounted without -o flock, some NFS) have been
+#: warned about once
+_WARNED_NO_FLOCK: set[str] = set()
 
 
 class RunDir:
@@ -137,6 +150,34 @@ class RunDir:
         for name in RUN_FILES + ANALYSIS_FILES:
             self.file(name).unlink(missing_ok=True)
 
+    def mark(self) -> None:
+        """Claim the directory as bkflow's run (a partial run of ours can be redone)."""
+        self.file(MARK).touch()
+
+    def foreign(self) -> str | None:
+        """What makes this directory not bkflow's to write a run into (None: it is empty,
+        or bkflow's own run, finished or not)."""
+        try:
+            names = {p.name for p in self.path.iterdir()}
+        except FileNotFoundError:
+            return None
+        except NotADirectoryError:
+            return "is a file, not a directory"
+        if MARK in names or META in names:
+            return None
+        ours = {LOCK, *SIGNAC_FILES}
+        names = {n for n in names if n not in ours and not (n.startswith(".") and
+                                                             n.endswith(".tmp"))}
+        if not names:
+            return None
+        if {PARAMS, STRESS} <= names:
+            return f"holds a run made with lmp -in {DECK} ({PARAMS}, {STRESS})"
+        if PARAMS in names or DECK in names:
+            return f"holds a deck written by bkflow deck ({', '.join(sorted(names & {DECK, DATA, PARAMS}))})"
+        shown = sorted(names)
+        return ("holds files that are not a bkflow run (" + ", ".join(shown[:3])
+                + (f" and {len(shown) - 3} more" if len(shown) > 3 else "") + ")")
+
     @contextlib.contextmanager
     def lock(self):
         """Hold an exclusive lock on the directory (released when the process dies); a
@@ -155,9 +196,19 @@ class RunDir:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError as exc:
                 if exc.errno in (errno.EAGAIN, errno.EACCES):
-                    raise RunBusyError(f"{self.path}: another process is writing this run now; "
+                    raise RunBusyError(f"another bkflow process is writing {self.path} now; "
                                        "wait for it or stop it") from None
-                raise
+                if exc.errno not in (errno.ENOSYS, errno.EOPNOTSUPP, errno.ENOLCK):
+                    raise
+                # a file system without locks (Lustre without -o flock): run unlocked
+                fs = str(self.path.parent)
+                if fs not in _WARNED_NO_FLOCK:
+                    _WARNED_NO_FLOCK.add(fs)
+                    import sys
+
+                    print(f"bkflow: warning: {fs} does not support file locks ({exc.strerror});"
+                          " running without them: do not start two writers on one run",
+                          file=sys.stderr)
             _HELD.add(key)
             try:
                 yield self
@@ -172,8 +223,19 @@ class RunDir:
         (params.json, written by ``bkflow deck``)."""
         meta = self.meta()
         if meta is not None and meta.get("status") == "complete":
-            return RunSpec.from_dict(meta["params"])
-        return RunSpec.from_dict(io.read_json(self.file(PARAMS)))
+            where, params = META, meta.get("params")
+        else:
+            try:
+                where, params = PARAMS, io.read_json(self.file(PARAMS))
+            except ValueError as exc:
+                raise DamagedRunError(f"{self.file(PARAMS)} is not JSON ({exc})") from None
+        if not isinstance(params, dict):
+            raise DamagedRunError(f"{self.file(where)} holds no run parameters (expected an "
+                                  f"object of RunSpec fields)")
+        try:
+            return RunSpec.from_dict(params)
+        except (TypeError, ValueError) as exc:
+            raise DamagedRunError(f"{self.file(where)}: {exc}") from None
 
     def finished_standalone(self) -> str | None:
         """For a deck run with ``lmp -in in.bk``: why it is not finished (None when its stress
@@ -192,7 +254,12 @@ class RunDir:
     # ------------------------------------------------------------------ the run's outputs
     def read_stress(self) -> tuple[np.ndarray, np.ndarray]:
         """The stress series: (t, sigma_x)."""
-        c = io.read_columns(self.file(STRESS), ("t", "sigma_x"))
+        try:
+            c = io.read_columns(self.file(STRESS), ("t", "sigma_x"))
+        except FileNotFoundError:
+            raise
+        except ValueError as exc:
+            raise DamagedRunError(f"{self.file(STRESS)} is damaged ({exc})") from None
         return c["t"], c["sigma_x"]
 
     def stress_reader(self) -> "StressTail":
@@ -200,10 +267,19 @@ class RunDir:
         return StressTail(self.file(STRESS))
 
     def read_snapshots(self, n_atoms: int) -> io.Frames:
-        return io.read_frames(self.file(SNAPSHOTS), n_atoms)
+        return self._frames(SNAPSHOTS, n_atoms)
 
     def read_slip_frames(self, n_atoms: int) -> io.Frames:
-        return io.read_frames(self.file(SLIPS), n_atoms)
+        return self._frames(SLIPS, n_atoms)
+
+    def _frames(self, name: str, n_atoms: int) -> io.Frames:
+        try:
+            return io.read_frames(self.file(name), n_atoms)
+        except FileNotFoundError:
+            raise
+        except Exception as exc:  # MDAnalysis reports a cut dump in many ways
+            raise DamagedRunError(f"{self.file(name)} is cut or damaged "
+                                  f"({type(exc).__name__}: {exc})") from None
 
     # ------------------------------------------------------------------ the analysis
     def summary(self) -> dict | None:

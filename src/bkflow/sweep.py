@@ -24,6 +24,7 @@ from .grid import run_cost
 from .params import AnalysisSettings, RunSpec, SpecError
 from .project import (ANALYZE, SIMULATE, analysed, finished, open_project, set_settings,
                       settings_of, simulated, spec_of)
+from .rundir import RunDir
 from .tables import write_tables
 
 
@@ -116,6 +117,11 @@ def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
     jobs = jobs or available_cores()
     if jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {jobs}")
+    with RunDir(out).lock():  # one sweep at a time writes a sweep directory
+        return _sweep(specs, out, jobs, progress, settings)
+
+
+def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
     project = open_project(out)
     if settings is not None:
         set_settings(project, settings)
@@ -130,7 +136,7 @@ def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
     cost = {j.id: run_cost(spec_of(j)) for j in todo}
     if todo:
         with _SweepBar(todo, report.finished_before, report.total, progress):
-            _run_pending(project, todo, [SIMULATE, ANALYZE], jobs, cost)
+            _run_pending(project, todo, [SIMULATE, ANALYZE], min(jobs, len(todo)), cost)
     report.wall_time_s = time.perf_counter() - t0
     for job in todo:
         if finished(job):
@@ -162,6 +168,11 @@ def collect(project, settings: AnalysisSettings | None = None,
     """Re-analyse every simulated run whose summary is stale for the sweep's settings (or
     ``settings``, which then become the sweep's), then write runs.csv, results.csv and
     analysis.json into the project directory."""
+    with RunDir(project.path).lock():
+        return _collect(project, settings, jobs)
+
+
+def _collect(project, settings, jobs) -> Collection:
     if settings is not None:
         set_settings(project, settings)
     settings = settings_of(project)
@@ -170,8 +181,6 @@ def collect(project, settings: AnalysisSettings | None = None,
     if stale:
         _run_pending(project, stale, [ANALYZE], jobs)
     done = [j for j in all_jobs if finished(j)]
-    from .rundir import RunDir
-
     runs, results = write_tables(
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
         settings.to_dict())

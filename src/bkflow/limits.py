@@ -1,0 +1,134 @@
+"""What a run or a sweep will cost, checked against what this machine can give before
+anything is created (bkflow run and sweep refuse above the limits unless --force).
+
+The estimates are deliberately simple and a little generous:
+
+- work: atom-steps, N * n_steps (one core runs 2-4e7 a second, benchmarks/RESULTS.md);
+- memory: about 2 kB per atom for LAMMPS and the engine, and for the analysis the frames of
+  the dumps it reads at once (16 bytes per atom and frame);
+- disk: the stress series (40 bytes a sample), the snapshots (50 bytes per atom and frame)
+  and the slip frames (two per slip, at most one slip per 10 time units after the transient).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from .params import RunSpec, SpecError
+
+#: one run may take at most this many atom-steps (about an hour of one core) unless forced
+MAX_ATOM_STEPS = 1e11
+#: a run may need at most this share of the memory available now
+MAX_MEMORY_SHARE = 0.5
+#: a run or a sweep may write at most this share of the free disk, and never more than
+MAX_DISK_SHARE, MAX_BYTES = 0.5, 20e9
+#: a sweep may hold at most this many runs unless forced
+MAX_RUNS = 5000
+#: a sweep may start at most this many processes per core unless forced
+MAX_JOBS_PER_CORE = 4
+
+
+class CostError(SpecError):
+    """A request above the limits of this machine (lifted with --force)."""
+
+
+@dataclass(frozen=True)
+class Cost:
+    atom_steps: float
+    memory_bytes: float
+    disk_bytes: float
+
+    def __add__(self, other: "Cost") -> "Cost":
+        return Cost(self.atom_steps + other.atom_steps,
+                    max(self.memory_bytes, other.memory_bytes),
+                    self.disk_bytes + other.disk_bytes)
+
+
+def cost(spec: RunSpec) -> Cost:
+    """The estimated cost of one run (see module doc)."""
+    n, steps = spec.N, spec.n_steps
+    samples = steps / spec.stress_nevery + 1
+    snapshots = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
+    slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slips else 0
+    disk = 40.0 * samples + 50.0 * n * (snapshots + slips) + 120.0 * n  # + the data file
+    memory = 2e3 * n + 16.0 * n * max(snapshots, slips)
+    return Cost(float(n) * steps, memory, disk)
+
+
+def _available_memory() -> float:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def _free_disk(path) -> float:
+    p = Path(path).absolute()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    try:
+        return float(shutil.disk_usage(p).free)
+    except OSError:
+        return float("inf")
+
+
+def _fmt(b: float) -> str:
+    for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if b >= f:
+            return f"{b / f:.3g} {unit}"
+    return f"{b:.0f} B"
+
+
+def check(c: Cost, out, what: str, force: bool = False) -> None:
+    """Raise CostError when ``c`` is above a limit, naming it and how to lift it."""
+    if force:
+        return
+    hint = "; pass --force to run it anyway"
+    if c.atom_steps > MAX_ATOM_STEPS:
+        hours = c.atom_steps / 3e7 / 3600
+        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, about {hours:.3g} h of one "
+                        f"core (limit {MAX_ATOM_STEPS:.0e}): shorten --t-end, raise "
+                        f"--dt-factor or use a smaller lattice{hint}")
+    mem = _available_memory()
+    if c.memory_bytes > MAX_MEMORY_SHARE * mem:
+        raise CostError(f"{what} needs about {_fmt(c.memory_bytes)} of memory, more than half "
+                        f"of the {_fmt(mem)} available: use a smaller lattice{hint}")
+    free = _free_disk(out)
+    if c.disk_bytes > min(MAX_BYTES, MAX_DISK_SHARE * free):
+        raise CostError(f"{what} would write about {_fmt(c.disk_bytes)}, more than "
+                        f"{_fmt(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
+                        f"at {out}, at most {_fmt(MAX_BYTES)}): choose --scene friction or "
+                        f"another --out{hint}")
+
+
+def check_cost(spec: RunSpec, out, force: bool = False) -> Cost:
+    """The cost of one run, refused above the limits unless ``force``."""
+    c = cost(spec)
+    check(c, out, f"this run ({spec.label}, {spec.n_steps} steps)", force)
+    return c
+
+
+def check_sweep(specs, out, jobs: int, cores: int, force: bool = False) -> Cost:
+    """The cost of a sweep: the number of runs, the processes, every run's own limits and
+    the disk of all of them together."""
+    specs = list(specs)
+    if force:
+        return sum((cost(s) for s in specs), Cost(0, 0, 0))
+    if len(specs) > MAX_RUNS:
+        raise CostError(f"this sweep has {len(specs)} runs (limit {MAX_RUNS}): fewer phi "
+                        "(--points-per-decade), sizes or seeds; pass --force to run it anyway")
+    if jobs > MAX_JOBS_PER_CORE * cores:
+        raise CostError(f"--jobs {jobs} starts more than {MAX_JOBS_PER_CORE} processes per core "
+                        f"on this {cores}-core machine; pass --force to run it anyway")
+    total = Cost(0, 0, 0)
+    for s in specs:
+        total = total + check_cost(s, out)
+    check(Cost(0, 0, total.disk_bytes), out, f"this sweep of {len(specs)} runs")
+    return total
