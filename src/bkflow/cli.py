@@ -341,11 +341,24 @@ def _plot(a) -> int:
 
 
 def _run(a, argv) -> int:
+    from .limits import check_cost
+    from .rundir import RunDir
+
+    spec = _spec(a)
+    check_cost(spec, a.out, a.force)  # before anything is created
+    why = RunDir(a.out).foreign()
+    if why is not None:  # refused before a lock file is left in someone else's directory
+        raise SpecError(f"{a.out} {why}: bkflow writes only into an empty directory or its "
+                        "own run; choose another --out")
+    with RunDir(a.out).lock():  # the run and its analysis: one writer from start to end
+        return _run_locked(a, argv, spec)
+
+
+def _run_locked(a, argv, spec) -> int:
     from .analysis import analyze
     from .engine import run
     from .rundir import RunDir
 
-    spec = _spec(a)
     target = RunDir(a.out)
     meta = target.meta() if target.is_complete() else None
     if (meta is not None and not a.overwrite and meta.get("requested") == spec.to_dict()
@@ -420,6 +433,17 @@ def _fs_message(exc: OSError) -> str:
 
 def main(argv=None) -> int:
     """The command line; returns the exit code (:data:`EXIT_CODES`)."""
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        # the reader of our output went away (| head): say nothing more
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+
+
+def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     a = build_parser().parse_args(argv)
     from .analysis import AnalysisError
@@ -453,11 +477,7 @@ def main(argv=None) -> int:
         print(f"bkflow: error: {_fs_message(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
-        # the reader of our output went away (| head): say nothing more
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_BROKEN_PIPE
+        raise
     except OSError as exc:  # permissions, a full disk, a name too long, a file for a directory
         print(f"bkflow: file system: {_fs_message(exc)}; nothing finished was changed",
               file=sys.stderr)

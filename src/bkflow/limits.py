@@ -91,11 +91,6 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
     if force:
         return
     hint = "; pass --force to run it anyway"
-    if c.atom_steps > MAX_ATOM_STEPS:
-        hours = c.atom_steps / 3e7 / 3600
-        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, about {hours:.3g} h of one "
-                        f"core (limit {MAX_ATOM_STEPS:.0e}): shorten --t-end, raise "
-                        f"--dt-factor or use a smaller lattice{hint}")
     mem = _available_memory()
     if c.memory_bytes > MAX_MEMORY_SHARE * mem:
         raise CostError(f"{what} needs about {_fmt(c.memory_bytes)} of memory, more than half "
@@ -106,6 +101,11 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
                         f"{_fmt(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
                         f"at {out}, at most {_fmt(MAX_BYTES)}): choose --scene friction or "
                         f"another --out{hint}")
+    if c.atom_steps > MAX_ATOM_STEPS:
+        hours = c.atom_steps / 3e7 / 3600
+        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, about {hours:.3g} h of one "
+                        f"core (limit {MAX_ATOM_STEPS:.0e}): shorten --t-end, raise "
+                        f"--dt-factor or use a smaller lattice{hint}")
 
 
 def check_cost(spec: RunSpec, out, force: bool = False) -> Cost:

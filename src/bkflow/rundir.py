@@ -157,12 +157,12 @@ class RunDir:
     def foreign(self) -> str | None:
         """What makes this directory not bkflow's to write a run into (None: it is empty,
         or bkflow's own run, finished or not)."""
+        if self.path.is_file():
+            return "is a file, not a directory"
         try:
             names = {p.name for p in self.path.iterdir()}
         except FileNotFoundError:
             return None
-        except NotADirectoryError:
-            return "is a file, not a directory"
         if MARK in names or META in names:
             return None
         ours = {LOCK, *SIGNAC_FILES}

@@ -1,0 +1,226 @@
+"""Nothing lost, nothing misread: one test per class of fault (the full fuzz of about 80
+cases is benchmarks/faults.py). Each asserts the exit code, the one-line message and that no
+finished result changed or was mis-marked."""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from bkflow.cli import EXIT_BAD_INPUT, EXIT_BUSY, EXIT_FILE_SYSTEM, EXIT_INTERRUPTED, \
+    EXIT_RUN_FAILED
+from bkflow.rundir import META, SUMMARY, RunDir
+from tests.support import tool
+
+pytestmark = pytest.mark.lammps
+
+SHORT = ["--t-end", "100", "--scene", "friction", "--quiet"]
+
+
+def bk(*args, cwd=None, timeout=300):
+    return subprocess.run([tool("bkflow"), *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=timeout)
+
+
+def one_line(proc, needle: str) -> None:
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def digest(d: Path) -> dict:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(d.iterdir())
+            if p.is_file() and p.suffix != ".lock"}
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("finished") / "run"
+    p = bk("run", "--phi", "10", "--t-end", "200", "--out", d, "--quiet")
+    assert p.returncode == 0, p.stderr
+    return d
+
+
+@pytest.mark.parametrize("name", ["with space", "hash#", "dollar$HOME", "quote'\"", "ünï ß"])
+def test_paths_of_any_characters_work(tmp_path, name):
+    d = tmp_path / name
+    d.mkdir()
+    p = bk("run", "--phi", "10", *SHORT, "--out", "r", cwd=d)
+    assert p.returncode == 0, p.stderr
+    assert RunDir(d / "r").problem() is None
+    assert bk("analyze", d / "r").returncode == 0
+
+
+def test_a_cut_file_is_refused_not_analysed(tmp_path, finished):
+    d = tmp_path / "run"
+    shutil.copytree(finished, d)
+    data = (d / "stress.csv").read_bytes()
+    (d / "stress.csv").write_bytes(data[:data.rfind(b"\n", 0, len(data) // 2) + 1])
+    before = (d / SUMMARY).read_bytes()
+    p = bk("analyze", d)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "stress.csv has")
+    assert (d / SUMMARY).read_bytes() == before
+    d2 = tmp_path / "slips"
+    shutil.copytree(finished, d2)
+    data = (d2 / "slips.lammpstrj").read_bytes()
+    (d2 / "slips.lammpstrj").write_bytes(data[:len(data) // 2])
+    p = bk("analyze", d2)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "slips.lammpstrj has")
+
+
+def test_two_writers_one_directory(tmp_path, finished):
+    before = digest(finished)
+    first = subprocess.Popen([tool("bkflow"), "run", "--phi", "1000", "--n", "400", "--t-end",
+                              "1000", "--quiet", "--out", str(tmp_path / "r")],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not (tmp_path / "r" / "stress.csv").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    second = bk("run", "--phi", "1000", "--n", "400", "--t-end", "1000", "--quiet", "--out",
+                tmp_path / "r")
+    first.communicate(timeout=600)
+    assert second.returncode == EXIT_BUSY
+    one_line(second, "another bkflow process is writing")
+    assert first.returncode == 0 and RunDir(tmp_path / "r").problem() is None
+    # a directory that is not bkflow's run is refused, and left as it was
+    deck = tmp_path / "deck"
+    assert bk("deck", "--phi", "10", "--out", deck).returncode == 0
+    p = bk("run", "--phi", "10", *SHORT, "--out", deck)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "holds a deck written by bkflow deck")
+    assert sorted(os.listdir(deck)) == ["data.bk", "in.bk", "params.json"]
+    p = bk("deck", "--phi", "10", "--out", finished)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "holds a run")
+    assert digest(finished) == before
+
+
+def test_file_system_errors_are_one_line(tmp_path, finished):
+    (tmp_path / "file").write_text("x")
+    p = bk("run", "--phi", "10", *SHORT, "--out", tmp_path / "file" / "r")
+    assert p.returncode == EXIT_FILE_SYSTEM
+    one_line(p, "Not a directory")
+    p = bk("run", "--phi", "10", *SHORT, "--out", tmp_path / ("n" * 300))
+    assert p.returncode == EXIT_FILE_SYSTEM
+    one_line(p, "File name too long")
+    small = tmp_path / "small"
+    small.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(small)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("a full disk needs a tmpfs mount (root)")
+    try:
+        p = bk("run", "--phi", "10", "--t-end", "2000", "--scene", "friction", "--quiet",
+               "--force", "--out", small / "r")
+        assert p.returncode == EXIT_FILE_SYSTEM
+        one_line(p, "No space left on device")
+        assert not (small / "r" / META).exists()
+    finally:
+        subprocess.run(["umount", str(small)])
+
+
+def test_damaged_inputs_are_one_line(tmp_path, finished):
+    d = tmp_path / "run"
+    shutil.copytree(finished, d)
+    meta = json.loads((d / META).read_text())
+    del meta["params"]
+    (d / META).write_text(json.dumps(meta))
+    p = bk("analyze", d)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "holds no run parameters")
+    deck = tmp_path / "deck"
+    bk("deck", "--phi", "10", "--out", deck)
+    (deck / "stress.csv").write_text("t,sigma_x\n0,0\n")
+    (deck / "params.json").write_text("[1, 2]")
+    p = bk("analyze", deck)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "holds no run parameters")
+    pipe = subprocess.run(f"'{tool('bkflow')}' run --help | head -1", shell=True,
+                          capture_output=True, text=True)
+    assert "usage" in pipe.stdout and pipe.stderr == ""
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["run", "--phi", "1e12"], "atom-steps"),
+    (["run", "--phi", "1", "--size", "40000x10000"], "of memory"),
+    (["run", "--phi", "1", "--t-end", "1e300"], "more than LAMMPS counts"),
+    (["sweep", "--phi", "1:10", "--points-per-decade", "1000000", "--init"], "runs (limit"),
+    (["sweep", "--phi", "1,2", "--jobs", "1000"], "processes per core"),
+])
+def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, needle):
+    out = tmp_path / "out"
+    p = bk(*args, "--out", out)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, needle)
+    assert not out.exists()
+
+
+def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(tmp_path):
+    p = subprocess.Popen([tool("bkflow"), "run", "--phi", "1000", "--n", "900", "--t-end",
+                          "20000", "--quiet", "--out", str(tmp_path / "r")],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not (tmp_path / "r" / "stress.csv").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)
+    t0 = time.time()
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert time.time() - t0 < 1.0 and p.returncode == EXIT_INTERRUPTED
+    assert "run the same command again" in err and not RunDir(tmp_path / "r").is_complete()
+    # a layer too soft for its drive tears at any time step: the message says so
+    tear = bk("run", "--phi", "0.01", "--t-end", "2000", "--scene", "friction", "--quiet",
+              "--out", tmp_path / "t")
+    assert tear.returncode == EXIT_RUN_FAILED
+    one_line(tear, "whatever the time step")
+
+
+def test_the_same_command_after_an_interrupted_analysis_only_analyses(tmp_path):
+    out = tmp_path / "r"
+    args = ["run", "--phi", "10", "--t-end", "300", "--scene", "friction", "--quiet"]
+    assert bk(*args, "--no-analyze", "--out", out).returncode == 0
+    meta = (out / META).read_bytes()
+    p = bk(*args, "--out", out)
+    assert p.returncode == 0 and "finished earlier; analysing" in p.stdout
+    assert (out / META).read_bytes() == meta and (out / SUMMARY).exists()
+    p = bk(*args, "--out", out)  # now analysed: the finished run is refused as before
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "already holds a finished run")
+
+
+def test_cluster_file_systems_without_flock_fsync_and_unique_temporaries(tmp_path, monkeypatch,
+                                                                          capsys):
+    import fcntl
+
+    from bkflow import io, rundir
+
+    def no_flock(fd, op):
+        raise OSError(errno.ENOSYS, "Function not implemented")
+
+    monkeypatch.setattr(fcntl, "flock", no_flock)
+    monkeypatch.setattr(rundir, "_WARNED_NO_FLOCK", set())
+    for _ in range(2):
+        with RunDir(tmp_path / "a").lock(), RunDir(tmp_path / "b").lock():
+            pass
+    err = capsys.readouterr().err
+    assert err.count("does not support file locks") == 1  # warned once
+    synced = []
+    monkeypatch.setattr(os, "fsync", lambda fd: synced.append(fd))
+    seen = []
+    real_replace = os.replace
+    monkeypatch.setattr(os, "replace", lambda a, b: (seen.append(Path(a).name),
+                                                     real_replace(a, b)))
+    io.write_json_atomic(tmp_path / "x.json", {"a": 1})
+    io.write_json_atomic(tmp_path / "x.json", {"a": 2})
+    assert len(synced) == 2 and len(set(seen)) == 2  # flushed to disk; a fresh name each time
+    assert json.loads((tmp_path / "x.json").read_text()) == {"a": 2}
