@@ -125,7 +125,13 @@ class SweepData:
                             key=lambda s: s[0] * s[1])
 
     def run_dir(self, row) -> RunDir:
-        return sweep_run_dir(self.root, row["job"])
+        """The run directory of a runs.csv row, checked against its completion record (a
+        figure never draws a cut file)."""
+        rd = sweep_run_dir(self.root, row["job"])
+        why = rd.problem()
+        if why is not None:
+            raise PlotError(f"{rd.path}: {why}: run bkflow sweep (or collect) again to redo it")
+        return rd
 
     def runs_of(self, lx, ly, phi=None) -> pd.DataFrame:
         r = self.runs[(self.runs.Lx == lx) & (self.runs.Ly == ly)]
