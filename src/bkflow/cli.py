@@ -188,11 +188,17 @@ def _print_summary(s: dict) -> None:
         v = s.get(key)
         return "n/a" if v is None else format(v, fmt)
 
-    state = ("stationary" if s.get("stationary") else "NOT stationary")
-    print(f"  {state} over t = {g('t_transient', '.0f')}..{g('t_run', '.0f')}: stress drift "
-          f"{100 * (s.get('drift') or float('nan')):+.2f}% +- "
-          f"{100 * (s.get('drift_err') or float('nan')):.2f}% across the window "
-          f"(z = {g('drift_z', '.1f')}); equilibration detected at t = {g('t_equil', '.0f')}")
+    if s.get("stationary") is None:
+        print("  stationarity: n/a (too few samples for the trend test)")
+    else:
+        drift = s.get("drift") if s.get("drift") is not None else float("nan")
+        err = s.get("drift_err") if s.get("drift_err") is not None else float("nan")
+        bound = s.get("drift_bound") if s.get("drift_bound") is not None else float("nan")
+        verdict = (f"stationary (no trend; a drift up to {100 * bound:.1f}% is not excluded)"
+                   if s["stationary"] else "NOT stationary: the stress still drifts")
+        print(f"  {verdict} over t = {g('t_transient', '.0f')}..{g('t_run', '.0f')}: "
+              f"drift {100 * drift:+.2f}% +- {100 * err:.2f}% (z = {g('drift_z', '.1f')}); "
+              f"equilibration detected at t = {g('t_equil', '.0f')}")
     print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} over {s['n_slips']} "
           f"slips (threshold {s['slip_threshold_stress']:g}); <sigma_x>/sigma_n = "
           f"{g('mean_stress_ratio', '.4f')}")
