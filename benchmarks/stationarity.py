@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -56,13 +57,16 @@ def _tau(tc, means, t_fit=400.0):
         return math.nan, math.nan
     s_inf, a0 = y[-5:].mean(), y[0] - y[-5:].mean()
     try:
+        warnings.simplefilter("ignore")  # an undetermined covariance is judged by amp below
         (s, a, tau), cov = curve_fit(lambda t, s, a, tau: s + a * np.exp(-t / tau), x, y,
                                      p0=(s_inf, a0, 2000.0), maxfev=20000)
     except RuntimeError:
         return math.nan, math.nan
-    if not (tau > 0) or tau > 1e6:
-        return math.nan, math.nan
-    return float(tau), float(a / s)
+    amp = a / s
+    # no relaxation to speak of (below 0.2% of the stress), or a fit that ran away
+    if not (tau > 0) or tau > 1e6 or not 2e-3 < abs(amp) < 1:
+        return math.nan, float(amp) if abs(amp) < 1 else math.nan
+    return float(tau), float(amp)
 
 
 def relaxation(out: str, sizes: str, seeds: int, jobs: int) -> pd.DataFrame:

@@ -57,6 +57,9 @@ LARGE_SIZE, LARGE_PHI = (120, 30), "1e-1,1,10,100,1e3"
 #: the synchronized start run until stationary, on a few points: does it reach the random
 #: start's steady state?
 SYNC_STEADY_PHI, SYNC_STEADY_CAP = "10,100,1e3", 64000.0
+#: the random start run for a fixed long time at the same phi: does its early stationary
+#: state last, or does it drift over times its short window cannot see?
+LONG_T = 16000.0
 
 
 def protocols(seeds: int, dt_factor: float) -> dict[str, list[RunSpec]]:
@@ -73,6 +76,8 @@ def protocols(seeds: int, dt_factor: float) -> dict[str, list[RunSpec]]:
                                    **common),
         "sync_steady": sweep_specs(phi_values(SYNC_STEADY_PHI), [PAPER_SIZES[100]], seeds,
                                    t_end=SYNC_STEADY_CAP, until_stationary=True, **common),
+        "random_long": sweep_specs(phi_values(SYNC_STEADY_PHI), GRID_SIZES, min(seeds, 2),
+                                   t_end=LONG_T, start="random", **common),
         "aspect": sweep_specs(grid, ASPECT_SIZES, seeds, **common),
     }
 
@@ -117,6 +122,8 @@ CURVES = {
     "paper, t_end = 16000": ("paper", {"t_end": 16000.0}),
     "steady (random start)": ("steady", {}),
     "steady, N = 3600": ("steady_3600", {}),
+    "random start, t_end = 16000": ("random_long", {}),
+    "synchronized until stationary": ("sync_steady", {}),
 }
 OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)"),
                ("mu_bar_large", "mu_bar (large drops: drop > mean drop)"),
@@ -323,7 +330,8 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
     fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns), 7.2),
                              squeeze=False, sharex=True)
-    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:blue")))
+    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:blue",
+                                "tab:cyan", "tab:green")))
     for col, n in enumerate(ns):
         for row, (field, title) in enumerate(OBSERVABLES):
             ax = axes[row, col]
@@ -388,6 +396,42 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     return path
 
 
+def stress_history_figure(out: Path, figs: Path) -> Path | None:
+    """The stress against time (block means over 400 time units, seeds averaged) of the
+    synchronized start (t_end = 16000) and the random start (t_end = 16000) at phi = 10, 100,
+    1000, one panel per N: how each start approaches the steady state."""
+    from bkflow.stationarity import block_means
+
+    sync, rnd = _tables(out, "paper", {"t_end": 16000.0}), _tables(out, "random_long")
+    if sync is None or rnd is None:
+        return None
+    plt = _style()
+    ns = sorted(set(rnd[0].N))
+    fig, axes = plt.subplots(1, len(ns), figsize=(3.3 * len(ns), 3.0), squeeze=False)
+    for ax, n in zip(axes[0], ns):
+        for phi, colour in zip((10.0, 100.0, 1000.0), ("tab:green", "tab:blue", "black")):
+            for (name, runs), ls in ((("synchronized", sync[0]), "-"), (("random", rnd[0]), ":")):
+                sel = runs[(runs.N == n) & np.isclose(runs.phi, phi)]
+                curves = []
+                for job in sel.job:
+                    t, sigma = sweep_run_dir(out / ("paper" if name == "synchronized"
+                                                    else "random_long"), job).read_stress()
+                    tc, m = block_means(t, sigma / float(sel.sigma_n.iloc[0]), 0.0, 40)
+                    curves.append(m)
+                if curves:
+                    ax.plot(tc, np.mean(curves, axis=0), ls, color=colour, lw=0.9,
+                            label=f"phi = {phi:g}, {name}")
+        ax.set_title(f"N = {n}", fontsize=9)
+        ax.set_xlabel("t")
+    axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$, blocks of 400 time units")
+    axes[0, 0].legend(frameon=False, fontsize=5.5)
+    fig.tight_layout()
+    path = figs / "stress_history.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def figures(out: Path, figs: Path) -> list[Path]:
     written = []
     for label, (name, where) in CURVES.items():
@@ -396,7 +440,7 @@ def figures(out: Path, figs: Path) -> list[Path]:
         sub = figs / label.split(" (")[0].replace(", ", "_").replace(" = ", "").replace(" ", "_")
         paths, _ = plot(out / name, sub, formats=("png",), where=where)
         written += paths
-    for make in (protocols_figure, relaxation_figure):
+    for make in (protocols_figure, relaxation_figure, stress_history_figure):
         path = make(out, figs)
         if path is not None:
             written.append(path)
