@@ -187,7 +187,7 @@ def numbers(out: Path, wall: dict) -> str:
         lines += ["", f"## {title}: minimum against the ends", "",
                   "non-monotonic = the lowest point is interior and below both ends by more "
                   "than 2 combined standard errors (z_lo, z_hi).", "",
-                  "| curve | N | phi at min | min | 1 - min/mu_s | phi = 0.1 | phi = 1e3 | z_lo "
+                  "| curve | N | phi at min | min | 1 - min/mu_s | lowest phi | highest phi | z_lo "
                   "| z_hi | non-monotonic |", "|---|---|---|---|---|---|---|---|---|---|"]
         for label, (_, res) in cs.items():
             for n, g in res.groupby("N"):
