@@ -5,6 +5,7 @@
 
 #include "bkplugin.h"
 
+#include "fix_bk_fused.h"
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
 #include "fix_bk_substrate.h"
@@ -55,8 +56,12 @@ std::string LAMMPS_NS::bk_version_mismatch(LAMMPS *lmp)
                      BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
 }
 
+/* fix bk/substrate, or with the keyword `fused` its single-rank fast path (the same style, so
+   that restart files, bk/stress and bk/slips work with either) */
 static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
 {
+  for (int i = 3; i < argc; i++)
+    if (strcmp(argv[i], "fused") == 0) return new FixBKFused(lmp, argc, argv);
   return new FixBKSubstrate(lmp, argc, argv);
 }
 

@@ -145,7 +145,7 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
     error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
 
   vector_flag = 1;
-  size_vector = 5;
+  size_vector = 6;
   scalar_flag = 1;
   extscalar = 1;
   energy_global_flag = 1;
@@ -537,7 +537,7 @@ void FixBKSubstrate::apply_forces(int advance)
 
 /* vector: 1 sigma_x = sum_i k_d^i (anchor_x - x_i) / (Lx Ly); 2 contact breaks in the last
    step; 3 contact breaks since the fix was defined; 4 plate displacement V_d (t - t0);
-   5 longest bond in the last step. */
+   5 longest bond in the last step; 6 the path: 0 this one (FixBKFused: 1, 2). */
 
 double FixBKSubstrate::compute_vector(int n)
 {
@@ -551,6 +551,7 @@ double FixBKSubstrate::compute_vector(int n)
   if (n == 1) return reduced_vec[1];
   if (n == 2) return reduced_vec[2];
   if (n == 3) return plate_shift;
+  if (n == 5) return 0.0;
   double rmax = 0.0;
   MPI_Allreduce(&rmax_local, &rmax, 1, MPI_DOUBLE, MPI_MAX, world);
   return rmax;

@@ -48,8 +48,9 @@ class FixBKSubstrate : public Fix {
   // velocity in the damping force -m gamma v (NO_DAMPING: no damping, or gamma = 0)
   enum Damping { NO_DAMPING, IMPLICIT, HALF, NDAMPING };
 
- private:
+ protected:    // FixBKFused (fix_bk_fused.h), the fused path, shares all of it
   friend struct BKSubstrateTable;
+
   // model parameters (MODEL.md "Forces on particle i")
   int bonds_on = 0, drive_on = 0;
   int contact = NO_CONTACT;      // reset: the break is located inside the step

@@ -1,0 +1,83 @@
+/* bkflow LAMMPS plugin: the kernel of `fix bk/substrate ... fused` (fix_bk_fused.cpp), one
+   velocity-Verlet step of the whole model on arrays in lattice order. No LAMMPS header: the
+   kernel is compiled once per instruction set (bk_fused_kernel_*.cpp include
+   bk_fused_kernel.inc with their own flags) and chosen at run time (bkfused::select). */
+
+#ifndef BKFLOW_BK_FUSED_KERNEL_H
+#define BKFLOW_BK_FUSED_KERNEL_H
+
+#include <cstdint>
+
+namespace bkfused {
+
+// the same numbering as FixBKSubstrate::Contact and ::Damping
+enum Contact { NO_CONTACT, RESET, RESET_STEP, COULOMB, NCONTACT };
+enum Damping { NO_DAMPING, IMPLICIT, HALF, NDAMPING };
+
+/* Particle k = ix + Lx iy (atom ID k + 1) owns the bond to its +x neighbour (R) and to its +y
+   neighbour (U); each bond keeps a fixed periodic shift (srx, sry; sux, suy) so that the bond
+   vector is d = x_k - x_partner + s. Positions are unwrapped. */
+struct Model {
+  int Lx = 0, Ly = 0, N = 0;
+  int drive = 0, contact = NO_CONTACT, damping = NO_DAMPING;
+  double dt = 0.0;
+  double hv = 0.0;     // fix nve's dtf / m: v += hv f
+  double hd = 0.0;     // the damping's dt / (2 m)
+  double mg = 0.0;     // m gamma
+  double den = 0.0;    // 1 / (1 + gamma dt / 2)
+  double kb = 0.0, r0 = 0.0;
+  double ke = 0.0, fmax = 0.0, fmax2 = 0.0, ke2 = 0.0, lim2 = 0.0;    // lim2 = (fmax / ke)^2
+  double vd = 0.0;
+  // the plate's clock (FixBKSubstrate::elapsed): shift(n) = vd (e0 + (n - n0) dt0)
+  double e0 = 0.0, dt0 = 0.0;
+  int64_t n0 = 0;
+};
+
+struct Arrays {
+  // state, lattice order
+  double *x, *y, *vx, *vy, *fx, *fy, *drx, *dry, *vhx, *vhy;
+  // constant
+  const double *ax, *ay, *kd, *srx, *sry, *sux, *suy;
+  // scratch: bond forces by owner (br, bu) and by partner (bl: its left bond, bd: its down
+  // bond); contact-break flags
+  double *brx, *bry, *blx, *bly, *bux, *buy, *bdx, *bdy, *over;
+};
+
+/* Where the state is mirrored: LAMMPS's wrapped positions x = X - offset and velocities of
+   local atom loc[k] (loc == nullptr: atom k is local atom k, whose z = z[k] is rewritten and
+   v_z = 0); with `state`, the contact displacement and half-step velocity of
+   FixBKSubstrate's per-atom array (columns col_dr, col_dr + 1 and col_vh, col_vh + 1).
+   x == nullptr: no mirror. */
+struct Mirror {
+  double **x = nullptr, **v = nullptr;
+  const int *loc = nullptr;
+  const double *ox = nullptr, *oy = nullptr, *z = nullptr;
+  double **state = nullptr;
+  int col_dr = 2, col_vh = 4;
+};
+
+/* Advances `nsteps` model steps, the first being step n_first (the plate shift of step n is
+   vd (e0 + (n - n0) dt0)), then mirrors. Returns the contact breaks; *last_breaks gets those
+   of the last step. */
+using RunFn = long (*)(const Model &, Arrays &, const Mirror &, int64_t n_first, int64_t nsteps,
+                       long *last_breaks);
+/* The forces of the stored state at step n without advancing the contact history (LAMMPS's
+   setup()), damping with the velocity (ux, uy); mirrors. */
+using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, const double *ux,
+                         const double *uy);
+
+struct Kernel {
+  const char *isa;    // "avx2" or "baseline"
+  RunFn run;
+  SetupFn setup;
+};
+
+/* The build for this CPU: "avx2" where the CPU has AVX2 (and the plugin was built with the
+   AVX2 kernel), else "baseline" (x86-64 SSE2, or the compiler's default elsewhere). The
+   environment variable BKFLOW_FUSED_ISA=baseline forces the baseline build, to test it on a
+   machine with AVX2. Read at every call. */
+Kernel select();
+
+}    // namespace bkfused
+
+#endif
