@@ -56,8 +56,9 @@ def simulated(job) -> bool:
 
 
 def analysed(job) -> bool:
-    """Post-condition of :func:`analyze`: the summary is current for the sweep's settings."""
-    return simulated(job) and one.analysed(job.path, spec_of(job), settings_of(job.project))
+    """Post-condition of :func:`analyze`: the run is intact and its summary is current for
+    the sweep's settings."""
+    return one.analysed(job.path, spec_of(job), settings_of(job.project))
 
 
 def finished(job) -> bool:

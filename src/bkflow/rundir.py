@@ -293,9 +293,9 @@ class RunDir:
     def analysis_problem(self, settings: AnalysisSettings | None = None,
                          spec: RunSpec | None = None) -> str | None:
         """Why the analysis here is missing or stale (None when it is current): no or a cut
-        summary.json, one made by another revision of the analysis (ANALYSIS_REVISION) or under other settings than
-        ``settings`` (resolved for this run), for other parameters than ``spec``, or a table
-        it wrote gone."""
+        summary.json, one made by another revision of the analysis (ANALYSIS_REVISION) or
+        under other settings than ``settings`` (resolved for this run), for other parameters
+        than ``spec``, or a table it wrote gone."""
         s = self.summary()
         if s is None:
             return "no summary.json" if not self.file(SUMMARY).exists() \
