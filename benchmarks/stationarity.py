@@ -37,7 +37,6 @@ import numpy as np
 import pandas as pd
 
 from bkflow.grid import parse_sizes, phi_values, sweep_specs
-from bkflow.params import RunSpec
 from bkflow.project import open_project
 from bkflow.rundir import RunDir
 from bkflow.stationarity import block_means, equilibration_time, mean_error

@@ -10,7 +10,6 @@ with the settings the fused deck uses; what the fused path cannot do is refused 
 """
 
 import itertools
-import os
 import subprocess
 
 import numpy as np
