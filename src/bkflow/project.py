@@ -6,8 +6,8 @@ job id is a hash of every parameter) and whose folder is the run directory
 finished run); operation :func:`analyze` (pre-condition: simulated) writes the summary under
 the sweep's analysis settings, kept in the project document (post-condition: the summary is
 current for them). So a re-run, locally with ``bkflow sweep`` or on a cluster with
-``python -m bkflow.cluster`` or ``workflows/project.py``, skips finished work; a changed
-analysis setting re-analyses every run and runs no LAMMPS.
+``workflows/project.py`` (:class:`ClusterProject`), skips finished work; a changed analysis
+setting re-analyses every run and runs no LAMMPS.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ import pandas as pd
 
 from . import flowcompat
 from .grid import run_cost
-from .params import AnalysisSettings, RunSpec, SpecError
+from .params import AnalysisSettings, SpecError
 from .project import (ANALYZE, SIMULATE, analysed, finished, open_project, set_settings,
                       settings_of, simulated, spec_of)
 from .rundir import RunDir
@@ -199,4 +199,4 @@ def fmt_duration(seconds: float) -> str:
     return str(datetime.timedelta(seconds=int(round(seconds))))
 
 
-__all__ = ["sweep", "collect", "SweepReport", "Collection", "available_cores", "RunSpec"]
+__all__ = ["sweep", "collect", "SweepReport", "Collection", "available_cores"]
