@@ -308,6 +308,11 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
     rd = RunDir(run_dir)
     if not rd.path.is_dir():
         raise FileNotFoundError(f"{rd.path} is not a directory")
+    with rd.lock():  # a run still being written is busy, not unfinished
+        return _analyze_locked(rd, settings)
+
+
+def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     meta = rd.meta() if rd.is_complete() else None
     if meta is None:
         why = rd.finished_standalone()
@@ -331,5 +336,4 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
     res = summarize(spec, t, sigma, snaps, slips, settings)
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
-    with rd.lock():
-        return rd.write_analysis(summary, res.tables())
+    return rd.write_analysis(summary, res.tables())

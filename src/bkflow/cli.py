@@ -56,9 +56,9 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dt-factor", type=float, default=None,
                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
     p.add_argument("--target-error", type=float, default=None,
-                   help="run until mu_bar's standard error is below this (checked every "
-                        f"{ADAPTIVE_CHUNK_T:g} time units, at least {ADAPTIVE_T_MIN:g}), at "
-                        "most --t-end")
+                   help="run until mu_bar's standard error is below this (checked every 1%% of "
+                        f"--t-end, at most every {ADAPTIVE_CHUNK_T:g} time units, from t = "
+                        f"{ADAPTIVE_T_MIN:g}), at most --t-end")
 
 
 def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
@@ -71,7 +71,8 @@ def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
 def _analysis_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--analysis", action="append", default=[], metavar="NAME=VALUE",
                    help="an analysis setting (repeatable): " + ", ".join(
-                       f"{k}={v}" for k, v in AnalysisSettings().to_dict().items()))
+                       f"{k}={','.join(map(str, v)) if isinstance(v, list) else v}"
+                       for k, v in AnalysisSettings().to_dict().items()))
 
 
 def _state_args(p: argparse.ArgumentParser) -> None:
@@ -82,9 +83,8 @@ def _state_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--until-stationary", action="store_true",
                    help="run until the stress is stationary over the analysed window (a trend "
                         "test that excludes a drift above "
-                        f"{100 * STATIONARY_DRIFT_BOUND:g}%%; checked every "
-                        f"{ADAPTIVE_CHUNK_T:g} time units), at most --t-end; with "
-                        "--target-error, until both hold")
+                        f"{100 * STATIONARY_DRIFT_BOUND:g}%%; checked like --target-error), "
+                        "at most --t-end; with --target-error, until both hold")
 
 
 def _accuracy(a) -> dict:
@@ -112,6 +112,8 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
 
 
 def _spec(a) -> RunSpec:
+    if not str(a.out).strip():
+        raise SpecError("--out is empty: name the run directory")
     if a.n is not None:
         Lx, Ly = size_from_n(a.n)
     elif a.size is not None:
@@ -188,8 +190,10 @@ def _print_summary(s: dict) -> None:
         v = s.get(key)
         return "n/a" if v is None else format(v, fmt)
 
-    if s.get("stationary") is None:
-        print("  stationarity: n/a (too few samples for the trend test)")
+    if s.get("stationary") is None or s.get("drift") is None:
+        print(f"  stationarity untested: the analysed window t = {g('t_transient', '.0f')}.."
+              f"{g('t_run', '.0f')} is too short for the trend test's blocks (counted as not "
+              "stationary); run longer")
     else:
         drift = s.get("drift") if s.get("drift") is not None else float("nan")
         err = s.get("drift_err") if s.get("drift_err") is not None else float("nan")

@@ -105,14 +105,29 @@ class AdaptiveStop:
             rules.append(f"stationary (drift bound <= {STATIONARY_DRIFT_BOUND:g})")
         rules = " and ".join(rules)
         met = stopped_early or self.met
+        missed = []  # what the last check found short of the rules
+        if requested.target_error is not None and not (
+                self.last_error is not None and self.last_error <= requested.target_error):
+            missed.append("mu_bar error " + ("not measured" if self.last_error is None else
+                                             f"{self.last_error:.2g} > "
+                                             f"{requested.target_error:g}"))
+        if requested.until_stationary:
+            if trend is None or not math.isfinite(trend.drift):
+                missed.append("stationarity not testable yet")
+            elif not trend.stationary:
+                missed.append(f"the stress still drifts ({100 * trend.drift:+.2f}% +- "
+                              f"{100 * trend.drift_err:.2f}%)")
+            elif trend.drift_bound > STATIONARY_DRIFT_BOUND:
+                missed.append(f"a drift up to {100 * trend.drift_bound:.2g}% not excluded "
+                              f"(> {100 * STATIONARY_DRIFT_BOUND:g}%)")
         return {"target_error": requested.target_error,
                 "until_stationary": requested.until_stationary,
                 "drift_bound_required": STATIONARY_DRIFT_BOUND if requested.until_stationary
                 else None,
                 "t_cap": requested.t_end, "t_run": t_run, "reached": met,
                 "stopped_because": (f"{rules} at t = {t_run:g}" if met else
-                                    f"the cap t_end = {requested.t_end:g} came first: not "
-                                    f"{rules}"),
+                                    f"the cap t_end = {requested.t_end:g} came first: "
+                                    + "; ".join(missed or [f"not {rules}"])),
                 "mu_bar_err_at_stop": self.last_error,
                 "drift_at_stop": None if trend is None else trend.drift,
                 "drift_z_at_stop": None if trend is None else trend.drift_z,

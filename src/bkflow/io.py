@@ -23,6 +23,9 @@ import numpy as np
 #: one float format for every table bkflow writes: full double precision
 FLOAT_FORMAT = "%.17g"
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
 
 @dataclass(frozen=True)
 class Frames:
@@ -99,6 +102,7 @@ def _replace_atomically(path: Path, write) -> None:
     """Write through a uniquely named temporary file beside ``path``, flushed to disk, then
     renamed over it: a reader sees the old file or the whole new one, never half."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes 0600: readable as any file the user writes
     try:
         with os.fdopen(fd, "w", newline="") as f:
             write(f)

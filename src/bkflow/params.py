@@ -373,9 +373,10 @@ class AnalysisSettings:
                             f"got {self.transient!r}")
         if not self.report_thresholds or not all(v > 0 for v in self.report_thresholds):
             raise SpecError("analysis setting report_thresholds must be numbers > 0")
-        if not 0 < self.psi_late_fraction <= 1:
-            raise SpecError(f"analysis setting psi_late_fraction must lie in (0, 1], "
-                            f"got {self.psi_late_fraction!r}")
+        for name in ("psi_late_fraction", "psi_crystal", "span_fraction"):
+            if not 0 < getattr(self, name) <= 1:
+                raise SpecError(f"analysis setting {name} must lie in (0, 1], "
+                                f"got {getattr(self, name)!r}")
 
     def resolved(self, spec: RunSpec) -> "AnalysisSettings":
         """These settings with the run's own values filled in where they defer to it."""
@@ -411,17 +412,25 @@ class AnalysisSettings:
                                 f"{', '.join(sorted(names))}")
             text = text.strip()
             try:
-                if text.lower() in ("none", "run", ""):
+                if text.lower() in ("none", "run", "") and name in ("slip_threshold", "transient",
+                                                                     "drop_x_min_over_threshold"):
                     value = None
+                elif text == "":
+                    raise SpecError(f"--analysis {item!r}: give a value after '='")
                 elif name == "transient_rule":
                     value = text
                 elif name == "n_blocks":
                     value = int(text)
                 elif name == "report_thresholds":
-                    value = tuple(float(v) for v in text.split(",") if v.strip())
+                    value = tuple(float(v) for v in text.strip("[]()").split(",") if v.strip())
                 else:
                     value = float(text)
             except ValueError:
                 raise SpecError(f"--analysis {item!r}: {text!r} is not a number") from None
             changes[name] = value
-        return dataclasses.replace(self, **changes)
+        try:
+            return dataclasses.replace(self, **changes)
+        except (TypeError, ValueError) as exc:
+            if isinstance(exc, SpecError):
+                raise
+            raise SpecError(f"--analysis: {exc}") from None
