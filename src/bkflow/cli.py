@@ -445,6 +445,9 @@ def main(argv=None) -> int:
     """The command line; returns the exit code (:data:`EXIT_CODES`)."""
     try:
         return _main(argv)
+    except KeyboardInterrupt:  # before a command started (while Python imports)
+        print("\nbkflow: interrupted before anything was written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # the reader of our output went away (| head): say nothing more
         import os
