@@ -16,7 +16,7 @@ Codes (``--codes``):
   engine   today's engine: the installed plugin (``bkflow_plugin``), the deck of bkflow.deck
   dev      the same deck with the plugin of BKFLOW_PLUGIN_DIR (a development build)
   fused    the development build's fused path, ``fix bk/substrate ... fused``: the deck of
-           :func:`fused_deck`
+           ``bkflow.deck.setup_text(..., fused=True)``
 and any of them with LAMMPS settings appended as ``+NAME`` (SETTINGS: timer, neigh50,
 newtonoff, nosort; ``+fast`` = FAST: timer, neigh50, newtonoff), e.g. ``fused+fast``,
 ``engine+timer+neigh50``.
@@ -47,7 +47,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bkflow.deck import DeckFiles, data_text, setup_text  # noqa: E402
+from bkflow.deck import FAST_SETTINGS, DeckFiles, data_text, setup_text  # noqa: E402
 from bkflow.lattice import lattice_for  # noqa: E402
 from bkflow.params import RunSpec, parse_size  # noqa: E402
 from bkflow.rundir import DATA, STRESS  # noqa: E402
@@ -165,9 +165,9 @@ LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps wi
 #: LAMMPS settings measured with the fused path (issue 13), as `+NAME` suffixes of a code;
 #: none of them changes the trajectory
 SETTINGS = {
-    "timer": ("add", "timer           loop"),
-    "neigh50": ("replace", "neigh_modify", "neigh_modify    every 50 delay 0 check yes"),
-    "newtonoff": ("replace", "newton", "newton          off off"),
+    "timer": ("add", FAST_SETTINGS[0]),
+    "neigh50": ("replace", "neigh_modify", FAST_SETTINGS[1]),
+    "newtonoff": ("replace", "newton", FAST_SETTINGS[2]),
     "nosort": ("after", "atom_modify", "atom_modify     sort 0 0.0"),
 }
 #: the settings of the fused path's recommended deck (not nosort: without a pair style LAMMPS
@@ -193,21 +193,7 @@ def apply_settings(deck: str, names) -> str:
     return "\n".join(lines) + "\n"
 
 
-def fused_deck(deck: str) -> str:
-    """The deck of bkflow.deck turned into the fused path's: no fix nve, no fix enforce2d
-    (the fused fix integrates, in 2D), ``fused`` at the end of the bk/substrate line."""
-    out = []
-    for line in deck.splitlines():
-        w = line.split()
-        if w[:1] == ["fix"] and len(w) > 3 and w[3] in ("nve", "enforce2d"):
-            continue
-        if w[:1] == ["fix"] and len(w) > 3 and w[3] == "bk/substrate":
-            line = f"{line} fused"
-        out.append(line)
-    return "\n".join(out) + "\n"
-
-
-def code_deck(code: str, base: str, dev_dir: str | None):
+def code_deck(code: str, base: str, base_fused: str, dev_dir: str | None):
     """(deck, plugin dir) of a code: engine | dev | fused, each with +SETTING suffixes."""
     name, *opts = code.split("+")
     if any(o not in SETTINGS and o != "fast" for o in opts):
@@ -218,7 +204,7 @@ def code_deck(code: str, base: str, dev_dir: str | None):
     elif name == "dev":
         deck, pdir = base, dev_dir
     elif name == "fused":
-        deck, pdir = fused_deck(base), dev_dir
+        deck, pdir = base_fused, dev_dir
     else:
         raise SystemExit(f"unknown code {code}")
     return apply_settings(deck, settings), pdir
@@ -279,8 +265,9 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
         spec = RunSpec(phi=100.0, Lx=lx, Ly=ly, dt_factor=0.1, t_end=t_end, scene="friction",
                        seed=1)
         (work / DATA).write_text(data_text(spec))
-        base = setup_text(spec, DeckFiles(data=DATA, stress=STRESS)) + \
-            f"\nrun             {spec.n_steps}\n"
+        run_line = f"\nrun             {spec.n_steps}\n"
+        base = setup_text(spec, DeckFiles(data=DATA, stress=STRESS)) + run_line
+        base_fused = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), fused=True) + run_line
         lat = lattice_for(spec)
         times = {c: [] for c in codes}
         cpus = {c: [] for c in codes}
@@ -293,7 +280,7 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
                     times[c].append(ns / (spec.N * spec.n_steps))
                     cpus[c].append(cpu / (spec.N * spec.n_steps))
                     continue
-                deck, pdir = code_deck(c, base, dev_dir)
+                deck, pdir = code_deck(c, base, base_fused, dev_dir)
                 wall, cpu, steps, atoms = lammps_loop(deck, work, pdir)
                 times[c].append(wall * 1e9 / (steps * atoms))
                 cpus[c].append(cpu * 1e9 / (steps * atoms))

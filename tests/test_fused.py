@@ -26,38 +26,15 @@ pytestmark = pytest.mark.lammps
 
 STEPS = 2000
 PRELOAD = 1.2
-#: LAMMPS settings of the fused deck (benchmarks/floor.py FAST): none changes the trajectory
-FAST = ["timer           loop", "neigh_modify    every 50 delay 0 check yes",
-        "newton          off off"]
-
-
-def fused(deck: str, fast: bool = False) -> str:
-    """A deck of bkflow.deck on the fused path: no fix nve or fix enforce2d, `fused` on the
-    bk/substrate line, and with ``fast`` the settings FAST (in place of the deck's own)."""
-    out = []
-    for line in deck.splitlines():
-        w = line.split()
-        if w[:1] == ["fix"] and len(w) > 3 and w[3] in ("nve", "enforce2d"):
-            continue
-        if w[:1] == ["fix"] and len(w) > 3 and w[3] == "bk/substrate":
-            line += " fused"
-        if fast and w[:1] in (["neigh_modify"], ["newton"]):
-            line = next(f for f in FAST if f.split()[0] == w[0])
-        out.append(line)
-        if fast and w[:1] == ["atom_modify"]:
-            out.append(FAST[0])
-    return "\n".join(out) + "\n"
-
-
 def lammps_fused(spec, lattice, velocities, workdir, preload=0.0, fast=False,
                  parts=(True, True, True)):
     """tests.support.lammps_with on the fused path."""
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
-    lmp.commands_string(fused(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                         thermo_every=10**6, drive=parts[0], contact=parts[1],
-                                         damp=parts[2]), fast))
+    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
+                                   thermo_every=10**6, drive=parts[0], contact=parts[1],
+                                   damp=parts[2], fused=True, fast=fast))
     if preload:
         lmp.command(f"displace_atoms all move {-preload!r} 0 0")
     return lmp
@@ -216,8 +193,8 @@ def test_restart_continues_bit_for_bit(workdir, start):
     lmp.command(f"write_restart {workdir / 'half.restart'}")
     lmp.close()
     lmp = open_lammps()
-    lmp.commands_string(fused(continue_text(spec, str(workdir / "half.restart"),
-                                            thermo_every=10**6), fast=True))
+    lmp.commands_string(continue_text(spec, str(workdir / "half.restart"),
+                                      thermo_every=10**6, fused=True, fast=True))
     resumed = finish(lmp, STEPS // 2)
     assert resumed["breaks"] == whole["breaks"] > 0
     for key in ("x", "v", "state"):
@@ -237,9 +214,10 @@ def test_restart_files_cross_between_paths(workdir, first, then):
     lmp.command(f"run {STEPS // 2}")
     lmp.command(f"write_restart {workdir / 'half.restart'}")
     lmp.close()
-    deck = continue_text(spec, str(workdir / "half.restart"), thermo_every=10**6)
+    deck = continue_text(spec, str(workdir / "half.restart"), thermo_every=10**6,
+                         fused=then == "fused")
     lmp = open_lammps()
-    lmp.commands_string(fused(deck) if then == "fused" else deck)
+    lmp.commands_string(deck)
     resumed = finish(lmp, STEPS // 2)
     assert resumed["breaks"] == whole["breaks"] > 0
     for key in ("x", "v", "state"):
@@ -266,8 +244,8 @@ def test_baseline_kernel_gives_the_same_bits(workdir, monkeypatch):
         data.write_text(data_text(spec, lattice, v0))
         log = workdir / f"log.{isa}"
         lmp = open_lammps(log=log)
-        lmp.commands_string(fused(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                             thermo_every=10**6), fast=True))
+        lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
+                                       thermo_every=10**6, fused=True, fast=True))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         runs[isa] = finish(lmp)
         logs[isa] = log.read_text()
@@ -281,10 +259,10 @@ def test_baseline_kernel_gives_the_same_bits(workdir, monkeypatch):
 
 def _scene_deck(spec, workdir, fast_path):
     deck = setup_text(spec, DeckFiles(data="data.bk", stress="stress.csv",
-                                      snapshots="snap.lammpstrj", slips="slips.lammpstrj"))
-    deck += f"\nrun {spec.n_steps}\n"
+                                      snapshots="snap.lammpstrj", slips="slips.lammpstrj"),
+                      fused=fast_path, fast=fast_path)
     (workdir / "data.bk").write_text(data_text(spec))
-    return fused(deck, fast=True) if fast_path else deck
+    return deck + f"\nrun {spec.n_steps}\n"
 
 
 def test_scene_outputs_match_the_general_path(workdir):
@@ -344,7 +322,8 @@ def test_per_atom_output_is_current_when_dumped(workdir):
 def test_more_than_one_rank_is_refused(workdir):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
-    (workdir / "in.bk").write_text(fused(setup_text(spec, DeckFiles(stress=None))) + "run 10\n")
+    (workdir / "in.bk").write_text(setup_text(spec, DeckFiles(stress=None), fused=True)
+                                   + "run 10\n")
     proc = subprocess.run([tool("mpirun"), "-np", "2", tool("lmp"), "-in", "in.bk"],
                           cwd=workdir, capture_output=True, text=True, timeout=300)
     assert proc.returncode != 0
@@ -373,5 +352,7 @@ def test_what_the_fused_path_cannot_do_is_refused(workdir):
 
     lat = lattice_for(spec)
     only_x = Lattice(lat.Lx, lat.Ly, lat.positions, lat.bonds[0::2], lat.k_d)
-    assert "not a periodic square lattice" in _refusal(workdir, spec, fused(base),
+    fused_base = setup_text(spec, DeckFiles(data=str(workdir / "data.bk"), stress=None),
+                            fused=True)
+    assert "not a periodic square lattice" in _refusal(workdir, spec, fused_base,
                                                         lattice=only_x)

@@ -88,8 +88,9 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
 
 
 def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
-                  damp: bool = True) -> str:
-    """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for."""
+                  damp: bool = True, fused: bool = False) -> str:
+    """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for; with
+    ``fused`` the single-rank path that integrates by itself (plugins/README.md)."""
     parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
@@ -100,6 +101,8 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
         parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
     if contact and spec.start != "synchronized":
         parts.append("start d_dr0")
+    if fused:
+        parts.append("fused")
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 
@@ -116,15 +119,23 @@ def _header(spec: RunSpec) -> list[str]:
     ]
 
 
-def _system(spec: RunSpec, files: DeckFiles) -> list[str]:
+#: LAMMPS settings that speed up the fused path and change no number (benchmarks/floor.py):
+#: the fused fix mirrors positions into LAMMPS only when something reads them, so a
+#: neighbour check every step would force a copy every step
+FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check yes",
+                 "newton          off off")
+
+
+def _system(spec: RunSpec, files: DeckFiles, fast: bool = False) -> list[str]:
     return [
         "units           lj",
         "dimension       2",
         "boundary        p p p",
         "atom_style      bond",
         "atom_modify     map array",
+    ] + ([FAST_SETTINGS[0]] if fast else []) + [
         # every atom holds all four of its bonds: the fix sums them without reverse comm
-        "newton          on off",
+        FAST_SETTINGS[2] if fast else "newton          on off",
         "fix             kd all property/atom d_kd",
     ] + ([
         # the random start: each contact's initial displacement, taken by fix bk/substrate
@@ -139,21 +150,23 @@ def _system(spec: RunSpec, files: DeckFiles) -> list[str]:
 SERIAL_COMM_CUTOFF = 1.0
 
 
-def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool) -> list[str]:
+def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, fused: bool = False,
+              fast: bool = False) -> list[str]:
     lines = [
         # on several ranks a bond partner is found only as a ghost within this cutoff, so the
         # default covers the longest bond the run allows; one rank can pass -var comm_cutoff 1
         f"variable        comm_cutoff index {_f(spec.bond_limit + 1.0)}",
         "comm_modify     cutoff ${comm_cutoff}",
         "neighbor        0.5 bin",
-        "neigh_modify    every 1 delay 0 check yes",
+        FAST_SETTINGS[1] if fast else "neigh_modify    every 1 delay 0 check yes",
         f"timestep        {_f(spec.dt)}",
         "",
-        "fix             nve all nve",
-        substrate_fix(spec, drive, contact, damp),
-        "fix             2d all enforce2d",
-        "",
     ]
+    if fused:  # the fused fix does the velocity-Verlet step, in 2D, by itself
+        lines += [substrate_fix(spec, drive, contact, damp, fused=True), ""]
+    else:
+        lines += ["fix             nve all nve", substrate_fix(spec, drive, contact, damp),
+                  "fix             2d all enforce2d", ""]
     return lines
 
 
@@ -200,24 +213,32 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
 
 
 def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
-               drive: bool = True, contact: bool = True, damp: bool = True) -> str:
-    """Everything of the deck before ``run``: system, forces, integrator, outputs."""
-    lines = (_header(spec) + _system(spec, files) + _dynamics(spec, drive, contact, damp)
+               drive: bool = True, contact: bool = True, damp: bool = True,
+               fused: bool = False, fast: bool = False) -> str:
+    """Everything of the deck before ``run``: system, forces, integrator, outputs.
+
+    ``fused``: the single-rank fused path of fix bk/substrate instead of fix nve + fix
+    bk/substrate + fix enforce2d; ``fast``: the FAST_SETTINGS (neither changes a number)."""
+    lines = (_header(spec) + _system(spec, files, fast)
+             + _dynamics(spec, drive, contact, damp, fused, fast)
              + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 
 def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data=""),
-                  thermo_every: int | None = None) -> str:
+                  thermo_every: int | None = None, fused: bool = False,
+                  fast: bool = False) -> str:
     """Deck lines that continue a run from a LAMMPS restart file (``write_restart``).
 
     The substrate fix is re-specified with the same ID, so its contact history, anchors and
-    clock come back from the restart file; k_d^i come back with ``fix kd``.
+    clock come back from the restart file (on either path: ``fused`` as in
+    :func:`setup_text`); k_d^i come back with ``fix kd``.
     """
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
     lines = (_header(spec) + [f"read_restart    {restart}"] + props
-             + _dynamics(spec, True, True, True) + _outputs(spec, files, thermo_every))
+             + _dynamics(spec, True, True, True, fused, fast)
+             + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 
