@@ -31,6 +31,17 @@ def bk(*args, cwd=None, timeout=300):
                           cwd=cwd, timeout=timeout)
 
 
+def started(*args) -> subprocess.Popen:
+    """``bkflow run ARGS --quiet`` in the background, once its stress series has begun."""
+    out = Path(args[args.index("--out") + 1])
+    p = subprocess.Popen([tool("bkflow"), "run", *map(str, args), "--quiet"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not (out / "stress.csv").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    return p
+
+
 def one_line(proc, needle: str) -> None:
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], proc.stderr
@@ -81,12 +92,7 @@ def test_a_cut_file_is_refused_not_analysed(tmp_path, finished):
 
 def test_two_writers_one_directory(tmp_path, finished):
     before = digest(finished)
-    first = subprocess.Popen([tool("bkflow"), "run", "--phi", "1000", "--n", "400", "--t-end",
-                              "1000", "--quiet", "--out", str(tmp_path / "r")],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 60
-    while not (tmp_path / "r" / "stress.csv").exists() and time.time() < deadline:
-        time.sleep(0.1)
+    first = started("--phi", "1000", "--n", "400", "--t-end", "1000", "--out", tmp_path / "r")
     second = bk("run", "--phi", "1000", "--n", "400", "--t-end", "1000", "--quiet", "--out",
                 tmp_path / "r")
     first.communicate(timeout=600)
@@ -166,12 +172,7 @@ def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, 
 
 
 def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(tmp_path):
-    p = subprocess.Popen([tool("bkflow"), "run", "--phi", "1000", "--n", "900", "--t-end",
-                          "20000", "--quiet", "--out", str(tmp_path / "r")],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 60
-    while not (tmp_path / "r" / "stress.csv").exists() and time.time() < deadline:
-        time.sleep(0.1)
+    p = started("--phi", "1000", "--n", "900", "--t-end", "20000", "--out", tmp_path / "r")
     time.sleep(1.0)
     t0 = time.time()
     p.send_signal(signal.SIGINT)

@@ -99,13 +99,16 @@ class RunDir:
         return self.path / name
 
     # ------------------------------------------------------------------ the completion record
-    def meta(self) -> dict | None:
-        """meta.json, or None when there is none or it is unreadable."""
+    def _record(self, name: str) -> dict | None:
         try:
-            meta = io.read_json(self.file(META))
+            record = io.read_json(self.file(name))
         except (OSError, ValueError):
             return None
-        return meta if isinstance(meta, dict) else None
+        return record if isinstance(record, dict) else None
+
+    def meta(self) -> dict | None:
+        """meta.json, or None when there is none or it is unreadable."""
+        return self._record(META)
 
     def is_complete(self) -> bool:
         """meta.json says the run finished (sizes not checked: see :meth:`problem`)."""
@@ -284,11 +287,7 @@ class RunDir:
     # ------------------------------------------------------------------ the analysis
     def summary(self) -> dict | None:
         """summary.json, or None when there is none or it is unreadable."""
-        try:
-            s = io.read_json(self.file(SUMMARY))
-        except (OSError, ValueError):
-            return None
-        return s if isinstance(s, dict) else None
+        return self._record(SUMMARY)
 
     def analysis_problem(self, settings: AnalysisSettings | None = None,
                          spec: RunSpec | None = None) -> str | None:
