@@ -16,7 +16,7 @@ Codes (``--codes``):
   engine   today's engine: the installed plugin (``bkflow_plugin``), the deck of bkflow.deck
   dev      the same deck with the plugin of BKFLOW_PLUGIN_DIR (a development build)
   fused    the development build's fused path, ``fix bk/substrate ... fused``: the deck of
-           ``bkflow.deck.setup_text(..., fused=True)``
+           ``bkflow.deck.setup_text(..., path="fused")``
 and any of them with LAMMPS settings appended as ``+NAME`` (SETTINGS: timer, neigh50,
 newtonoff, nosort; ``+fast`` = FAST: timer, neigh50, newtonoff), e.g. ``fused+fast``,
 ``engine+timer+neigh50``.
@@ -266,8 +266,8 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
                        seed=1)
         (work / DATA).write_text(data_text(spec))
         run_line = f"\nrun             {spec.n_steps}\n"
-        base = setup_text(spec, DeckFiles(data=DATA, stress=STRESS)) + run_line
-        base_fused = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), fused=True) + run_line
+        base = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path="general") + run_line
+        base_fused = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path="fused") + run_line
         lat = lattice_for(spec)
         times = {c: [] for c in codes}
         cpus = {c: [] for c in codes}

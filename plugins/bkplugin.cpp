@@ -5,6 +5,7 @@
 
 #include "bkplugin.h"
 
+#include "domain.h"
 #include "fix_bk_fused.h"
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
@@ -57,11 +58,18 @@ std::string LAMMPS_NS::bk_version_mismatch(LAMMPS *lmp)
 }
 
 /* fix bk/substrate, or with the keyword `fused` its single-rank fast path (the same style, so
-   that restart files, bk/stress and bk/slips work with either) */
+   that restart files, bk/stress and bk/slips work with either). With `integrate` the fix
+   chooses: the fused path when it can run (one rank, bkflow's lattice: FixBKFused::
+   fused_lattice), else the general path integrating by itself (any number of ranks). */
 static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
 {
-  for (int i = 3; i < argc; i++)
+  bool integrate = false;
+  for (int i = 3; i < argc; i++) {
     if (strcmp(argv[i], "fused") == 0) return new FixBKFused(lmp, argc, argv);
+    if (strcmp(argv[i], "integrate") == 0) integrate = true;
+  }
+  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp))
+    return new FixBKFused(lmp, argc, argv);
   return new FixBKSubstrate(lmp, argc, argv);
 }
 

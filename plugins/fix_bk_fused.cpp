@@ -63,7 +63,8 @@ static FixBKFused::Args split_args(LAMMPS *lmp, int narg, char **arg)
   bool bonds = false;
   for (int i = 0; i < narg; i++) {
     if (i >= 3 && strcmp(arg[i], "bonds") == 0) bonds = true;
-    if (i < 3 || strcmp(arg[i], "fused") != 0) a.base.push_back(arg[i]);
+    if (i < 3 || (strcmp(arg[i], "fused") != 0 && strcmp(arg[i], "integrate") != 0))
+      a.base.push_back(arg[i]);
   }
   if (!bonds)
     lmp->error->all(FLERR,
@@ -169,10 +170,11 @@ bool FixBKFused::mirror_due(bigint step) const
    every atom's bond partners are these; Lx, Ly >= 3 (with 2 rows, the up and down neighbours
    coincide). */
 
-bool FixBKFused::lattice_matches(int lx) const
+static bool lattice_matches(LAMMPS *lmp, int n, int lx)
 {
-  const int ly = N / lx;
-  for (int k = 0; k < N; k++) {
+  Atom *atom = lmp->atom;
+  const int ly = n / lx;
+  for (int k = 0; k < n; k++) {
     const int i = atom->map(k + 1);
     if (atom->num_bond[i] != 4) return false;
     const int ix = k % lx, iy = k / lx;
@@ -185,6 +187,32 @@ bool FixBKFused::lattice_matches(int lx) const
     if (!std::equal(want, want + 4, got)) return false;
   }
   return true;
+}
+
+/* Lx of the lattice the fused path can run, 0 when it cannot: one rank holding atom IDs 1..N,
+   an atom map, the bonds of bkflow's periodic square lattice, one mass. `integrate` takes the
+   fused path exactly when this is not 0 (plugins/bkplugin.cpp). */
+
+int FixBKFused::fused_lattice(LAMMPS *lmp)
+{
+  Atom *atom = lmp->atom;
+  if (lmp->comm->nprocs != 1 || atom->map_style == Atom::MAP_NONE || !atom->molecular ||
+      !atom->num_bond || atom->natoms > 2000000000 || atom->nlocal != atom->natoms)
+    return 0;
+  const int n = static_cast<int>(atom->natoms);
+  auto mass_of = [atom](int i) {
+    return atom->rmass ? atom->rmass[i] : atom->mass ? atom->mass[atom->type[i]] : 0.0;
+  };
+  double m0 = 0.0;
+  for (int k = 0; k < n; k++) {
+    const int i = atom->map(k + 1);
+    if (i < 0 || i >= atom->nlocal) return 0;
+    if (k == 0) m0 = mass_of(i);
+    if (!(mass_of(i) > 0.0) || mass_of(i) != m0) return 0;
+  }
+  for (int lx = 3; lx <= n / 3; lx++)
+    if (n % lx == 0 && lattice_matches(lmp, n, lx)) return lx;
+  return 0;
 }
 
 void FixBKFused::build_lattice()
@@ -201,7 +229,7 @@ void FixBKFused::build_lattice()
   }
   Lx = 0;
   for (int lx = 3; lx <= N / 3 && !Lx; lx++)
-    if (N % lx == 0 && lattice_matches(lx)) Lx = lx;
+    if (N % lx == 0 && lattice_matches(lmp, N, lx)) Lx = lx;
   if (!Lx)
     error->all(FLERR,
                "fix bk/substrate fused: the bonds are not a periodic square lattice with atom "

@@ -39,8 +39,10 @@ class FixBKFused : public FixBKSubstrate {
 
   // restart columns: FixBKSubstrate's, then the exact unwrapped position
   enum { XU = NSTATE, YU, NRESTART };
-  // the arguments without `fused`
+  // the arguments without `fused` (or `integrate`)
   struct Args;
+  // Lx of a lattice the fused path runs, 0 if it cannot (fix_bk_fused.cpp)
+  static int fused_lattice(class LAMMPS *);
 
  private:
   FixBKFused(class LAMMPS *, Args &&);
@@ -69,7 +71,6 @@ class FixBKFused : public FixBKSubstrate {
 
   bool mirror_due(bigint step) const;
   void build_lattice();
-  bool lattice_matches(int lx) const;
   void update_map();
   void adopt_atoms();
   void sync_state();

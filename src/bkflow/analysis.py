@@ -19,7 +19,7 @@ import numpy as np
 from . import __version__, clusters, order, stationarity, stress
 from .lattice import square_lattice
 from .params import AnalysisSettings, RunSpec, transient_step
-from .rundir import CLUSTERS, EVENTS, PSI, DamagedRunError, RunDir
+from .rundir import CLUSTERS, EVENTS, PSI, AnalysisError, DamagedRunError, RunDir  # noqa: F401
 
 
 def _key(fraction: float) -> str:
@@ -291,10 +291,6 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     clus = None if slip_frames is None else cluster_result(spec, settings, events, t0,
                                                            *slip_frames, psi_inf, large.large)
     return RunAnalysis(spec, settings, events, fr, steady, large, drops, orders, clus)
-
-
-class AnalysisError(ValueError):
-    """A run directory that cannot be analysed (nothing finished there, or damaged files)."""
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:

@@ -9,15 +9,22 @@ left looking complete: a run directory counts as finished only once its meta.jso
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 
-from . import __version__
-from . import rundir as rd
-from .grid import ASPECT, POINTS_PER_DECADE, SEEDS
-from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES, PAPER_SIZES,
-                     SCENES, STARTS, STATIONARY_DRIFT_BOUND, AnalysisSettings, RunSpec,
-                     SpecError, parse_size, size_from_n)
+# every bkflow process is one single-threaded run (a sweep runs one process per core): the
+# idle threads of NumPy's OpenBLAS spin, and on a small machine they steal LAMMPS's core
+# (5% of a run's samples at N = 900 in perf). Set before NumPy loads; a user's value wins.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+from . import __version__  # noqa: E402
+from . import rundir as rd  # noqa: E402
+from .grid import ASPECT, POINTS_PER_DECADE, SEEDS  # noqa: E402
+from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES,  # noqa: E402
+                     PAPER_SIZES, PATHS, SCENES, STARTS, STATIONARY_DRIFT_BOUND,
+                     AnalysisSettings, RunSpec, SpecError, parse_size, size_from_n)
 
 EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
@@ -124,6 +131,14 @@ def _spec(a) -> RunSpec:
                    scene=a.scene, **_accuracy(a))
 
 
+def _path_arg(p) -> None:
+    p.add_argument("--path", choices=PATHS, default="auto",
+                   help="integration path: auto (default: the fused path on one rank, the "
+                        "general path on several), general (fix nve + fix bk/substrate + fix "
+                        "enforce2d, as before the fused path: slower, same physics), fused "
+                        "(one rank only)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="bkflow", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"bkflow {__version__}")
@@ -137,9 +152,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.add_argument("--no-analyze", action="store_true",
                    help=f"skip the analysis ({rd.SUMMARY}); run bkflow analyze DIR later")
+    _path_arg(r)
     d = sub.add_parser("deck", help=f"write {rd.DECK}, {rd.DATA}, {rd.PARAMS} without running "
                                     f"(lmp -in {rd.DECK})")
     _spec_args(d)
+    _path_arg(d)
     sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel (signac-flow); "
                                       "re-running skips finished runs")
     sw.add_argument("--phi", required=True,
@@ -365,7 +382,6 @@ def _run(a, argv) -> int:
 
 
 def _run_locked(a, argv, spec) -> int:
-    from .analysis import analyze
     from .engine import run
     from .rundir import RunDir
 
@@ -375,20 +391,27 @@ def _run_locked(a, argv, spec) -> int:
             and target.problem() is None and target.analysis_problem() is not None
             and not a.no_analyze):
         # the same command again after its analysis was cut short: only the analysis is left
+        from .analysis import analyze
+
         print(f"{a.out}: this run finished earlier; analysing it")
         _print_summary(analyze(a.out))
         return 0
     res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
-              command="bkflow " + shlex.join(argv), force=a.force)
+              command="bkflow " + shlex.join(argv), force=a.force, path=a.path)
     m = res.meta
+    eng = m["engine"]
     print(f"{a.out}: {m['derived']['n_steps']} steps in {m['wall_time_s']:.1f} s "
-          f"({m['atom_steps_per_s']:.3g} atom-steps/s), {m['contact_breaks']} contact breaks")
+          f"({m['atom_steps_per_s']:.3g} atom-steps/s, {eng['path']} path"
+          + (f", {eng['kernel']} kernel" if eng["kernel"] else "")
+          + f"), {m['contact_breaks']} contact breaks")
     ad = m.get("adaptive")
     if ad:
         print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
               f"stopped because {ad['stopped_because']}"
               + ("" if ad["reached"] else "; raise --t-end"))
     if not a.no_analyze:
+        from .analysis import analyze
+
         try:
             summary = analyze(a.out)
         except KeyboardInterrupt:
@@ -431,7 +454,7 @@ def _deck(a) -> int:
     why = d.foreign()
     if why is not None and not why.startswith("holds a deck"):
         raise SpecError(f"{a.out} {why}: choose another --out")
-    paths = write_deck(spec, a.out)
+    paths = write_deck(spec, a.out, path=a.path)
     print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
     return 0
 
@@ -450,8 +473,6 @@ def main(argv=None) -> int:
         return EXIT_INTERRUPTED
     except BrokenPipeError:
         # the reader of our output went away (| head): say nothing more
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
 
@@ -459,10 +480,9 @@ def main(argv=None) -> int:
 def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     a = build_parser().parse_args(argv)
-    from .analysis import AnalysisError
     from .engine import RunDiskError, RunError, RunExistsError
     from .plugin import PluginError
-    from .rundir import DamagedRunError, RunBusyError
+    from .rundir import AnalysisError, DamagedRunError, RunBusyError
 
     commands = {"analyze": _analyze, "sweep": _sweep, "plot": _plot, "collect": _collect,
                 "deck": _deck}

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from . import __version__
 from .lattice import Lattice, contact_start, lattice_for
-from .params import RunSpec
+from .params import PATHS, RunSpec
 from .rundir import DATA, DECK, PARAMS, SLIPS, SNAPSHOTS, STRESS
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
@@ -88,9 +88,9 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
 
 
 def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
-                  damp: bool = True, fused: bool = False) -> str:
-    """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for; with
-    ``fused`` the single-rank path that integrates by itself (plugins/README.md)."""
+                  damp: bool = True, path: str = "general") -> str:
+    """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for; with path
+    ``auto`` or ``fused`` the fix integrates by itself (:data:`PATHS`, plugins/README.md)."""
     parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
@@ -101,12 +101,14 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
         parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
     if contact and spec.start != "synchronized":
         parts.append("start d_dr0")
-    if fused:
+    if path == "fused":
         parts.append("fused")
+    elif path == "auto":
+        parts.append("integrate")
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 
-def _header(spec: RunSpec) -> list[str]:
+def _header(spec: RunSpec, path: str) -> list[str]:
     return [
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
@@ -115,13 +117,22 @@ def _header(spec: RunSpec) -> list[str]:
         f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
-        "",
-    ]
+    ] + ({
+        "auto": ["# `integrate`: fix bk/substrate integrates the layer itself, on the fused path on",
+                 "# one rank (lmp -in), on the general path on several (mpirun -np K lmp -in);",
+                 "# one rank runs faster with -var comm_cutoff 0.1 (every bond partner is local)."],
+        "fused": ["# `fused`: the single-rank fused path (one rank only)."],
+        "general": ["# fix nve + fix bk/substrate + fix enforce2d: the general path, any number of",
+                    "# ranks."],
+    }[path]) + [""]
 
 
 #: LAMMPS settings that speed up the fused path and change no number (benchmarks/floor.py):
 #: the fused fix mirrors positions into LAMMPS only when something reads them, so a
-#: neighbour check every step would force a copy every step
+#: neighbour check every step would force a copy every step. On several ranks (general path)
+#: they are safe too: ghosts reach bond_limit + 1 beyond a subdomain, and an atom moves far
+#: less than that in 50 steps; the fix reads no ghost force, so newton_pair off (no reverse
+#: communication) changes nothing.
 FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check yes",
                  "newton          off off")
 
@@ -147,10 +158,10 @@ def _system(spec: RunSpec, files: DeckFiles, fast: bool = False) -> list[str]:
 
 
 #: ghost cutoff for one rank, where every bond partner is a local atom
-SERIAL_COMM_CUTOFF = 1.0
+SERIAL_COMM_CUTOFF = 0.1
 
 
-def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, fused: bool = False,
+def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str = "general",
               fast: bool = False) -> list[str]:
     lines = [
         # on several ranks a bond partner is found only as a ghost within this cutoff, so the
@@ -162,8 +173,8 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, fused: bool
         f"timestep        {_f(spec.dt)}",
         "",
     ]
-    if fused:  # the fused fix does the velocity-Verlet step, in 2D, by itself
-        lines += [substrate_fix(spec, drive, contact, damp, fused=True), ""]
+    if path != "general":  # the fix does the velocity-Verlet step, in 2D, by itself
+        lines += [substrate_fix(spec, drive, contact, damp, path), ""]
     else:
         lines += ["fix             nve all nve", substrate_fix(spec, drive, contact, damp),
                   "fix             2d all enforce2d", ""]
@@ -212,39 +223,48 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
     return lines
 
 
+def _path(path: str, fast: bool | None) -> bool:
+    if path not in PATHS:
+        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
+    return path != "general" if fast is None else fast
+
+
 def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
                drive: bool = True, contact: bool = True, damp: bool = True,
-               fused: bool = False, fast: bool = False) -> str:
+               path: str = "auto", fast: bool | None = None) -> str:
     """Everything of the deck before ``run``: system, forces, integrator, outputs.
 
-    ``fused``: the single-rank fused path of fix bk/substrate instead of fix nve + fix
-    bk/substrate + fix enforce2d; ``fast``: the FAST_SETTINGS (neither changes a number)."""
-    lines = (_header(spec) + _system(spec, files, fast)
-             + _dynamics(spec, drive, contact, damp, fused, fast)
+    ``path``: one of :data:`PATHS`; ``fast``: the FAST_SETTINGS (default: with every path
+    but ``general``). Neither changes a number beyond rounding (the fused path sums in
+    another order; tests/test_fused.py)."""
+    fast = _path(path, fast)
+    lines = (_header(spec, path) + _system(spec, files, fast)
+             + _dynamics(spec, drive, contact, damp, path, fast)
              + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 
 def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data=""),
-                  thermo_every: int | None = None, fused: bool = False,
-                  fast: bool = False) -> str:
+                  thermo_every: int | None = None, path: str = "auto",
+                  fast: bool | None = None) -> str:
     """Deck lines that continue a run from a LAMMPS restart file (``write_restart``).
 
     The substrate fix is re-specified with the same ID, so its contact history, anchors and
-    clock come back from the restart file (on either path: ``fused`` as in
-    :func:`setup_text`); k_d^i come back with ``fix kd``.
+    clock come back from the restart file (on any path: ``path`` as in :func:`setup_text`);
+    k_d^i come back with ``fix kd``.
     """
+    fast = _path(path, fast)
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
-    lines = (_header(spec) + [f"read_restart    {restart}"] + props
-             + _dynamics(spec, True, True, True, fused, fast)
+    lines = (_header(spec, path) + [f"read_restart    {restart}"] + props
+             + _dynamics(spec, True, True, True, path, fast)
              + _outputs(spec, files, thermo_every))
     return "\n".join(lines)
 
 
-def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles()) -> str:
+def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles(), path: str = "auto") -> str:
     """The complete standalone deck: :func:`setup_text` plus the run."""
-    return setup_text(spec, files) + f"run             {spec.n_steps}\n"
+    return setup_text(spec, files, path=path) + f"run             {spec.n_steps}\n"
 
 
 #: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.deck lammps_inputs)
@@ -264,15 +284,16 @@ def write_standard_decks(root) -> list[str]:
     return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
 
 
-def write_deck(spec: RunSpec, directory) -> dict[str, str]:
-    """Write ``in.bk``, ``data.bk`` and ``params.json`` into ``directory``; return {name: path}."""
+def write_deck(spec: RunSpec, directory, path: str = "auto") -> dict[str, str]:
+    """Write ``in.bk`` (integration ``path``), ``data.bk`` and ``params.json`` into
+    ``directory``; return {name: path}."""
     import json
     from pathlib import Path
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     (d / DATA).write_text(data_text(spec))
-    (d / DECK).write_text(deck_text(spec))
+    (d / DECK).write_text(deck_text(spec, path=path))
     (d / PARAMS).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
     return {"deck": str(d / DECK), "data": str(d / DATA), "params": str(d / PARAMS)}
 

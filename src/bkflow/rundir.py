@@ -68,6 +68,10 @@ CLUSTER_COLUMNS = ("event", "t", "n_c", "l_x", "l_y")
 _HELD: set[str] = set()
 
 
+class AnalysisError(ValueError):
+    """A run directory that cannot be analysed (nothing finished there, or damaged files)."""
+
+
 class RunBusyError(RuntimeError):
     """Another process is writing this run directory now (its lock is held)."""
 
