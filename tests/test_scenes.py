@@ -149,3 +149,42 @@ def test_full_scene_of_the_largest_paper_lattice_stays_small(tmp_path):
     res = run(spec, tmp_path, progress=False)
     assert res.meta["bytes_written"] < 50e6
     assert res.meta["slip_snapshots"]["written"] > 50
+
+
+def test_the_fast_dump_reader_agrees_with_mdanalysis(tmp_path):
+    """bkflow.io.read_regular_frames (bkflow's own reader, for speed) gives the frames
+    MDAnalysis gives, to MDAnalysis's single precision; a file it does not recognise in full
+    (cut, frames of another size, columns missing) is left to MDAnalysis (None)."""
+    from bkflow.io import read_frames_mdanalysis, read_regular_frames
+
+    spec = RunSpec(phi=30.0, t_end=300, scene="full")
+    run(spec, tmp_path, progress=False)
+    for name in ("slips.lammpstrj", "snapshots.lammpstrj"):
+        fast = read_regular_frames(tmp_path / name)
+        lib = read_frames_mdanalysis(tmp_path / name, spec.N)
+        assert len(fast) == len(lib) > 2
+        np.testing.assert_array_equal(fast.steps, lib.steps)
+        scale = np.abs(lib.positions).max()
+        np.testing.assert_allclose(fast.positions, lib.positions, rtol=0, atol=3e-7 * scale)
+    text = (tmp_path / "snapshots.lammpstrj").read_text()
+    lines = text.splitlines()
+    per = spec.N + 9
+    bad = tmp_path / "bad.lammpstrj"
+    variants = {
+        "cut inside a frame": "\n".join(lines[:per + 20]) + "\n",
+        "a frame of another size": "\n".join(
+            lines[:per] + [ln if k != 3 else str(spec.N - 1) for k, ln in
+                           enumerate(lines[per:2 * per - 1])]) + "\n",
+        "no image flags": "\n".join(
+            ln.replace(" ix iy iz", "") if ln.startswith("ITEM: ATOMS") else
+            " ".join(ln.split()[:5]) if k % per >= 9 else ln
+            for k, ln in enumerate(lines)) + "\n",
+        "not a number": text.replace(lines[12], lines[12].replace(" 0 0 0", " 0 x 0"), 1),
+    }
+    for what, content in variants.items():
+        bad.write_text(content)
+        assert read_regular_frames(bad) is None, what
+    # and the reader used by the analysis reads a regular file with it
+    fast = read_frames(tmp_path / "snapshots.lammpstrj", spec.N)
+    np.testing.assert_array_equal(fast.positions,
+                                  read_regular_frames(tmp_path / "snapshots.lammpstrj").positions)
