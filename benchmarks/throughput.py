@@ -1,100 +1,233 @@
-"""Throughput (atom-steps/s) of the full model against a deck of built-in LAMMPS styles, over
-N, phi and MPI ranks, plus the cost of the friction scene's output and a timing breakdown.
+"""Throughput of bkflow's engine: the floor kernel, the new engine and today's, side by side;
+the whole process of ``bkflow run``; scaling with N on one and two ranks.
 
-Both decks have the same lattice, time step and step count; the built-in deck is
-bond_style harmonic + fix spring/self (one stiffness) + fix viscous + fix nve + enforce2d,
-i.e. the same work without the shear-history friction and per-atom k_d^i. Every case runs
-as ``[mpirun -np R] lmp -in deck`` (the plugin loads itself) and the rate comes from LAMMPS's
-own "Loop time" of the timed run, after a warm-up run. Model and built-in decks alternate,
-``--repeats`` times each, and the ratio of medians is printed (the machine is shared and
-noisy: ratios measured side by side, not absolute times, are the result).
+Default (the speed issue's table): at each lattice (default N = 100, 900, 3600, 14400;
+phi = 100, C = 0.1, the friction scene) three codes run the same steps, alternating,
+``--rounds`` times, and the medians are printed in ns per atom-step with their ratios:
 
-One rank uses comm cutoff 1 l (what ``bkflow run`` sets); two ranks use the deck's default,
-bond_limit + 1 = 11 l, which any bond up to the engine's guard needs.
+  floor  benchmarks/floor_kernel.c, a tight single-thread C kernel of the same model
+         (gcc -O3 -march=native -fno-math-errno; checked against the plugin to 1e-9 first,
+         benchmarks/floor.py)
+  new    the engine's deck (``fix bk/substrate ... integrate``: the fused path on one rank),
+         ``lmp -in in.bk -var comm_cutoff 0.1`` as the engine runs it
+  old    today's engine before the speed issue: fix nve + fix bk/substrate + fix enforce2d
+         (``--path general``, the same plugin's general path, which the clean-up left
+         instruction for instruction where it was), its LAMMPS settings, comm cutoff 1.0
 
-Also measured, one rank: the model with the friction scene's only output (sigma_x every
-~0.1 time units, ``fix print``) against no output at all; and LAMMPS's timing breakdown
-(Bond/Neigh/Comm/Output/Modify/Other) at each N.
+LAMMPS's "Loop time" is the time of the loop; the floor's is its own clock around its loop.
 
-    python benchmarks/throughput.py [--sizes 20x5 40x10 60x15 120x30 240x60]
-        [--phi 0.1 10 1000] [--ranks 1 2] [--repeats 3] [--atom-steps 2e7]
+``--whole``: the whole process, ``bkflow run --scene friction --no-analyze`` (imports, deck,
+LAMMPS start, loop, meta.json), wall clock, new (``--path auto``) against old: the bkflow of
+``--old-bkflow`` (an environment built from git tag ``before-speed``: see benchmarks/RESULTS.md)
+if given, else ``--path general`` of this bkflow (which shares the new engine's Python side,
+so it understates the gain).
+
+``--scaling``: atom-steps/s against N up to 57600 on one rank (the fused path, and the general
+path) and two ranks (``mpirun -np 2``: the general path), with the ratios.
+
+    python benchmarks/throughput.py [--sizes 20x5 60x15 120x30 240x60] [--rounds 3]
+    python benchmarks/throughput.py --whole [--sizes 20x5 60x15] [--old-bkflow PATH]
+    python benchmarks/throughput.py --scaling [--sizes 60x15 120x30 240x60 480x120]
+    python benchmarks/throughput.py --compare-output | --compare-schemes
 """
 
 from __future__ import annotations
 
-import argparse
-import re
-import statistics
-import subprocess
-import sys
-import tempfile
-from pathlib import Path
+import os
 
-from bkflow.deck import DeckFiles, data_text, setup_text
-from bkflow.params import RunSpec, parse_size
-from bkflow.rundir import DATA, DECK, LOG, STRESS
+# NumPy's OpenBLAS threads spin while idle: on a 2-core machine they steal the timed core
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import re  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+from floor import CPU_USE, LOOP, Floor, build, check  # noqa: E402
+
+from bkflow.deck import DeckFiles, data_text, setup_text  # noqa: E402
+from bkflow.lattice import lattice_for  # noqa: E402
+from bkflow.params import RunSpec, parse_size  # noqa: E402
+from bkflow.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
+#: the engine's comm cutoff on one rank (bkflow.deck.SERIAL_COMM_CUTOFF) and today's
+NEW_CUTOFF, OLD_CUTOFF = 0.1, 1.0
 
 
-def builtin_deck(spec: RunSpec, data: str, cutoff: float) -> str:
-    """The same lattice with built-in styles only (bond harmonic, K = k_b / 2)."""
-    return "\n".join([
-        "units lj", "dimension 2", "boundary p p p", "atom_style bond", "atom_modify map array",
-        "bond_style harmonic", "fix kd all property/atom d_kd",
-        f"read_data {data} fix kd NULL DriveStiffness",
-        f"bond_coeff 1 {spec.k_b / 2!r} 1.0",
-        f"comm_modify cutoff {cutoff}", "neighbor 0.5 bin", "neigh_modify every 1 delay 0 check yes",
-        f"timestep {spec.dt!r}",
-        "fix nve all nve",
-        f"fix drive all spring/self {spec.k_d!r}",
-        f"fix damp all viscous {spec.gamma * spec.mass!r}",
-        "fix 2d all enforce2d",
-        "thermo 1000000",
-    ]) + "\n"
+def spec_for(size: str, t_end: float, atom_steps: float | None, phi=100.0) -> RunSpec:
+    lx, ly = parse_size(size)
+    spec = RunSpec(phi=phi, Lx=lx, Ly=ly, dt_factor=0.1, t_end=t_end, scene="friction", seed=1)
+    if atom_steps and spec.N * spec.n_steps > atom_steps:
+        spec = spec.replace(t_end=max(20.0, atom_steps / spec.N * spec.dt))
+    return spec
 
 
-def model_deck(spec: RunSpec, data: str, cutoff: float, stress: str | None = None) -> str:
-    return (f"variable comm_cutoff index {cutoff}\n"
-            + setup_text(spec, DeckFiles(data=data, stress=stress), thermo_every=10**7))
-
-
-def write_data(work: Path, spec: RunSpec) -> Path:
-    """The data file of ``spec``'s lattice, in a folder of its own under ``work``."""
-    folder = work / f"{spec.Lx}x{spec.Ly}_phi{spec.phi:g}"
-    folder.mkdir(parents=True, exist_ok=True)
-    data = folder / DATA
-    data.write_text(data_text(spec))
-    return data
-
-
-LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms")
-
-
-def measure(deck: str, steps: int, ranks: int, work: Path) -> tuple[float, dict]:
-    """(atom-steps/s of the timed run, {section: % of its time})."""
+def loop_time(deck: str, work: Path, ranks: int = 1, cutoff: float = NEW_CUTOFF):
+    """(wall s, CPU s, steps, atoms, log text) of the timed run of ``lmp -in deck``."""
     f = work / DECK
-    f.write_text(deck + "run 500\nrun %d\n" % steps)
-    cmd = [str(BIN / "lmp"), "-in", str(f), "-log", str(work / LOG), "-screen", "none"]
+    f.write_text(deck)
+    cmd = [str(BIN / "lmp"), "-in", str(f), "-var", "comm_cutoff", repr(cutoff), "-log",
+           str(work / LOG), "-screen", "none", "-nocite"]
     if ranks > 1:
         cmd = [str(BIN / "mpirun"), "-np", str(ranks)] + cmd
-    subprocess.run(cmd, check=True, cwd=work, capture_output=True, timeout=3600)
+    subprocess.run(cmd, check=True, cwd=work, capture_output=True, timeout=7200)
     text = (work / LOG).read_text()
-    loops = LOOP.findall(text)
-    wall, _, n_steps, atoms = loops[-1]
-    timed = text[text.rfind("Loop time"):]
-    breakdown = {m.group(1): float(m.group(2)) for m in re.finditer(
-        r"^(Pair|Bond|Neigh|Comm|Output|Modify|Other)\s*\|.*\|\s*([0-9.]+)\s*$", timed, re.M)}
-    return int(atoms) * int(n_steps) / float(wall), breakdown
+    wall, _, steps, atoms = LOOP.findall(text)[-1]
+    cpu = float(wall) * float(CPU_USE.findall(text)[-1]) / 100.0
+    return float(wall), cpu, int(steps), int(atoms), text
 
 
-def alternated(decks: dict, steps: int, repeats: int, work: Path) -> dict:
+def decks(spec: RunSpec) -> dict[str, tuple[str, float]]:
+    """{code: (deck, comm cutoff)} of the LAMMPS codes."""
+    run = f"\nrun             {spec.n_steps}\n"
+    files = DeckFiles(data=DATA, stress=STRESS)
+    return {"new": (setup_text(spec, files, path="auto") + run, NEW_CUTOFF),
+            "old": (setup_text(spec, files, path="general") + run, OLD_CUTOFF)}
+
+
+def codes_table(a) -> None:
+    dll = build(Path(tempfile.mkdtemp(prefix="bkfloor")))
+    if not a.no_check and not check(dll):
+        raise SystemExit("the floor kernel does not match the plugin: no timing")
+    work = Path(tempfile.mkdtemp(prefix="bkthroughput"))
+    codes = ("floor", "new", "old")
+    rows = {}
+    for size in a.sizes:
+        spec = spec_for(size, a.t_end, a.atom_steps)
+        (work / DATA).write_text(data_text(spec))
+        lat = lattice_for(spec)
+        ds = decks(spec)
+        times = {c: [] for c in codes}
+        paths = set()
+        for _ in range(a.rounds):
+            for c in codes:
+                if c == "floor":
+                    fl = Floor(dll, spec, lat.k_d, lat.positions, np.zeros((spec.N, 2)),
+                               anchor=lat.positions)
+                    ns, _, _ = fl.run(spec.n_steps, spec.stress_nevery)
+                    times[c].append(ns / (spec.N * spec.n_steps))
+                    continue
+                deck, cutoff = ds[c]
+                wall, _, steps, atoms, log = loop_time(deck, work, cutoff=cutoff)
+                times[c].append(wall * 1e9 / (steps * atoms))
+                if c == "new":
+                    paths.add("fused" if "bk/substrate fused:" in log else "general")
+        med = {c: statistics.median(v) for c, v in times.items()}
+        rows[spec.N] = (spec, med, paths)
+        print(f"N = {spec.N}: " + ", ".join(f"{c} {med[c]:.2f}" for c in codes), flush=True)
+    print(f"\nwall ns per atom-step, median of {a.rounds} alternated rounds (phi = 100, C = 0.1, "
+          "scene friction, one rank; LAMMPS: Loop time)\n")
+    print("| N | steps | floor | new | old | new / floor | old / floor | old / new | new path |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for n, (spec, m, paths) in rows.items():
+        print(f"| {n} | {spec.n_steps} | {m['floor']:.2f} | {m['new']:.2f} | {m['old']:.2f} | "
+              f"{m['new'] / m['floor']:.2f} | {m['old'] / m['floor']:.2f} | "
+              f"{m['old'] / m['new']:.2f} | {', '.join(sorted(paths))} |", flush=True)
+
+
+def whole(a) -> None:
+    """Wall time of the whole ``bkflow run`` process, new against old, alternating."""
+    work = Path(tempfile.mkdtemp(prefix="bkwhole"))
+    new = [str(BIN / "bkflow")]
+    old = [a.old_bkflow] if a.old_bkflow else [str(BIN / "bkflow")]
+    what_old = f"{a.old_bkflow}" if a.old_bkflow else "this bkflow, --path general"
+    print(f"old: {what_old}\n")
+    rows = []
+    for size in a.sizes:
+        spec = spec_for(size, a.t_end, None)
+        args = ["run", "--phi", repr(spec.phi), "--size", size, "--dt-factor", "0.1",
+                "--t-end", repr(spec.t_end), "--scene", "friction", "--no-analyze", "--quiet",
+                "--overwrite"]
+        cmds = {"new": new + args + ["--path", "auto"],
+                "old": old + args + ([] if a.old_bkflow else ["--path", "general"])}
+        times = {k: [] for k in cmds}
+        for _ in range(a.rounds):
+            for k, cmd in cmds.items():
+                t0 = time.perf_counter()
+                subprocess.run(cmd + ["--out", str(work / k)], check=True, capture_output=True,
+                               timeout=7200)
+                times[k].append(time.perf_counter() - t0)
+        m = {k: statistics.median(v) for k, v in times.items()}
+        atom_steps = spec.N * spec.n_steps
+        rows.append(f"| {spec.N} | {spec.n_steps} | {m['new']:.2f} | {m['old']:.2f} | "
+                    f"{m['new'] * 1e9 / atom_steps:.1f} | {m['old'] * 1e9 / atom_steps:.1f} | "
+                    f"{m['old'] / m['new']:.2f} |")
+        print(rows[-1], flush=True)
+    print(f"\nwhole process, `bkflow run --scene friction --no-analyze` (phi = 100, C = 0.1, "
+          f"t_end = {a.t_end:g}), wall s, median of {a.rounds} alternated rounds\n")
+    print("| N | steps | new s | old s | new ns/atom-step | old ns/atom-step | old / new |")
+    print("|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+
+
+def scaling(a) -> None:
+    """atom-steps/s against N: one rank fused, one rank general, two ranks (general)."""
+    work = Path(tempfile.mkdtemp(prefix="bkscaling"))
+    cases = {"fused, 1 rank": ("auto", 1, NEW_CUTOFF),
+             "general, 1 rank": ("general", 1, NEW_CUTOFF)}
+    for r in a.ranks:
+        if r > 1:
+            spec0 = spec_for(a.sizes[0], a.t_end, a.atom_steps)
+            cases[f"general, {r} ranks"] = ("auto", r, spec0.bond_limit + 1.0)
+    rows = []
+    for size in a.sizes:
+        spec = spec_for(size, a.t_end, a.atom_steps)
+        (work / DATA).write_text(data_text(spec))
+        rates = {k: [] for k in cases}
+        for _ in range(a.rounds):
+            for k, (path, ranks, cutoff) in cases.items():
+                deck = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path=path) + \
+                    f"\nrun             {spec.n_steps}\n"
+                wall, _, steps, atoms, log = loop_time(deck, work, ranks, cutoff)
+                want = "fused" if k.startswith("fused") else "general"
+                got = "fused" if "bk/substrate fused:" in log else "general"
+                if got != want:
+                    raise SystemExit(f"{k}: the deck ran the {got} path")
+                rates[k].append(steps * atoms / wall)
+        m = {k: statistics.median(v) for k, v in rates.items()}
+        cells = " | ".join(f"{m[k]:.3e}" for k in cases)
+        two = [k for k in cases if not k.endswith("1 rank")]
+        ratios = " | ".join(f"{m[k] / m['general, 1 rank']:.2f} | {m[k] / m['fused, 1 rank']:.2f}"
+                            for k in two)
+        rows.append(f"| {spec.N} | {spec.n_steps} | {cells} | {ratios} |")
+        print(rows[-1], flush=True)
+    two = [k for k in cases if not k.endswith("1 rank")]
+    print(f"\natom-steps/s (LAMMPS Loop time), median of {a.rounds} alternated rounds, phi = 100, "
+          "C = 0.1, scene friction; several ranks use the deck's ghost cutoff bond_limit + 1\n")
+    print("| N | steps | " + " | ".join(cases) + " | "
+          + " | ".join(f"{k} / general 1 | {k} / fused 1" for k in two) + " |")
+    print("|---|---|" + "---|" * (len(cases) + 2 * len(two)))
+    print("\n".join(rows))
+
+
+# ------------------------------------------------------------------- earlier comparisons
+def alternated(decks_: dict, steps: int, repeats: int, work: Path) -> dict:
     """Median atom-steps/s of each deck (one rank), the decks run in turn ``repeats`` times."""
-    rates = {k: [] for k in decks}
+    rates = {k: [] for k in decks_}
     for _ in range(repeats):
-        for k, deck in decks.items():
-            rates[k].append(measure(deck, steps, 1, work)[0])
+        for k, deck in decks_.items():
+            wall, _, n, atoms, _ = loop_time(deck + f"\nrun {steps}\n", work)
+            rates[k].append(n * atoms / wall)
     return {k: statistics.median(v) for k, v in rates.items()}
+
+
+def _write_data(work: Path, spec: RunSpec) -> str:
+    folder = work / f"{spec.Lx}x{spec.Ly}_phi{spec.phi:g}"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / DATA).write_text(data_text(spec))
+    return str(folder / DATA)
 
 
 def compare_output(a) -> None:
@@ -102,21 +235,21 @@ def compare_output(a) -> None:
     from bkflow.deck import SUBSTRATE_FIX
 
     work = Path(tempfile.mkdtemp())
-    print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
     print("| N | no output | fix bk/stress | fix print | bk/stress cost | fix print cost |")
     print("|---|---|---|---|---|---|")
     for size in a.sizes:
         lx, ly = parse_size(size)
         spec = RunSpec(phi=10.0, Lx=lx, Ly=ly)
-        data = write_data(work, spec)
-        steps = max(200, int(a.atom_steps / spec.N))
+        data = _write_data(work, spec)
+        steps = max(200, int((a.atom_steps or 2e7) / spec.N))
         stress = str(work / STRESS)
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
-        m = alternated({"none": model_deck(spec, str(data), 1.0),
-                        "bk/stress": model_deck(spec, str(data), 1.0, stress=stress),
-                        "print": model_deck(spec, str(data), 1.0) + old},
-                       steps, a.repeats, work)
+        base = setup_text(spec, DeckFiles(data=data, stress=None), thermo_every=10**7)
+        m = alternated({"none": base,
+                        "bk/stress": setup_text(spec, DeckFiles(data=data, stress=stress),
+                                                thermo_every=10**7),
+                        "print": base + "\n" + old}, steps, a.rounds, work)
         print(f"| {spec.N} | {m['none']:.3e} | {m['bk/stress']:.3e} | {m['print']:.3e} | "
               f"{m['none'] / m['bk/stress']:.3f} | {m['none'] / m['print']:.3f} |", flush=True)
 
@@ -124,83 +257,54 @@ def compare_output(a) -> None:
 def compare_schemes(a) -> None:
     """Cost of the second-order time stepping: the same deck with each scheme, alternating."""
     work = Path(tempfile.mkdtemp())
-    print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
     print("| N | phi | reset + implicit | reset/step + half | new / old |")
     print("|---|---|---|---|---|")
     for size in a.sizes:
         lx, ly = parse_size(size)
-        for phi in a.phi:
+        for phi in (0.1, 10.0, 1000.0):
             new = RunSpec(phi=phi, Lx=lx, Ly=ly)
             old = new.replace(contact_rule="reset/step", damping="half")
-            data = write_data(work, new)
-            steps = max(200, int(a.atom_steps / new.N))
-            m = alternated({"new": model_deck(new, str(data), 1.0),
-                            "old": model_deck(old, str(data), 1.0)}, steps, a.repeats, work)
-            n, o = m["new"], m["old"]
-            print(f"| {new.N} | {phi:g} | {n:.3e} | {o:.3e} | {n / o:.3f} |", flush=True)
+            data = _write_data(work, new)
+            steps = max(200, int((a.atom_steps or 2e7) / new.N))
+            m = alternated({"new": setup_text(new, DeckFiles(data=data, stress=None),
+                                              thermo_every=10**7),
+                            "old": setup_text(old, DeckFiles(data=data, stress=None),
+                                              thermo_every=10**7)}, steps, a.rounds, work)
+            print(f"| {new.N} | {phi:g} | {m['new']:.3e} | {m['old']:.3e} | "
+                  f"{m['new'] / m['old']:.3f} |", flush=True)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", nargs="+", default=["20x5", "40x10", "60x15", "120x30", "240x60"])
-    ap.add_argument("--phi", type=float, nargs="+", default=[0.1, 10.0, 1000.0])
+    ap.add_argument("--sizes", nargs="+", default=None,
+                    help="lattices LXxLY (default 20x5 60x15 120x30 240x60; --whole 20x5 60x15; "
+                         "--scaling 60x15 120x30 240x60 480x120)")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--t-end", type=float, default=1000.0)
+    ap.add_argument("--atom-steps", type=float, default=4e8,
+                    help="cap on the atom-steps of one timed run (large N run fewer steps)")
+    ap.add_argument("--no-check", action="store_true", help="skip the floor kernel's check")
+    ap.add_argument("--whole", action="store_true", help="the whole bkflow run process")
+    ap.add_argument("--old-bkflow", default=None,
+                    help="--whole: the bkflow command of today's engine (a git-tag build)")
+    ap.add_argument("--scaling", action="store_true")
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--atom-steps", type=float, default=2e7)
-    ap.add_argument("--compare-output", action="store_true",
-                    help="instead: no output vs fix bk/stress vs the fix print line bkflow "
-                         "used before, phi = 10, one rank")
-    ap.add_argument("--compare-schemes", action="store_true",
-                    help="instead: the default time stepping (reset + implicit damping) against "
-                         "the old one (reset/step + half), one rank")
+    ap.add_argument("--compare-output", action="store_true")
+    ap.add_argument("--compare-schemes", action="store_true")
     a = ap.parse_args(argv)
-    if a.compare_schemes:
-        return compare_schemes(a)
+    if a.sizes is None:
+        a.sizes = (["20x5", "60x15"] if a.whole else
+                   ["60x15", "120x30", "240x60", "480x120"] if a.scaling else
+                   ["20x5", "60x15", "120x30", "240x60"])
+    if a.whole:
+        return whole(a)
+    if a.scaling:
+        return scaling(a)
     if a.compare_output:
         return compare_output(a)
-    work = Path(tempfile.mkdtemp())
-    print(f"median of {a.repeats} alternating repeats, ~{a.atom_steps:.0e} atom-steps each\n")
-    print("| N | phi | ranks | model atom-steps/s | built-in atom-steps/s | model / built-in |")
-    print("|---|---|---|---|---|---|")
-    output_rows, breakdown_rows = [], []
-    for size in a.sizes:
-        lx, ly = parse_size(size)
-        for phi in a.phi:
-            spec = RunSpec(phi=phi, Lx=lx, Ly=ly)
-            data = write_data(work, spec)
-            steps = max(200, int(a.atom_steps / spec.N))
-            for ranks in a.ranks:
-                cutoff = 1.0 if ranks == 1 else spec.bond_limit + 1.0
-                model, builtin, quiet, loud = [], [], [], []
-                for _ in range(a.repeats):
-                    r, br = measure(model_deck(spec, str(data), cutoff), steps, ranks, work)
-                    model.append(r)
-                    builtin.append(measure(builtin_deck(spec, str(data), cutoff), steps, ranks,
-                                           work)[0])
-                    if ranks == 1 and phi == 10.0:
-                        quiet.append(r)
-                        loud.append(measure(model_deck(spec, str(data), cutoff,
-                                                       stress=str(work / STRESS)),
-                                            steps, ranks, work)[0])
-                m, b = statistics.median(model), statistics.median(builtin)
-                print(f"| {spec.N} | {phi:g} | {ranks} | {m:.3e} | {b:.3e} | {m / b:.2f} |",
-                      flush=True)
-                if quiet:
-                    q, lo = statistics.median(quiet), statistics.median(loud)
-                    output_rows.append(f"| {spec.N} | {q:.3e} | {lo:.3e} | {q / lo:.3f} |")
-                    breakdown_rows.append(f"| {spec.N} | {m:.3e} | " + " | ".join(
-                        f"{br.get(k, 0):.1f}" for k in ("Bond", "Neigh", "Comm", "Output",
-                                                        "Modify", "Other")) + " |")
-    print("\nfriction scene's output (sigma_x every ~0.1 time units) against none, phi = 10, "
-          "one rank:\n")
-    print("| N | no output | friction scene | cost ratio |")
-    print("|---|---|---|---|")
-    print("\n".join(output_rows))
-    print("\nLAMMPS timing breakdown of the model, phi = 10, one rank (% of loop time; the "
-          "whole fix is 'Modify', 'Bond' is empty since the fix does the bonds):\n")
-    print("| N | atom-steps/s | Bond | Neigh | Comm | Output | Modify | Other |")
-    print("|---|---|---|---|---|---|---|---|")
-    print("\n".join(breakdown_rows))
+    if a.compare_schemes:
+        return compare_schemes(a)
+    return codes_table(a)
 
 
 if __name__ == "__main__":

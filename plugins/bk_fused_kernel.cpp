@@ -17,18 +17,28 @@ BK_DECLARE(baseline)
 #ifdef BK_FUSED_AVX2
 BK_DECLARE(avx2)
 #endif
+#ifdef BK_FUSED_AVX512
+BK_DECLARE(avx512)
+#endif
 #undef BK_DECLARE
 
 Kernel select()
 {
   const char *want = std::getenv("BKFLOW_FUSED_ISA");
-  const bool force_baseline = want && std::strcmp(want, "baseline") == 0;
-#ifdef BK_FUSED_AVX2
+  // BKFLOW_FUSED_ISA=baseline|avx2 caps the instruction set (tests, benchmarks)
+  const bool baseline_only = want && std::strcmp(want, "baseline") == 0;
+  const bool avx2_max = baseline_only || (want && std::strcmp(want, "avx2") == 0);
+#if defined(BK_FUSED_AVX2) || defined(BK_FUSED_AVX512)
   __builtin_cpu_init();
-  if (!force_baseline && __builtin_cpu_supports("avx2")) return {"avx2", &avx2::run, &avx2::setup};
-#else
-  (void) force_baseline;
 #endif
+#ifdef BK_FUSED_AVX512
+  if (!avx2_max && __builtin_cpu_supports("avx512f"))
+    return {"avx512", &avx512::run, &avx512::setup};
+#endif
+#ifdef BK_FUSED_AVX2
+  if (!baseline_only && __builtin_cpu_supports("avx2")) return {"avx2", &avx2::run, &avx2::setup};
+#endif
+  (void) avx2_max;
   return {"baseline", &baseline::run, &baseline::setup};
 }
 

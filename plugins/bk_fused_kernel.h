@@ -67,15 +67,15 @@ using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, con
                          const double *uy);
 
 struct Kernel {
-  const char *isa;    // "avx2" or "baseline"
+  const char *isa;    // "avx512", "avx2" or "baseline"
   RunFn run;
   SetupFn setup;
 };
 
-/* The build for this CPU: "avx2" where the CPU has AVX2 (and the plugin was built with the
-   AVX2 kernel), else "baseline" (x86-64 SSE2, or the compiler's default elsewhere). The
-   environment variable BKFLOW_FUSED_ISA=baseline forces the baseline build, to test it on a
-   machine with AVX2. Read at every call. */
+/* The build for this CPU: "avx512" where the CPU has AVX-512F, else "avx2" where it has AVX2
+   (each when the plugin was built with it), else "baseline" (x86-64 SSE2, or the compiler's
+   default elsewhere). The environment variable BKFLOW_FUSED_ISA=baseline or =avx2 caps the
+   choice, to test the other builds on a machine with more. Read at every call. */
 Kernel select();
 
 }    // namespace bkfused

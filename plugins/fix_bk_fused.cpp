@@ -488,7 +488,8 @@ double FixBKFused::compute_vector(int n)
   if (n == 1) return static_cast<double>(nbreak_step);
   if (n == 2) return static_cast<double>(nbreak_total);
   if (n == 3) return plate_shift;
-  if (n == 5) return strcmp(kernel.isa, "avx2") == 0 ? 2.0 : 1.0;
+  if (n == 5)
+    return strcmp(kernel.isa, "avx512") == 0 ? 3.0 : strcmp(kernel.isa, "avx2") == 0 ? 2.0 : 1.0;
   if (rmax_step != step) rmax_value = longest_bond(), rmax_step = step;
   return rmax_value;
 }

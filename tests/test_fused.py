@@ -119,7 +119,7 @@ def test_fused_follows_fix_bk_substrate(mode, damping, start, workdir):
     a = finish(lammps_with(spec, lattice, v0, workdir, preload=PRELOAD))
     b = finish(lammps_fused(spec, lattice, v0, workdir, preload=PRELOAD, fast=True))
     assert a["breaks"] == b["breaks"] > 0
-    assert a["path"] == 0 and b["path"] in (1, 2)
+    assert a["path"] == 0 and b["path"] in (1, 2, 3)
     for key in ("x", "v", "state"):
         np.testing.assert_allclose(b[key], a[key], rtol=0, atol=1e-11)
     assert b["sigma"] == pytest.approx(a["sigma"], abs=1e-12)
@@ -224,22 +224,27 @@ def test_restart_files_cross_between_paths(workdir, first, then):
         np.testing.assert_allclose(resumed[key], whole[key], rtol=0, atol=1e-11)
 
 
-def _cpu_has_avx2():
+def _cpu_flags():
     with open("/proc/cpuinfo") as f:
-        return " avx2" in f.read()
+        return set(next(ln for ln in f if ln.startswith("flags")).split(":", 1)[1].split())
 
 
-def test_baseline_kernel_gives_the_same_bits(workdir, monkeypatch):
+#: what BKFLOW_FUSED_ISA caps the kernel at, and f_bk[6] of each build
+ISA_CODES = {"baseline": 1, "avx2": 2, "avx512": 3}
+
+
+def test_every_kernel_build_gives_the_same_bits(workdir, monkeypatch):
     """BKFLOW_FUSED_ISA=baseline runs the kernel built for any x86-64 (what a CPU without AVX2
-    runs): the same trajectory to the bit, and the log names the build that ran."""
+    runs), =avx2 caps it at AVX2; unset, the best build for the CPU (AVX-512 where it has
+    AVX-512F): the same trajectory to the bit, and the log names the build that ran."""
     spec = RunSpec(phi=10.0, Lx=8, Ly=3, seed=2, start="random")
     lattice, _, v0 = lively_start(spec)
     runs, logs = {}, {}
-    for isa in ("baseline", "auto"):
-        if isa == "baseline":
-            monkeypatch.setenv("BKFLOW_FUSED_ISA", "baseline")
-        else:
+    for isa in ("baseline", "avx2", "auto"):
+        if isa == "auto":
             monkeypatch.delenv("BKFLOW_FUSED_ISA", raising=False)
+        else:
+            monkeypatch.setenv("BKFLOW_FUSED_ISA", isa)
         data = workdir / "data.bk"
         data.write_text(data_text(spec, lattice, v0))
         log = workdir / f"log.{isa}"
@@ -249,12 +254,15 @@ def test_baseline_kernel_gives_the_same_bits(workdir, monkeypatch):
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         runs[isa] = finish(lmp)
         logs[isa] = log.read_text()
+    flags = _cpu_flags()
+    best = "avx512" if "avx512f" in flags else "avx2" if "avx2" in flags else "baseline"
+    capped = "avx2" if "avx2" in flags else "baseline"
     assert "kernel baseline" in logs["baseline"] and runs["baseline"]["path"] == 1
-    avx2 = _cpu_has_avx2()
-    assert ("kernel avx2" if avx2 else "kernel baseline") in logs["auto"]
-    assert runs["auto"]["path"] == (2 if avx2 else 1)
-    for key in ("x", "v", "state"):
-        np.testing.assert_array_equal(runs["baseline"][key], runs["auto"][key])
+    assert f"kernel {capped}" in logs["avx2"] and runs["avx2"]["path"] == ISA_CODES[capped]
+    assert f"kernel {best}" in logs["auto"] and runs["auto"]["path"] == ISA_CODES[best]
+    for isa in ("avx2", "auto"):
+        for key in ("x", "v", "state"):
+            np.testing.assert_array_equal(runs["baseline"][key], runs[isa][key])
 
 
 def _scene_deck(spec, workdir, fast_path):

@@ -55,7 +55,7 @@ def test_integrate_takes_the_fused_path_on_one_rank(start, workdir):
     lattice, _, v0 = lively_start(spec)
     auto = _run(spec, workdir, "auto", lattice=lattice, velocities=v0)
     fused = _run(spec, workdir, "fused", lattice=lattice, velocities=v0)
-    assert auto["path"] in (1, 2) and auto["path"] == fused["path"]
+    assert auto["path"] in (1, 2, 3) and auto["path"] == fused["path"]
     _same(auto, fused)
 
 
@@ -101,7 +101,7 @@ def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(workdir):
         deck = setup_text(spec, files, thermo_every=500, path=path, fast=fast) + "\n" + tail
         runs[name] = _standalone(workdir, deck, ranks, name)
     assert "PATH 0" in runs["auto2"][1] and "on 2 procs" in runs["auto2"][1]
-    assert "PATH 1" in runs["auto1"][1] or "PATH 2" in runs["auto1"][1]
+    assert any(f"PATH {k}" in runs["auto1"][1] for k in (1, 2, 3))
     np.testing.assert_array_equal(runs["auto2"][0], runs["general2"][0])
     np.testing.assert_allclose(runs["auto1"][0], runs["auto2"][0], rtol=0, atol=1e-9)
 
@@ -129,7 +129,7 @@ def test_engine_records_the_path_and_both_paths_agree(tmp_path):
     auto_meta, auto = _engine_run(tmp_path, "auto", "auto")
     gen_meta, gen = _engine_run(tmp_path, "general", "general")
     assert auto_meta["engine"]["path"] == "fused"
-    assert auto_meta["engine"]["kernel"] in ("avx2", "baseline")
+    assert auto_meta["engine"]["kernel"] in ("avx512", "avx2", "baseline")
     assert auto_meta["engine"]["requested"] == "auto" and auto_meta["engine"]["ranks"] == 1
     assert gen_meta["engine"] == {"requested": "general", "path": "general", "kernel": None,
                                   "ranks": 1}

@@ -276,7 +276,8 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
 
 
 #: f_bk[6] of fix bk/substrate: the path that ran and its kernel
-_PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2")}
+_PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2"),
+               3: ("fused", "avx512")}
 
 
 def _path_record(lmp, requested: str) -> dict:
