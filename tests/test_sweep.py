@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import json
 import math
 import os
 import re
@@ -24,7 +25,7 @@ from tests.support import ROOT, tool
 from bkflow.cli import main
 from bkflow.grid import parse_sizes, phi_values, sweep_specs
 from bkflow.job import run_one
-from bkflow.params import SpecError
+from bkflow.params import RunSpec, SpecError
 from bkflow.project import finished, open_project
 from bkflow.rundir import LOCK as LOCK_FILE
 from bkflow.rundir import RunBusyError, RunDir
@@ -341,3 +342,21 @@ def test_plot_refuses_an_unknown_format(tiny_sweep, tmp_path):
     out, _ = tiny_sweep
     proc = bkflow("plot", out, "--out", tmp_path, "--format", "png,jpgx")
     assert proc.returncode == 2 and "jpgx" in proc.stderr and not any(tmp_path.iterdir())
+
+
+def test_a_sweeps_workers_run_many_runs_each(tmp_path):
+    """Sweeps pay Python's imports (and the plugin check, and loading LAMMPS) once per worker,
+    not once per run: 6 runs on 2 workers are run by at most 2 processes, each of which goes
+    on after its first run (meta.json "process")."""
+    specs = [RunSpec(phi=phi, t_end=60.0, scene="friction", seed=seed)
+             for phi in (1.0, 10.0, 100.0) for seed in (1, 2)]
+    rep = sweep(specs, tmp_path / "s", jobs=2, progress=False)
+    assert len(rep.finished) == 6
+    procs = [json.loads((d / "meta.json").read_text())["process"]
+             for d in job_dirs(tmp_path / "s")]
+    pids = {p["pid"] for p in procs}
+    assert len(pids) <= 2 and os.getpid() not in pids
+    assert max(p["runs_before"] for p in procs) >= 2
+    for pid in pids:
+        assert sorted(p["runs_before"] for p in procs if p["pid"] == pid) == list(
+            range(sum(p["pid"] == pid for p in procs)))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import platform
 import sys
 import time
@@ -275,6 +276,11 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
     return max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
 
 
+#: runs this process has committed: a sweep's worker runs many, and pays Python's imports, the
+#: plugin check and the loading of LAMMPS once (meta.json "process")
+_RUNS_IN_PROCESS = 0
+
+
 #: f_bk[6] of fix bk/substrate: the path that ran and its kernel
 _PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2"),
                3: ("fused", "avx512")}
@@ -335,8 +341,12 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             finally:
                 bar.close()
                 lmp.close()
+        global _RUNS_IN_PROCESS
+        counters["process"] = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS}
         meta = _meta(spec, step, wall, started, counters, adaptive, command)
-        return RunResult(Path(out), rd.commit(meta))
+        result = RunResult(Path(out), rd.commit(meta))
+        _RUNS_IN_PROCESS += 1
+        return result
 
 
 def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
