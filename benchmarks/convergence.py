@@ -4,7 +4,8 @@ Runs one lattice at dt-factors C = C0 / 2^k and compares the stress series with 
 C's. The sampling interval is set to one step of the largest C, so every run samples sigma_x
 at exactly the same times. Two windows: up to t = 20, before any contact breaks (the drive
 needs t ~ mu_s sigma_n / (k_d^i V_d) >= 25 to load the first contact), where the integrator
-is smooth; and up to t = 150, through the first slips, where the reset rule enters. The error is max |sigma_x - sigma_x,ref| over the window, and |<sigma_x> -
+is smooth; and up to t = 150, through the first slips, where the reset rule enters. The error
+is max |sigma_x - sigma_x,ref| over the window, and |<sigma_x> -
 <sigma_x>_ref| / sigma_n over it; the order is the slope of log(error) against log(C).
 
     python benchmarks/convergence.py [--phi 10] [--size 20x5] [--levels 6]

@@ -226,7 +226,7 @@ def lammps_loop(deck: str, work: Path, plugin_dir: str | None) -> tuple[float, f
         env.pop("BKFLOW_PLUGIN_DIR", None)
     log = work / "log.lammps"
     subprocess.run([str(BIN / "lmp"), "-in", str(f), "-var", "comm_cutoff", "1.0", "-log",
-                    str(log), "-screen", "none", "-nocite"], check=True, cwd=work, env=env,
+                    str(log), "-screen", "none"], check=True, cwd=work, env=env,
                    timeout=7200)
     text = log.read_text()
     wall, _, steps, atoms = LOOP.findall(text)[-1]

@@ -2,7 +2,7 @@
    with nothing of LAMMPS around it. Compiled and driven by benchmarks/floor.py
    (gcc -O3 -march=native -fno-math-errno -shared -fPIC), called through ctypes.
 
-   The model (../shared/MODEL.md; plugins/README.md), for the one configuration the benchmark
+   The model (docs/model.md; plugins/README.md), for the one configuration the benchmark
    measures: bonds with fixed lattice images, drive, contact rule `reset` (the break located
    inside the step), damping `implicit`, velocity Verlet in LAMMPS's order (fix nve's
    initial_integrate, then the fix's post_force, then fix nve's final_integrate):

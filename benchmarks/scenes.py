@@ -76,7 +76,8 @@ def main(argv=None) -> None:
                             f"{_fmt(s['mu_bar_err'], '.4f')} | {s['n_slips']} | "
                             f"{_fmt(s['mean_stress_ratio'], '.4f')} | {by} | "
                             f"{_fmt(s['psi_inf'], '.3f')} | {_fmt(s['lx_mean_over_Lx'], '.3f')} | "
-                            f"{_fmt(s['ly_mean_over_Ly'], '.3f')} | {_fmt(s['lx_over_ly'], '.2f')} | "
+                            f"{_fmt(s['ly_mean_over_Ly'], '.3f')} | "
+                         f"{_fmt(s['lx_over_ly'], '.2f')} | "
                             f"{s['regime']} | {_fmt(s['drop_exponent'], '.2f')} +- "
                             f"{_fmt(s['drop_exponent_err'], '.2f')} (x_min "
                             f"{_fmt(s['drop_x_min'], '.3g')}, {s['drop_n_tail']}) |")

@@ -40,7 +40,6 @@ for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
-import re  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -79,7 +78,7 @@ def loop_time(deck: str, work: Path, ranks: int = 1, cutoff: float = NEW_CUTOFF)
     f = work / DECK
     f.write_text(deck)
     cmd = [str(BIN / "lmp"), "-in", str(f), "-var", "comm_cutoff", repr(cutoff), "-log",
-           str(work / LOG), "-screen", "none", "-nocite"]
+           str(work / LOG), "-screen", "none"]
     if ranks > 1:
         cmd = [str(BIN / "mpirun"), "-np", str(ranks)] + cmd
     subprocess.run(cmd, check=True, cwd=work, capture_output=True, timeout=7200)

@@ -7,6 +7,7 @@
 
 #include "domain.h"
 #include "fix_bk_fused.h"
+#include "fix_bk_fronts.h"
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
 #include "fix_bk_substrate.h"
@@ -78,6 +79,11 @@ static Fix *bk_slips_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixBKSlips(lmp, argc, argv);
 }
 
+static Fix *bk_fronts_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBKFronts(lmp, argc, argv);
+}
+
 static Fix *bk_stress_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBKStress(lmp, argc, argv);
@@ -109,6 +115,11 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   plugin.name = "bk/slips";
   plugin.info = "bkflow: positions at the maximum and minimum of every slip event";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_slips_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "bk/fronts";
+  plugin.info = "bkflow: the slip rate of every particle through every slip event";
+  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_fronts_creator);
   (*register_plugin)(&plugin, lmp);
 
   plugin.name = "bk/stress";

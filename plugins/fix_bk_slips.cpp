@@ -38,8 +38,9 @@ constexpr int NCOL = 5;
 FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
 {
   if (narg < 8) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
-  threshold = utils::numeric(FLERR, arg[5], false, lmp);
-  if (!(threshold > 0.0)) error->all(FLERR, "fix bk/slips: threshold must be > 0, got {}", arg[5]);
+  zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
+  if (!(zigzag.threshold > 0.0))
+    error->all(FLERR, "fix bk/slips: threshold must be > 0, got {}", arg[5]);
   int iarg = 8;
   while (iarg < narg) {
     if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
@@ -119,43 +120,26 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
 void FixBKSlips::sample()
 {
   const bigint step = update->ntimestep;
-  const double s = substrate->compute_vector(0);
-
-  if (step_max < 0) {    // first sample of this fix
-    smax = s;
-    step_max = step;
-    snapshot(snap_max);
-    return;
-  }
-  if (!falling) {
-    if (s > smax) {
-      smax = s;
-      step_max = step;
+  switch (zigzag.feed(substrate->compute_vector(0), step)) {
+    case BKZigzag::NEW_MAX:
       snapshot(snap_max);
-    } else if (smax - s > threshold) {
-      falling = 1;
-      smin = s;
-      step_min = step;
+      break;
+    case BKZigzag::FALL:
+    case BKZigzag::NEW_MIN:
       snapshot(snap_min);
-    }
-  } else {
-    if (s < smin) {
-      smin = s;
-      step_min = step;
-      snapshot(snap_min);
-    } else if (s - smin > threshold) {
+      break;
+    case BKZigzag::CONFIRMED:
       nevents++;
-      if (step_max >= start) {
-        write_frame(snap_max, step_max);
-        write_frame(snap_min, step_min);
+      if (zigzag.event_max >= start) {
+        write_frame(snap_max, zigzag.event_max);
+        write_frame(snap_min, zigzag.event_min);
         flush();    // every event reaches the file at once
         nwritten++;
       }
-      falling = 0;
-      smax = s;
-      step_max = step;
-      snapshot(snap_max);
-    }
+      snapshot(snap_max);    // the confirming sample is the next running maximum
+      break;
+    case BKZigzag::NONE:
+      break;
   }
 }
 

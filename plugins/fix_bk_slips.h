@@ -5,6 +5,7 @@
 #ifndef BKFLOW_FIX_BK_SLIPS_H
 #define BKFLOW_FIX_BK_SLIPS_H
 
+#include "bk_zigzag.h"
 #include "fix_bk_reader.h"
 
 #include <vector>
@@ -18,12 +19,8 @@ class FixBKSlips : public FixBKReader {
   double memory_usage() override;
 
  private:
-  double threshold = 0.0;
   bigint start = 0;            // events whose maximum lies before this step are not written
-
-  int falling = 0;             // zigzag state: 0 = following a maximum, 1 = following a minimum
-  double smax = 0.0, smin = 0.0;    // running maximum / minimum of sigma_x
-  bigint step_max = -1, step_min = -1;
+  BKZigzag zigzag;             // the slip events (bk_zigzag.h)
   bigint nevents = 0, nwritten = 0;
 
   // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom)

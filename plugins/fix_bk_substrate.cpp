@@ -16,7 +16,7 @@
                solved with this force in it (implicit, second order; "half": the half-step
                velocity vh_i, first order)
    with v_i the half-step velocity that fix nve leaves before post_force, and r_i unwrapped.
-   The equations are those of ../shared/MODEL.md; plugins/README.md documents the syntax. */
+   The equations are those of docs/model.md; plugins/README.md documents the syntax. */
 
 #include "fix_bk_substrate.h"
 

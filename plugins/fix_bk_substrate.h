@@ -1,5 +1,5 @@
 /* bkflow LAMMPS plugin: fix bk/substrate, the forces on the 2D Burridge-Knopoff layer of
-   ../shared/MODEL.md (bonds, drive spring to a moving plate, shear-history friction, viscous
+   docs/model.md (bonds, drive spring to a moving plate, shear-history friction, viscous
    damping), fused into one post-force pass over local atoms. See plugins/README.md. */
 
 #ifndef BKFLOW_FIX_BK_SUBSTRATE_H
@@ -54,7 +54,7 @@ class FixBKSubstrate : public Fix {
  protected:    // FixBKFused (fix_bk_fused.h), the fused path, shares all of it
   friend struct BKSubstrateTable;
 
-  // model parameters (MODEL.md "Forces on particle i")
+  // model parameters (docs/model.md "Forces on particle i")
   int bonds_on = 0, drive_on = 0;
   int contact = NO_CONTACT;      // reset: the break is located inside the step
   int damping = NO_DAMPING;      // implicit: the end-of-step velocity; half: the half-step one

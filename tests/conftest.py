@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pytest
 
+
 @pytest.fixture
 def workdir(tmp_path, monkeypatch):
     """A fresh working directory (LAMMPS writes log files into the current one)."""

@@ -1,6 +1,6 @@
 """Independent NumPy implementation of the model (docs: the model), for checking the LAMMPS plugin.
 
-Written from MODEL.md, not from the plugin's source, with LAMMPS's order of operations
+Written from docs/model.md, not from the plugin's source, with LAMMPS's order of operations
 (velocity Verlet as in ``fix nve``; post-force terms with the half-step velocity):
 
     v += dt/2 f / m ;  x += dt v                        (initial_integrate, t -> t + dt)
@@ -9,7 +9,7 @@ Written from MODEL.md, not from the plugin's source, with LAMMPS's order of oper
 
 Before the first step, forces are evaluated once from the initial state without advancing the
 contact history (LAMMPS's ``setup``). Positions are kept unwrapped. The bond network never
-changes (MODEL.md): each bond keeps the periodic image it has on the initial lattice, as a
+changes (docs/model.md): each bond keeps the periodic image it has on the initial lattice, as a
 fixed shift S_ij taken once from the minimum image of the start, d_ij = x_i - x_j + S_ij.
 """
 
@@ -39,7 +39,8 @@ class Reference:
     'reset' (the break located inside the step: the contact re-forms where |dr| crosses the
     threshold and keeps the rest of the step's motion), 'reset/step' (dr = 0 at the end of the
     step) | 'coulomb', ``gamma`` damping rate, ``damping`` 'implicit' (the force -m gamma v
-    with v the end-of-step velocity, solved for) | 'half' (the half-step velocity), ``V_d`` plate velocity, ``mass``.
+    with v the end-of-step velocity, solved for) | 'half' (the half-step velocity), ``V_d``
+    plate velocity, ``mass``.
     """
 
     def __init__(self, box, bonds, k_b, dt, *, k_d=None, V_d=0.0, k_e=None, f_max=None,
@@ -115,7 +116,7 @@ class Reference:
     def start(self, x, v=None, anchor=None, dr=None) -> ReferenceState:
         """Initial state; the bond images are fixed here, from the lattice ``anchor`` (default
         ``x``), which must have every bond shorter than half the box. ``dr`` (N, 2): the
-        contacts' initial displacements (MODEL.md's random start; default 0, synchronized)."""
+        contacts' initial displacements (docs/model.md's random start; default 0, synchronized)."""
         x = np.array(x, dtype=float)
         lattice = x if anchor is None else np.asarray(anchor, float)
         d0 = lattice[self.bonds[:, 0]] - lattice[self.bonds[:, 1]]

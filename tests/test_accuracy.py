@@ -7,13 +7,12 @@ import subprocess
 
 import pytest
 
-from tests.support import tool
-
 from bkflow.analysis import analyze
 from bkflow.engine import run
 from bkflow.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
 from bkflow.project import open_project
 from bkflow.sweep import sweep
+from tests.support import tool
 
 pytestmark = pytest.mark.lammps
 

@@ -1,4 +1,4 @@
-"""Analysis functions on inputs whose answers are known exactly (MODEL.md, "Observables")."""
+"""Analysis functions on inputs whose answers are known exactly (docs/model.md, "Observables")."""
 
 import math
 
@@ -8,8 +8,8 @@ from scipy.integrate import quad
 from scipy.special import j0, j1
 
 from bkflow import clusters, order, stress
-from bkflow.stationarity import mean_error
 from bkflow.lattice import square_lattice
+from bkflow.stationarity import mean_error
 
 
 def _rotate(v, angle):
@@ -60,7 +60,7 @@ def _expected_abs_sum_of_unit_phasors(n):
 
 def test_random_bond_angles_give_the_exact_expectation():
     """Each particle has 4 bonds with independent uniform angles theta, so 4*theta is uniform too
-    and E Psi = W_4 / 4 = 0.44977 (MODEL.md's "about 0.45")."""
+    and E Psi = W_4 / 4 = 0.44977 (docs/model.md's "about 0.45")."""
     w2 = _expected_abs_sum_of_unit_phasors(2)
     assert w2 == pytest.approx(4 / math.pi, rel=1e-6)  # the integral checks itself
     expected = _expected_abs_sum_of_unit_phasors(4) / 4
@@ -125,7 +125,7 @@ def test_bond_vectors_needs_exactly_one_image_rule():
 
 @pytest.mark.parametrize("Lx, Ly", [(20, 5), (40, 10), (7, 4)])
 def test_full_system_cluster_spans_box(Lx, Ly):
-    """The discreteness of MODEL.md's formula: on a ring of L sites the distances to the others
+    """The discreteness of docs/model.md's formula: on a ring of L sites the distances to the others
     sum to S(L) = L^2/4 (L even) or (L^2 - 1)/4 (L odd), so a cluster of the whole box has
     l_x = 4 Ly S(Lx) / (N - 1): Lx N/(N-1) for even Lx, times (1 - 1/Lx^2) for odd Lx."""
     lat = square_lattice(Lx, Ly)
@@ -136,8 +136,8 @@ def test_full_system_cluster_spans_box(Lx, Ly):
     ring = lambda L: (L * L - L % 2) / 4  # noqa: E731
     assert ext.l_x[0] == pytest.approx(4 * Ly * ring(Lx) / (n - 1), rel=1e-13)
     assert ext.l_y[0] == pytest.approx(4 * Lx * ring(Ly) / (n - 1), rel=1e-13)
-    for l, L in ((ext.l_x[0], Lx), (ext.l_y[0], Ly)):
-        assert abs(l / L - 1) <= 1 / (n - 1) + 1 / L ** 2
+    for ell, L in ((ext.l_x[0], Lx), (ext.l_y[0], Ly)):
+        assert abs(ell / L - 1) <= 1 / (n - 1) + 1 / L ** 2
 
 
 def test_full_row_has_no_transverse_extent():

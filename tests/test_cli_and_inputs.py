@@ -25,7 +25,8 @@ def test_lattice_has_four_distinct_bonds_per_particle():
     degree = np.bincount(lat.bonds.ravel(), minlength=15)
     assert np.all(degree == 4)
     for i in range(15):
-        partners = np.concatenate([lat.bonds[lat.bonds[:, 0] == i, 1], lat.bonds[lat.bonds[:, 1] == i, 0]])
+        partners = np.concatenate([lat.bonds[lat.bonds[:, 0] == i, 1],
+                                   lat.bonds[lat.bonds[:, 1] == i, 0]])
         assert len(set(partners)) == 4
 
 

@@ -16,8 +16,13 @@ from pathlib import Path
 
 import pytest
 
-from bkflow.cli import EXIT_BAD_INPUT, EXIT_BUSY, EXIT_FILE_SYSTEM, EXIT_INTERRUPTED, \
-    EXIT_RUN_FAILED
+from bkflow.cli import (
+    EXIT_BAD_INPUT,
+    EXIT_BUSY,
+    EXIT_FILE_SYSTEM,
+    EXIT_INTERRUPTED,
+    EXIT_RUN_FAILED,
+)
 from bkflow.rundir import META, SUMMARY, RunDir
 from tests.support import tool
 

@@ -15,13 +15,14 @@ from bkflow.params import AnalysisSettings, RunSpec, SpecError
 from bkflow.rundir import META, STRESS, SUMMARY, RunDir
 
 SRC = Path(bkflow.__file__).parent
+ROOT = Path(__file__).resolve().parents[1]
 
 #: the data flow of the package, bottom to top: a module imports only modules before it
 #: (README, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
-ORDER = ("params", "limits", "lattice", "stationarity", "stress", "order", "clusters", "io", "rundir", "deck", "plugin",
-         "engine", "analysis", "grid", "job", "flowcompat", "project", "tables", "sweep",
-         "plot", "cli")
+ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "stress", "order",
+         "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
+         "flowcompat", "project", "cluster", "tables", "sweep", "plot", "api", "cli")
 
 
 def _bkflow_imports(path: Path) -> set[str]:
@@ -83,7 +84,7 @@ def test_no_run_file_name_is_written_outside_rundir():
 
 def test_flow_internals_we_use_still_exist(tmp_path):
     from bkflow.flowcompat import check
-    from bkflow.project import ClusterProject, TEMPLATE_DIR, open_project
+    from bkflow.project import TEMPLATE_DIR, ClusterProject, open_project
 
     open_project(tmp_path)
     project = ClusterProject.get_project(str(tmp_path), search=False)
@@ -207,3 +208,60 @@ def test_changing_an_analysis_setting_reanalyses_a_finished_sweep_without_lammps
     # the same sweep again: everything current, nothing re-analysed or run
     rep = sweep(specs, out, jobs=1, progress=False)
     assert rep.finished_before == 2 and not rep.finished
+
+
+def test_the_code_is_lint_clean():
+    """ruff (pyproject.toml [tool.ruff]) finds nothing in the package, tests, benchmarks and
+    workflows: the lint runs with the test suite, so CI runs it."""
+    import shutil
+    import subprocess
+    import sys
+
+    ruff = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if ruff is None:
+        pytest.skip("ruff is not installed (pip install -e '.[test]' installs it)")
+    proc = subprocess.run([ruff, "check", "--no-cache", "src", "tests", "benchmarks",
+                           "workflows"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_the_docs_site_builds_strictly(tmp_path):
+    """mkdocs build --strict (mkdocs.yml): every page, link and API reference resolves."""
+    import shutil
+    import subprocess
+    import sys
+
+    mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent))
+    if mkdocs is None:
+        pytest.skip("mkdocs is not installed (pip install -e '.[test]' installs it)")
+    proc = subprocess.run([mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for page in ("index.html", "model/index.html", "cli/index.html", "api/index.html",
+                 "benchmarks/RESULTS/index.html", "workflows/paper/REPRODUCTION/index.html"):
+        assert (tmp_path / "site" / page).is_file(), page
+    cli = (tmp_path / "site" / "cli" / "index.html").read_text()
+    assert "--vary" in cli and "bkflow sweep" in cli
+
+
+def test_nothing_refers_outside_the_repository():
+    """The model is the repository's own (docs/model.md): no code, test or document points
+    to a file outside it."""
+    roots = [ROOT / d for d in ("src", "plugins", "tests", "docs", "benchmarks", "workflows",
+                                "lammps_inputs")] + [ROOT / "README.md"]
+    hits = []
+    # the directory beside the repository where the spec was read (spelt so that this file
+    # does not match itself)
+    needles = ["../" + "sha" + "red", "sha" + "red/MO" + "DEL"]
+    for root in roots:
+        files = [root] if root.is_file() else [p for p in root.rglob("*") if p.is_file()]
+        for f in files:
+            if f.suffix in (".png", ".pdf", ".so") or "__pycache__" in f.parts:
+                continue
+            try:
+                text = f.read_text()
+            except UnicodeDecodeError:
+                continue
+            if any(n in text for n in needles):
+                hits.append(str(f.relative_to(ROOT)))
+    assert not hits, hits

@@ -97,7 +97,8 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
                                    thermo_every=10**6, drive=False, contact=False, damp=False,
                                    path="general"))
     lmp.commands_string("fix_modify bk energy yes\ncompute ke all ke\n"
-                        f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt format ' %.17g'\n")
+                        f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt "
+                        "format ' %.17g'\n")
     lmp.command(f"run {steps}")
     lmp.close()
     ke, pe = np.loadtxt(workdir / "energy.txt", usecols=(1, 2)).T

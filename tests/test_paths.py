@@ -143,6 +143,31 @@ def test_engine_records_the_path_and_both_paths_agree(tmp_path):
     assert meta["engine"] == auto_meta["engine"]
 
 
+def test_meta_records_provenance(tmp_path):
+    """The git commit and dirty flag of the checkout bkflow runs from (None from a wheel),
+    Python's and the libraries' versions."""
+    import platform
+    import subprocess
+
+    import numpy
+    import scipy
+
+    meta, _ = _engine_run(tmp_path, "p", "auto")
+    prov = meta["provenance"]
+    assert prov["python"] == platform.python_version()
+    assert prov["libraries"]["numpy"] == numpy.__version__
+    assert prov["libraries"]["scipy"] == scipy.__version__
+    from tests.support import ROOT
+
+    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
+                          text=True)
+    if head.returncode == 0:  # tests run from a checkout (CI's clean clone)
+        assert prov["git_commit"] == head.stdout.strip()
+        assert isinstance(prov["git_dirty"], bool)
+    else:
+        assert prov["git_commit"] is None
+
+
 def test_a_short_run_is_one_run_command(tmp_path):
     """A fixed-length run shorter than a piece (PIECE_WALL_S) pays for no chunking: one
     ``run`` command; an adaptive run stops at fixed steps whatever the pieces."""

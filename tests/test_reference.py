@@ -1,18 +1,18 @@
 """fix bk/substrate against the independent NumPy integrator of tests/reference.py.
 
-MODEL.md's dynamics on 8x3 and 6x6 lattices (8x2 is refused, see RunSpec: its two y-bonds per
-particle join the same pair at exactly half the box), from a start that makes things happen inside the
-window (pre-loaded plate, random velocities, atoms next to the box edge): after 2000 steps
-LAMMPS and the reference agree on every position to 1e-9, and on the number of contact breaks
-exactly.
+docs/model.md's dynamics on 8x3 and 6x6 lattices (8x2 is refused, see RunSpec: its two
+y-bonds per particle join the same pair at exactly half the box), from a start that makes
+things happen inside the window (pre-loaded plate, random velocities, atoms next to the box
+edge): after 2000 steps LAMMPS and the reference agree on every position to 1e-9, and on the
+number of contact breaks exactly.
 """
 
 import numpy as np
 import pytest
 
 from bkflow.params import RunSpec
-from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 from tests.reference import Reference
+from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 
 pytestmark = pytest.mark.lammps
 

@@ -9,8 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from bkflow.stationarity import (block_means, equilibration_time, mean_error,
-                                 stationarity)
+from bkflow.stationarity import block_means, equilibration_time, mean_error, stationarity
 
 
 def ar1(rng, n, rho, m=1):

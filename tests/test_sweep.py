@@ -20,8 +20,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.support import ROOT, tool
-
 from bkflow.cli import main
 from bkflow.grid import parse_sizes, phi_values, sweep_specs
 from bkflow.job import run_one
@@ -31,6 +29,7 @@ from bkflow.rundir import LOCK as LOCK_FILE
 from bkflow.rundir import RunBusyError, RunDir
 from bkflow.sweep import sweep
 from bkflow.tables import results_table
+from tests.support import ROOT, tool
 
 pytestmark = pytest.mark.lammps
 
@@ -299,23 +298,26 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
     (fake / "squeue").chmod(0o755)
     env = {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
            "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
-    project_py = ROOT / "workflows" / "project.py"
-    sub = subprocess.run([sys.executable, str(project_py), "submit", "--pretend", "--bundle",
-                          "2", "--parallel"], cwd=out, env=env, capture_output=True, text=True,
-                         timeout=300)
+    # the project ships in the package: python -m bkflow.cluster (workflows/project.py is a
+    # thin example of the same)
+    sub = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--pretend",
+                          "--bundle", "2", "--parallel"], cwd=out, env=env, capture_output=True,
+                         text=True, timeout=300)
     assert sub.returncode == 0, sub.stderr
     scripts = sub.stdout.split("#!/bin/bash")[1:]
     assert len(scripts) == 2
     for s in scripts:
         assert "#SBATCH --ntasks=2" in s and "#SBATCH -t " in s
+        assert "#SBATCH --nodes=1" in s  # the bundle's runs share the script's node
         assert "export OMP_NUM_THREADS=1" in s  # our template, not only flow's
-        assert len(re.findall(rf"{re.escape(str(project_py))} run -o simulate -j \w+ &", s)) == 2
+        assert len(re.findall(rf"{re.escape(sys.executable)} -m bkflow.cluster run -o simulate "
+                              r"-j \w+ &", s)) == 2
     jobs = sorted(set(re.findall(r"-j (\w+)", sub.stdout)))
     assert len(jobs) == 4
     # what a cluster node runs: the same operation, for one job
-    run = subprocess.run([sys.executable, str(project_py), "run", "-o", "simulate", "-j",
-                          jobs[0]], cwd=out, env=env, capture_output=True, text=True,
-                         timeout=300)
+    run = subprocess.run([sys.executable, str(ROOT / "workflows" / "project.py"), "run", "-o",
+                          "simulate", "-j", jobs[0]], cwd=out, env=env, capture_output=True,
+                         text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     proj = open_project(out, create=False)
     assert [j.id for j in proj if finished(j)] == [jobs[0]]
@@ -360,3 +362,104 @@ def test_a_sweeps_workers_run_many_runs_each(tmp_path):
     for pid in pids:
         assert sorted(p["runs_before"] for p in procs if p["pid"] == pid) == list(
             range(sum(p["pid"] == pid for p in procs)))
+
+
+def test_any_parameter_is_set_or_swept_from_the_cli(tmp_path):
+    """--vary adds an axis (any RunSpec field), --set fixes a parameter: 2 phi x 2 gamma = 4
+    points, each a row of results.csv with its gamma; figures per gamma."""
+    out = tmp_path / "vary"
+    proc = bkflow("sweep", "--phi", "1,10", "--vary", "gamma=0.1,0.2", "--set", "V_d=0.03",
+                  "--seeds", "1", "--t-end", "100", "--scene", "friction", "--out", out,
+                  "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    assert "x 2 gamma x 1 seed(s) = 4 runs" in proc.stdout and "gamma = 0.1, 0.2" in proc.stdout
+    res = pd.read_csv(out / "results.csv")
+    assert len(res) == 4
+    assert sorted(zip(res.phi, res.gamma)) == [(1, 0.1), (1, 0.2), (10, 0.1), (10, 0.2)]
+    assert (res.V_d == 0.03).all()
+    # the table printed has the column too
+    assert re.search(r"phi\s+size\s+gamma\s+seeds", proc.stdout), proc.stdout
+    plot = bkflow("plot", out, "--format", "png")
+    assert plot.returncode == 0, plot.stderr
+    for g in ("0.1", "0.2"):
+        assert (out / "figures" / f"gamma={g}" / "fig2a_friction.png").is_file()
+    single = bkflow("run", "--phi", "3", "--set", "gamma=0.05", "--set", "k_e=12", "--t-end",
+                    "20", "--scene", "friction", "--no-analyze", "--out", tmp_path / "one")
+    assert single.returncode == 0, single.stderr
+    params = json.loads((tmp_path / "one" / "meta.json").read_text())["params"]
+    assert params["gamma"] == 0.05 and params["k_e"] == 12.0
+
+
+@pytest.mark.parametrize("args, needle", [
+    (("--set", "gamma=fast"), "gamma must be a float"),
+    (("--set", "phi=3"), "use --phi"),
+    (("--set", "nothing=3"), "not a parameter"),
+    (("--set", "gamma=-1"), "gamma must be >= 0"),
+    (("--vary", "gamma=0.1,0.1"), "given twice"),
+    (("--vary", "gamma=0.1", "--set", "gamma=0.2"), "choose one"),
+])
+def test_bad_set_or_vary_is_one_line_and_exit_2(args, needle, tmp_path):
+    proc = bkflow("sweep", "--phi", "1", *args, "--out", tmp_path / "s")
+    assert proc.returncode == 2
+    assert needle in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert not (tmp_path / "s").exists()
+
+
+def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_sweep):
+    """bkflow.load_sweep / load_run: tables as DataFrames, figures as Figures, and making one
+    neither switches the backend, nor changes rcParams, nor touches open figures."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    import bkflow
+
+    out, _ = tiny_sweep
+    backend = matplotlib.get_backend()
+    mine = plt.figure()
+    rc = dict(matplotlib.rcParams)
+    try:
+        sweep = bkflow.load_sweep(out)
+        assert len(sweep.runs) == 2 and len(sweep.results) == 2 and "Sweep(" in repr(sweep)
+        fig = sweep.figure("fig2a")
+        assert isinstance(fig, Figure) and len(fig.axes) == 3
+        assert isinstance(sweep.figure("fig_drops"), Figure)
+        run = sweep.run(0)
+        assert list(run.stress.columns) == ["t", "sigma_x"] and len(run.stress) > 100
+        assert run.summary["mu_bar"] == pytest.approx(sweep.runs.mu_bar.iloc[0])
+        assert run.events is not None and len(run.events) >= run.summary["n_slips"] > 0
+        assert run.clusters is not None and run.psi is not None
+        assert isinstance(run.figure(window=50), Figure)
+        assert bkflow.load_run(run.path).spec == run.spec
+        with pytest.raises(Exception, match="no figure"):
+            sweep.figure("fig9")
+        assert matplotlib.get_backend() == backend
+        assert plt.get_fignums() == [mine.number]
+        changed = {k for k, v in matplotlib.rcParams.items() if rc.get(k) != v}
+        assert not changed, changed
+    finally:
+        plt.close(mine)
+
+
+def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):
+    import bkflow
+    from bkflow.rundir import AnalysisError
+
+    with pytest.raises(AnalysisError, match="no finished run"):
+        bkflow.load_run(tmp_path)
+
+
+def test_the_example_notebook_runs(tmp_path):
+    """docs/example.ipynb, executed as a user would (a kernel of this environment, in an
+    empty directory): no cell fails and the figure cells show images."""
+    nbformat = pytest.importorskip("nbformat")
+    from nbclient import NotebookClient
+
+    nb = nbformat.read(ROOT / "docs" / "example.ipynb", as_version=4)
+    NotebookClient(nb, timeout=600, kernel_name="python3",
+                   resources={"metadata": {"path": str(tmp_path)}}).execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.output_type == "error"]
+    images = [o for o in outputs if "image/png" in o.get("data", {})]
+    assert len(images) >= 2
+    assert (tmp_path / "nb_sweep" / "results.csv").exists()

@@ -4,7 +4,7 @@
 per observable (:class:`FrictionResult`, :class:`DropResult`, :class:`OrderResult`,
 :class:`ClusterResult`) and the tables the figures read (events, Psi(t), clusters).
 :func:`analyze` reads a run directory through :mod:`bkflow.rundir` and writes the summary and
-the tables back there. The observables are those of MODEL.md ("Observables"); the choices it
+the tables back there. The observables are those of docs/model.md ("Observables"); the choices it
 leaves open are one :class:`~bkflow.params.AnalysisSettings`, recorded (resolved for the run)
 in every summary, so that a summary made under other settings is known to be stale.
 """
@@ -29,7 +29,7 @@ def _key(fraction: float) -> str:
 @dataclass(frozen=True)
 class FrictionResult:
     """mu_bar over the slips after the transient with its standard error, the time-averaged
-    stress ratio, and mu_bar at each of the report thresholds (MODEL.md "Macroscopic
+    stress ratio, and mu_bar at each of the report thresholds (docs/model.md "Macroscopic
     friction")."""
 
     friction: stress.MacroscopicFriction
@@ -49,7 +49,7 @@ class FrictionResult:
 
 @dataclass(frozen=True)
 class LargeDropResult:
-    """mu_bar over the run's large drops only (MODEL.md "Macroscopic friction", the relative
+    """mu_bar over the run's large drops only (docs/model.md "Macroscopic friction", the relative
     reading): slips after the transient whose drop exceeds ``factor`` times the mean drop of
     those slips. The paper averages sigma_fail "right before large stress drops" and never says
     what large is; the run's own mean drop needs no scale and adapts to every phi: a stiff
@@ -58,7 +58,7 @@ class LargeDropResult:
 
     threshold: float          # the drop that counts as large (stress units)
     large: np.ndarray         # per event (all events): large or not
-    estimate: "stationarity.MeanEstimate"
+    estimate: stationarity.MeanEstimate
 
     def row(self) -> dict:
         e = self.estimate
@@ -70,7 +70,7 @@ class LargeDropResult:
 class StationarityResult:
     """The trend test of the stress over the analysed window, and the detected transient."""
 
-    test: "stationarity.Stationarity"
+    test: stationarity.Stationarity
     t_equil: float
 
     def row(self) -> dict:

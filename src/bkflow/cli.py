@@ -22,9 +22,22 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from . import __version__  # noqa: E402
 from . import rundir as rd  # noqa: E402
 from .grid import ASPECT, POINTS_PER_DECADE, SEEDS  # noqa: E402
-from .params import (ACCURACY, ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, CONTACT_RULES,  # noqa: E402
-                     PAPER_SIZES, PATHS, SCENES, STARTS, STATIONARY_DRIFT_BOUND,
-                     AnalysisSettings, RunSpec, SpecError, parse_size, size_from_n)
+from .params import (  # noqa: E402
+    ACCURACY,
+    ADAPTIVE_CHUNK_T,
+    ADAPTIVE_T_MIN,
+    CONTACT_RULES,
+    PAPER_SIZES,
+    PATHS,
+    SCENES,
+    STARTS,
+    STATIONARY_DRIFT_BOUND,
+    AnalysisSettings,
+    RunSpec,
+    SpecError,
+    parse_size,
+    size_from_n,
+)
 
 EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
@@ -102,6 +115,15 @@ def _accuracy(a) -> dict:
             "until_stationary": a.until_stationary, "start": a.start}
 
 
+def _set_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="any other model or run parameter (repeatable), e.g. --set gamma=0.1 "
+                        "--set V_d=0.05; it overrides the options above. Parameters: "
+                        + ", ".join(f"{f}={getattr(RunSpec, f, None)}" for f in
+                                    RunSpec.__dataclass_fields__
+                                    if f not in RunSpec.OWN_OPTIONS))
+
+
 def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--phi", type=float, required=True, help="k_b / dk_d (> 0)")
     size = p.add_mutually_exclusive_group()
@@ -115,6 +137,7 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
                         "Psi(t)), clusters (+ positions at each slip), full (default)")
+    _set_arg(p)
     p.add_argument("--out", required=True, help="output directory")
 
 
@@ -127,8 +150,9 @@ def _spec(a) -> RunSpec:
         Lx, Ly = parse_size(a.size)
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
-    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, contact_rule=a.contact_rule,
-                   scene=a.scene, **_accuracy(a))
+    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a),
+              **RunSpec.assignments(a.set)}
+    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
 
 
 def _path_arg(p) -> None:
@@ -157,15 +181,16 @@ def build_parser() -> argparse.ArgumentParser:
                                     f"(lmp -in {rd.DECK})")
     _spec_args(d)
     _path_arg(d)
-    sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel (signac-flow); "
-                                      "re-running skips finished runs")
+    sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel "
+                                      "(signac-flow); re-running skips finished runs")
     sw.add_argument("--phi", required=True,
                     help="range A:B (log-spaced, --points-per-decade per decade) or list a,b,c")
     sw.add_argument("--points-per-decade", type=int, default=POINTS_PER_DECADE,
                     help=f"phi values per decade of a range (default {POINTS_PER_DECADE})")
     sw.add_argument("--sizes", default=f"{RunSpec.Lx}x{RunSpec.Ly}",
                     help="lattices LXxLY[,LXxLY...] or the paper's N ("
-                         + ",".join(map(str, PAPER_SIZES)) + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
+                         + ",".join(map(str, PAPER_SIZES))
+                         + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
     sw.add_argument("--aspect", default=None,
                     help=f"Lx/Ly every size must have (default {ASPECT}, the paper's), or 'any'")
     sw.add_argument("--seeds", type=int, default=SEEDS,
@@ -176,6 +201,10 @@ def build_parser() -> argparse.ArgumentParser:
     _analysis_arg(sw)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                     help="what each run records (default full: everything the figures need)")
+    _set_arg(sw)
+    sw.add_argument("--vary", action="append", default=[], metavar="NAME=V1,V2,...",
+                    help="another axis of the grid (repeatable): any parameter --set takes, "
+                         "e.g. --vary gamma=0.05,0.1,0.2; every combination is run")
     sw.add_argument("--jobs", type=int, default=None,
                     help="runs at a time, one process each (default: all cores)")
     sw.add_argument("--out", default="runs/sweep", help="sweep directory (default runs/sweep)")
@@ -252,8 +281,13 @@ def _sweep(a) -> int:
     sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
     if a.jobs is not None and a.jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {a.jobs}")
-    specs = sweep_specs(phis, sizes, a.seeds, contact_rule=a.contact_rule, scene=a.scene,
-                        **_accuracy(a))
+    common = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a),
+              **RunSpec.assignments(a.set)}
+    axes = RunSpec.variations(a.vary)
+    both = set(axes) & set(RunSpec.assignments(a.set))
+    if both:
+        raise SpecError(f"--vary and --set both give {', '.join(sorted(both))}: choose one")
+    specs = sweep_specs(phis, sizes, a.seeds, axes=axes, **common)
     settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
     from .limits import check_sweep
@@ -261,7 +295,6 @@ def _sweep(a) -> int:
     check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         from .project import finished, open_project, set_settings
-
         from .rundir import RunDir
 
         with RunDir(a.out).lock():
@@ -270,11 +303,14 @@ def _sweep(a) -> int:
                 set_settings(project, settings)
             done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
-              f"(cd {a.out} && python <bkflow>/workflows/project.py run|submit ...)")
+              f"(cd {a.out} && python -m bkflow.cluster run|submit ...)")
         return 0
-    print(f"sweep: {len(phis)} phi x {len(sizes)} size(s) x {a.seeds} seed(s) = {len(specs)} "
-          f"runs into {a.out}, {jobs} at a time", flush=True)
+    extra = "".join(f" x {len(v)} {k}" for k, v in axes.items())
+    print(f"sweep: {len(phis)} phi x {len(sizes)} size(s){extra} x {a.seeds} seed(s) = "
+          f"{len(specs)} runs into {a.out}, {jobs} at a time", flush=True)
     print(f"  phi = {', '.join(f'{p:g}' for p in phis)}", flush=True)
+    for k, v in axes.items():
+        print(f"  {k} = {', '.join(map(str, v))}", flush=True)
     rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None,
                 settings=settings)
     print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
@@ -283,15 +319,8 @@ def _sweep(a) -> int:
           + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
     res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
-        keep = {(s.phi, s.Lx, s.Ly) for s in specs}
-        res = res[[(p, x, y) in keep for p, x, y in zip(res.phi, res.Lx, res.Ly)]]
-        s0 = specs[0]
-        res = res[(res.t_end == s0.t_end) & (res.dt_factor == s0.dt_factor)
-                  & (res.contact_rule == a.contact_rule) & (res.scene == a.scene)]
-        res = res[res.target_error.isna() if s0.target_error is None
-                  else res.target_error == s0.target_error]
-        res = res[(res.start == s0.start) & (res.until_stationary == s0.until_stationary)]
-        _print_results(res)
+        res = _rows_of(res, specs)
+        _print_results(res, list(axes))
     if len(res):
         unsteady = int((res.n_seeds - res.n_stationary).sum())
         print(f"{unsteady} of {int(res.n_seeds.sum())} runs are NOT stationary over their "
@@ -308,17 +337,39 @@ def _sweep(a) -> int:
     return 0
 
 
-def _print_results(res) -> None:
+def _key(value):
+    """A parameter as a comparable key: NaN and None alike, numbers as floats."""
+    if value is None or (isinstance(value, float) and value != value):
+        return None
+    if isinstance(value, (bool, str)):
+        return value
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def _rows_of(res, specs):
+    """The rows of results.csv that are these specs' (every parameter but the seed)."""
+    names = [f for f in RunSpec.__dataclass_fields__ if f != "seed" and f in res.columns]
+    keep = {tuple(_key(getattr(s, f)) for f in names) for s in specs}
+    mask = [tuple(_key(r[f]) for f in names) in keep for r in res.to_dict("records")]
+    return res[mask]
+
+
+def _print_results(res, axes=()) -> None:
     def pm(v, e, fmt):
         if v != v:
             return "n/a"
         return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
 
-    print(f"  {'phi':>8} {'size':>6} {'seeds':>5} {'stationary':>10}  {'mu_bar':>18}  "
+    extra = "".join(f" {k:>10}" for k in axes)
+    print(f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'stationary':>10}  {'mu_bar':>18}  "
           f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
           f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime")
     for _, r in res.iterrows():
-        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6} {r.n_seeds:>5} "
+        cells = "".join(f" {str(r[k]):>10}" for k in axes)
+        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6}{cells} {r.n_seeds:>5} "
               f"{f'{r.n_stationary}/{r.n_seeds}':>10}  "
               f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>18}  "
               f"{pm(r.mu_bar_large, r.mu_bar_large_sem, '.4f'):>18}  "

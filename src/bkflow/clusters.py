@@ -1,5 +1,5 @@
 """Clusters of slipping particles, their extents l_x, l_y, and the regime of a run
-(MODEL.md, "Observables": Slip clusters, Asymmetry, Regimes).
+(docs/model.md, "Observables": Slip clusters, Asymmetry, Regimes).
 
 For one slip event the slipping particles are those whose x moved forward (signed) by more
 than S_x between the stress maximum and the following minimum; clusters are the connected
@@ -9,7 +9,7 @@ cluster of N_c >= 2 particles, with minimum-image distances and positions at the
     l_x = 4 / (N_c (N_c - 1)) * sum over ordered pairs i != j of |dx_ij|,   l_y likewise,
 
 so that a cluster filling the periodic box gives l_x = Lx N/(N-1) and l_y = Ly N/(N-1) (the
-"lattice's discreteness" of MODEL.md: the distances from one of L equally spaced sites on a
+"lattice's discreteness" of docs/model.md: the distances from one of L equally spaced sites on a
 ring to the others sum to L^2/4; for odd L it is (L^2 - 1)/4, a further factor 1 - 1/L^2),
 and one full row gives l_x = Lx Lx/(Lx-1), l_y = 0.
 The pair sum is computed in O(N_c log N_c) from sorted coordinates and prefix sums, so a
@@ -82,7 +82,7 @@ def periodic_pair_sum(x, length: float) -> float:
 
 
 def extent(x, length: float) -> float:
-    """MODEL.md's l along one axis: 4 / (n (n - 1)) * sum over ordered pairs of |dx_ij|."""
+    """docs/model.md's l along one axis: 4 / (n (n - 1)) * sum over ordered pairs of |dx_ij|."""
     n = len(x)
     if n < 2:
         return math.nan
@@ -150,7 +150,7 @@ REGIMES = ("C", "LC", "DP", "DT")
 
 def regime(lx_frac, ly_frac, psi_inf: float, span: float = DEFAULT_SPAN_FRACTION,
            psi_crystal: float = DEFAULT_PSI_CRYSTAL):
-    """Regime of a cluster from its l_x/Lx, l_y/Ly and the run's Psi(inf), in MODEL.md's terms
+    """Regime of a cluster from its l_x/Lx, l_y/Ly and the run's Psi(inf), in docs/model.md's terms
     (Fig. 4a of the paper is this classification of single clusters):
 
     - ``C``  (crystalline, the whole system slips): l_x/Lx >= span and l_y/Ly >= span, in a

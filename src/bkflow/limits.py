@@ -41,7 +41,7 @@ class Cost:
     memory_bytes: float
     disk_bytes: float
 
-    def __add__(self, other: "Cost") -> "Cost":
+    def __add__(self, other: Cost) -> Cost:
         return Cost(self.atom_steps + other.atom_steps,
                     max(self.memory_bytes, other.memory_bytes),
                     self.disk_bytes + other.disk_bytes)

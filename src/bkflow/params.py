@@ -1,4 +1,4 @@
-"""Model parameters of ../shared/MODEL.md ("Units and defaults"), the single source of defaults.
+"""Model parameters of docs/model.md ("Units and defaults"), the single source of defaults.
 
 Every other module takes a :class:`RunSpec` and derives what it needs from it; nothing else
 hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
@@ -27,7 +27,7 @@ PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
 #: C ~ 0.5 <sigma_x> moves by percents (benchmarks/RESULTS.md); the presets stay at <= 0.4.
 DT_FACTOR_MAX = 1.9
 
-#: contact rules at |k_e dr| > mu_s sigma_n A. reset: MODEL.md's rule with the break located
+#: contact rules at |k_e dr| > mu_s sigma_n A. reset: docs/model.md's rule with the break located
 #: inside the time step (the contact re-forms where |k_e dr| crosses the threshold and keeps the
 #: rest of the step's motion); reset/step: dr = 0 at the end of the step (first order in dt,
 #: kept for comparison); coulomb: sliding
@@ -41,7 +41,7 @@ CONTACT_RULES = ("reset", "reset/step", "coulomb")
 PATHS = ("auto", "general", "fused")
 
 #: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second
-#: order); half: the half-step velocity (MODEL.md's literal scheme, first order in dt)
+#: order); half: the half-step velocity (docs/model.md's literal scheme, first order in dt)
 DAMPING_MODES = ("implicit", "half")
 
 #: accuracy presets: (dt-factor C, t_end), chosen from the work-precision benchmark
@@ -54,7 +54,7 @@ ADAPTIVE_T_MIN = 500.0
 #: an adaptive run checks its error every this many time units
 ADAPTIVE_CHUNK_T = 100.0
 
-#: starting states (MODEL.md "Starting state"): synchronized, the paper's (every contact formed
+#: starting states (docs/model.md "Starting state"): synchronized, the paper's (every contact formed
 #: at t = 0, dr_i = 0); random (dr_i = (u_i, 0), u_i uniform in [0, mu_s sigma_n A / k_e))
 STARTS = ("synchronized", "random")
 
@@ -62,19 +62,19 @@ STARTS = ("synchronized", "random")
 #: stress larger than this across its analysed window (|drift| + 2 standard errors, relative)
 STATIONARY_DRIFT_BOUND = 0.01
 
-#: what a run records (MODEL.md "Observables"; docs in bkflow.deck): each scene writes only
+#: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
 SCENES = ("friction", "order", "clusters", "full")
 
-#: slip threshold as a fraction of mu_s sigma_n (MODEL.md "Slip events": 1%)
+#: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
 #: fraction of the run treated as transient (not analysed, no slip snapshots written)
 TRANSIENT = 0.2
-#: S_x of MODEL.md: forward x displacement (lattice units) that makes a particle "slipping"
+#: S_x of docs/model.md: forward x displacement (lattice units) that makes a particle "slipping"
 S_X = 0.01
 #: an axis counts as spanned when a cluster's extent reaches this fraction of the box
 SPAN_FRACTION = 0.9
-#: Psi(inf) from which the layer counts as crystalline (MODEL.md: "Psi ~ 1")
+#: Psi(inf) from which the layer counts as crystalline (docs/model.md: "Psi ~ 1")
 PSI_CRYSTAL = 0.9
 #: fraction of the run whose mean Psi is Psi(inf)
 PSI_LATE_FRACTION = 0.2
@@ -83,7 +83,7 @@ REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
 #: how the transient is found: a fixed fraction of the run, or detected (Chodera 2016)
 TRANSIENT_RULES = ("fixed", "detect")
 #: a "large" drop is larger than this times the mean drop of the run's slips after the
-#: transient (MODEL.md "Macroscopic friction": the relative reading)
+#: transient (docs/model.md "Macroscopic friction": the relative reading)
 LARGE_DROP_FACTOR = 1.0
 
 
@@ -122,8 +122,8 @@ def size_from_n(n: int) -> tuple[int, int]:
 class RunSpec:
     """One run of the model: lattice, physics, integration and output sampling.
 
-    Attributes follow MODEL.md symbols. ``phi`` = k_b / dk_d is the control parameter;
-    ``dt_factor`` is C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (MODEL.md "Integration").
+    Attributes follow docs/model.md symbols. ``phi`` = k_b / dk_d is the control parameter;
+    ``dt_factor`` is C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (docs/model.md "Integration").
     ``stress_every`` is the sampling interval of sigma_x in time units (rounded to whole steps).
     """
 
@@ -154,8 +154,9 @@ class RunSpec:
     scene: str = "full"
     #: interval of the snapshots of the order scene (time units, rounded to whole steps)
     snapshot_every: float = 20.0
-    #: slips that fix bk/slips records: drops above this fraction of mu_s sigma_n (MODEL.md
-    #: "Slip events"); also the analysis's threshold unless AnalysisSettings says otherwise
+    #: slips that fix bk/slips records: drops above this fraction of mu_s sigma_n
+    #: (docs/model.md "Shear stress and slip events"); also the analysis's threshold unless
+    #: AnalysisSettings says otherwise
     slip_threshold: float = SLIP_THRESHOLD
     #: fraction of the run treated as transient: no slip snapshots are written before it, and
     #: the analysis leaves it out unless AnalysisSettings says otherwise
@@ -233,6 +234,80 @@ class RunSpec:
                             f"than a LAMMPS run of bkflow indexes ({MAX_ATOMS:.3g}); choose a "
                             "smaller --size")
 
+    # ------------------------------------------------------------------ NAME=VALUE settings
+    #: fields with an axis or option of their own in the CLI (--phi, --size, --seed); every
+    #: other field can be set with --set NAME=VALUE and swept with --vary NAME=V1,V2,...
+    OWN_OPTIONS = {"phi": "--phi", "Lx": "--size", "Ly": "--size", "seed": "--seed/--seeds"}
+
+    @classmethod
+    def parse_value(cls, name: str, text: str, option: str = "--set"):
+        """The value of field ``name`` written as ``text`` (a number, a word, true/false,
+        none), converted to the field's type; a SpecError naming ``option`` otherwise."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        if name not in fields:
+            raise SpecError(f"{option} {name}: not a parameter; parameters: "
+                            f"{', '.join(sorted(fields))}")
+        kind = str(fields[name].type)
+        t = text.strip()
+        if t == "":
+            raise SpecError(f"{option} {name}=: give a value after '='")
+        if "None" in kind and t.lower() == "none":
+            return None
+        try:
+            if kind.startswith("bool"):
+                if t.lower() not in ("true", "false", "yes", "no", "1", "0"):
+                    raise ValueError
+                return t.lower() in ("true", "yes", "1")
+            if kind.startswith("int"):
+                return int(t)
+            if kind.startswith("float"):
+                return float(t)
+        except ValueError:
+            what = "true or false" if kind.startswith("bool") else f"a {kind.split()[0]}"
+            raise SpecError(f"{option} {name}={t}: {name} must be {what}") from None
+        return t
+
+    @classmethod
+    def parse_assignment(cls, item: str, option: str = "--set") -> tuple[str, object]:
+        """(name, value) of ``NAME=VALUE`` (``-`` in NAME reads as ``_``)."""
+        name, sep, text = str(item).partition("=")
+        name = name.strip().replace("-", "_")
+        if not sep or not name:
+            raise SpecError(f"{option} {item!r}: give NAME=VALUE")
+        if name in cls.OWN_OPTIONS:
+            raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
+        return name, cls.parse_value(name, text, option)
+
+    @classmethod
+    def assignments(cls, items, option: str = "--set") -> dict:
+        """{name: value} of ``NAME=VALUE`` strings; a name given twice is refused."""
+        out = {}
+        for item in items:
+            name, value = cls.parse_assignment(item, option)
+            if name in out:
+                raise SpecError(f"{option} {name} given twice")
+            out[name] = value
+        return out
+
+    @classmethod
+    def variations(cls, items, option: str = "--vary") -> dict[str, list]:
+        """{name: [values]} of ``NAME=V1,V2,...`` strings (a sweep's extra axes)."""
+        out = {}
+        for item in items:
+            name, sep, text = str(item).partition("=")
+            name = name.strip().replace("-", "_")
+            if not sep or not name or not text.strip():
+                raise SpecError(f"{option} {item!r}: give NAME=V1,V2,...")
+            if name in cls.OWN_OPTIONS:
+                raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
+            if name in out:
+                raise SpecError(f"{option} {name} given twice")
+            values = [cls.parse_value(name, v, option) for v in text.split(",")]
+            if len(set(map(repr, values))) != len(values):
+                raise SpecError(f"{option} {name}: a value is given twice")
+            out[name] = values
+        return out
+
     # derived quantities -------------------------------------------------------------------
     @property
     def N(self) -> int:
@@ -303,14 +378,14 @@ class RunSpec:
         """How messages name the run: phi, lattice and seed."""
         return f"phi={self.phi:g}, {self.Lx}x{self.Ly}, seed {self.seed}"
 
-    def replace(self, **changes) -> "RunSpec":
+    def replace(self, **changes) -> RunSpec:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "RunSpec":
+    def from_dict(cls, d: dict) -> RunSpec:
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = set(d) - names
         if unknown:
@@ -325,7 +400,7 @@ ANALYSIS_REVISION = 2
 
 @dataclass(frozen=True)
 class AnalysisSettings:
-    """Every choice the analysis makes that MODEL.md leaves open, beside :class:`RunSpec`.
+    """Every choice the analysis makes that docs/model.md leaves open, beside :class:`RunSpec`.
 
     A summary records the settings it was made under (resolved for its run); one made under
     other settings is stale and is redone from the run's files, never by running LAMMPS
@@ -385,7 +460,7 @@ class AnalysisSettings:
                 raise SpecError(f"analysis setting {name} must lie in (0, 1], "
                                 f"got {getattr(self, name)!r}")
 
-    def resolved(self, spec: RunSpec) -> "AnalysisSettings":
+    def resolved(self, spec: RunSpec) -> AnalysisSettings:
         """These settings with the run's own values filled in where they defer to it."""
         return dataclasses.replace(
             self,
@@ -399,7 +474,7 @@ class AnalysisSettings:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "AnalysisSettings":
+    def from_dict(cls, d: dict) -> AnalysisSettings:
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = set(d) - names
         if unknown:
@@ -407,7 +482,7 @@ class AnalysisSettings:
                             f"known: {', '.join(sorted(names))}")
         return cls(**d)
 
-    def with_assignments(self, items) -> "AnalysisSettings":
+    def with_assignments(self, items) -> AnalysisSettings:
         """These settings changed by ``NAME=VALUE`` strings (the CLI's ``--analysis``)."""
         changes = {}
         names = {f.name: f for f in dataclasses.fields(self)}

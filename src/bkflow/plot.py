@@ -22,6 +22,7 @@ skipped with a note, never drawn empty.
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -44,16 +45,58 @@ class PlotError(ValueError):
     """The directory holds nothing to plot."""
 
 
-def _style():
+#: bkflow's figure style, applied (matplotlib.rc_context) only while bkflow builds and saves
+#: a figure: the user's rcParams are never changed
+STYLE = {"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5, "xtick.labelsize": 8,
+         "ytick.labelsize": 8, "lines.markersize": 4, "figure.dpi": 100, "savefig.dpi": 200,
+         "savefig.bbox": "tight"}
+
+
+class Figures:
+    """What the figure functions need of pyplot, without pyplot's state: every figure is a
+    ``matplotlib.figure.Figure`` of its own, never registered with pyplot, so that making one
+    neither switches the backend nor touches (or closes) a user's open figures. A notebook
+    shows the Figure it is given; files are written with ``Figure.savefig``."""
+
+    def subplots(self, nrows=1, ncols=1, figsize=None, **kw):
+        fig = self.figure(figsize=figsize)
+        return fig, fig.subplots(nrows, ncols, **kw)
+
+    def figure(self, figsize=None, **kw):
+        return _figure_class()(figsize=figsize, **kw)
+
+    def close(self, fig=None):
+        """Nothing to close: no figure is registered with pyplot."""
+
+
+@functools.cache
+def _figure_class():
+    from matplotlib.figure import Figure
+
+    class BkFigure(Figure):
+        """A Figure that a notebook shows as a PNG even where pyplot (and with it the inline
+        backend's display hook) was never imported."""
+
+        def _repr_png_(self):
+            import io as _io
+
+            buf = _io.BytesIO()
+            with style():
+                self.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+            return buf.getvalue()
+
+    return BkFigure
+
+
+def style():
+    """The context in which bkflow builds (and saves) its figures: :data:`STYLE`."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    return matplotlib.rc_context(STYLE)
 
-    plt.rcParams.update({"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5,
-                         "xtick.labelsize": 8, "ytick.labelsize": 8, "lines.markersize": 4,
-                         "figure.dpi": 100, "savefig.dpi": 200, "savefig.bbox": "tight"})
-    return plt
+
+def _style() -> Figures:
+    return Figures()
 
 
 def _size_label(lx, ly) -> str:
@@ -147,11 +190,9 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
     paths = []
     for fmt in formats:
         p = out / f"{name}.{fmt}"
-        fig.savefig(p, metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None)
+        fig.savefig(p, metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None,
+                    dpi=STYLE["savefig.dpi"], bbox_inches="tight")
         paths.append(p)
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
     return paths
 
 
@@ -422,14 +463,40 @@ _NEEDS = {"fig2b_asymmetry": "lx_over_ly", "fig3_order": "psi_inf",
           "fig4a_clusters": "lx_over_ly"}
 
 
+#: the axes every figure draws itself (phi along x, one series per size; seeds averaged)
+_DRAWN_AXES = ("phi", "Lx", "Ly", "seed")
+
+
+def varied_parameters(results: pd.DataFrame) -> list[str]:
+    """The parameters besides phi, size and seed that take several values in a sweep's
+    results (its --vary axes, or several sweeps in one directory)."""
+    from .params import RunSpec
+
+    return [f for f in RunSpec.__dataclass_fields__ if f not in _DRAWN_AXES and f in results
+            and results[f].astype(str).nunique(dropna=False) > 1]
+
+
 def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[list[Path], dict]:
     """Write every figure that the sweep in ``root`` has data for into ``out`` (default
     ``root/figures``), of the runs matching ``where`` ({column: value}; all by default).
+    A sweep that varies other parameters too (``bkflow sweep --vary``) gets one set of
+    figures per combination, in subdirectories ``NAME=VALUE[,NAME=VALUE]``.
     Returns (paths written, {figure: why it was skipped})."""
     data = SweepData(root, where)
+    varied = varied_parameters(data.results)
+    if varied:
+        out = Path(out) if out is not None else data.root / FIGURES_DIR
+        written, skipped = [], {}
+        combos = data.results[varied].astype(str).drop_duplicates().to_dict("records")
+        for combo in combos:
+            name = ",".join(f"{k}={v}" for k, v in combo.items())
+            w, s = plot(root, out / name, formats, {**(where or {}), **parse_where(
+                [f"{k}={v}" for k, v in combo.items()])})
+            written += w
+            skipped.update({f"{name}/{k}": v for k, v in s.items()})
+        return written, skipped
     plt = _style()
     supported = plt.figure().canvas.get_supported_filetypes()
-    plt.close("all")
     bad = [f for f in formats if f not in supported]
     if bad:
         raise PlotError(f"format {', '.join(bad)} is not one matplotlib writes; choose from "
@@ -437,14 +504,37 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     out = Path(out) if out is not None else data.root / FIGURES_DIR
     out.mkdir(parents=True, exist_ok=True)
     written, skipped = [], {}
-    for name, make in FIGURES.items():
-        need = _NEEDS.get(name)
-        if need and not np.isfinite(pd.to_numeric(data.runs.get(need), errors="coerce")).any():
-            skipped[name] = f"no run recorded {need} (scene {', '.join(set(data.runs.scene))})"
+    for name in FIGURES:
+        try:
+            fig = figure(data, name)
+        except PlotError as exc:
+            skipped[name] = str(exc)
             continue
-        fig = make(data, plt)
-        if fig is None:
-            skipped[name] = "no data"
-            continue
-        written += _save(fig, out, name, formats)
+        with style():
+            written += _save(fig, out, name, formats)
     return written, skipped
+
+
+def figure(data: SweepData, name: str):
+    """The Figure ``name`` of :data:`FIGURES` (or its short name: ``fig2a``, ``drops``) of a
+    sweep's data, a ``matplotlib.figure.Figure`` made without pyplot; a PlotError saying why
+    when the sweep did not record what it needs."""
+    full = _figure_name(name)
+    need = _NEEDS.get(full)
+    if need and not np.isfinite(pd.to_numeric(data.runs.get(need), errors="coerce")).any():
+        raise PlotError(f"no run recorded {need} (scene {', '.join(set(data.runs.scene))})")
+    with style():
+        fig = FIGURES[full](data, Figures())
+    if fig is None:
+        raise PlotError("no data")
+    return fig
+
+
+def _figure_name(name: str) -> str:
+    if name in FIGURES:
+        return name
+    found = [f for f in FIGURES if f.split("_")[0] == name or f.split("_", 1)[-1] == name]
+    if len(found) != 1:
+        raise PlotError(f"no figure {name!r}; figures: {', '.join(FIGURES)} (or their first "
+                        "or last part, e.g. fig2a, drops)")
+    return found[0]

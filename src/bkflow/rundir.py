@@ -180,7 +180,8 @@ class RunDir:
         if {PARAMS, STRESS} <= names:
             return f"holds a run made with lmp -in {DECK} ({PARAMS}, {STRESS})"
         if PARAMS in names or DECK in names:
-            return f"holds a deck written by bkflow deck ({', '.join(sorted(names & {DECK, DATA, PARAMS}))})"
+            deck = ", ".join(sorted(names & {DECK, DATA, PARAMS}))
+            return f"holds a deck written by bkflow deck ({deck})"
         shown = sorted(names)
         return ("holds files that are not a bkflow run (" + ", ".join(shown[:3])
                 + (f" and {len(shown) - 3} more" if len(shown) > 3 else "") + ")")
@@ -269,7 +270,7 @@ class RunDir:
             raise DamagedRunError(f"{self.file(STRESS)} is damaged ({exc})") from None
         return c["t"], c["sigma_x"]
 
-    def stress_reader(self) -> "StressTail":
+    def stress_reader(self) -> StressTail:
         """An incremental reader of the stress series of a run in progress."""
         return StressTail(self.file(STRESS))
 

@@ -1,5 +1,5 @@
 """Is a stress series stationary? Block means, a trend test, the transient, and the error of
-a correlated mean (MODEL.md, "Steady state").
+a correlated mean (docs/model.md, "Steady state").
 
 Pure functions on arrays, like :mod:`bkflow.stress`.
 

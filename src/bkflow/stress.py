@@ -1,10 +1,10 @@
-"""Slips and friction from the shear-stress series sigma_x(t) (MODEL.md, "Observables").
+"""Slips and friction from the shear-stress series sigma_x(t) (docs/model.md, "Observables").
 
 Pure functions on numpy arrays: no file I/O (readers live in :mod:`bkflow.io`). Stress is in
-the model's units (k_d l / l^2), so mu_s sigma_n = 1 with MODEL.md's defaults.
+the model's units (k_d l / l^2), so mu_s sigma_n = 1 with docs/model.md's defaults.
 
 Slip events
-    MODEL.md defines a slip as a drop of sigma_x from a local maximum to the next local minimum
+    docs/model.md defines a slip as a drop of sigma_x from a local maximum to the next local minimum
     larger than a threshold. On a sampled, slightly noisy series the extrema are taken at the
     resolution of that threshold (the "zigzag" or hysteresis rule): a maximum is the highest
     sample before the series falls by more than the threshold, and its minimum is the lowest
@@ -50,7 +50,7 @@ class SlipEvents:
     def __len__(self) -> int:
         return len(self.i_max)
 
-    def after(self, t0: float) -> "SlipEvents":
+    def after(self, t0: float) -> SlipEvents:
         """The events whose maximum lies at t >= t0 (transient removed)."""
         keep = self.t_max >= t0
         return SlipEvents(self.i_max[keep], self.i_min[keep], self.t_max[keep],
@@ -130,7 +130,7 @@ def slip_events(t, sigma, threshold: float) -> SlipEvents:
 
 @dataclass(frozen=True)
 class MacroscopicFriction:
-    """Macroscopic friction of one run (MODEL.md, "Macroscopic friction").
+    """Macroscopic friction of one run (docs/model.md, "Macroscopic friction").
 
     ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
     standard error over successive (correlated) slips
@@ -155,7 +155,7 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
                          t_transient: float | None = None) -> MacroscopicFriction:
     """mu_bar with its error and the time-averaged stress ratio of one series.
 
-    ``threshold`` in stress units (MODEL.md's 1% of mu_s sigma_n is 0.01); the transient is the
+    ``threshold`` in stress units (docs/model.md's 1% of mu_s sigma_n is 0.01); the transient is the
     first ``transient_fraction`` of the series' time span, or everything before
     ``t_transient`` when that is given.
     """

@@ -22,8 +22,17 @@ import pandas as pd
 from . import flowcompat
 from .grid import run_cost
 from .params import AnalysisSettings, SpecError
-from .project import (ANALYZE, SIMULATE, analysed, finished, open_project, set_settings,
-                      settings_of, simulated, spec_of)
+from .project import (
+    ANALYZE,
+    SIMULATE,
+    analysed,
+    finished,
+    open_project,
+    set_settings,
+    settings_of,
+    simulated,
+    spec_of,
+)
 from .rundir import RunDir
 from .tables import write_tables
 

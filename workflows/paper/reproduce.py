@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.grid import phi_values, sweep_specs
 from bkflow import io
+from bkflow.grid import phi_values, sweep_specs
 from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec
 from bkflow.plot import SweepData, _style, cluster_scatter, plot
 from bkflow.rundir import sweep_run_dir
@@ -233,12 +233,13 @@ def numbers(out: Path, wall: dict) -> str:
               "|---|---|---|---|---|---|---|"]
     for label, (_, res) in cs.items():
         for n, g in res.groupby("N"):
-            def arg(f, fn):
+            def arg(f, fn, g=g):
                 v = g[f]
                 return f"{g.phi[getattr(v, fn)()]:g}" if v.notna().any() else "n/a"
             lines.append(f"| {label} | {n} | {arg('lx_over_ly', 'idxmax')} | "
                          f"{arg('lx_over_ly_large', 'idxmax')} | {arg('mu_bar', 'idxmin')} | "
-                         f"{arg('mu_bar_large', 'idxmin')} | {arg('mean_stress_ratio', 'idxmin')} |")
+                         f"{arg('mu_bar_large', 'idxmin')} | "
+                         f"{arg('mean_stress_ratio', 'idxmin')} |")
 
     lines += ["", "## Regimes: share of slip clusters (all seeds), N = 100 (20x5)", "",
               "| curve | phi | C | LC | DP | DT | clusters |", "|---|---|---|---|---|---|---|"]
@@ -269,7 +270,8 @@ def numbers(out: Path, wall: dict) -> str:
                 if start == "random":
                     s0 = g.iloc[0]
                     d = r.mean_stress_ratio - s0.mean_stress_ratio
-                    diff = f"{d / math.hypot(r.mean_stress_ratio_sem, s0.mean_stress_ratio_sem):.1f}"
+                    err = math.hypot(r.mean_stress_ratio_sem, s0.mean_stress_ratio_sem)
+                    diff = f"{d / err:.1f}"
                 lines.append(f"| {phi:g} | {start} | {r.n_stationary}/{r.n_seeds} | "
                              f"{rr.t_run.mean():.0f}, {rr.t_run.max():.0f} | "
                              f"{_pm(r.mu_bar, r.mu_bar_sem)} | "
@@ -357,7 +359,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
              color="grey")
     fig.tight_layout()
     path = figs / "fig2a_protocols.png"
-    fig.savefig(path)
+    fig.savefig(path, dpi=200, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -391,7 +393,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     ax.legend(frameon=False, fontsize=6)
     fig.tight_layout()
     path = figs / "relaxation.png"
-    fig.savefig(path)
+    fig.savefig(path, dpi=200, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -427,7 +429,7 @@ def stress_history_figure(out: Path, figs: Path) -> Path | None:
     axes[0, 0].legend(frameon=False, fontsize=5.5)
     fig.tight_layout()
     path = figs / "stress_history.png"
-    fig.savefig(path)
+    fig.savefig(path, dpi=200, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -462,7 +464,7 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
                   ncol=1, markerscale=1.5)
     fig.tight_layout()
     paths = [out / "aspect_clusters.png"]
-    fig.savefig(paths[0])
+    fig.savefig(paths[0], dpi=200, bbox_inches="tight")
     plt.close(fig)
     return paths + [aspect_share_figure(aspect_dir, out)]
 
@@ -483,7 +485,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     ax.set_title("aspect ratio check, N = 100", fontsize=9)
     ax.legend(frameon=False)
     path = out / "aspect_dt_share.png"
-    fig.savefig(path)
+    fig.savefig(path, dpi=200, bbox_inches="tight")
     plt.close(fig)
     return path
 

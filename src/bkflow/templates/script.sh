@@ -1,12 +1,15 @@
 {#- bkflow's job script: flow's template for the detected scheduler (SLURM on a cluster with
     sbatch; see `python project.py submit --help`), extended for bkflow. Edit here to add
     #SBATCH lines your site needs (account, QOS) or `module load` lines; the run commands
-    themselves are flow's: `<python> <this dir>/project.py exec simulate <job id>`. -#}
+    themselves are flow's: `<python> -m bkflow.cluster run -o simulate -j <job id>`. -#}
 {% extends base_script %}
 {% block header %}
 {{- super() }}
 {% if 'slurm' in base_script %}
 #SBATCH --cpus-per-task=1
+{#- a bundle's runs are started side by side (`&`) by this one script, on its node: they must
+    all be given cores of that node, not tasks spread over several #}
+#SBATCH --nodes=1
 {% endif %}
 {% endblock header %}
 {% block custom_content %}

@@ -1,0 +1,158 @@
+"""Runs and sweeps as Python objects, for notebooks: ``bkflow.load_run(dir)`` and
+``bkflow.load_sweep(dir)``.
+
+::
+
+    sweep = bkflow.load_sweep("runs/sweep")
+    sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "stationary"]]
+    sweep.figure("fig2a")
+    run = sweep.run(0)                      # the first row of sweep.runs
+    run.stress.plot(x="t", y="sigma_x")
+
+Tables are pandas DataFrames read from the files bkflow wrote (nothing is recomputed);
+figures are ``matplotlib.figure.Figure`` objects made without pyplot: building one neither
+switches the backend, nor changes rcParams, nor touches the figures a user has open
+(:class:`bkflow.plot.Figures`). A notebook displays the Figure it is given.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from .params import AnalysisSettings, RunSpec
+from .plot import FIGURES, Figures, SweepData, figure, style
+from .rundir import AnalysisError, RunDir, sweep_run_dir
+
+
+class Run:
+    """A finished run directory (``bkflow run``, a sweep's job, or a deck run with ``lmp``):
+    its parameters, its record, its analysis and its tables."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self._rd = RunDir(self.path)
+        if not self._rd.is_complete():
+            why = self._rd.finished_standalone()
+            if why is not None:
+                raise AnalysisError(why)
+        self.spec: RunSpec = self._rd.spec()
+
+    def __repr__(self) -> str:
+        s = self.summary or {}
+        mu = s.get("mu_bar")
+        return (f"Run({str(self.path)!r}: phi = {self.spec.phi:g}, "
+                f"{self.spec.Lx}x{self.spec.Ly}, seed {self.spec.seed}, t_end = "
+                f"{self.spec.t_end:g}" + (f", mu_bar = {mu:.4f}" if mu is not None else "")
+                + (", stationary" if s.get("stationary") else
+                   ", NOT stationary" if s else ", not analysed") + ")")
+
+    @property
+    def meta(self) -> dict | None:
+        """meta.json: parameters, versions, the path and kernel that ran, wall time."""
+        return self._rd.meta()
+
+    @property
+    def summary(self) -> dict | None:
+        """summary.json (None before the analysis); :meth:`analyze` makes it."""
+        return self._rd.summary()
+
+    def analyze(self, **settings) -> dict:
+        """Analyse the run (``bkflow analyze``) under these analysis settings, e.g.
+        ``run.analyze(s_x=0.05)``; returns the summary."""
+        from .analysis import analyze
+
+        return analyze(self.path, AnalysisSettings(**settings))
+
+    @property
+    def stress(self) -> pd.DataFrame:
+        """``t``, ``sigma_x``: the shear-stress series."""
+        t, sigma = self._rd.read_stress()
+        return pd.DataFrame({"t": t, "sigma_x": sigma})
+
+    @property
+    def events(self) -> pd.DataFrame | None:
+        """One row per slip (events.csv; None before the analysis)."""
+        from .rundir import EVENTS
+
+        return self._rd.read_events() if self._rd.file(EVENTS).exists() else None
+
+    @property
+    def psi(self) -> pd.DataFrame | None:
+        """Psi(t) (scenes order, full; None otherwise)."""
+        return self._rd.read_psi()
+
+    @property
+    def clusters(self) -> pd.DataFrame | None:
+        """One row per slip cluster (scenes clusters, full; None otherwise)."""
+        return self._rd.read_clusters()
+
+    def figure(self, window: float | None = None):
+        """sigma_x(t) with each slip's sigma_fail marked, over the last ``window`` time
+        units (default: the whole run), as a Figure."""
+        st = self.stress
+        if window is not None:
+            st = st[st.t >= st.t.iloc[-1] - window]
+        with style():
+            fig, ax = Figures().subplots(figsize=(6.0, 2.6))
+            ax.plot(st.t, st.sigma_x, lw=0.6, color="tab:blue", label=r"$\sigma_x$")
+            ev = self.events
+            if ev is not None and len(ev):
+                ev = ev[(ev.t_max >= st.t.iloc[0])]
+                ax.plot(ev.t_max, ev.sigma_fail, "v", ms=3, color="tab:red",
+                        label=r"$\sigma_{\rm fail}$")
+            ax.axhline(self.spec.friction_threshold / self.spec.area, color="grey", lw=0.6,
+                       ls="--", label=r"$\mu_s\sigma_n$")
+            ax.set_xlabel("t (time units)")
+            ax.set_ylabel(r"$\sigma_x$")
+            ax.set_title(f"phi = {self.spec.phi:g}, {self.spec.Lx}x{self.spec.Ly}, "
+                         f"seed {self.spec.seed}")
+            ax.legend(loc="lower right")
+        return fig
+
+
+class Sweep:
+    """A sweep directory (``bkflow sweep --out DIR``): its tables, its runs and its figures.
+    ``where`` ({column: value}) keeps the runs of those parameters only."""
+
+    def __init__(self, path, where: dict | None = None):
+        self.path = Path(path)
+        self._data = SweepData(self.path, where)
+
+    def __repr__(self) -> str:
+        r = self.results
+        return (f"Sweep({str(self.path)!r}: {len(self.runs)} runs, {len(r)} points, "
+                f"{int(r.n_stationary.sum())} of {int(r.n_seeds.sum())} runs stationary)")
+
+    @property
+    def runs(self) -> pd.DataFrame:
+        """runs.csv: one row per run (parameters and summary)."""
+        return self._data.runs
+
+    @property
+    def results(self) -> pd.DataFrame:
+        """results.csv: means over seeds with standard errors, one row per point."""
+        return self._data.results
+
+    #: the figures :meth:`figure` draws (short names work too: fig2a, drops)
+    figures = tuple(FIGURES)
+
+    def figure(self, name: str):
+        """The paper's figure ``name`` (see :attr:`figures`) of this sweep, as a Figure."""
+        return figure(self._data, name)
+
+    def run(self, which) -> Run:
+        """A run of the sweep: an index into :attr:`runs` or a job id."""
+        job = self.runs.iloc[which]["job"] if isinstance(which, int) else str(which)
+        return Run(sweep_run_dir(self.path, job).path)
+
+
+def load_run(path) -> Run:
+    """The finished run in directory ``path`` (:class:`Run`)."""
+    return Run(path)
+
+
+def load_sweep(path, where: dict | None = None) -> Sweep:
+    """The sweep in directory ``path`` (:class:`Sweep`)."""
+    return Sweep(path, where)

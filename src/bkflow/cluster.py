@@ -1,0 +1,47 @@
+"""A sweep on a cluster: ``python -m bkflow.cluster status|run|submit|exec ...``, run inside a
+sweep directory (``bkflow sweep ... --out DIR --init`` creates one without running it).
+
+This is signac-flow's command line for :class:`bkflow.project.ClusterProject`, whose
+operations ``simulate`` and ``analyze`` are the ones ``bkflow sweep`` runs locally, and whose
+job-script template ships with the package (``bkflow/templates/script.sh``): it works from a
+wheel as from a checkout. The job scripts it submits call ``python -m bkflow.cluster`` again
+(the python that submitted, whose environment holds bkflow)::
+
+    bkflow sweep --phi 1e-1:1e3 --sizes 100,400,900 --seeds 3 --out grid --init
+    cd grid
+    python -m bkflow.cluster status
+    python -m bkflow.cluster submit --bundle 16 --parallel --pretend   # show the scripts
+    python -m bkflow.cluster submit --bundle 16 --parallel             # sbatch
+    python -m bkflow.cluster run --np 2                                # or here, 2 at a time
+    bkflow collect .
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+
+def project(path=None):
+    """The cluster project of the sweep directory ``path`` (default: the current one), whose
+    submitted commands are ``<this python> -m bkflow.cluster ...``."""
+    from bkflow.project import ClusterProject
+
+    return ClusterProject.get_project(
+        os.getcwd() if path is None else str(path),
+        entrypoint={"executable": sys.executable, "path": "-m bkflow.cluster"})
+
+
+def main(argv=None) -> None:
+    if argv is not None:
+        sys.argv[1:] = list(argv)
+    try:
+        p = project()
+    except LookupError:
+        sys.exit(f"bkflow.cluster: {os.getcwd()} is not a sweep directory (no signac project "
+                 "here): run it inside the --out directory of bkflow sweep ... --init")
+    p.main()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,56 @@
+"""Where a result came from: the source of bkflow (its git commit, and whether the tree had
+uncommitted changes, when it runs from a checkout), Python and the libraries that shape the
+numbers. Recorded in every meta.json (``provenance``), beside the versions of bkflow, LAMMPS
+and the plugin build."""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata as md
+import platform
+import subprocess
+from pathlib import Path
+
+#: the libraries whose versions can change a number bkflow reports
+LIBRARIES = ("numpy", "scipy", "pandas", "pymbar", "MDAnalysis", "signac", "signac-flow",
+             "matplotlib", "lammps", "mpich")
+
+
+def _git(*args: str, cwd: Path) -> str | None:
+    try:
+        out = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True,
+                             timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() if out.returncode == 0 else None
+
+
+@functools.cache
+def source() -> dict:
+    """{"git_commit", "git_dirty"} of the checkout bkflow runs from (editable install), or
+    None for both when it is not a git work tree (an installed wheel)."""
+    here = Path(__file__).resolve().parent
+    top = _git("rev-parse", "--show-toplevel", cwd=here)
+    if top is None or not (Path(top) / "pyproject.toml").is_file():
+        return {"git_commit": None, "git_dirty": None}
+    commit = _git("rev-parse", "HEAD", cwd=here)
+    status = _git("status", "--porcelain", "--untracked-files=no", cwd=here)
+    return {"git_commit": commit, "git_dirty": None if status is None else bool(status)}
+
+
+@functools.cache
+def libraries() -> dict:
+    """{name: version} of :data:`LIBRARIES` (None when one is not installed)."""
+    out = {}
+    for name in LIBRARIES:
+        try:
+            out[name] = md.version(name)
+        except md.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def record() -> dict:
+    """The provenance block of meta.json."""
+    return {**source(), "python": platform.python_version(),
+            "implementation": platform.python_implementation(), "libraries": libraries()}
