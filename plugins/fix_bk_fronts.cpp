@@ -8,7 +8,9 @@
    since the running maximum. When an event is confirmed, the samples from its maximum to its
    minimum are gathered on rank 0 and appended to FILE, and the samples before the next
    maximum are dropped: memory holds one event at a time (at most MAX_SAMPLES samples; an
-   event longer than that keeps its last MAX_SAMPLES and is marked truncated).
+   event longer than that keeps its last MAX_SAMPLES and is marked truncated). Nothing is
+   kept for an event that will not be written (its maximum before `start`, or `limit`
+   reached).
 
    FILE is binary, little-endian, so that a front at fine time resolution stays small:
      header:  8 bytes "BKFRONT1", int64 number of atoms N
@@ -108,7 +110,9 @@ void FixBKFronts::sample()
     samples.clear();    // an event starts at its maximum: nothing before it is needed
     truncated = false;
   }
-  record(step);
+  // only the open event can still be written: not if its maximum lies in the transient, nor
+  // once `limit` events are written (then the fix costs one sigma_x per sample)
+  if (zigzag.step_max >= start && (limit < 0 || nwritten < limit)) record(step);
 }
 
 void FixBKFronts::write_event(bigint from, bigint to)

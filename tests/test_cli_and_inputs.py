@@ -147,3 +147,21 @@ def test_standalone_deck_runs_under_lmp(tmp_path):
     assert summary["n_slips"] > 10 and summary["n_slips_without_snapshots"] == 0
     assert 0 < summary["mu_bar"] < STANDARD_DECKS["N100_phi10"].mu_s
     assert summary["regime"] in ("C", "LC", "DP", "DT")
+
+
+def test_the_progress_bar_shows_steps_and_the_stress(capsys):
+    """A run's progress goes through tqdm.auto (a line on a terminal, a widget in a notebook);
+    outside both it is off unless asked for."""
+    from bkflow.engine import _Progress, in_notebook
+
+    assert not in_notebook()
+    bar = _Progress("phi=1, 20x5, seed 1", 1000, enabled=True)
+    bar.update(500, 0.1234)
+    bar.update(1000, 0.125)
+    bar.close()
+    err = capsys.readouterr().err
+    assert "phi=1, 20x5, seed 1" in err and "sigma_x +0.1250" in err and "100%" in err
+    quiet = _Progress("x", 10)  # stderr is captured: not a terminal, not a notebook
+    quiet.update(5, 0.1)
+    quiet.close()
+    assert capsys.readouterr().err == ""

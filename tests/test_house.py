@@ -265,3 +265,31 @@ def test_nothing_refers_outside_the_repository():
             if any(n in text for n in needles):
                 hits.append(str(f.relative_to(ROOT)))
     assert not hits, hits
+
+
+def test_the_plugin_compiles_without_a_warning():
+    """Every C++ source of plugins/ under -Wall -Wextra -Werror (syntax and semantic checks,
+    no code generated), against the LAMMPS and MPI headers the install builds with."""
+    import shutil
+    import subprocess
+    import sys
+
+    cxx = shutil.which("g++") or shutil.which("c++")
+    if cxx is None:
+        pytest.skip("no C++ compiler")
+    info = subprocess.run([sys.executable, str(ROOT / "plugins" / "lammps_build_info.py")],
+                          capture_output=True, text=True, timeout=120, check=True).stdout
+    keys = dict(ln.split("=", 1) for ln in info.splitlines() if "=" in ln)
+    flags = ["-std=c++17", "-fsyntax-only", "-Wall", "-Wextra", "-Werror",
+             "-DLAMMPS_SMALLBIG", '-DBK_LAMMPS_VERSION="x"', '-DBK_LAMMPS_GIT="x"',
+             "-DBK_FUSED_AVX2", "-DBK_FUSED_AVX512",
+             f"-I{keys['LAMMPS_INCLUDE_DIR']}", f"-I{keys['MPI_INCLUDE_DIR']}"]
+    sources = sorted((ROOT / "plugins").glob("*.cpp"))
+    procs = [subprocess.Popen([cxx, *flags, str(s)], stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True) for s in sources]
+    failed = {}
+    for src, p in zip(sources, procs):
+        out, _ = p.communicate(timeout=600)
+        if p.returncode != 0:
+            failed[src.name] = out[-2000:]
+    assert not failed, failed

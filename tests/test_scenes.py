@@ -188,3 +188,92 @@ def test_the_fast_dump_reader_agrees_with_mdanalysis(tmp_path):
     fast = read_frames(tmp_path / "snapshots.lammpstrj", spec.N)
     np.testing.assert_array_equal(fast.positions,
                                   read_regular_frames(tmp_path / "snapshots.lammpstrj").positions)
+
+
+# ------------------------------------------------------------------------ rupture fronts
+def _fronts_against_a_velocity_dump(spec, workdir, ranks):
+    """Run the deck of ``spec`` standalone (``ranks`` MPI ranks) with a dump of every
+    particle's v_x at every stress sample beside fix bk/fronts; (fronts, {step: v_x by id},
+    stress series)."""
+    from bkflow.deck import DeckFiles, data_text, setup_text
+    from bkflow.io import read_fronts
+
+    (workdir / "data.bk").write_text(data_text(spec))
+    deck = setup_text(spec, DeckFiles(), thermo_every=10**6)
+    deck += (f"\ndump v all custom {spec.stress_nevery} v.dump id vx\n"
+             "dump_modify v sort id format float %.17g\n"
+             f"run {spec.n_steps}\n")
+    (workdir / "in.bk").write_text(deck)
+    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
+    if ranks == 1:
+        cmd += ["-var", "comm_cutoff", "0.1"]
+    else:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    subprocess.run(cmd, check=True, cwd=workdir, timeout=600)
+    lines = (workdir / "v.dump").read_text().splitlines()
+    per = spec.N + 9
+    vel = {int(lines[k + 1]): np.array([float(ln.split()[1]) for ln in lines[k + 9:k + per]])
+           for k in range(0, len(lines), per)}
+    t, sigma = RunDir(workdir).read_stress()
+    return read_fronts(workdir / "fronts.bin"), vel, (t, sigma)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(tmp_path, ranks):
+    """fix bk/fronts (scene fronts): one record per slip after the transient, the very slips
+    of stress.csv (the zigzag rule), sampled at every stress sample from the slip's maximum to
+    its minimum, holding every particle's v_x (float32) at those steps; on the fused path (one
+    rank) and the general one (two)."""
+    spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
+    assert "bk/fronts" in deck_line(spec) and "bk/slips" not in deck_line(spec)
+    fronts, vel, (t, sigma) = _fronts_against_a_velocity_dump(spec, tmp_path, ranks)
+    events = slip_events(t, sigma, spec.slip_threshold_stress).after(
+        spec.slips_start_step * spec.dt)
+    assert len(fronts) == len(events) >= 3
+    for f, i_max, i_min in zip(fronts, events.i_max, events.i_min):
+        first = int(round(t[i_max] / spec.dt))
+        last = int(round(t[i_min] / spec.dt))
+        assert (f.step_max, f.step_min) == (first, last)
+        np.testing.assert_array_equal(f.steps, np.arange(first, last + 1, spec.stress_nevery))
+        assert f.vx.shape == (len(f.steps), spec.N) and f.vx.dtype == np.float32
+        assert not f.truncated
+        for k, step in enumerate(f.steps):
+            np.testing.assert_array_equal(f.vx[k], vel[int(step)].astype(np.float32))
+
+
+def deck_line(spec):
+    from bkflow.deck import deck_text
+
+    return deck_text(spec)
+
+
+def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(tmp_path, capsys):
+    from PIL import Image
+
+    from bkflow.params import FRONTS_IN_FULL
+    from bkflow.rundir import DamagedRunError
+
+    spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=1500, scene="full", seed=2)
+    meta = run(spec, tmp_path / "r", progress=False).meta
+    assert meta["fronts"]["events"] > FRONTS_IN_FULL
+    assert meta["fronts"]["written"] == FRONTS_IN_FULL
+    fronts = RunDir(tmp_path / "r").read_fronts()
+    assert len(fronts) == FRONTS_IN_FULL
+    assert main(["movie", str(tmp_path / "r"), "--slip", "2", "--fps", "10"]) == 0
+    gif = tmp_path / "r" / "movie_slip2.gif"
+    with Image.open(gif) as im:
+        assert im.n_frames == len(fronts[2].steps) > 3
+        assert im.size[0] == 8 * spec.Lx and im.size[1] == 8 * spec.Ly + 16
+    assert (tmp_path / "r" / "fronts_slip2.png").stat().st_size > 1000
+    assert "frames" in capsys.readouterr().out
+    # a run without fronts, a slip not recorded, a cut file: one line each, exit 2
+    plain = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=100, scene="friction")
+    run(plain, tmp_path / "plain", progress=False)
+    assert main(["movie", str(tmp_path / "plain")]) == 2
+    assert main(["movie", str(tmp_path / "r"), "--slip", str(FRONTS_IN_FULL)]) == 2
+    err = capsys.readouterr().err
+    assert "no rupture fronts recorded" in err and f"0..{FRONTS_IN_FULL - 1}" in err
+    data = (tmp_path / "r" / "fronts.bin").read_bytes()
+    (tmp_path / "r" / "fronts.bin").write_bytes(data[:len(data) - 100])
+    with pytest.raises(DamagedRunError, match="cut"):
+        RunDir(tmp_path / "r").read_fronts()

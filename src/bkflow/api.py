@@ -22,7 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from .params import AnalysisSettings, RunSpec
-from .plot import FIGURES, Figures, SweepData, figure, style
+from .plot import FIGURES, Figures, PlotError, SweepData, figure, front_figure, front_movie, style
 from .rundir import AnalysisError, RunDir, sweep_run_dir
 
 
@@ -87,6 +87,39 @@ class Run:
     def clusters(self) -> pd.DataFrame | None:
         """One row per slip cluster (scenes clusters, full; None otherwise)."""
         return self._rd.read_clusters()
+
+    @property
+    def fronts(self):
+        """The rupture fronts the run recorded (scenes fronts, full): a list of
+        :class:`bkflow.io.Front`, one per slip, in the order of the slips."""
+        return self._rd.read_fronts()
+
+    def _front(self, slip: int):
+        fronts = self.fronts
+        if not fronts:
+            raise PlotError(f"{self.path}: no rupture fronts recorded (run with --scene fronts "
+                            "or full)")
+        if not -len(fronts) <= slip < len(fronts):
+            raise PlotError(f"{self.path}: slip {slip} not recorded; {len(fronts)} slips "
+                            f"have fronts (0..{len(fronts) - 1})")
+        return fronts[slip]
+
+    def front_figure(self, slip: int = 0):
+        """x-t and y-t maps of the slip rate through recorded slip ``slip`` (a Figure)."""
+        f = self._front(slip)
+        s = self.spec
+        return front_figure(f, s.Lx, s.Ly, s.dt, title=f"phi = {s.phi:g}, {s.Lx}x{s.Ly}, "
+                            f"slip {slip} (t = {f.step_max * s.dt:.1f} to "
+                            f"{f.step_min * s.dt:.1f})")
+
+    def movie(self, slip: int = 0, path=None, fps: float = 15.0) -> Path:
+        """An animated GIF of recorded slip ``slip``: the layer coloured by slip rate.
+        Default path: ``movie_slip<K>.gif`` in the run directory. Returns the path."""
+        f = self._front(slip)
+        path = Path(path) if path is not None else self.path / f"movie_slip{slip}.gif"
+        front_movie(f, self.spec.Lx, self.spec.Ly, self.spec.dt, path, fps,
+                    title=f"phi = {self.spec.phi:g}, slip {slip}: ")
+        return path
 
     def figure(self, window: float | None = None):
         """sigma_x(t) with each slip's sigma_fail marked, over the last ``window`` time

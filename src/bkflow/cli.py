@@ -136,7 +136,9 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
-                        "Psi(t)), clusters (+ positions at each slip), full (default)")
+                        "Psi(t)), clusters (+ positions at each slip), fronts (+ every "
+                        "particle's slip rate through every slip), full (default; the fronts "
+                        "of the first slips only)")
     _set_arg(p)
     p.add_argument("--out", required=True, help="output directory")
 
@@ -228,6 +230,16 @@ def build_parser() -> argparse.ArgumentParser:
                                         f"{rd.EVENTS} (+ {rd.PSI}, {rd.CLUSTERS})")
     an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {rd.DECK})")
     _analysis_arg(an)
+    mv = sub.add_parser("movie", help="a rupture front: an animated GIF of one slip (the layer "
+                                      "coloured by slip rate) and its x-t / y-t maps (PNG); "
+                                      "needs a run with --scene fronts or full")
+    mv.add_argument("dir", help="run directory")
+    mv.add_argument("--slip", type=int, default=0,
+                    help="which recorded slip (0 = the first after the transient; default 0)")
+    mv.add_argument("--out", default=None,
+                    help="the GIF (default DIR/movie_slip<K>.gif; the maps go beside it as "
+                         "fronts_slip<K>.png)")
+    mv.add_argument("--fps", type=float, default=15.0, help="frames per second (default 15)")
     return p
 
 
@@ -418,6 +430,32 @@ def _plot(a) -> int:
     return 0
 
 
+def _movie(a) -> int:
+    from pathlib import Path
+
+    from .api import Run
+    from .plot import STYLE, PlotError
+
+    if not a.fps > 0:
+        raise SpecError(f"--fps must be > 0, got {a.fps:g}")
+    run = Run(a.dir)
+    out = Path(a.out) if a.out else Path(a.dir) / f"movie_slip{a.slip}.gif"
+    if out.suffix.lower() != ".gif":
+        raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
+    try:
+        fig = run.front_figure(a.slip)
+        path = run.movie(a.slip, out, a.fps)
+    except PlotError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    maps = out.with_name(f"fronts_slip{a.slip}.png")
+    fig.savefig(maps, dpi=STYLE["savefig.dpi"], bbox_inches="tight")
+    f = run.fronts[a.slip]
+    print(f"wrote {path} ({len(f.steps)} frames, t = {f.step_max * run.spec.dt:g} to "
+          f"{f.step_min * run.spec.dt:g}) and {maps}")
+    return 0
+
+
 def _run(a, argv) -> int:
     from .limits import check_cost
     from .rundir import RunDir
@@ -536,6 +574,7 @@ def _main(argv=None) -> int:
     from .rundir import AnalysisError, DamagedRunError, RunBusyError
 
     commands = {"analyze": _analyze, "sweep": _sweep, "plot": _plot, "collect": _collect,
+                "movie": _movie,
                 "deck": _deck}
     try:
         if a.cmd == "run":

@@ -22,12 +22,14 @@ from dataclasses import dataclass
 from . import __version__
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
-from .rundir import DATA, DECK, PARAMS, SLIPS, SNAPSHOTS, STRESS
+from .rundir import DATA, DECK, FRONTS, PARAMS, SLIPS, SNAPSHOTS, STRESS
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
 SUBSTRATE_FIX = "bk"
 #: fix ID of fix bk/slips (scenes clusters, full); its vector is [events, events written]
 SLIPS_FIX = "slips"
+#: fix ID of fix bk/fronts (scenes fronts, full); its vector is [events, events written]
+FRONTS_FIX = "fronts"
 
 
 @dataclass(frozen=True)
@@ -38,6 +40,7 @@ class DeckFiles:
     stress: str | None = STRESS
     snapshots: str = SNAPSHOTS
     slips: str = SLIPS
+    fronts: str = FRONTS
 
 
 def _f(x: float) -> str:
@@ -194,7 +197,10 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
               the slip is confirmed, so the file holds two frames per slip after the transient
               rather than every step. The same zigzag rule finds the events again in stress.csv
               (bkflow.stress.slip_events), which is how each pair is matched to its event.
-    full:     all of the above.
+    fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
+              of every particle at every sample from each slip's maximum to its minimum
+              (float32, binary), to follow rupture fronts; only one event is held in memory.
+    full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only).
     """
     lines = []
     if files.stress:
@@ -212,6 +218,13 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
         lines += [
             f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}",
+        ]
+    if spec.writes_fronts and files.fronts:
+        limit = "" if spec.fronts_limit is None else f" limit {spec.fronts_limit}"
+        lines += [
+            f"fix             {FRONTS_FIX} all bk/fronts {spec.stress_nevery} {SUBSTRATE_FIX} "
+            f"{_f(spec.slip_threshold_stress)} file {files.fronts} start "
+            f"{spec.slips_start_step}{limit}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)
     cols = f"f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] f_{SUBSTRATE_FIX}[3] f_{SUBSTRATE_FIX}[5] "

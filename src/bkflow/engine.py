@@ -25,6 +25,7 @@ import numpy as np
 
 from . import __version__
 from .deck import (
+    FRONTS_FIX,
     SERIAL_COMM_CUTOFF,
     SLIPS_FIX,
     SUBSTRATE_FIX,
@@ -151,27 +152,39 @@ class AdaptiveStop:
                 "checks": self.checks}
 
 
+def in_notebook() -> bool:
+    """Whether this process is a Jupyter kernel (where stderr is no terminal, yet a progress
+    bar is wanted)."""
+    shell = sys.modules.get("IPython")
+    try:
+        return shell is not None and type(shell.get_ipython()).__name__ == "ZMQInteractiveShell"
+    except Exception:  # an IPython without a running shell
+        return False
+
+
 class _Progress:
-    """One status line on a terminal (stderr); silent when stderr is not a terminal."""
+    """A progress bar of the run (steps, sigma_x, ETA) through ``tqdm.auto``: a line on a
+    terminal (stderr), a widget in a notebook; silent anywhere else (a pipe, a sweep's
+    worker) unless asked for."""
 
     def __init__(self, label: str, total: int, enabled: bool | None = None):
-        self.label, self.total = label, total
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
-        self.t0 = time.perf_counter()
+        if enabled is None:
+            enabled = sys.stderr.isatty() or in_notebook()
+        self.bar = None
+        if enabled:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=total, desc=label, unit="step", unit_scale=True,
+                            file=sys.stderr, smoothing=0.1, mininterval=0.5)
 
     def update(self, step: int, sigma_x: float) -> None:
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        frac = step / self.total
-        eta = el / frac - el if frac > 0 else float("nan")
-        sys.stderr.write(f"\r{self.label}: {100 * frac:5.1f}%  step {step}/{self.total}  "
-                         f"sigma_x {sigma_x:+.4f}  elapsed {el:6.1f}s  eta {eta:6.1f}s ")
-        sys.stderr.flush()
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"sigma_x {sigma_x:+.4f}", refresh=False)
+            self.bar.update(step - self.bar.n)
 
     def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _fix_vector(lmp, fix: str, i: int) -> float:
@@ -353,6 +366,9 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                             "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
                                                for i, k in enumerate(("events", "written"))}
                             if spec.writes_slips else None,
+                            "fronts": {k: int(_fix_vector(lmp, FRONTS_FIX, i))
+                                       for i, k in enumerate(("events", "written"))}
+                            if spec.writes_fronts else None,
                             "engine": _path_record(lmp, path)}
             finally:
                 bar.close()

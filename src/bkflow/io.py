@@ -161,6 +161,45 @@ def read_frames_mdanalysis(path, n_atoms: int | None = None) -> Frames:
     return Frames(steps, pos)
 
 
+@dataclass(frozen=True)
+class Front:
+    """One slip's rupture front, as fix bk/fronts wrote it: the steps of its stress maximum
+    and minimum, the steps sampled in between (S,) and the x velocity (slip rate) of every
+    particle at each (S, N), by atom id; ``truncated`` when its first samples were dropped."""
+
+    step_max: int
+    step_min: int
+    steps: np.ndarray
+    vx: np.ndarray
+    truncated: bool
+
+
+_FRONTS_MAGIC = b"BKFRONT1"
+
+
+def read_fronts(path) -> list[Front]:
+    """The events of a fix bk/fronts file (plugins/fix_bk_fronts.cpp documents the format);
+    a ValueError when the file is cut or is not one."""
+    data = Path(path).read_bytes()
+    if len(data) < 16 or data[:8] != _FRONTS_MAGIC:
+        raise ValueError(f"{path}: not a fix bk/fronts file")
+    n = int(np.frombuffer(data, "<i8", 1, 8)[0])
+    pos, out = 16, []
+    while pos < len(data):
+        if pos + 32 > len(data):
+            raise ValueError(f"{path}: cut inside an event header")
+        smax, smin, s, flags = (int(v) for v in np.frombuffer(data, "<i8", 4, pos))
+        pos += 32
+        need = 8 * s + 4 * s * n
+        if s < 0 or pos + need > len(data):
+            raise ValueError(f"{path}: cut inside an event ({len(data) - pos} of {need} bytes)")
+        steps = np.frombuffer(data, "<i8", s, pos).copy()
+        vx = np.frombuffer(data, "<f4", s * n, pos + 8 * s).reshape(s, n).copy()
+        pos += need
+        out.append(Front(smax, smin, steps, vx, bool(flags & 1)))
+    return out
+
+
 def read_json(path) -> dict:
     return json.loads(Path(path).read_text())
 

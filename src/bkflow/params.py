@@ -64,7 +64,13 @@ STATIONARY_DRIFT_BOUND = 0.01
 
 #: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
-SCENES = ("friction", "order", "clusters", "full")
+SCENES = ("friction", "order", "clusters", "fronts", "full")
+
+#: rupture fronts recorded by the full scene (the first slips after the transient; the fronts
+#: scene records them all): the slip rate of every particle at every stress sample through a
+#: slip costs ~4 bytes x N x samples, ~56 MB for all the slips of an N = 900 run of 8000
+#: time units, so the full scene keeps a sample of them for the figures and the movie
+FRONTS_IN_FULL = 20
 
 #: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
@@ -367,6 +373,15 @@ class RunSpec:
     @property
     def writes_slips(self) -> bool:
         return self.scene in ("clusters", "full")
+
+    @property
+    def writes_fronts(self) -> bool:
+        return self.scene in ("fronts", "full")
+
+    @property
+    def fronts_limit(self) -> int | None:
+        """How many slips' fronts the run records (None: all)."""
+        return FRONTS_IN_FULL if self.scene == "full" else None
 
     @property
     def friction_threshold(self) -> float:

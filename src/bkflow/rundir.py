@@ -39,6 +39,7 @@ PARAMS = "params.json"
 STRESS = "stress.csv"
 SNAPSHOTS = "snapshots.lammpstrj"
 SLIPS = "slips.lammpstrj"
+FRONTS = "fronts.bin"
 LOG = "log.lammps"
 META = "meta.json"
 SUMMARY = "summary.json"
@@ -52,7 +53,7 @@ MARK = ".bkflow-run"
 SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, LOG, META)
+RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
 #: a sweep directory keeps its runs in signac's workspace/<job id>/
@@ -276,6 +277,16 @@ class RunDir:
 
     def read_snapshots(self, n_atoms: int) -> io.Frames:
         return self._frames(SNAPSHOTS, n_atoms)
+
+    def read_fronts(self) -> list[io.Front]:
+        """The rupture fronts of the run (fix bk/fronts, scenes fronts and full): one
+        :class:`bkflow.io.Front` per recorded slip; [] when the scene recorded none."""
+        if not self.file(FRONTS).exists():
+            return []
+        try:
+            return io.read_fronts(self.file(FRONTS))
+        except ValueError as exc:
+            raise DamagedRunError(f"{self.file(FRONTS)} is cut or damaged ({exc})") from None
 
     def read_slip_frames(self, n_atoms: int) -> io.Frames:
         return self._frames(SLIPS, n_atoms)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from . import flowcompat
+from .engine import in_notebook
 from .grid import run_cost
 from .params import AnalysisSettings, SpecError
 from .project import (
@@ -58,12 +59,12 @@ class _SweepBar:
         self.done = done_before
         self.total = total
         self.stream = sys.stderr
-        self.tty = self.stream.isatty() if enabled is None else enabled
+        self.tty = (self.stream.isatty() or in_notebook()) if enabled is None else enabled
         self.quiet = enabled is False
         self.stop = threading.Event()
         self.bar = None
         if self.tty and not self.quiet:
-            from tqdm import tqdm
+            from tqdm.auto import tqdm
 
             self.bar = tqdm(total=total, initial=done_before, unit="run", desc="sweep",
                             file=self.stream, smoothing=0.1,
