@@ -17,10 +17,12 @@ phi = 100, C = 0.1, the friction scene) three codes run the same steps, alternat
 LAMMPS's "Loop time" is the time of the loop; the floor's is its own clock around its loop.
 
 ``--whole``: the whole process, ``bkflow run --scene friction --no-analyze`` (imports, deck,
-LAMMPS start, loop, meta.json), wall clock, new (``--path auto``) against old: the bkflow of
-``--old-bkflow`` (an environment built from git tag ``before-speed``: see benchmarks/RESULTS.md)
-if given, else ``--path general`` of this bkflow (which shares the new engine's Python side,
-so it understates the gain).
+LAMMPS start, loop, meta.json), wall clock, new (``--path auto``; ``--new-bkflow``, or this
+bkflow) against old: the bkflow of ``--old-bkflow`` (an environment built from git tag
+``before-speed``: see benchmarks/RESULTS.md) if given, else ``--path general`` of this bkflow
+(which shares the new engine's Python side, so it understates the gain). Compare two regular
+installs (``pip install .``): an editable install under PYTHONDONTWRITEBYTECODE compiles its
+modules at every start.
 
 ``--scaling``: atom-steps/s against N up to 57600 on one rank (the fused path, and the general
 path) and two ranks (``mpirun -np 2``: the general path), with the ratios.
@@ -139,10 +141,10 @@ def codes_table(a) -> None:
 def whole(a) -> None:
     """Wall time of the whole ``bkflow run`` process, new against old, alternating."""
     work = Path(tempfile.mkdtemp(prefix="bkwhole"))
-    new = [str(BIN / "bkflow")]
+    new = [a.new_bkflow] if a.new_bkflow else [str(BIN / "bkflow")]
     old = [a.old_bkflow] if a.old_bkflow else [str(BIN / "bkflow")]
     what_old = f"{a.old_bkflow}" if a.old_bkflow else "this bkflow, --path general"
-    print(f"old: {what_old}\n")
+    print(f"new: {new[0]}\nold: {what_old}\n")
     rows = []
     for size in a.sizes:
         spec = spec_for(size, a.t_end, None)
@@ -286,6 +288,9 @@ def main(argv=None):
     ap.add_argument("--whole", action="store_true", help="the whole bkflow run process")
     ap.add_argument("--old-bkflow", default=None,
                     help="--whole: the bkflow command of today's engine (a git-tag build)")
+    ap.add_argument("--new-bkflow", default=None,
+                    help="--whole: the bkflow command of the new engine (default: this one); "
+                         "give a regular install (pip install .) to compare like with like")
     ap.add_argument("--scaling", action="store_true")
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--compare-output", action="store_true")

@@ -157,6 +157,12 @@ def test_meta_records_provenance(tmp_path):
     assert prov["python"] == platform.python_version()
     assert prov["libraries"]["numpy"] == numpy.__version__
     assert prov["libraries"]["scipy"] == scipy.__version__
+    import importlib.metadata as md
+
+    from bkflow.provenance import LIBRARIES
+
+    for name in LIBRARIES:  # the fast reading of dist-info names against importlib.metadata
+        assert prov["libraries"][name] == md.version(name), name
     from tests.support import ROOT
 
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
