@@ -271,8 +271,11 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(tmp_path, cap
     run(plain, tmp_path / "plain", progress=False)
     assert main(["movie", str(tmp_path / "plain")]) == 2
     assert main(["movie", str(tmp_path / "r"), "--slip", str(FRONTS_IN_FULL)]) == 2
+    assert main(["movie", str(tmp_path / "r"), "--slip", "-1"]) == 2
+    assert main(["movie", str(tmp_path / "nothing")]) == 2
     err = capsys.readouterr().err
     assert "no rupture fronts recorded" in err and f"0..{FRONTS_IN_FULL - 1}" in err
+    assert "--slip must be >= 0" in err and "holds no finished run" in err
     data = (tmp_path / "r" / "fronts.bin").read_bytes()
     (tmp_path / "r" / "fronts.bin").write_bytes(data[:len(data) - 100])
     with pytest.raises(DamagedRunError, match="cut"):

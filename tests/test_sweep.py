@@ -463,3 +463,21 @@ def test_the_example_notebook_runs(tmp_path):
     images = [o for o in outputs if "image/png" in o.get("data", {})]
     assert len(images) >= 2
     assert (tmp_path / "nb_sweep" / "results.csv").exists()
+
+
+def test_vary_takes_parameters_that_have_options_of_their_own(tmp_path):
+    """--vary start=... and --vary t_end=... override what --start and the preset give."""
+    out = tmp_path / "v"
+    proc = bkflow("sweep", "--phi", "1", "--vary", "start=random,synchronized", "--vary",
+                  "t_end=40,50", "--seeds", "1", "--scene", "friction", "--out", out, "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    res = pd.read_csv(out / "results.csv")
+    assert sorted(zip(res.start, res.t_end)) == [("random", 40), ("random", 50),
+                                                 ("synchronized", 40), ("synchronized", 50)]
+
+
+def test_the_cluster_command_outside_a_sweep_is_one_line_and_exit_2(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "is not a sweep directory" in proc.stderr and len(proc.stderr.splitlines()) == 1

@@ -435,10 +435,17 @@ def _movie(a) -> int:
 
     from .api import Run
     from .plot import STYLE, PlotError
+    from .rundir import AnalysisError
 
     if not a.fps > 0:
         raise SpecError(f"--fps must be > 0, got {a.fps:g}")
-    run = Run(a.dir)
+    if a.slip < 0:
+        raise SpecError(f"--slip must be >= 0 (the recorded slips count from 0), got {a.slip}")
+    try:
+        run = Run(a.dir)
+    except AnalysisError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     out = Path(a.out) if a.out else Path(a.dir) / f"movie_slip{a.slip}.gif"
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")

@@ -38,8 +38,10 @@ def main(argv=None) -> None:
     try:
         p = project()
     except LookupError:
-        sys.exit(f"bkflow.cluster: {os.getcwd()} is not a sweep directory (no signac project "
-                 "here): run it inside the --out directory of bkflow sweep ... --init")
+        print(f"bkflow.cluster: error: {os.getcwd()} is not a sweep directory (no signac "
+              "project here): run it inside the --out directory of bkflow sweep ... --init",
+              file=sys.stderr)
+        sys.exit(2)  # bad input, as bkflow's own commands
     p.main()
 
 

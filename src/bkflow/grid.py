@@ -120,7 +120,8 @@ def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[
         seeds = range(1, seeds + 1)
     axes = axes or {}
     combos = [dict(zip(axes, values)) for values in itertools.product(*axes.values())]
-    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **common, **extra)
+    # an axis overrides the value the options gave (a preset's t_end, the default start)
+    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **{**common, **extra})
             for (lx, ly) in sizes for extra in combos for phi in phis for s in seeds]
 
 
