@@ -122,6 +122,12 @@ class Floor:
         self.breaks += b
         return ns[0], ns[1], sigma[:nsteps // nevery if nevery else 0]
 
+    def time_per_atom_step(self, spec: RunSpec) -> tuple[float, float]:
+        """(wall, CPU) ns per atom-step of the whole run of ``spec`` from here, sampling
+        sigma_x as the friction scene does."""
+        ns, cpu, _ = self.run(spec.n_steps, spec.stress_nevery)
+        return ns / (spec.N * spec.n_steps), cpu / (spec.N * spec.n_steps)
+
     @property
     def x(self):
         return np.column_stack([self.a["x"], self.a["y"]])
@@ -274,11 +280,10 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
         for _ in range(rounds):
             for c in codes:
                 if c == "floor":
-                    fl = Floor(dll, spec, lat.k_d, lat.positions, np.zeros((spec.N, 2)),
-                               anchor=lat.positions)
-                    ns, cpu, _ = fl.run(spec.n_steps, spec.stress_nevery)
-                    times[c].append(ns / (spec.N * spec.n_steps))
-                    cpus[c].append(cpu / (spec.N * spec.n_steps))
+                    wall, cpu = Floor(dll, spec, lat.k_d, lat.positions, np.zeros((spec.N, 2)),
+                                      anchor=lat.positions).time_per_atom_step(spec)
+                    times[c].append(wall)
+                    cpus[c].append(cpu)
                     continue
                 deck, pdir = code_deck(c, base, base_fused, dev_dir)
                 wall, cpu, steps, atoms = lammps_loop(deck, work, pdir)

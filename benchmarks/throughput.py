@@ -115,10 +115,9 @@ def codes_table(a) -> None:
         for _ in range(a.rounds):
             for c in codes:
                 if c == "floor":
-                    fl = Floor(dll, spec, lat.k_d, lat.positions, np.zeros((spec.N, 2)),
-                               anchor=lat.positions)
-                    ns, _, _ = fl.run(spec.n_steps, spec.stress_nevery)
-                    times[c].append(ns / (spec.N * spec.n_steps))
+                    times[c].append(Floor(dll, spec, lat.k_d, lat.positions,
+                                          np.zeros((spec.N, 2)), anchor=lat.positions)
+                                    .time_per_atom_step(spec)[0])
                     continue
                 deck, cutoff = ds[c]
                 wall, _, steps, atoms, log = loop_time(deck, work, cutoff=cutoff)

@@ -234,7 +234,8 @@ void FixBKSubstrate::reset_dt()
    = 0 after the forces, see post_force), so that it follows the deck fix nve + fix
    bk/substrate + fix enforce2d bit for bit, on any number of ranks. */
 
-void FixBKSubstrate::initial_integrate(int /*vflag*/)
+// v += dt/(2m) f, then with `drift` x += dt v: fix nve's two halves, operation for operation
+template <bool DRIFT> void FixBKSubstrate::nve_step()
 {
   double **x = atom->x, **v = atom->v, **f = atom->f;
   const double *rmass = atom->rmass, *mass = atom->mass;
@@ -246,25 +247,22 @@ void FixBKSubstrate::initial_integrate(int /*vflag*/)
     v[i][0] += dtfm * f[i][0];
     v[i][1] += dtfm * f[i][1];
     v[i][2] += dtfm * f[i][2];
-    x[i][0] += dtv * v[i][0];
-    x[i][1] += dtv * v[i][1];
-    x[i][2] += dtv * v[i][2];
+    if constexpr (DRIFT) {
+      x[i][0] += dtv * v[i][0];
+      x[i][1] += dtv * v[i][1];
+      x[i][2] += dtv * v[i][2];
+    }
   }
+}
+
+void FixBKSubstrate::initial_integrate(int /*vflag*/)
+{
+  nve_step<true>();
 }
 
 void FixBKSubstrate::final_integrate()
 {
-  double **v = atom->v, **f = atom->f;
-  const double *rmass = atom->rmass, *mass = atom->mass;
-  const int *type = atom->type, *mask = atom->mask;
-  const int nlocal = atom->nlocal;
-  for (int i = 0; i < nlocal; i++) {
-    if (!(mask[i] & groupbit)) continue;
-    const double dtfm = dtf / (rmass ? rmass[i] : mass[type[i]]);
-    v[i][0] += dtfm * f[i][0];
-    v[i][1] += dtfm * f[i][1];
-    v[i][2] += dtfm * f[i][2];
-  }
+  nve_step<false>();
 }
 
 // fix enforce2d's post_force, for `integrate`

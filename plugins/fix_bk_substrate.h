@@ -106,6 +106,7 @@ class FixBKSubstrate : public Fix {
   double bond_forces();
   template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void eval();
   void enforce2d();
+  template <bool DRIFT> void nve_step();
 };
 
 }    // namespace LAMMPS_NS
