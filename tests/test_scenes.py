@@ -280,3 +280,27 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(tmp_path, cap
     (tmp_path / "r" / "fronts.bin").write_bytes(data[:len(data) - 100])
     with pytest.raises(DamagedRunError, match="cut"):
         RunDir(tmp_path / "r").read_fronts()
+
+
+def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(tmp_path, capsys):
+    import bkflow
+    from bkflow.params import SpecError
+
+    spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
+    run(spec, tmp_path / "r", progress=False)
+    assert main(["movie", str(tmp_path / "r")]) == 0
+    assert (tmp_path / "r" / "movie_slip0.gif").exists()
+    for fps in ("0", "100", "inf"):
+        assert main(["movie", str(tmp_path / "r"), "--fps", fps]) == 2
+    run(spec.replace(scene="friction"), tmp_path / "r", progress=False, overwrite=True)
+    left = _files(tmp_path / "r")
+    assert not {n for n in left if n.startswith(("movie_slip", "fronts_slip", "fronts.bin"))}
+    (tmp_path / "r2").mkdir()
+    with pytest.raises(SpecError, match="friction threshold"):
+        RunSpec(phi=1.0, mu_s=1e308)
+    with pytest.raises(SpecError, match="stress_every"):
+        RunSpec(phi=1.0, stress_every=1e9)
+    r = bkflow.load_run(tmp_path / "r")
+    with pytest.raises(Exception, match="no rupture fronts recorded"):
+        r.front_figure(0)
+    assert "load_sweep" in dir(bkflow)

@@ -481,3 +481,45 @@ def test_the_cluster_command_outside_a_sweep_is_one_line_and_exit_2(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "is not a sweep directory" in proc.stderr and len(proc.stderr.splitlines()) == 1
+
+
+def test_plot_of_runs_without_stress_drops_and_of_unset_or_slashed_values(tmp_path):
+    """Runs too short for two stress drops: fig_drops is skipped, not a traceback; a varied
+    parameter left unset in some runs (target_error=none) and a value with '/' (reset/step)
+    each get their own figure directory."""
+    out = tmp_path / "p"
+    proc = bkflow("sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--scene", "friction",
+                  "--jobs", "1", "--vary", "contact_rule=reset,reset/step", "--vary",
+                  "target_error=none,0.01", "--out", out, "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    plot = bkflow("plot", out, "--format", "png")
+    assert plot.returncode == 0, plot.stderr
+    dirs = sorted(p.name for p in (out / "figures").iterdir())
+    assert dirs == ["contact_rule=reset,target_error=0.01", "contact_rule=reset,target_error=nan",
+                    "contact_rule=reset-step,target_error=0.01",
+                    "contact_rule=reset-step,target_error=nan"]
+    assert "fig_drops: no data" in plot.stdout
+    col = bkflow("collect", out)
+    assert col.returncode == 0 and re.search(r"contact_rule\s+target_error", col.stdout)
+
+
+def test_the_cluster_command_says_in_one_line_when_the_scheduler_fails(tmp_path):
+    out = tmp_path / "grid"
+    assert main(["sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--init",
+                 "--out", str(out)]) == 0
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    for tool_name in ("squeue", "sbatch"):
+        (fake / tool_name).write_text("#!/bin/sh\necho 'squeue: fatal: no config' >&2\nexit 1\n")
+        (fake / tool_name).chmod(0o755)
+    env = {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
+           "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
+    proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=out, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    ours = [ln for ln in proc.stderr.splitlines() if ln.startswith("bkflow.cluster:")]
+    assert len(ours) == 1 and "StandardEnvironment" in ours[0]
+    assert "Traceback" not in proc.stderr
+    help_ = subprocess.run([sys.executable, "-m", "bkflow.cluster", "--help"], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=120)
+    assert help_.returncode == 0 and "python -m bkflow.cluster" in help_.stdout

@@ -11,3 +11,7 @@ def __getattr__(name):
 
         return getattr(api, name)
     raise AttributeError(f"module 'bkflow' has no attribute {name!r}")
+
+
+def __dir__():
+    return ["__version__", "load_run", "load_sweep", "Run", "Sweep"]

@@ -12,7 +12,8 @@
 Tables are pandas DataFrames read from the files bkflow wrote (nothing is recomputed);
 figures are ``matplotlib.figure.Figure`` objects made without pyplot: building one neither
 switches the backend, nor changes rcParams, nor touches the figures a user has open
-(:class:`bkflow.plot.Figures`). A notebook displays the Figure it is given.
+(:class:`bkflow.plot.Figures`). A notebook displays the Figure it is given; in a script, save
+it (``fig.savefig("f.png")``): it belongs to no pyplot window.
 """
 
 from __future__ import annotations
@@ -116,7 +117,7 @@ class Run:
         """An animated GIF of recorded slip ``slip``: the layer coloured by slip rate.
         Default path: ``movie_slip<K>.gif`` in the run directory. Returns the path."""
         f = self._front(slip)
-        path = Path(path) if path is not None else self.path / f"movie_slip{slip}.gif"
+        path = Path(path) if path is not None else self._rd.movie_file(slip)
         front_movie(f, self.spec.Lx, self.spec.Ly, self.spec.dt, path, fps,
                     title=f"phi = {self.spec.phi:g}, slip {slip}: ")
         return path
@@ -176,8 +177,17 @@ class Sweep:
         return figure(self._data, name)
 
     def run(self, which) -> Run:
-        """A run of the sweep: an index into :attr:`runs` or a job id."""
-        job = self.runs.iloc[which]["job"] if isinstance(which, int) else str(which)
+        """A run of the sweep: an index into :attr:`runs` (negative from the end) or a job
+        id."""
+        if isinstance(which, int):
+            if not -len(self.runs) <= which < len(self.runs):
+                raise IndexError(f"{self.path}: run {which} is not there; the sweep has "
+                                 f"{len(self.runs)} runs (0..{len(self.runs) - 1})")
+            job = self.runs.iloc[which]["job"]
+        else:
+            job = str(which)
+            if job not in set(self.runs.job):
+                raise KeyError(f"{self.path}: no run with job id {job!r} in runs.csv")
         return Run(sweep_run_dir(self.path, job).path)
 
 

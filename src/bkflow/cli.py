@@ -1,5 +1,7 @@
-"""Command line: ``bkflow run``, ``bkflow sweep``, ``bkflow plot``, ``bkflow analyze`` and
-``bkflow deck``.
+"""bkflow: Burridge-Knopoff friction (Giacco et al. 2014) on LAMMPS, from one run to a sweep.
+
+The commands: ``bkflow run``, ``sweep``, ``plot``, ``analyze``, ``collect``, ``deck`` and
+``movie``.
 
 Every expected failure is one line on stderr and an exit code of :data:`EXIT_CODES`: bad
 input 2, a failed run 1, another process busy 3, the file system 4. Nothing half-written is
@@ -406,7 +408,9 @@ def _collect(a) -> int:
     print(f"{a.dir}: {c.jobs} jobs, {c.finished} finished, {len(c.failed)} failed, "
           f"{c.jobs - c.finished - len(c.failed)} not run; {len(c.reanalysed)} re-analysed")
     if len(c.results):
-        _print_results(c.results)
+        from .plot import varied_parameters
+
+        _print_results(c.results, varied_parameters(c.results))
     print(f"wrote {a.dir}/{RUNS_FILE} ({len(c.runs)} rows) and {a.dir}/{RESULTS_FILE} "
           f"({len(c.results)} rows)")
     for j in c.failed:
@@ -437,16 +441,20 @@ def _movie(a) -> int:
     from .plot import STYLE, PlotError
     from .rundir import AnalysisError
 
-    if not a.fps > 0:
-        raise SpecError(f"--fps must be > 0, got {a.fps:g}")
+    if not 0.1 <= a.fps <= 50:
+        raise SpecError(f"--fps must lie in [0.1, 50] (a GIF shows a frame for at least "
+                        f"20 ms), got {a.fps:g}")
     if a.slip < 0:
         raise SpecError(f"--slip must be >= 0 (the recorded slips count from 0), got {a.slip}")
+    from .rundir import DamagedRunError
+
     try:
         run = Run(a.dir)
-    except AnalysisError as exc:
+        fronts = run.fronts
+    except (AnalysisError, DamagedRunError) as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    out = Path(a.out) if a.out else Path(a.dir) / f"movie_slip{a.slip}.gif"
+    out = Path(a.out) if a.out else run._rd.movie_file(a.slip)
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
     try:
@@ -455,9 +463,9 @@ def _movie(a) -> int:
     except PlotError as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    maps = out.with_name(f"fronts_slip{a.slip}.png")
+    maps = out.parent / run._rd.front_maps_file(a.slip).name
     fig.savefig(maps, dpi=STYLE["savefig.dpi"], bbox_inches="tight")
-    f = run.fronts[a.slip]
+    f = fronts[a.slip]
     print(f"wrote {path} ({len(f.steps)} frames, t = {f.step_max * run.spec.dt:g} to "
           f"{f.step_min * run.spec.dt:g}) and {maps}")
     return 0

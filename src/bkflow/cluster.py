@@ -18,6 +18,8 @@ wheel as from a checkout. The job scripts it submits call ``python -m bkflow.clu
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import sys
 
@@ -38,11 +40,25 @@ def main(argv=None) -> None:
     try:
         p = project()
     except LookupError:
+        if {"-h", "--help"} & set(sys.argv[1:]):
+            with contextlib.suppress(BrokenPipeError):
+                print(__doc__)
+            sys.exit(0)
         print(f"bkflow.cluster: error: {os.getcwd()} is not a sweep directory (no signac "
               "project here): run it inside the --out directory of bkflow sweep ... --init",
               file=sys.stderr)
         sys.exit(2)  # bad input, as bkflow's own commands
-    p.main()
+    # flow logs a scheduler's failure before raising it: the one line below says it instead
+    logging.getLogger("flow").setLevel(logging.CRITICAL)
+    try:
+        p.main()
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        print(f"bkflow.cluster: error: {first} (if this machine has no working scheduler, "
+              "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment runs without one)", file=sys.stderr)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -44,8 +44,8 @@ class DeckFiles:
 
 
 def _f(x: float) -> str:
-    """Shortest text that reads back as the same double."""
-    return repr(float(x))
+    """Shortest text that reads back as the same double (-0.0 written as 0.0)."""
+    return repr(float(x) + 0.0)
 
 
 def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) -> str:

@@ -125,9 +125,10 @@ class AdaptiveStop:
         missed = []  # what the last check found short of the rules
         if requested.target_error is not None and not (
                 self.last_error is not None and self.last_error <= requested.target_error):
-            missed.append("mu_bar error " + ("not measured" if self.last_error is None else
-                                             f"{self.last_error:.2g} > "
-                                             f"{requested.target_error:g}"))
+            missed.append("mu_bar error " + (
+                "not measurable yet (too few slips after the transient)"
+                if self.last_error is None or not math.isfinite(self.last_error) else
+                f"{self.last_error:.2g} > {requested.target_error:g}"))
         if requested.until_stationary:
             if trend is None or not math.isfinite(trend.drift):
                 missed.append("stationarity not testable yet")

@@ -194,10 +194,16 @@ class RunSpec:
             raise SpecError(f"gamma must be >= 0, got {self.gamma!r}")
         if not 0 <= self.dk_d <= self.k_d:
             raise SpecError(
-                f"dk_d must lie in [0, k_d] = [0, {self.k_d}] so that every k_d^i >= 0, "
+                f"dk_d must lie in (0, k_d] = (0, {self.k_d}] so that every k_d^i >= 0, "
                 f"got {self.dk_d!r}")
         if self.dk_d == 0:
             raise SpecError("dk_d = 0 leaves phi = k_b / dk_d undefined; use a small dk_d")
+        for what, value in (("k_b = phi dk_d", self.phi * self.dk_d),
+                            ("the friction threshold mu_s sigma_n A",
+                             self.mu_s * self.sigma_n * self.area)):
+            if not math.isfinite(value) or value <= 0:
+                raise SpecError(f"{what} = {value!r} is not a finite positive number; "
+                                "choose smaller values")
         for name in ("Lx", "Ly"):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 3:
@@ -231,6 +237,13 @@ class RunSpec:
                 f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
         if self.n_steps < 1:
             raise SpecError(f"t_end {self.t_end} is shorter than one time step ({self.dt:g})")
+        if self.stress_every > self.t_end:
+            raise SpecError(f"stress_every = {self.stress_every:g} is longer than the run "
+                            f"(t_end = {self.t_end:g}): the stress would not be sampled")
+        if self.writes_snapshots and self.snapshot_nevery > 2**31 - 1:
+            raise SpecError(f"snapshot_every = {self.snapshot_every:g} is "
+                            f"{self.snapshot_nevery:.3g} steps, more than LAMMPS counts "
+                            "between two dumps; choose less")
         if self.n_steps > MAX_STEPS:
             raise SpecError(f"t_end {self.t_end:g} is {self.n_steps:.3g} time steps of "
                             f"{self.dt:.3g}, more than LAMMPS counts exactly ({MAX_STEPS:.3g});"
@@ -251,8 +264,9 @@ class RunSpec:
         none), converted to the field's type; a SpecError naming ``option`` otherwise."""
         fields = {f.name: f for f in dataclasses.fields(cls)}
         if name not in fields:
+            settable = sorted(f for f in fields if f not in cls.OWN_OPTIONS)
             raise SpecError(f"{option} {name}: not a parameter; parameters: "
-                            f"{', '.join(sorted(fields))}")
+                            f"{', '.join(settable)}")
         kind = str(fields[name].type)
         t = text.strip()
         if t == "":
@@ -308,6 +322,8 @@ class RunSpec:
                 raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
             if name in out:
                 raise SpecError(f"{option} {name} given twice")
+            if any(not v.strip() for v in text.split(",")):
+                raise SpecError(f"{option} {item!r}: an empty value in the list")
             values = [cls.parse_value(name, v, option) for v in text.split(",")]
             if len(set(map(repr, values))) != len(values):
                 raise SpecError(f"{option} {name}: a value is given twice")

@@ -122,10 +122,14 @@ def parse_where(items) -> dict:
         key, sep, text = str(item).partition("=")
         if not sep or not key.strip():
             raise PlotError(f"--where {item!r}: give COLUMN=VALUE, e.g. t_end=16000")
-        try:
-            value = float(text)
-        except ValueError:
-            value = {"true": True, "false": False}.get(text.strip().lower(), text.strip())
+        low = text.strip().lower()
+        if low in ("none", "nan", ""):
+            value = None  # a parameter left unset (target_error): NaN in the tables
+        else:
+            try:
+                value = float(text)
+            except ValueError:
+                value = {"true": True, "false": False}.get(low, text.strip())
         out[key.strip()] = value
     return out
 
@@ -135,7 +139,9 @@ def _select(df: pd.DataFrame, where: dict) -> pd.DataFrame:
         if key not in df:
             raise PlotError(f"--where {key}=...: the tables have no column {key!r}")
         col = df[key]
-        if isinstance(value, bool):
+        if value is None:
+            df = df[col.isna() | col.astype(str).str.lower().isin(("none", "nan", ""))]
+        elif isinstance(value, bool):
             df = df[col.astype(str).str.lower() == str(value).lower()]
         elif isinstance(value, float):
             df = df[np.isclose(pd.to_numeric(col, errors="coerce"), value)]
@@ -423,15 +429,17 @@ def fig_drops(data: SweepData, plt):
     seeds, runs.csv), for the four phi of the cluster figure."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     fig, ax = plt.subplots(figsize=(3.8, 3.0))
+    drawn = 0
     for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
                               ("black", "tab:red", "tab:green", "tab:blue")):
         runs = data.runs_of(lx, ly, phi)
         events = [data.run_dir(r).read_events() for _, r in runs.iterrows()]
-        d = np.concatenate([e["drop"][e["late"].astype(bool)].to_numpy() for e in events]) \
-            if events else np.empty(0)
+        d = np.concatenate([pd.to_numeric(e["drop"], errors="coerce").to_numpy(dtype=float)[
+            e["late"].astype(bool).to_numpy()] for e in events]) if events else np.empty(0)
         d = d[np.isfinite(d) & (d > 0)]
         if len(d) < 2:
             continue
+        drawn += 1
         x, dens = _log_density(d, 15)
         alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
         alpha_err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
@@ -450,6 +458,8 @@ def fig_drops(data: SweepData, plt):
     ax.set_yscale("log")
     ax.set_xlabel(r"stress drop $\Delta\sigma_x$")
     ax.set_ylabel("probability density")
+    if not drawn:  # no run had two stress drops after its transient
+        return None
     ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}", fontsize=9)
     ax.legend(frameon=False, fontsize=6)
     return fig
@@ -489,7 +499,8 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
         written, skipped = [], {}
         combos = data.results[varied].astype(str).drop_duplicates().to_dict("records")
         for combo in combos:
-            name = ",".join(f"{k}={v}" for k, v in combo.items())
+            # one directory per combination (a '/' in a value, reset/step, would nest one)
+            name = ",".join(f"{k}={v}" for k, v in combo.items()).replace("/", "-")
             w, s = plot(root, out / name, formats, {**(where or {}), **parse_where(
                 [f"{k}={v}" for k, v in combo.items()])})
             written += w
@@ -574,7 +585,7 @@ def front_figure(front, lx: int, ly: int, dt: float, title: str = ""):
 
 
 def front_movie(front, lx: int, ly: int, dt: float, path, fps: float = 15.0,
-                title: str = "", cell: int = 8) -> int:
+                title: str = "", cell: int | None = None) -> int:
     """An animated GIF (Pillow) of one slip: the lattice, ``cell`` pixels per particle,
     coloured by each particle's slip rate v_x (blue backward, white still, red forward, on
     one scale through the slip), one frame per recorded sample, a caption with the time;
@@ -585,6 +596,8 @@ def front_movie(front, lx: int, ly: int, dt: float, path, fps: float = 15.0,
 
     if len(front.steps) == 0:
         raise PlotError("this slip has no recorded sample")
+    if cell is None:  # at least ~480 pixels across, at most 24 per particle
+        cell = max(2, min(24, -(-480 // lx)))
     vmax = float(max(np.percentile(np.abs(front.vx), 99.5), 1e-12))
     cmap = matplotlib.colormaps["RdBu_r"]
     rgb = (cmap(np.clip(front.vx / (2 * vmax) + 0.5, 0, 1))[..., :3] * 255).astype(np.uint8)

@@ -56,6 +56,8 @@ SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
+#: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
+MOVIE_PATTERN, FRONT_MAPS_PATTERN = "movie_slip{}.gif", "fronts_slip{}.png"
 #: a sweep directory keeps its runs in signac's workspace/<job id>/
 WORKSPACE = "workspace"
 
@@ -154,9 +156,19 @@ class RunDir:
         return meta
 
     def clear(self) -> None:
-        """Remove what a run and its analysis wrote (before a run is redone)."""
+        """Remove what a run, its analysis and its movies wrote (before a run is redone:
+        nothing drawn from the old run stays behind looking current)."""
         for name in RUN_FILES + ANALYSIS_FILES:
             self.file(name).unlink(missing_ok=True)
+        for pattern in (MOVIE_PATTERN, FRONT_MAPS_PATTERN):
+            for p in self.path.glob(pattern.format("*")):
+                p.unlink(missing_ok=True)
+
+    def movie_file(self, slip: int) -> Path:
+        return self.file(MOVIE_PATTERN.format(slip))
+
+    def front_maps_file(self, slip: int) -> Path:
+        return self.file(FRONT_MAPS_PATTERN.format(slip))
 
     def mark(self) -> None:
         """Claim the directory as bkflow's run (a partial run of ours can be redone)."""
@@ -282,6 +294,10 @@ class RunDir:
         """The rupture fronts of the run (fix bk/fronts, scenes fronts and full): one
         :class:`bkflow.io.Front` per recorded slip; [] when the scene recorded none."""
         if not self.file(FRONTS).exists():
+            meta = self.meta() or {}
+            if (meta.get("fronts") or {}).get("written"):
+                raise DamagedRunError(f"{self.file(FRONTS)} is missing (meta.json says "
+                                      f"{meta['fronts']['written']} slips were recorded)")
             return []
         try:
             return io.read_fronts(self.file(FRONTS))

@@ -22,7 +22,7 @@ import pandas as pd
 from . import flowcompat
 from .engine import in_notebook
 from .grid import run_cost
-from .params import AnalysisSettings, SpecError
+from .params import AnalysisSettings, RunSpec, SpecError
 from .project import (
     ANALYZE,
     SIMULATE,
@@ -54,8 +54,10 @@ class _SweepBar:
     """One progress line for the sweep (runs done / total, ETA) on a terminal; on anything
     else one line per run as it finishes. Polls the jobs' post-conditions."""
 
-    def __init__(self, jobs, done_before: int, total: int, enabled: bool | None):
+    def __init__(self, jobs, done_before: int, total: int, enabled: bool | None,
+                 axes: tuple = ()):
         self.pending = list(jobs)
+        self.axes = axes  # the parameters besides phi, size and seed that the sweep varies
         self.done = done_before
         self.total = total
         self.stream = sys.stderr
@@ -80,7 +82,9 @@ class _SweepBar:
                     self.bar.update(1)
                 elif not self.quiet:
                     state = "failed" if "error" in job.document else "done"
-                    print(f"[{self.done}/{self.total}] {spec_of(job).label}: {state}",
+                    spec = spec_of(job)
+                    extra = "".join(f", {k}={getattr(spec, k)}" for k in self.axes)
+                    print(f"[{self.done}/{self.total}] {spec.label}{extra}: {state}",
                           file=self.stream, flush=True)
             else:
                 still.append(job)
@@ -145,7 +149,10 @@ def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
     t0 = time.perf_counter()
     cost = {j.id: run_cost(spec_of(j)) for j in todo}
     if todo:
-        with _SweepBar(todo, report.finished_before, report.total, progress):
+        axes = tuple(f for f in RunSpec.__dataclass_fields__
+                     if f not in ("phi", "Lx", "Ly", "seed")
+                     and len({repr(getattr(s, f)) for s in specs}) > 1)
+        with _SweepBar(todo, report.finished_before, report.total, progress, axes):
             _run_pending(project, todo, [SIMULATE, ANALYZE], min(jobs, len(todo)), cost)
     report.wall_time_s = time.perf_counter() - t0
     for job in todo:
