@@ -109,7 +109,7 @@ def test_extreme_but_valid_inputs_run_and_stay_finite(changes, tmp_path):
     ({"dk_d": 0.0}, "dk_d = 0 leaves phi"),
     ({"Lx": 4, "Ly": 1}, "Ly must be an integer >= 3"),
     ({"Lx": 2, "Ly": 2}, "Lx must be an integer >= 3"),
-    ({"dk_d": 1.5}, "dk_d must lie in [0, k_d]"),
+    ({"dk_d": 1.5}, "dk_d must lie in (0, k_d]"),
 ])
 def test_degenerate_inputs_are_refused_with_the_reason(changes, needle):
     with pytest.raises(SpecError) as exc:
