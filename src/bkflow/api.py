@@ -18,6 +18,7 @@ it (``fig.savefig("f.png")``): it belongs to no pyplot window.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import pandas as pd
@@ -89,10 +90,11 @@ class Run:
         """One row per slip cluster (scenes clusters, full; None otherwise)."""
         return self._rd.read_clusters()
 
-    @property
+    @functools.cached_property
     def fronts(self):
         """The rupture fronts the run recorded (scenes fronts, full): a list of
-        :class:`bkflow.io.Front`, one per slip, in the order of the slips."""
+        :class:`bkflow.io.Front`, one per slip, in the order of the slips (read once: the
+        file of a long run holds hundreds of megabytes)."""
         return self._rd.read_fronts()
 
     def _front(self, slip: int):
