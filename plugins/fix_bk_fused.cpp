@@ -465,15 +465,24 @@ double FixBKFused::sum_sigma()
   return s / (domain->xprd * domain->yprd);
 }
 
+/* the squared lengths of particle k's +x and +y bonds (at their fixed lattice images) */
+void FixBKFused::bond_r2(int k, double &rx2, double &uy2) const
+{
+  const int ix = k % Lx, iy = k / Lx;
+  const int r = (ix + 1) % Lx + Lx * iy, u = ix + Lx * ((iy + 1) % Ly);
+  const double dx = arr.x[k] - arr.x[r] + arr.srx[k], dy = arr.y[k] - arr.y[r] + arr.sry[k];
+  const double ex = arr.x[k] - arr.x[u] + arr.sux[k], ey = arr.y[k] - arr.y[u] + arr.suy[k];
+  rx2 = dx * dx + dy * dy;
+  uy2 = ex * ex + ey * ey;
+}
+
 double FixBKFused::longest_bond()
 {
   double r2max = 0.0;
   for (int k = 0; k < N; k++) {
-    const int ix = k % Lx, iy = k / Lx;
-    const int r = (ix + 1) % Lx + Lx * iy, u = ix + Lx * ((iy + 1) % Ly);
-    const double dx = arr.x[k] - arr.x[r] + arr.srx[k], dy = arr.y[k] - arr.y[r] + arr.sry[k];
-    const double ex = arr.x[k] - arr.x[u] + arr.sux[k], ey = arr.y[k] - arr.y[u] + arr.suy[k];
-    r2max = std::max(r2max, std::max(dx * dx + dy * dy, ex * ex + ey * ey));
+    double a, b;
+    bond_r2(k, a, b);
+    r2max = std::max(r2max, std::max(a, b));
   }
   return sqrt(r2max);
 }
@@ -500,11 +509,9 @@ double FixBKFused::compute_scalar()
   if (!lattice_ready || !have_state) return FixBKSubstrate::compute_scalar();
   double e = 0.0;
   for (int k = 0; k < N; k++) {
-    const int ix = k % Lx, iy = k / Lx;
-    const int r = (ix + 1) % Lx + Lx * iy, u = ix + Lx * ((iy + 1) % Ly);
-    const double dx = arr.x[k] - arr.x[r] + arr.srx[k], dy = arr.y[k] - arr.y[r] + arr.sry[k];
-    const double ex = arr.x[k] - arr.x[u] + arr.sux[k], ey = arr.y[k] - arr.y[u] + arr.suy[k];
-    const double d1 = sqrt(dx * dx + dy * dy) - r0, d2 = sqrt(ex * ex + ey * ey) - r0;
+    double a, b;
+    bond_r2(k, a, b);
+    const double d1 = sqrt(a) - r0, d2 = sqrt(b) - r0;
     e += 0.5 * kb * d1 * d1 + 0.5 * kb * d2 * d2;
   }
   return e;

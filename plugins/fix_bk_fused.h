@@ -77,6 +77,7 @@ class FixBKFused : public FixBKSubstrate {
   void set_model();
   double sum_sigma();
   double longest_bond();
+  void bond_r2(int k, double &rx2, double &uy2) const;
 };
 
 }    // namespace LAMMPS_NS

@@ -288,16 +288,22 @@ def test_results_are_means_over_seeds_with_standard_errors():
 
 
 # --------------------------------------------------------------------------- cluster
+def _fake_scheduler(tmp_path, scripts: dict) -> dict:
+    """The environment of a SLURM whose commands are these shell scripts ({name: body})."""
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    for name, body in scripts.items():
+        (fake / name).write_text(f"#!/bin/sh\n{body}\n")
+        (fake / name).chmod(0o755)
+    return {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
+            "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
+
+
 def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(tmp_path):
     out = tmp_path / "grid"
     assert main(["sweep", "--phi", "1,10", "--seeds", "2", "--t-end", "100", "--init",
                  "--out", str(out)]) == 0
-    fake = tmp_path / "bin"
-    fake.mkdir()
-    (fake / "squeue").write_text("#!/bin/sh\nexit 0\n")  # an empty queue
-    (fake / "squeue").chmod(0o755)
-    env = {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
-           "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
+    env = _fake_scheduler(tmp_path, {"squeue": "exit 0"})  # an empty queue
     # the project ships in the package: python -m bkflow.cluster (workflows/project.py is a
     # thin example of the same)
     sub = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--pretend",
@@ -507,13 +513,8 @@ def test_the_cluster_command_says_in_one_line_when_the_scheduler_fails(tmp_path)
     out = tmp_path / "grid"
     assert main(["sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--init",
                  "--out", str(out)]) == 0
-    fake = tmp_path / "bin"
-    fake.mkdir()
-    for tool_name in ("squeue", "sbatch"):
-        (fake / tool_name).write_text("#!/bin/sh\necho 'squeue: fatal: no config' >&2\nexit 1\n")
-        (fake / tool_name).chmod(0o755)
-    env = {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
-           "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
+    failing = "echo 'squeue: fatal: no config' >&2\nexit 1"
+    env = _fake_scheduler(tmp_path, {"squeue": failing, "sbatch": failing})
     proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=out, env=env,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1

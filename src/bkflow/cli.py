@@ -454,7 +454,7 @@ def _movie(a) -> int:
     except (AnalysisError, DamagedRunError) as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    out = Path(a.out) if a.out else run._rd.movie_file(a.slip)
+    out = Path(a.out) if a.out else rd.RunDir(a.dir).movie_file(a.slip)
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
     try:
@@ -463,7 +463,7 @@ def _movie(a) -> int:
     except PlotError as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    maps = out.parent / run._rd.front_maps_file(a.slip).name
+    maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
     fig.savefig(maps, dpi=STYLE["savefig.dpi"], bbox_inches="tight")
     f = fronts[a.slip]
     print(f"wrote {path} ({len(f.steps)} frames, t = {f.step_max * run.spec.dt:g} to "

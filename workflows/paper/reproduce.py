@@ -39,7 +39,7 @@ import pandas as pd
 from bkflow import io
 from bkflow.grid import phi_values, sweep_specs
 from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec
-from bkflow.plot import SweepData, _style, cluster_scatter, plot
+from bkflow.plot import STYLE, SweepData, _style, cluster_scatter, plot
 from bkflow.rundir import sweep_run_dir
 from bkflow.sweep import available_cores, fmt_duration, sweep
 from bkflow.tables import SETTINGS_FILE, read_tables
@@ -358,9 +358,12 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     fig.text(0.99, 0.005, "open symbols: some seed not stationary", ha="right", fontsize=6.5,
              color="grey")
     fig.tight_layout()
-    path = figs / "fig2a_protocols.png"
-    fig.savefig(path, dpi=200, bbox_inches="tight")
-    plt.close(fig)
+    return _write(fig, figs / "fig2a_protocols.png")
+
+
+def _write(fig, path: Path) -> Path:
+    """Save one of this script's figures (PNG, bkflow's resolution, trimmed) at ``path``."""
+    fig.savefig(path, dpi=STYLE["savefig.dpi"], bbox_inches="tight")
     return path
 
 
@@ -383,7 +386,6 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
                     label=f"{'synchronized' if ls == '-' else 'random'}, N = {n}")
             drawn = True
     if not drawn:
-        plt.close(fig)
         return None
     ax.set_xscale("log")
     ax.set_yscale("symlog", linthresh=10)
@@ -392,10 +394,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     ax.set_title("how long the start is remembered", fontsize=9)
     ax.legend(frameon=False, fontsize=6)
     fig.tight_layout()
-    path = figs / "relaxation.png"
-    fig.savefig(path, dpi=200, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _write(fig, figs / "relaxation.png")
 
 
 def stress_history_figure(out: Path, figs: Path) -> Path | None:
@@ -428,10 +427,7 @@ def stress_history_figure(out: Path, figs: Path) -> Path | None:
     axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$, blocks of 400 time units")
     axes[0, 0].legend(frameon=False, fontsize=5.5)
     fig.tight_layout()
-    path = figs / "stress_history.png"
-    fig.savefig(path, dpi=200, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _write(fig, figs / "stress_history.png")
 
 
 def figures(out: Path, figs: Path) -> list[Path]:
@@ -463,10 +459,7 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
         ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
                   ncol=1, markerscale=1.5)
     fig.tight_layout()
-    paths = [out / "aspect_clusters.png"]
-    fig.savefig(paths[0], dpi=200, bbox_inches="tight")
-    plt.close(fig)
-    return paths + [aspect_share_figure(aspect_dir, out)]
+    return [_write(fig, out / "aspect_clusters.png"), aspect_share_figure(aspect_dir, out)]
 
 
 def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
@@ -484,10 +477,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     ax.set_ylabel("share of DT clusters")
     ax.set_title("aspect ratio check, N = 100", fontsize=9)
     ax.legend(frameon=False)
-    path = out / "aspect_dt_share.png"
-    fig.savefig(path, dpi=200, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _write(fig, out / "aspect_dt_share.png")
 
 
 def main(argv=None) -> int:
