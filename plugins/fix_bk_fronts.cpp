@@ -41,31 +41,9 @@ const char *USAGE = "fix ID group bk/fronts Nevery substrate-fix-ID threshold fi
 constexpr std::size_t MAX_SAMPLES = 200000;
 }    // namespace
 
-FixBKFronts::FixBKFronts(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
+FixBKFronts::FixBKFronts(LAMMPS *lmp, int narg, char **arg) :
+    FixBKEvents(lmp, narg, arg, USAGE, true)
 {
-  if (narg < 8) error->all(FLERR, "Illegal fix bk/fronts command: {}", USAGE);
-  zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
-  if (!(zigzag.threshold > 0.0))
-    error->all(FLERR, "fix bk/fronts: threshold must be > 0, got {}", arg[5]);
-  int iarg = 8;
-  while (iarg < narg) {
-    if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
-      start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
-      iarg += 2;
-    } else if (strcmp(arg[iarg], "limit") == 0 && iarg + 1 < narg) {
-      limit = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
-      if (limit < 0) error->all(FLERR, "fix bk/fronts: limit must be >= 0, got {}", limit);
-      iarg += 2;
-    } else {
-      error->all(FLERR, "Illegal fix bk/fronts keyword {}: {}", arg[iarg], USAGE);
-    }
-  }
-  vector_flag = 1;
-  size_vector = 2;
-  global_freq = 1;
-  extvector = 0;
-
-  open_file(6, narg, arg);
   natoms = atom->natoms;
   if (comm->me == 0) {
     const int64_t n = natoms;
@@ -101,7 +79,7 @@ void FixBKFronts::sample()
   const auto event = zigzag.feed(substrate->compute_vector(0), step);
   if (event == BKZigzag::CONFIRMED) {
     nevents++;
-    if (zigzag.event_max >= start && (limit < 0 || nwritten < limit)) {
+    if (writes(zigzag.event_max)) {
       write_event(zigzag.event_max, zigzag.event_min);
       nwritten++;
     }
@@ -112,7 +90,7 @@ void FixBKFronts::sample()
   }
   // only the open event can still be written: not if its maximum lies in the transient, nor
   // once `limit` events are written (then the fix costs one sigma_x per sample)
-  if (zigzag.step_max >= start && (limit < 0 || nwritten < limit)) record(step);
+  if (writes(zigzag.step_max)) record(step);
 }
 
 void FixBKFronts::write_event(bigint from, bigint to)
@@ -152,11 +130,6 @@ void FixBKFronts::write_event(bigint from, bigint to)
     write(reinterpret_cast<const char *>(frame.data()), frame.size() * sizeof(float));
   }
   flush();    // every event reaches the file at once
-}
-
-double FixBKFronts::compute_vector(int n)
-{
-  return n == 0 ? static_cast<double>(nevents) : static_cast<double>(nwritten);
 }
 
 double FixBKFronts::memory_usage()

@@ -4,7 +4,6 @@
 #ifndef BKFLOW_FIX_BK_FRONTS_H
 #define BKFLOW_FIX_BK_FRONTS_H
 
-#include "bk_zigzag.h"
 #include "fix_bk_reader.h"
 
 #include <deque>
@@ -12,17 +11,12 @@
 
 namespace LAMMPS_NS {
 
-class FixBKFronts : public FixBKReader {
+class FixBKFronts : public FixBKEvents {
  public:
   FixBKFronts(class LAMMPS *, int, char **);
-  double compute_vector(int) override;
   double memory_usage() override;
 
  private:
-  bigint start = 0;        // events whose maximum lies before this step are not written
-  bigint limit = -1;       // at most this many events written (-1: all)
-  BKZigzag zigzag;
-  bigint nevents = 0, nwritten = 0;
   bigint natoms = 0;
 
   // the samples since the running maximum: step, and the local atoms' tags and v_x

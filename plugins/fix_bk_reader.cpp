@@ -1,9 +1,11 @@
-/* bkflow LAMMPS plugin: FixBKReader, the base of fix bk/stress and fix bk/slips (see
-   fix_bk_reader.h): Nevery, the substrate fix it samples, and its buffered output file. */
+/* bkflow LAMMPS plugin: FixBKReader, the base of fix bk/stress, bk/slips and bk/fronts (see
+   fix_bk_reader.h): Nevery, the substrate fix it samples, and its buffered output file; and
+   FixBKEvents, the base of bk/slips and bk/fronts: the slip events they record. */
 
 #include "fix_bk_reader.h"
 
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "fix_bk_substrate.h"
 #include "modify.h"
@@ -119,4 +121,39 @@ void FixBKReader::flush_if_due()
 double FixBKReader::memory_usage()
 {
   return static_cast<double>(buffer.size());
+}
+
+FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_text,
+                         bool takes_limit) : FixBKReader(lmp, narg, arg, usage_text)
+{
+  if (narg < 8) error->all(FLERR, "Illegal fix {} command: {}", style, usage);
+  zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
+  if (!(zigzag.threshold > 0.0))
+    error->all(FLERR, "fix {}: threshold must be > 0, got {}", style, arg[5]);
+  int iarg = 8;
+  while (iarg < narg) {
+    if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
+      start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+    } else if (takes_limit && strcmp(arg[iarg], "limit") == 0 && iarg + 1 < narg) {
+      limit = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+      if (limit < 0) error->all(FLERR, "fix {}: limit must be >= 0, got {}", style, limit);
+      iarg += 2;
+    } else {
+      error->all(FLERR, "Illegal fix {} keyword {}: {}", style, arg[iarg], usage);
+    }
+  }
+  if (domain->dimension != 2) error->all(FLERR, "fix {} needs dimension 2", style);
+
+  vector_flag = 1;
+  size_vector = 2;
+  global_freq = 1;
+  extvector = 0;
+
+  open_file(6, narg, arg);
+}
+
+double FixBKEvents::compute_vector(int n)
+{
+  return n == 0 ? static_cast<double>(nevents) : static_cast<double>(nwritten);
 }

@@ -11,6 +11,7 @@
 #ifndef BKFLOW_FIX_BK_READER_H
 #define BKFLOW_FIX_BK_READER_H
 
+#include "bk_zigzag.h"
 #include "fix.h"
 
 #include <chrono>
@@ -56,6 +57,31 @@ class FixBKReader : public Fix {
 
   void sample_once();
   [[noreturn]] void write_failed();
+};
+
+/* FixBKEvents: the common part of the fixes that record slip events (bk/slips, bk/fronts):
+
+     fix ID group style Nevery substrate-fix-ID threshold file FILE [start STEP] [limit K]
+
+   the zigzag rule with its threshold (bk_zigzag.h), the first step whose events are written
+   (`start`), at most K events written (`limit`, where the style takes it), and the global
+   vector [1] events confirmed, [2] events written. */
+class FixBKEvents : public FixBKReader {
+ public:
+  FixBKEvents(class LAMMPS *, int, char **, const char *usage_text, bool takes_limit);
+  double compute_vector(int) override;
+
+ protected:
+  BKZigzag zigzag;
+  bigint start = 0;      // events whose maximum lies before this step are not written
+  bigint limit = -1;     // at most this many events written (-1: all)
+  bigint nevents = 0, nwritten = 0;
+
+  // whether an event whose maximum is at step `step_max` is to be written
+  bool writes(bigint step_max) const
+  {
+    return step_max >= start && (limit < 0 || nwritten < limit);
+  }
 };
 
 }    // namespace LAMMPS_NS

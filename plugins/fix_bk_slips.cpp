@@ -35,29 +35,9 @@ const char *USAGE =
 constexpr int NCOL = 5;
 }    // namespace
 
-FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
+FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
+    FixBKEvents(lmp, narg, arg, USAGE, false)
 {
-  if (narg < 8) error->all(FLERR, "Illegal fix bk/slips command: {}", USAGE);
-  zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
-  if (!(zigzag.threshold > 0.0))
-    error->all(FLERR, "fix bk/slips: threshold must be > 0, got {}", arg[5]);
-  int iarg = 8;
-  while (iarg < narg) {
-    if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
-      start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
-      iarg += 2;
-    } else {
-      error->all(FLERR, "Illegal fix bk/slips keyword {}: {}", arg[iarg], USAGE);
-    }
-  }
-  if (domain->dimension != 2) error->all(FLERR, "fix bk/slips needs dimension 2");
-
-  vector_flag = 1;
-  size_vector = 2;
-  global_freq = 1;
-  extvector = 0;
-
-  open_file(6, narg, arg);
 }
 
 void FixBKSlips::snapshot(std::vector<double> &buf)
@@ -130,7 +110,7 @@ void FixBKSlips::sample()
       break;
     case BKZigzag::CONFIRMED:
       nevents++;
-      if (zigzag.event_max >= start) {
+      if (writes(zigzag.event_max)) {
         write_frame(snap_max, zigzag.event_max);
         write_frame(snap_min, zigzag.event_min);
         flush();    // every event reaches the file at once
@@ -141,11 +121,6 @@ void FixBKSlips::sample()
     case BKZigzag::NONE:
       break;
   }
-}
-
-double FixBKSlips::compute_vector(int n)
-{
-  return n == 0 ? static_cast<double>(nevents) : static_cast<double>(nwritten);
 }
 
 // the base's file buffer and the two snapshots of local atoms

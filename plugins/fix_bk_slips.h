@@ -5,24 +5,18 @@
 #ifndef BKFLOW_FIX_BK_SLIPS_H
 #define BKFLOW_FIX_BK_SLIPS_H
 
-#include "bk_zigzag.h"
 #include "fix_bk_reader.h"
 
 #include <vector>
 
 namespace LAMMPS_NS {
 
-class FixBKSlips : public FixBKReader {
+class FixBKSlips : public FixBKEvents {
  public:
   FixBKSlips(class LAMMPS *, int, char **);
-  double compute_vector(int) override;
   double memory_usage() override;
 
  private:
-  bigint start = 0;            // events whose maximum lies before this step are not written
-  BKZigzag zigzag;             // the slip events (bk_zigzag.h)
-  bigint nevents = 0, nwritten = 0;
-
   // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom)
   std::vector<double> snap_max, snap_min;
 
