@@ -1,5 +1,5 @@
-/* bkflow LAMMPS plugin: the entry point, which registers fix bk/substrate, fix bk/slips and
-   fix bk/stress, and the version check. LAMMPS only warns when a plugin was built for another
+/* bkflow LAMMPS plugin: the entry point, which registers fix bk/substrate, bk/slips, bk/fronts,
+   bk/phase and bk/stress, and the version check. LAMMPS only warns when a plugin was built for another
    version; a C++ plugin is tied to the exact build it was compiled against, so this one says
    so loudly at load time and fix bk/substrate refuses to run. */
 
@@ -8,6 +8,7 @@
 #include "domain.h"
 #include "fix_bk_fused.h"
 #include "fix_bk_fronts.h"
+#include "fix_bk_phase.h"
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
 #include "fix_bk_substrate.h"
@@ -84,6 +85,11 @@ static Fix *bk_fronts_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixBKFronts(lmp, argc, argv);
 }
 
+static Fix *bk_phase_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBKPhase(lmp, argc, argv);
+}
+
 static Fix *bk_stress_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBKStress(lmp, argc, argv);
@@ -120,6 +126,11 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   plugin.name = "bk/fronts";
   plugin.info = "bkflow: the slip rate of every particle through every slip event";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_fronts_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "bk/phase";
+  plugin.info = "bkflow: the contacts' load-phase statistics (Kuramoto R), buffered";
+  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_phase_creator);
   (*register_plugin)(&plugin, lmp);
 
   plugin.name = "bk/stress";

@@ -16,6 +16,7 @@
 #include "fix_bk_fused.h"
 
 #include "atom.h"
+#include "bk_model.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
@@ -501,6 +502,18 @@ double FixBKFused::compute_vector(int n)
     return strcmp(kernel.isa, "avx512") == 0 ? 3.0 : strcmp(kernel.isa, "avx2") == 0 ? 2.0 : 1.0;
   if (rmax_step != step) rmax_value = longest_bond(), rmax_step = step;
   return rmax_value;
+}
+
+// the contacts' phase sums from the fix's own arrays, in lattice order
+void FixBKFused::contact_phase(double *sums)
+{
+  if (!lattice_ready || !have_state) return FixBKSubstrate::contact_phase(sums);
+  double local[bkmodel::NPHASE] = {};
+  if (contact != NO_CONTACT) {
+    const double inv_lim = ke / fmax;
+    for (int k = 0; k < N; k++) bkmodel::add_phase(local, arr.drx[k], arr.dry[k], inv_lim);
+  }
+  MPI_Allreduce(local, sums, bkmodel::NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
 // the bond energy sum k_b/2 (r - r0)^2

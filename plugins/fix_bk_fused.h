@@ -27,6 +27,7 @@ class FixBKFused : public FixBKSubstrate {
   void post_run() override;
   double compute_vector(int) override;
   double compute_scalar() override;
+  void contact_phase(double *sums) override;
 
   double memory_usage() override;
   void grow_arrays(int) override;

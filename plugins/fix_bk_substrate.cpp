@@ -21,6 +21,7 @@
 #include "fix_bk_substrate.h"
 
 #include "atom.h"
+#include "bk_model.h"
 #include "bkplugin.h"
 #include "comm.h"
 #include "domain.h"
@@ -614,6 +615,22 @@ double FixBKSubstrate::compute_vector(int n)
   double rmax = 0.0;
   MPI_Allreduce(&rmax_local, &rmax, 1, MPI_DOUBLE, MPI_MAX, world);
   return rmax;
+}
+
+/* the contacts' load phases u_i = k_e |dr_i| / (mu_s sigma_n A) of the local atoms in the
+   group, summed (bk_model.h) and reduced over ranks */
+
+void FixBKSubstrate::contact_phase(double *sums)
+{
+  double local[bkmodel::NPHASE] = {};
+  if (contact != NO_CONTACT) {
+    const double inv_lim = ke / fmax;
+    const int *const mask = atom->mask;
+    const int nlocal = atom->nlocal;
+    for (int i = 0; i < nlocal; i++)
+      if (mask[i] & groupbit) bkmodel::add_phase(local, state[i][DRX], state[i][DRY], inv_lim);
+  }
+  MPI_Allreduce(local, sums, bkmodel::NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
 /* global restart state: t0, vh_valid, total breaks, and the plate's clock (elapsed_base,

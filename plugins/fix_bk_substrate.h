@@ -43,6 +43,11 @@ class FixBKSubstrate : public Fix {
 
   // LAMMPS's simulation time at the current step (the t of bk/stress; t0 of the anchors)
   double current_time() const;
+  // whether the fix has contacts (friction), whose load phases bk/phase samples
+  bool has_contacts() const { return contact != NO_CONTACT; }
+  // the contacts' phase sums of the current step (bk_model.h, bkmodel::NPHASE values),
+  // reduced over every rank: collective
+  virtual void contact_phase(double *sums);
 
   // per-atom state columns
   enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };

@@ -140,3 +140,14 @@ class Reference:
             s.f = fb + self.substrate_forces(s, s.v, advance=True, f_other=fb)
             s.v = s.v + h * s.f
         return s
+
+
+def phase_statistics(dr, k_e, f_max) -> dict:
+    """The contacts' load-phase statistics of docs/model.md ("Contact phase") from their
+    displacements ``dr`` (N, 2): u_i = k_e |dr_i| / f_max, Z = <exp(2 pi i u)>, R = |Z|, R2 the
+    modulus of the second harmonic <exp(4 pi i u)>, and the mean and (population) standard
+    deviation of u."""
+    u = k_e * np.sqrt((np.asarray(dr, float) ** 2).sum(axis=1)) / f_max
+    z, z2 = np.exp(2j * np.pi * u).mean(), np.exp(4j * np.pi * u).mean()
+    return {"R": abs(z), "Z_re": z.real, "Z_im": z.imag, "R2": abs(z2), "u_mean": u.mean(),
+            "u_std": u.std()}

@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 #: the data flow of the package, bottom to top: a module imports only modules before it
 #: (README, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
-ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "stress", "order",
-         "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
+ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "stress",
+         "order", "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
          "flowcompat", "project", "cluster", "tables", "sweep", "plot", "api", "cli")
 
 
@@ -65,7 +65,7 @@ def test_figures_never_analyse_and_never_need_flow():
 
 
 def test_no_run_file_name_is_written_outside_rundir():
-    names = ("in.bk", "data.bk", "params.json", "stress.csv", "snapshots.lammpstrj",
+    names = ("in.bk", "data.bk", "params.json", "stress.csv", "phase.csv", "snapshots.lammpstrj",
              "slips.lammpstrj", "log.lammps", "meta.json", "summary.json", "events.csv",
              "psi.csv", "clusters.csv")
     for path in SRC.glob("*.py"):

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, clusters, order, stationarity, stress
+from . import __version__, clusters, order, phases, stationarity, stress
 from .lattice import square_lattice
 from .params import AnalysisSettings, RunSpec, transient_step
 from .rundir import CLUSTERS, EVENTS, PSI, AnalysisError, DamagedRunError, RunDir  # noqa: F401
@@ -79,6 +79,28 @@ class StationarityResult:
                 "drift_z": s.drift_z, "drift_p": s.p_value, "drift_bound": s.drift_bound,
                 "block_t": s.block_t.tolist(), "block_means": s.block_means.tolist(),
                 "t_equil": self.t_equil}
+
+
+@dataclass(frozen=True)
+class StateResult:
+    """The state of the run over its analysed window (docs/model.md "Steady state"): steady,
+    drifting or metastable, from the stress's trend test and the contacts' phases
+    (:mod:`bkflow.phases`; ``contacts`` None for a run made before bkflow recorded them)."""
+
+    state: str
+    contacts: phases.Coherence | None
+
+    def row(self) -> dict:
+        c = self.contacts
+        if c is None:
+            return {"state": self.state, "contacts_recorded": False, "phase_coherence": math.nan,
+                    "phase_coherence_static": math.nan, "phase_fluctuation": math.nan,
+                    "phase_r2": math.nan, "phase_u_std": math.nan, "phase_drift": math.nan,
+                    "phase_drift_z": math.nan, "contacts_coherent": None}
+        return {"state": self.state, "contacts_recorded": True, "phase_coherence": c.R,
+                "phase_coherence_static": c.R_static, "phase_fluctuation": c.fluctuation,
+                "phase_r2": c.R2, "phase_u_std": c.u_std, "phase_drift": c.trend.drift,
+                "phase_drift_z": c.trend.drift_z, "contacts_coherent": c.coherent}
 
 
 @dataclass(frozen=True)
@@ -148,6 +170,7 @@ class RunAnalysis:
     events: stress.SlipEvents
     friction: FrictionResult
     steady: StationarityResult
+    state: StateResult
     large: LargeDropResult
     drops: DropResult
     order: OrderResult | None = None
@@ -159,7 +182,7 @@ class RunAnalysis:
         row = {"bkflow": __version__, "params": self.spec.to_dict(),
                "settings": self.settings.to_dict(), "N": self.spec.N,
                "t_run": self.spec.t_end, **_NOT_MEASURED}
-        for part in (self.friction, self.steady, self.large, self.drops, self.order,
+        for part in (self.friction, self.steady, self.state, self.large, self.drops, self.order,
                      self.clusters):
             if part is not None:
                 row.update(part.row())
@@ -198,6 +221,14 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
 
     return FrictionResult(at(settings.slip_threshold),
                           {_key(f): at(f) for f in settings.report_thresholds})
+
+
+def state_result(spec: RunSpec, settings: AnalysisSettings, steady: StationarityResult,
+                 phase: dict | None, t_transient: float) -> StateResult:
+    contacts = None if phase is None else phases.coherence(
+        phase["t"], phase["Z_re"] + 1j * phase["Z_im"], t_transient, spec.N, phase["R2"],
+        phase["u_std"], settings.n_blocks, settings.alpha)
+    return StateResult(phases.state(steady.test, contacts), contacts)
 
 
 def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
@@ -269,10 +300,13 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
 
 
 def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
-              settings: AnalysisSettings = AnalysisSettings()) -> RunAnalysis:
+              settings: AnalysisSettings = AnalysisSettings(),
+              phase: dict | None = None) -> RunAnalysis:
     """The analysis of one run.
 
-    ``t``, ``sigma``: the stress series (stress.csv). ``snapshots``: (steps (F,), unwrapped
+    ``t``, ``sigma``: the stress series (stress.csv). ``phase``: the contacts' phase series
+    (phase.csv, columns of :data:`bkflow.rundir.PHASE_COLUMNS`), or None for a run made
+    before bkflow recorded it. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
     fix bk/slips, frames in pairs (maximum, minimum), or None.
     """
@@ -284,13 +318,14 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     fr = friction_result(spec, settings, t, sigma, t0)
     events = fr.friction.events
     steady = stationarity_result(settings, t, sigma, t0, t_equil)
+    verdict = state_result(spec, settings, steady, phase, t0)
     large = large_drop_result(spec, settings, events, t0)
     drops = drop_result(settings, events.after(t0))
     orders = None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan
     clus = None if slip_frames is None else cluster_result(spec, settings, events, t0,
                                                            *slip_frames, psi_inf, large.large)
-    return RunAnalysis(spec, settings, events, fr, steady, large, drops, orders, clus)
+    return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus)
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
@@ -329,7 +364,7 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     if spec.writes_slips:
         f = rd.read_slip_frames(spec.N)
         slips = (f.steps, f.positions)
-    res = summarize(spec, t, sigma, snaps, slips, settings)
+    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase())
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
     return rd.write_analysis(summary, res.tables())

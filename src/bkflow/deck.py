@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from . import __version__
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
-from .rundir import DATA, DECK, FRONTS, PARAMS, SLIPS, SNAPSHOTS, STRESS
+from .rundir import DATA, DECK, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
 
 #: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
 SUBSTRATE_FIX = "bk"
@@ -38,6 +38,7 @@ class DeckFiles:
 
     data: str = DATA
     stress: str | None = STRESS
+    phase: str | None = PHASE
     snapshots: str = SNAPSHOTS
     slips: str = SLIPS
     fronts: str = FRONTS
@@ -188,7 +189,9 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str =
 def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[str]:
     """The outputs of the run's scene, and nothing else.
 
-    friction: sigma_x every stress_nevery steps (``stress.csv``), no per-atom output at all.
+    friction: sigma_x every stress_nevery steps (``stress.csv``) and the contacts' phase
+              statistics every phase_nevery steps (``phase.csv``), no per-atom output at all;
+              every scene writes these two, which the steady-state verdict reads.
     order:    + snapshots every snapshot_nevery steps (``snapshots.lammpstrj``, about 200 per
               run by default), enough for Psi(t) and its late-time plateau.
     clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples
@@ -207,6 +210,11 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
         lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"file {files.stress}",
+        ]
+    if files.phase:
+        lines += [  # the contacts' load phases: what the steady-state verdict reads
+            f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
+            f"file {files.phase}",
         ]
     if spec.writes_snapshots and files.snapshots:
         lines += [

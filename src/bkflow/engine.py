@@ -94,7 +94,7 @@ class AdaptiveStop:
 
     def reached(self, step: int) -> bool:
         spec = self.spec
-        self.stat.feed(*self.tail.new())
+        self.stat.feed(self.tail.new())
         if step * spec.dt < min(ADAPTIVE_T_MIN, spec.t_end):
             return False
         self.checks += 1

@@ -60,13 +60,25 @@ def drive_stiffness(spec: RunSpec) -> np.ndarray:
 
 def contact_start(spec: RunSpec) -> np.ndarray:
     """The contact displacement of each particle at t = 0, along x (docs/model.md "Starting
-    state"): 0 for the synchronized start; for the random start u_i uniform in
-    [0, mu_s sigma_n A / k_e), from a stream of the run's seed that is independent of the
-    k_d^i draw (the child ``spawn_key=(1,)`` of the seed's ``numpy.random.SeedSequence``)."""
+    state"), as the phase u_i times mu_s sigma_n A / k_e: 0 for the synchronized start; for the
+    random start u_i uniform in [0, 1); for the stratified start u_i = (k_i + 1/2) / N with k_i
+    a random permutation of 0..N-1 (the phases evenly spread). Both draw from a stream of the
+    run's seed that is independent of the k_d^i draw (the child ``spawn_key=(1,)`` of the
+    seed's ``numpy.random.SeedSequence``).
+
+    >>> spec = RunSpec(phi=10.0, Lx=4, Ly=3, start="stratified")
+    >>> u = contact_start(spec) * spec.k_e / spec.friction_threshold
+    >>> (np.sort(u) * spec.N).round(12).tolist()
+    [0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5, 8.5, 9.5, 10.5, 11.5]
+    """
     if spec.start == "synchronized":
         return np.zeros(spec.N)
     rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(1,)))
-    return rng.uniform(0.0, spec.friction_threshold / spec.k_e, spec.N)
+    if spec.start == "stratified":
+        phases = (rng.permutation(spec.N) + 0.5) / spec.N
+    else:
+        phases = rng.uniform(0.0, 1.0, spec.N)
+    return phases * (spec.friction_threshold / spec.k_e)
 
 
 def lattice_for(spec: RunSpec) -> Lattice:

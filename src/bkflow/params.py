@@ -55,8 +55,9 @@ ADAPTIVE_T_MIN = 500.0
 ADAPTIVE_CHUNK_T = 100.0
 
 #: starting states (docs/model.md "Starting state"): synchronized, the paper's (every contact formed
-#: at t = 0, dr_i = 0); random (dr_i = (u_i, 0), u_i uniform in [0, mu_s sigma_n A / k_e))
-STARTS = ("synchronized", "random")
+#: at t = 0, dr_i = 0); random (dr_i = (u_i, 0) mu_s sigma_n A / k_e, phases u_i uniform in
+#: [0, 1)); stratified (the phases evenly spread, u_i = (k_i + 1/2) / N in a random order)
+STARTS = ("synchronized", "random", "stratified")
 
 #: a run until stationary (RunSpec.until_stationary) must be able to exclude a drift of the
 #: stress larger than this across its analysed window (|drift| + 2 standard errors, relative)
@@ -155,6 +156,10 @@ class RunSpec:
     gamma: float = 0.2
     mass: float = 1.0
     stress_every: float = 0.1
+    #: sampling interval of the contacts' phase statistics (phase.csv; time units, rounded to
+    #: a whole number of stress samples): a load cycle of a contact lasts about
+    #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves
+    phase_every: float = 1.0
     #: observables to record: friction (sigma_x only), order (+ snapshots for Psi(t)),
     #: clusters (+ positions at every slip's maximum and minimum), full (all)
     scene: str = "full"
@@ -185,7 +190,8 @@ class RunSpec:
             return v
 
         for name in ("phi", "t_end", "dt_factor", "k_d", "k_e", "mu_s", "sigma_n", "area",
-                     "mass", "stress_every", "bond_limit", "snapshot_every", "slip_threshold"):
+                     "mass", "stress_every", "phase_every", "bond_limit", "snapshot_every",
+                     "slip_threshold"):
             if not finite(name) > 0:
                 raise SpecError(f"{name} must be > 0, got {getattr(self, name)!r}")
         for name in ("dk_d", "gamma", "V_d"):
@@ -354,6 +360,13 @@ class RunSpec:
         return max(1, int(round(self.stress_every / self.dt)))
 
     @property
+    def phase_nevery(self) -> int:
+        """Steps between samples of the contacts' phases: phase_every rounded to a whole
+        number of stress samples (at least one), so that both series share their times."""
+        per = max(1, int(round(self.phase_every / (self.stress_nevery * self.dt))))
+        return per * self.stress_nevery
+
+    @property
     def snapshot_nevery(self) -> int:
         """Steps between the order scene's snapshots (at least 1)."""
         return max(1, int(round(self.snapshot_every / self.dt)))
@@ -426,7 +439,7 @@ class RunSpec:
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
 #: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 2
+ANALYSIS_REVISION = 3
 
 
 @dataclass(frozen=True)

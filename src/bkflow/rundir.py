@@ -10,6 +10,7 @@ a file of a run.
 ``in.bk``, ``data.bk``      the LAMMPS deck and data file (``lmp -in in.bk`` runs it again)
 ``params.json``             the RunSpec of a deck written by ``bkflow deck``
 ``stress.csv``              ``t,sigma_x``: the shear stress every stress_nevery steps
+``phase.csv``               ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the contacts' load phases
 ``snapshots.lammpstrj``     positions every snapshot_nevery steps (scenes order, full)
 ``slips.lammpstrj``         positions at every slip's maximum and minimum (clusters, full)
 ``log.lammps``              LAMMPS's log
@@ -37,6 +38,7 @@ DECK = "in.bk"
 DATA = "data.bk"
 PARAMS = "params.json"
 STRESS = "stress.csv"
+PHASE = "phase.csv"
 SNAPSHOTS = "snapshots.lammpstrj"
 SLIPS = "slips.lammpstrj"
 FRONTS = "fronts.bin"
@@ -53,7 +55,7 @@ MARK = ".bkflow-run"
 SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, STRESS, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
+RUN_FILES = (DECK, DATA, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -61,6 +63,8 @@ MOVIE_PATTERN, FRONT_MAPS_PATTERN = "movie_slip{}.gif", "fronts_slip{}.png"
 #: a sweep directory keeps its runs in signac's workspace/<job id>/
 WORKSPACE = "workspace"
 
+#: columns of the contacts' phase series (fix bk/phase)
+PHASE_COLUMNS = ("t", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std")
 #: columns of the analysis's tables
 EVENT_COLUMNS = ("t_max", "t_min", "sigma_fail", "drop", "late")
 PSI_COLUMNS = ("t", "psi")
@@ -283,9 +287,26 @@ class RunDir:
             raise DamagedRunError(f"{self.file(STRESS)} is damaged ({exc})") from None
         return c["t"], c["sigma_x"]
 
-    def stress_reader(self) -> StressTail:
-        """An incremental reader of the stress series of a run in progress."""
-        return StressTail(self.file(STRESS))
+    def read_phase(self):
+        """The contacts' phase series (phase.csv): a dict of float columns t, R, Z_re, Z_im,
+        R2, u_mean, u_std; None for a run made before bkflow recorded it."""
+        if not self.file(PHASE).exists():
+            if PHASE in ((self.meta() or {}).get("file_bytes") or {}):
+                raise DamagedRunError(f"{self.file(PHASE)} is missing (meta.json lists it)")
+            return None
+        try:
+            return io.read_columns(self.file(PHASE), PHASE_COLUMNS)
+        except ValueError as exc:
+            raise DamagedRunError(f"{self.file(PHASE)} is damaged ({exc})") from None
+
+    def stress_reader(self) -> CsvTail:
+        """An incremental reader of the stress series of a run in progress (t, sigma_x)."""
+        return CsvTail(self.file(STRESS), 2)
+
+    def phase_reader(self) -> CsvTail:
+        """An incremental reader of the phase series of a run in progress
+        (:data:`PHASE_COLUMNS`)."""
+        return CsvTail(self.file(PHASE), len(PHASE_COLUMNS))
 
     def read_snapshots(self, n_atoms: int) -> io.Frames:
         return self._frames(SNAPSHOTS, n_atoms)
@@ -373,30 +394,31 @@ class RunDir:
         return io.read_table(self.file(CLUSTERS)) if self.file(CLUSTERS).exists() else None
 
 
-class StressTail:
-    """Reads the lines a running LAMMPS appended to the stress series since the last call
-    (whole lines only), so that a check during a run costs what the new samples cost."""
+class CsvTail:
+    """Reads the lines a running LAMMPS appended to one of its CSV series (stress.csv,
+    phase.csv) since the last call (whole lines only), so that a check during a run costs
+    what the new samples cost: :meth:`new` returns an array (rows, columns) of floats."""
 
-    def __init__(self, path):
+    def __init__(self, path, n_columns: int):
         self.path = Path(path)
+        self.n_columns = n_columns
         self.offset = 0
 
-    def new(self) -> tuple[list[float], list[float]]:
+    def new(self) -> np.ndarray:
         with open(self.path, "rb") as f:
             f.seek(self.offset)
             chunk = f.read()
         end = chunk.rfind(b"\n") + 1
         self.offset += end
-        t, sigma = [], []
+        rows = []
         for line in chunk[:end].decode().splitlines():
-            a, _, b = line.partition(",")
             try:
-                ta, sb = float(a), float(b)
+                row = [float(v) for v in line.split(",")]
             except ValueError:  # the header
                 continue
-            t.append(ta)
-            sigma.append(sb)
-        return t, sigma
+            if len(row) == self.n_columns:
+                rows.append(row)
+        return np.array(rows, dtype=float).reshape(-1, self.n_columns)
 
 
 def sweep_run_dir(root, job_id: str) -> RunDir:

@@ -177,28 +177,58 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
                                events=events)
 
 
+class Growing:
+    """Columns of floats that grow at the end (a series of a run in progress), kept in
+    arrays that double when full, so that a check reads them as arrays without copying."""
+
+    def __init__(self, n_columns: int):
+        self._a = np.empty((1024, n_columns))
+        self.n = 0
+
+    def extend(self, rows) -> None:
+        rows = np.asarray(rows, dtype=float).reshape(-1, self._a.shape[1])
+        need = self.n + len(rows)
+        if need > len(self._a):
+            bigger = np.empty((max(need, 2 * len(self._a)), self._a.shape[1]))
+            bigger[:self.n] = self._a[:self.n]
+            self._a = bigger
+        self._a[self.n:need] = rows
+        self.n = need
+
+    def column(self, k: int) -> np.ndarray:
+        return self._a[:self.n, k]
+
+
 class RunningFriction:
     """mu_bar's standard error of a series that grows (a run in progress), for the stop rule
     of an adaptive run: samples are fed in order (:meth:`feed`), slips found once by the
     :class:`Zigzag` rule, and :meth:`error` is the error of sigma_fail / sigma_n over the
     slips after the transient of the series so far, exactly what :func:`macroscopic_friction`
-    gives on the whole series at that point. The series itself is kept (``t``, ``sigma``)
-    for the stationarity test of a run until stationary."""
+    gives on the whole series at that point. The series itself is kept (``t``, ``sigma``,
+    arrays) for the trend test of a run until steady."""
 
     def __init__(self, threshold: float, sigma_n: float):
         self.zigzag = Zigzag(threshold)
         self.sigma_n = float(sigma_n)
-        self.t: list[float] = []
-        self.sigma: list[float] = []
+        self.series = Growing(2)
         self.t_max: list[float] = []
         self.fail: list[float] = []
 
-    def feed(self, t, sigma) -> None:
-        self.t += list(t)
-        self.sigma += list(sigma)
-        i_max, _ = self.zigzag.feed(self.sigma[self.zigzag.n:])
-        self.t_max += [self.t[i] for i in i_max]
-        self.fail += [self.sigma[i] for i in i_max]
+    @property
+    def t(self) -> np.ndarray:
+        return self.series.column(0)
+
+    @property
+    def sigma(self) -> np.ndarray:
+        return self.series.column(1)
+
+    def feed(self, rows) -> None:
+        """Append samples: rows (t, sigma_x)."""
+        first = self.series.n
+        self.series.extend(rows)
+        i_max, _ = self.zigzag.feed(self.sigma[first:].tolist())
+        self.t_max += [float(self.t[i]) for i in i_max]
+        self.fail += [float(self.sigma[i]) for i in i_max]
 
     def error(self, t_transient: float) -> MeanEstimate:
         fail = np.array([f for t, f in zip(self.t_max, self.fail) if t >= t_transient])

@@ -12,6 +12,7 @@ import pandas as pd
 
 from . import io
 from .params import RunSpec
+from .phases import STATES
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
@@ -20,7 +21,8 @@ SETTINGS_FILE = "analysis.json"
 #: summary fields averaged over seeds in results.csv (mean and standard error)
 RESULT_FIELDS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_over_ly",
                  "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent",
-                 "n_slips", "n_slips_large", "drift", "t_equil", "t_run")
+                 "n_slips", "n_slips_large", "drift", "t_equil", "t_run", "phase_coherence",
+                 "phase_fluctuation")
 #: state-point keys that are not physics: averaged over
 _NOT_GROUPED = ("seed",)
 #: summary entries that are not results (nested parameters and settings, bookkeeping)
@@ -58,8 +60,10 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (phi, size, and every other parameter but the seed): the mean over seeds and its
     standard error (sample standard deviation / sqrt(n); NaN for one seed) of
     :data:`RESULT_FIELDS`, the seeds' count, the mean within-run error of mu_bar, the regime
-    most seeds report, and how many of the seeds' runs were stationary (``n_stationary``;
-    ``stationary`` is true only when all were)."""
+    most seeds report, and the states of the seeds' runs (docs/model.md "Steady state"):
+    ``n_steady``, ``n_drifting``, ``n_metastable``, and the point's ``state``: steady when
+    every seed's run is, else metastable when any is, else drifting (:func:`point_state`);
+    ``n_stationary`` counts the runs whose stress alone is trend-free."""
     if runs.empty:
         return pd.DataFrame()
     params = [f for f in RunSpec.__dataclass_fields__ if f not in _NOT_GROUPED]
@@ -84,12 +88,26 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
         stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
             else pd.Series(False, index=g.index)
         row["n_stationary"] = int(stationary.sum())
-        row["stationary"] = bool(stationary.all())
+        states = g["state"].fillna("drifting") if "state" in g \
+            else pd.Series("drifting", index=g.index)
+        for name in STATES:
+            row[f"n_{name}"] = int((states == name).sum())
+        row["state"] = point_state(states)
         rows.append(row)
     first = ["phi", "Lx", "Ly", "N", "n_seeds"]
     df = pd.DataFrame(rows)
     return df[first + [c for c in df.columns if c not in first]].sort_values(
         ["Lx", "Ly", "phi"], kind="stable").reset_index(drop=True)
+
+
+def point_state(states) -> str:
+    """The state of a point of the grid from its seeds' runs: steady when all are steady,
+    metastable when any run is (a flat stress that still remembers its start: the warning
+    that a trend test alone would miss), drifting otherwise."""
+    states = list(states)
+    if states and all(s == "steady" for s in states):
+        return "steady"
+    return "metastable" if "metastable" in states else "drifting"
 
 
 def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.DataFrame]:

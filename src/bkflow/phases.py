@@ -1,0 +1,116 @@
+"""The contacts' load phases over a window: how coherent they are, and whether that coherence
+is the start's (docs/model.md, "Contact phase" and "Steady state").
+
+Pure functions on arrays, like :mod:`bkflow.stress`. The plugin records (phase.csv, fix
+bk/phase) the complex order parameter Z(t) = (1/N) sum_i exp(2 pi i u_i) of the phases
+u_i = k_e |dr_i| / (mu_s sigma_n A) in [0, 1), its second harmonic and the spread of u.
+
+Coherence and its kind. R = |Z| alone cannot tell a layer that remembers its start from one
+that has forgotten it: a layer in its steady state keeps a non-uniform phase distribution (its
+contacts spend longer in some parts of their load cycle than in others), so R settles at a
+level that depends on phi (about 0.28 at phi = 0.1 and 0.1-0.2 at phi = 1000, N = 100). What
+tells them apart is whether the phases *move together*. Write Z(t) = Zbar + dZ(t), Zbar its
+mean over the window. A steady phase distribution that is the same at every time gives a
+constant Zbar; contacts that advance and break independently add a fluctuation dZ of variance
+(1 - |Zbar|^2) / N. Contacts that keep a common phase, the memory of the synchronized start,
+carry the whole distribution round their load cycle together: Z turns, and dZ is as large as
+R itself. The phase fluctuation
+
+    chi = N <|Z - Zbar|^2>
+
+is therefore about 1 (at most 1) for independent contacts and about N R^2 for contacts that
+still share the start's phase: 20-40 on the synchronized plateau at N = 100, where R is
+0.55-0.65 (benchmarks/RESULTS.md, "The contacts' verdict"). It needs no reference for what
+the steady state looks like at the run's phi, and it grows with N where a memory is held.
+
+>>> import numpy as np
+>>> t = np.arange(0.0, 1000.0)
+>>> turning = 0.6 * np.exp(2j * np.pi * t / 5.3)       # one common phase, turning
+>>> coherence(t, turning, 200.0, 100).fluctuation > 30
+True
+>>> still = np.full(len(t), 0.28 + 0j)                   # a steady, non-uniform distribution
+>>> coherence(t, still, 200.0, 100).fluctuation
+0.0
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .stationarity import Stationarity, stationarity
+
+#: the phase fluctuation chi above which the contacts count as still sharing a phase (the
+#: start's memory): calibrated on long runs from every start (benchmarks/stationarity.py
+#: "verdict", benchmarks/RESULTS.md "The contacts' verdict")
+COHERENT_FLUCTUATION = 3.0
+
+#: the states of a run over its analysed window (docs/model.md "Steady state")
+STATES = ("steady", "drifting", "metastable")
+
+
+@dataclass(frozen=True)
+class Coherence:
+    """The contacts' phase statistics over the window [t0, t1] (see module doc).
+
+    ``R``: mean of |Z|; ``R_static``: |mean of Z|, the part of the coherence that stands
+    still; ``fluctuation``: chi = N <|Z - Zbar|^2>; ``R2``, ``u_std``: the means of the second
+    harmonic's modulus and of the spread of u (1/sqrt(12) = 0.289 for uniform phases);
+    ``trend``: the trend test of R over the window (bkflow.stationarity), ``n``: samples."""
+
+    t0: float
+    t1: float
+    R: float
+    R_static: float
+    fluctuation: float
+    R2: float
+    u_std: float
+    n: int
+    trend: Stationarity
+
+    @property
+    def coherent(self) -> bool:
+        """The contacts still move together (the start's memory): chi above
+        :data:`COHERENT_FLUCTUATION`, or not measurable."""
+        return not (self.fluctuation <= COHERENT_FLUCTUATION)
+
+
+def coherence(t, Z, t0: float, n_contacts: int, R2=None, u_std=None,
+              n_blocks: int = 10, alpha: float = 0.05) -> Coherence:
+    """The phase statistics of the series Z(t) (complex) over [t0, t[-1]] for a layer of
+    ``n_contacts`` contacts; ``R2`` and ``u_std`` (series at the same times) are averaged
+    too when given. Fewer than two samples in the window give NaN."""
+    t = np.asarray(t, dtype=float)
+    Z = np.asarray(Z, dtype=complex)
+    late = t >= t0
+    z = Z[late]
+    t1 = float(t[-1]) if len(t) else math.nan
+    R = np.abs(Z)
+    trend = stationarity(t, R, t0, n_blocks, alpha)
+
+    def mean(x):
+        return float(np.mean(np.asarray(x, float)[late])) if x is not None and len(z) \
+            else math.nan
+
+    if len(z) < 2:
+        nan = math.nan
+        return Coherence(float(t0), t1, nan, nan, nan, mean(R2), mean(u_std), len(z), trend)
+    zbar = z.mean()
+    chi = float(n_contacts * np.mean(np.abs(z - zbar) ** 2))
+    return Coherence(float(t0), t1, float(np.abs(z).mean()), float(abs(zbar)), chi, mean(R2),
+                     mean(u_std), int(len(z)), trend)
+
+
+def state(stress_trend: Stationarity, contacts: Coherence | None) -> str:
+    """The state of a run over its analysed window (docs/model.md "Steady state"):
+    ``drifting`` when the stress trends (or its window is too short to test), ``metastable``
+    when it is flat but the contacts still move together, ``steady`` otherwise. Without a
+    phase series (``contacts`` None: a run made before bkflow recorded one) only the stress
+    speaks, and a flat stress counts as steady."""
+    if not stress_trend.stationary:
+        return "drifting"
+    if contacts is not None and contacts.coherent:
+        return "metastable"
+    return "steady"
