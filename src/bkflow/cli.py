@@ -31,13 +31,16 @@ from .params import (  # noqa: E402
     CONTACT_RULES,
     PAPER_SIZES,
     PATHS,
+    PROTOCOLS,
     SCENES,
     STARTS,
-    STATIONARY_DRIFT_BOUND,
+    STEADY_DRIFT_BOUND,
+    STEADY_START,
     AnalysisSettings,
     RunSpec,
     SpecError,
     parse_size,
+    protocol_fields,
     size_from_n,
 )
 
@@ -69,12 +72,19 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _accuracy_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--protocol", choices=PROTOCOLS, default="steady",
+                   help="steady (default): from the start that forgets fastest "
+                        f"({STEADY_START}), run until the run is steady, at most --t-end; "
+                        "paper: the paper's, from the synchronized start, a fixed --t-end")
     p.add_argument("--accuracy", choices=tuple(ACCURACY), default="default",
                    help="preset of --dt-factor and --t-end: " + ", ".join(
-                       f"{k} (C = {c:g}, t_end = {t:g})" for k, (c, t) in ACCURACY.items()))
+                       f"{k} (C = {c.dt_factor:g}; t_end = {c.t_end:g} for the paper's "
+                       f"protocol, at most {c.t_cap:g} for the steady one)"
+                       for k, c in ACCURACY.items()))
     p.add_argument("--t-end", type=float, default=None,
-                   help="run length in time units (default: the --accuracy preset's); with "
-                        "--target-error, the longest the run may go")
+                   help="run length in time units (default: the --accuracy preset's); for "
+                        "the steady protocol or with --target-error, the longest the run may "
+                        "go (raise it if a run stops at it before it is steady)")
     p.add_argument("--dt-factor", type=float, default=None,
                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
     p.add_argument("--target-error", type=float, default=None,
@@ -98,23 +108,25 @@ def _analysis_arg(p: argparse.ArgumentParser) -> None:
 
 
 def _state_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--start", choices=STARTS, default=RunSpec.start,
-                   help="starting state of the contacts: synchronized (the paper's, every "
-                        "contact formed at t = 0; default) or random (each contact part-way "
-                        "through its cycle: the steady state comes sooner)")
-    p.add_argument("--until-stationary", action="store_true",
-                   help="run until the stress is stationary over the analysed window (a trend "
-                        "test that excludes a drift above "
-                        f"{100 * STATIONARY_DRIFT_BOUND:g}%%; checked like --target-error), "
-                        "at most --t-end; with --target-error, until both hold")
+    p.add_argument("--start", choices=STARTS, default=None,
+                   help="starting state of the contacts (default: the protocol's): "
+                        "synchronized (the paper's, every contact formed at t = 0), random "
+                        "(each contact part-way through its cycle), stratified (the phases "
+                        "evenly spread)")
+    p.add_argument("--until-steady", action="store_true",
+                   help="with --protocol paper: run until the run is steady (the stress "
+                        "trend-free, a drift above "
+                        f"{100 * STEADY_DRIFT_BOUND:g}%% excluded, the contacts' phases no "
+                        "longer the start's), at most --t-end; with --target-error, until "
+                        "both hold (the steady protocol always does)")
 
 
 def _accuracy(a) -> dict:
-    """dt_factor, t_end and target_error from the preset and the explicit options."""
-    c, t = ACCURACY[a.accuracy]
-    return {"dt_factor": c if a.dt_factor is None else a.dt_factor,
-            "t_end": t if a.t_end is None else a.t_end, "target_error": a.target_error,
-            "until_stationary": a.until_stationary, "start": a.start}
+    """The run's start, length rule, dt_factor and target_error: the protocol's, from the
+    preset and the explicit options (bkflow.params.protocol_fields)."""
+    return protocol_fields(a.protocol, a.accuracy, start=a.start, t_end=a.t_end,
+                           dt_factor=a.dt_factor, until_steady=a.until_steady,
+                           target_error=a.target_error)
 
 
 def _set_arg(p: argparse.ArgumentParser) -> None:
@@ -145,7 +157,10 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output directory")
 
 
-def _spec(a) -> RunSpec:
+def _spec(a, deck: bool = False) -> RunSpec:
+    """The RunSpec of ``bkflow run`` (or, ``deck``, of ``bkflow deck``: a deck runs a fixed
+    length, so the steady protocol writes its start with the preset's fixed t_end, and the
+    analysis of the standalone run says whether it was steady)."""
     if not str(a.out).strip():
         raise SpecError("--out is empty: name the run directory")
     if a.n is not None:
@@ -154,8 +169,11 @@ def _spec(a) -> RunSpec:
         Lx, Ly = parse_size(a.size)
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
-    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a),
-              **RunSpec.assignments(a.set)}
+    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a)}
+    if deck and a.protocol == "steady" and not a.until_steady:
+        fields.update(until_steady=False,
+                      t_end=ACCURACY[a.accuracy].t_end if a.t_end is None else a.t_end)
+    fields.update(RunSpec.assignments(a.set))
     return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
 
 
@@ -245,27 +263,45 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def state_line(s: dict) -> str:
+    """One line of what a summary says of its run's state (docs/model.md "Steady state"):
+    the verdict, and the stress trend and the contacts' phases it rests on."""
+    def num(key, scale=1.0):
+        v = s.get(key)
+        return float("nan") if v is None else scale * v
+
+    window = f"t = {num('t_transient'):.0f}..{num('t_run'):.0f}"
+    trend = (f"drift {num('drift', 100):+.2f}% +- {num('drift_err', 100):.2f}%, "
+             f"z = {num('drift_z'):.1f}")
+    contacts = (f"phase fluctuation {num('phase_fluctuation'):.3g}, R = "
+                f"{num('phase_coherence'):.3f}") if s.get("contacts_recorded") else \
+        "contacts not recorded: the verdict rests on the stress alone"
+    state = s.get("state") or "drifting"
+    if s.get("drift") is None:
+        return (f"DRIFTING (untested) over {window}: too short for the trend test's blocks; "
+                "run longer")
+    if state == "drifting":
+        return (f"DRIFTING over {window}: the stress still drifts ({trend}); its numbers are "
+                "a transient's")
+    if state == "metastable":
+        return (f"METASTABLE over {window}: the stress is flat ({trend}) but the contacts "
+                f"still move together ({contacts}): the start is not forgotten, its numbers "
+                "are not the steady state's")
+    return (f"steady over {window}: the stress is flat ({trend}; a drift up to "
+            f"{num('drift_bound', 100):.1f}% not excluded) and the contacts have forgotten "
+            f"the start ({contacts})")
+
+
 def _print_summary(s: dict) -> None:
     def g(key, fmt):
         v = s.get(key)
         return "n/a" if v is None else format(v, fmt)
 
-    if s.get("stationary") is None or s.get("drift") is None:
-        print(f"  stationarity untested: the analysed window t = {g('t_transient', '.0f')}.."
-              f"{g('t_run', '.0f')} is too short for the trend test's blocks (counted as not "
-              "stationary); run longer")
-    else:
-        drift = s.get("drift") if s.get("drift") is not None else float("nan")
-        err = s.get("drift_err") if s.get("drift_err") is not None else float("nan")
-        bound = s.get("drift_bound") if s.get("drift_bound") is not None else float("nan")
-        verdict = (f"stationary (no trend; a drift up to {100 * bound:.1f}% is not excluded)"
-                   if s["stationary"] else "NOT stationary: the stress still drifts")
-        print(f"  {verdict} over t = {g('t_transient', '.0f')}..{g('t_run', '.0f')}: "
-              f"drift {100 * drift:+.2f}% +- {100 * err:.2f}% (z = {g('drift_z', '.1f')}); "
-              f"equilibration detected at t = {g('t_equil', '.0f')}")
-    print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} over {s['n_slips']} "
-          f"slips (threshold {s['slip_threshold_stress']:g}); <sigma_x>/sigma_n = "
-          f"{g('mean_stress_ratio', '.4f')}")
+    print("  " + state_line(s))
+    state = s.get("state") or "drifting"
+    print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} ({state}) over "
+          f"{s['n_slips']} slips (threshold {s['slip_threshold_stress']:g}); "
+          f"<sigma_x>/sigma_n = {g('mean_stress_ratio', '.4f')} ({state})")
     print(f"  mu_bar over large drops (> {g('large_drop_threshold', '.3g')}) = "
           f"{g('mu_bar_large', '.4f')} +- {g('mu_bar_large_err', '.4f')} over "
           f"{s.get('n_slips_large')} slips")
@@ -545,11 +581,11 @@ def _deck(a) -> int:
     from .deck import write_deck
     from .rundir import RunDir
 
-    spec = _spec(a)
+    spec = _spec(a, deck=True)
     if spec.adaptive:
-        raise SpecError("an adaptive run (--target-error, --until-stationary) needs the "
-                        "engine, which checks between chunks (bkflow run); a deck runs "
-                        "exactly --t-end")
+        raise SpecError("an adaptive run (--until-steady, --target-error) needs the engine, "
+                        "which checks between chunks (bkflow run); a deck runs exactly "
+                        "--t-end")
     d = RunDir(a.out)
     if d.meta() is not None or d.file(rd.STRESS).exists():
         raise SpecError(f"{a.out} holds a run ({rd.META if d.meta() is not None else rd.STRESS}"

@@ -5,9 +5,9 @@ finished run refused, a partial one cleared), write the deck, advance LAMMPS chu
 with the guards and the progress line, and commit meta.json. Between chunks the engine checks
 for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
 :class:`RunError` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
-stops when the error of mu_bar is below its target and/or the stress is stationary
-(:class:`AdaptiveStop`, on :class:`bkflow.stress.RunningFriction` and
-:func:`bkflow.stationarity.stationarity`).
+stops when the error of mu_bar is below its target and/or the run is steady
+(:class:`AdaptiveStop`, on :class:`bkflow.stress.RunningFriction`,
+:func:`bkflow.stationarity.stationarity` and :func:`bkflow.phases.state`).
 """
 
 from __future__ import annotations
@@ -39,15 +39,17 @@ from .params import (
     ADAPTIVE_CHUNK_T,
     ADAPTIVE_T_MIN,
     PATHS,
-    STATIONARY_DRIFT_BOUND,
+    STEADY_DRIFT_BOUND,
+    STEADY_T_MIN,
     RunSpec,
     transient_step,
 )
+from .phases import COHERENT_FLUCTUATION, coherence, state
 from .plugin import build_info, lammps_version, open_lammps
 from .provenance import record as provenance
-from .rundir import DATA, DECK, LOG, META, RunDir
+from .rundir import DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
 from .stationarity import stationarity
-from .stress import RunningFriction
+from .stress import Growing, RunningFriction
 
 
 class RunError(RuntimeError):
@@ -75,27 +77,33 @@ TEAR_IS_PHYSICAL_BELOW_C = 0.5
 
 class AdaptiveStop:
     """The stop rule of an adaptive run (RunSpec.adaptive), checked between chunks once the
-    run is ADAPTIVE_T_MIN long, over the analysed window of the run so far (the transient
-    rule of a fixed run of that length):
+    run is long enough (ADAPTIVE_T_MIN; STEADY_T_MIN for a run until steady), over the
+    analysed window of the run so far (the transient rule of a fixed run of that length):
 
     - ``target_error``: mu_bar's standard error is below the target and reliable;
-    - ``until_stationary``: the stress passes the trend test of :mod:`bkflow.stationarity`
-      and the test excludes a drift above STATIONARY_DRIFT_BOUND.
+    - ``until_steady``: the run is ``steady`` (:func:`bkflow.phases.state`: the stress passes
+      the trend test of :mod:`bkflow.stationarity` and the contacts' phases no longer move
+      together), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
 
-    The stress series is read incrementally and its slips found once, so each check costs
-    what the new samples cost (and one pass over block means); the summary of the finished
-    run finds the very same slips, error and trend."""
+    The stress and phase series are read incrementally and the slips found once, so each
+    check costs what the new samples cost (and one pass over the window); the summary of the
+    finished run finds the very same slips, error, trend and state."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
         self.spec, self.tail = spec, run_dir.stress_reader()
         self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
+        self.phase_tail = run_dir.phase_reader() if spec.until_steady else None
+        self.phase = Growing(len(PHASE_COLUMNS))
         self.met, self.checks = False, 0
-        self.last_error = self.last_trend = None
+        self.last_error = self.last_trend = self.last_contacts = self.last_state = None
 
     def reached(self, step: int) -> bool:
         spec = self.spec
         self.stat.feed(self.tail.new())
-        if step * spec.dt < min(ADAPTIVE_T_MIN, spec.t_end):
+        if self.phase_tail is not None:
+            self.phase.extend(self.phase_tail.new())
+        t_min = STEADY_T_MIN if spec.until_steady else ADAPTIVE_T_MIN
+        if step * spec.dt < min(t_min, spec.t_end):
             return False
         self.checks += 1
         t0 = transient_step(spec.transient, step) * spec.dt
@@ -106,20 +114,23 @@ class AdaptiveStop:
                 return False
             self.last_error = est.error
             met &= bool(est.reliable and est.error <= spec.target_error)
-        if spec.until_stationary:
+        if spec.until_steady:
             self.last_trend = stationarity(self.stat.t, self.stat.sigma, t0)
-            met &= bool(self.last_trend.stationary
-                        and self.last_trend.drift_bound <= STATIONARY_DRIFT_BOUND)
+            col = self.phase.column
+            self.last_contacts = coherence(col(0), col(2) + 1j * col(3), t0, spec.N)
+            self.last_state = state(self.last_trend, self.last_contacts)
+            met &= bool(self.last_state == "steady"
+                        and self.last_trend.drift_bound <= STEADY_DRIFT_BOUND)
         self.met = met
         return met
 
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
-        trend = self.last_trend
+        trend, contacts = self.last_trend, self.last_contacts
         rules = []
         if requested.target_error is not None:
             rules.append(f"mu_bar error <= {requested.target_error:g}")
-        if requested.until_stationary:
-            rules.append(f"stationary (drift bound <= {STATIONARY_DRIFT_BOUND:g})")
+        if requested.until_steady:
+            rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g})")
         rules = " and ".join(rules)
         met = stopped_early or self.met
         missed = []  # what the last check found short of the rules
@@ -129,27 +140,32 @@ class AdaptiveStop:
                 "not measurable yet (too few slips after the transient)"
                 if self.last_error is None or not math.isfinite(self.last_error) else
                 f"{self.last_error:.2g} > {requested.target_error:g}"))
-        if requested.until_stationary:
+        if requested.until_steady:
             if trend is None or not math.isfinite(trend.drift):
-                missed.append("stationarity not testable yet")
+                missed.append("the state not testable yet")
             elif not trend.stationary:
-                missed.append(f"the stress still drifts ({100 * trend.drift:+.2f}% +- "
+                missed.append(f"drifting: the stress still drifts ({100 * trend.drift:+.2f}% +- "
                               f"{100 * trend.drift_err:.2f}%)")
-            elif trend.drift_bound > STATIONARY_DRIFT_BOUND:
+            elif self.last_state == "metastable":
+                missed.append(f"metastable: the contacts still move together (phase "
+                              f"fluctuation {contacts.fluctuation:.3g} > "
+                              f"{COHERENT_FLUCTUATION:g})")
+            elif trend.drift_bound > STEADY_DRIFT_BOUND:
                 missed.append(f"a drift up to {100 * trend.drift_bound:.2g}% not excluded "
-                              f"(> {100 * STATIONARY_DRIFT_BOUND:g}%)")
+                              f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
         return {"target_error": requested.target_error,
-                "until_stationary": requested.until_stationary,
-                "drift_bound_required": STATIONARY_DRIFT_BOUND if requested.until_stationary
-                else None,
+                "until_steady": requested.until_steady,
+                "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
                 "t_cap": requested.t_end, "t_run": t_run, "reached": met,
                 "stopped_because": (f"{rules} at t = {t_run:g}" if met else
                                     f"the cap t_end = {requested.t_end:g} came first: "
                                     + "; ".join(missed or [f"not {rules}"])),
                 "mu_bar_err_at_stop": self.last_error,
+                "state_at_stop": self.last_state,
                 "drift_at_stop": None if trend is None else trend.drift,
                 "drift_z_at_stop": None if trend is None else trend.drift_z,
                 "drift_bound_at_stop": None if trend is None else trend.drift_bound,
+                "phase_fluctuation_at_stop": None if contacts is None else contacts.fluctuation,
                 "checks": self.checks}
 
 

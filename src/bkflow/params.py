@@ -16,6 +16,7 @@ import dataclasses
 import math
 import re
 from dataclasses import dataclass
+from typing import NamedTuple
 
 #: The paper's lattice sizes by particle number (Ly = Lx / 4).
 PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
@@ -44,9 +45,19 @@ PATHS = ("auto", "general", "fused")
 #: order); half: the half-step velocity (docs/model.md's literal scheme, first order in dt)
 DAMPING_MODES = ("implicit", "half")
 
-#: accuracy presets: (dt-factor C, t_end), chosen from the work-precision benchmark
-#: (benchmarks/work_precision.py, errors and costs in benchmarks/RESULTS.md)
-ACCURACY = {"fast": (0.4, 2000.0), "default": (0.2, 8000.0), "precise": (0.1, 16000.0)}
+class Preset(NamedTuple):
+    """An accuracy preset: the time-step factor C, the length of a fixed run (the paper's
+    protocol) and the cap of a run until steady (the steady protocol)."""
+
+    dt_factor: float
+    t_end: float
+    t_cap: float
+
+
+#: accuracy presets, chosen from the work-precision benchmarks (benchmarks/work_precision.py,
+#: errors and costs in benchmarks/RESULTS.md)
+ACCURACY = {"fast": Preset(0.4, 2000.0, 16000.0), "default": Preset(0.2, 8000.0, 64000.0),
+            "precise": Preset(0.1, 16000.0, 128000.0)}
 
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
@@ -59,9 +70,20 @@ ADAPTIVE_CHUNK_T = 100.0
 #: [0, 1)); stratified (the phases evenly spread, u_i = (k_i + 1/2) / N in a random order)
 STARTS = ("synchronized", "random", "stratified")
 
-#: a run until stationary (RunSpec.until_stationary) must be able to exclude a drift of the
-#: stress larger than this across its analysed window (|drift| + 2 standard errors, relative)
-STATIONARY_DRIFT_BOUND = 0.01
+#: the protocols of a run (docs/model.md "Steady state"). steady, the default: the start
+#: that forgets fastest (STEADY_START, measured: benchmarks/RESULTS.md "Time to steady"), run
+#: until the run is steady (RunSpec.until_steady), the preset's t_cap its cap. paper: the
+#: paper's synchronized start, a fixed t_end (the preset's)
+PROTOCOLS = ("steady", "paper")
+#: the start of the steady protocol: the one that forgets fastest
+STEADY_START = "stratified"
+
+#: a run until steady (RunSpec.until_steady) must be able to exclude a drift of the stress
+#: larger than this across its analysed window (|drift| + 2 standard errors, relative)
+STEADY_DRIFT_BOUND = 0.01
+#: a run until steady is first checked at this length (time units), and then every
+#: ADAPTIVE_CHUNK_T
+STEADY_T_MIN = ADAPTIVE_T_MIN
 
 #: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
@@ -177,10 +199,10 @@ class RunSpec:
     #: adaptive run length: stop once mu_bar's standard error is below this (t_end is then
     #: the cap); None = run exactly t_end
     target_error: float | None = None
-    #: adaptive run length: go on until the stress is stationary over the analysed window (a
-    #: trend test, bkflow.stationarity) and a drift above STATIONARY_DRIFT_BOUND is excluded,
-    #: with target_error if given too; t_end is then the cap
-    until_stationary: bool = False
+    #: adaptive run length: go on until the run is steady over its analysed window (the stress
+    #: trend-free, a drift above STEADY_DRIFT_BOUND excluded, and the contacts' phases no
+    #: longer the start's: bkflow.phases), with target_error if given too; t_end is the cap
+    until_steady: bool = False
 
     def __post_init__(self):
         def finite(name):
@@ -227,9 +249,8 @@ class RunSpec:
                             f"got {self.target_error!r}")
         if self.start not in STARTS:
             raise SpecError(f"start must be one of {', '.join(STARTS)}, got {self.start!r}")
-        if not isinstance(self.until_stationary, bool):
-            raise SpecError(f"until_stationary must be true or false, "
-                            f"got {self.until_stationary!r}")
+        if not isinstance(self.until_steady, bool):
+            raise SpecError(f"until_steady must be true or false, got {self.until_steady!r}")
         if self.scene not in SCENES:
             raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
         if self.damping not in DAMPING_MODES:
@@ -392,8 +413,18 @@ class RunSpec:
 
     @property
     def adaptive(self) -> bool:
-        """The run chooses its own length (target_error or until_stationary), up to t_end."""
-        return self.target_error is not None or self.until_stationary
+        """The run chooses its own length (target_error or until_steady), up to t_end."""
+        return self.target_error is not None or self.until_steady
+
+    @property
+    def protocol(self) -> str:
+        """Which protocol the run follows (:data:`PROTOCOLS`): steady (run until steady),
+        paper (the synchronized start, a fixed length), or custom (anything else)."""
+        if self.until_steady:
+            return "steady"
+        if self.start == "synchronized" and self.target_error is None:
+            return "paper"
+        return "custom"
 
     @property
     def writes_snapshots(self) -> bool:
@@ -428,13 +459,46 @@ class RunSpec:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    #: fields of earlier bkflow versions, by their present names (meta.json and sweep state
+    #: points of runs made by bkflow 0.2 say until_stationary)
+    LEGACY_FIELDS = {"until_stationary": "until_steady"}
+
     @classmethod
     def from_dict(cls, d: dict) -> RunSpec:
         names = {f.name for f in dataclasses.fields(cls)}
+        d = {cls.LEGACY_FIELDS.get(k, k) if k not in names else k: v for k, v in d.items()}
         unknown = set(d) - names
         if unknown:
             raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
         return cls(**d)
+
+
+def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
+                    start: str | None = None, t_end: float | None = None,
+                    dt_factor: float | None = None, until_steady: bool = False,
+                    target_error: float | None = None) -> dict:
+    """The RunSpec fields a protocol sets (start, until_steady, t_end, dt_factor,
+    target_error) from an accuracy preset (:data:`ACCURACY`) and what is given explicitly
+    (None: the protocol's or the preset's). ``steady``: from STEADY_START until the run is
+    steady, at most the preset's t_cap; ``paper``: from the synchronized start, a fixed run
+    of the preset's t_end (``until_steady`` adds the steady rule, t_end is then its cap).
+
+    >>> protocol_fields("paper")["start"], protocol_fields()["until_steady"]
+    ('synchronized', True)
+    """
+    if protocol not in PROTOCOLS:
+        raise SpecError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {protocol!r}")
+    if accuracy not in ACCURACY:
+        raise SpecError(f"accuracy must be one of {', '.join(ACCURACY)}, got {accuracy!r}")
+    preset = ACCURACY[accuracy]
+    steady = protocol == "steady" or bool(until_steady)
+    default_start = STEADY_START if protocol == "steady" else "synchronized"
+    default_t = preset.t_cap if protocol == "steady" else preset.t_end
+    return {"start": default_start if start is None else start,
+            "until_steady": steady,
+            "t_end": default_t if t_end is None else t_end,
+            "dt_factor": preset.dt_factor if dt_factor is None else dt_factor,
+            "target_error": target_error}
 
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
