@@ -4,7 +4,7 @@
 ::
 
     sweep = bkflow.load_sweep("runs/sweep")
-    sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "stationary"]]
+    sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "state"]]
     sweep.figure("fig2a")
     run = sweep.run(0)                      # the first row of sweep.runs
     run.stress.plot(x="t", y="sigma_x")
@@ -47,8 +47,7 @@ class Run:
         return (f"Run({str(self.path)!r}: phi = {self.spec.phi:g}, "
                 f"{self.spec.Lx}x{self.spec.Ly}, seed {self.spec.seed}, t_end = "
                 f"{self.spec.t_end:g}" + (f", mu_bar = {mu:.4f}" if mu is not None else "")
-                + (", stationary" if s.get("stationary") else
-                   ", NOT stationary" if s else ", not analysed") + ")")
+                + (f", {s.get('state', 'n/a')}" if s else ", not analysed") + ")")
 
     @property
     def meta(self) -> dict | None:
@@ -72,6 +71,13 @@ class Run:
         """``t``, ``sigma_x``: the shear-stress series."""
         t, sigma = self._rd.read_stress()
         return pd.DataFrame({"t": t, "sigma_x": sigma})
+
+    @property
+    def phase(self) -> pd.DataFrame | None:
+        """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases (phase.csv;
+        None for a run made before bkflow recorded them)."""
+        p = self._rd.read_phase()
+        return None if p is None else pd.DataFrame(p)
 
     @property
     def events(self) -> pd.DataFrame | None:
@@ -125,13 +131,22 @@ class Run:
         return path
 
     def figure(self, window: float | None = None):
-        """sigma_x(t) with each slip's sigma_fail marked, over the last ``window`` time
-        units (default: the whole run), as a Figure."""
+        """sigma_x(t) with each slip's sigma_fail marked, and beneath it the contacts' phase
+        coherence R(t), over the last ``window`` time units (default: the whole run), as a
+        Figure."""
         st = self.stress
+        phase = self.phase
         if window is not None:
             st = st[st.t >= st.t.iloc[-1] - window]
+            if phase is not None:
+                phase = phase[phase.t >= st.t.iloc[0]]
+        s = self.summary or {}
         with style():
-            fig, ax = Figures().subplots(figsize=(6.0, 2.6))
+            rows = 1 if phase is None else 2
+            fig, axes = Figures().subplots(rows, 1, figsize=(6.0, 2.6 + 1.6 * (rows - 1)),
+                                           sharex=True, squeeze=False,
+                                           gridspec_kw={"height_ratios": [1.6, 1][:rows]})
+            ax = axes[0, 0]
             ax.plot(st.t, st.sigma_x, lw=0.6, color="tab:blue", label=r"$\sigma_x$")
             ev = self.events
             if ev is not None and len(ev):
@@ -140,11 +155,18 @@ class Run:
                         label=r"$\sigma_{\rm fail}$")
             ax.axhline(self.spec.friction_threshold / self.spec.area, color="grey", lw=0.6,
                        ls="--", label=r"$\mu_s\sigma_n$")
-            ax.set_xlabel("t (time units)")
-            ax.set_ylabel(r"$\sigma_x$")
+            ax.set_ylabel(r"$\sigma_x$ (units of $k_d l / l^2$)")
             ax.set_title(f"phi = {self.spec.phi:g}, {self.spec.Lx}x{self.spec.Ly}, "
-                         f"seed {self.spec.seed}")
-            ax.legend(loc="lower right")
+                         f"seed {self.spec.seed}" + (f": {s['state']}" if s.get("state")
+                                                     else ""))
+            ax.legend(loc="lower right", fontsize=6)
+            if phase is not None:
+                b = axes[1, 0]
+                b.plot(phase.t, phase.R, lw=0.5, color="indigo")
+                b.set_ylim(0, 1.02)
+                b.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
+            axes[-1, 0].set_xlabel("t (time units)")
+            fig.set_layout_engine("constrained")
         return fig
 
 
@@ -159,7 +181,7 @@ class Sweep:
     def __repr__(self) -> str:
         r = self.results
         return (f"Sweep({str(self.path)!r}: {len(self.runs)} runs, {len(r)} points, "
-                f"{int(r.n_stationary.sum())} of {int(r.n_seeds.sum())} runs stationary)")
+                f"{int(r.n_steady.sum())} of {int(r.n_seeds.sum())} runs steady)")
 
     @property
     def runs(self) -> pd.DataFrame:

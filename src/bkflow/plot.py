@@ -234,28 +234,116 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     return fig
 
 
+#: how a point's state (results.csv ``state``, docs/model.md "Steady state") is drawn: its
+#: marker filled (every seed's run steady), open (some drifting) or half-filled (some
+#: metastable: a flat stress that still remembers its start)
+STATE_FILL = {"steady": "full", "drifting": "none", "metastable": "bottom"}
+
+
+def _point_states(g: pd.DataFrame) -> np.ndarray:
+    if "state" in g:
+        return g["state"].fillna("drifting").astype(str).to_numpy()
+    return np.full(len(g), "drifting")
+
+
+def _smooth(t, x, width: float):
+    """x averaged over consecutive windows of ``width`` time units: (centres, means)."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    if len(t) < 2 or width <= 0:
+        return t, x
+    k = ((t - t[0]) // width).astype(int)
+    n = np.bincount(k)
+    keep = n > 0
+    return (np.bincount(k, t)[keep] / n[keep], np.bincount(k, x)[keep] / n[keep])
+
+
+def fig_contacts(data: SweepData, plt):
+    """The memory of the start, run by run: sigma_x(t)/sigma_n (averaged over 1% of the run)
+    and the contacts' phase coherence R(t) (docs/model.md "Contact phase") over the whole
+    run, for a soft, an intermediate and a stiff phi of the smallest size (seed 1, or the
+    first), the analysed window shaded and each run's state written."""
+    lx, ly = data.sizes[0]
+    phis = sorted(set(data.runs_of(lx, ly).phi))
+    chosen = list(dict.fromkeys(_nearest(phis, p) for p in (0.1, 10.0, 1000.0)))
+    fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 3.6),
+                             sharex="col", squeeze=False)
+    drawn = 0
+    for j, phi in enumerate(chosen):
+        row = data.runs_of(lx, ly, phi).iloc[0]
+        rd = data.run_dir(row)
+        phase = rd.read_phase()
+        top, bottom = axes[0, j], axes[1, j]
+        if phase is None:
+            top.text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
+                     transform=top.transAxes, ha="center", va="center", fontsize=7)
+            continue
+        drawn += 1
+        t, sigma = rd.read_stress()
+        span = t[-1] - t[0]
+        ts, ss = _smooth(t, sigma / row.sigma_n, span / 100)
+        top.plot(ts, ss, color="black", lw=0.8)
+        bottom.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
+        tr, rr = _smooth(phase["t"], phase["R"], span / 100)
+        bottom.plot(tr, rr, color="indigo", lw=1.2)
+        t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
+            else t[0]
+        for ax in (top, bottom):
+            ax.axvspan(t0, t[-1], color="tab:green" if row.get("state") == "steady"
+                       else "tab:orange", alpha=0.08, lw=0)
+        top.set_title(f"phi = {phi:g}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
+                      f"{row.get('state', 'n/a')}", fontsize=7.5)
+        bottom.set_ylim(0, 1.02)
+        bottom.set_xlabel("t (time units)")
+    axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$")
+    axes[1, 0].set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
+    if not drawn:
+        return None
+    fig.suptitle("The start's memory: the stress (mean over 1% of the run) and the contacts' "
+                 "phase coherence R (light: every sample; dark: mean over 1%); shaded: the "
+                 "analysed window, green if steady", fontsize=7.5)
+    fig.tight_layout()
+    return fig
+
+
 def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
-    """One curve against phi with error bars: filled markers where every seed's run was
-    stationary over its analysed window, open markers where some were not."""
+    """One curve against phi with error bars, each point's marker drawn by its state
+    (:data:`STATE_FILL`)."""
     line = ax.errorbar(g.phi, g[field], yerr=_errors(g, field), marker="none", capsize=2,
                        lw=0.8, label=label)
     colour = line[0].get_color()
-    steady = g["stationary"].fillna(False).astype(bool).to_numpy() if "stationary" in g \
-        else np.zeros(len(g), bool)
-    ax.plot(g.phi[steady], g[field][steady], marker, color=colour, ls="none")
-    ax.plot(g.phi[~steady], g[field][~steady], marker, color=colour, mfc="white", ls="none")
+    states = _point_states(g)
+    for name, fill in STATE_FILL.items():
+        k = states == name
+        if k.any():
+            ax.plot(g.phi[k], g[field][k], marker, color=colour, ls="none",
+                    fillstyle=fill, mfc=colour if fill != "none" else "white",
+                    mfcalt="white")
     return line
 
 
-def _stationarity_note(ax, data: SweepData) -> None:
-    if "stationary" in data.results and not data.results.stationary.fillna(False).all():
-        ax.text(0.99, 0.01, "open: not stationary", transform=ax.transAxes, ha="right",
-                va="bottom", fontsize=6, color="grey")
+def state_key(ax, data: SweepData, loc: str = "lower right") -> None:
+    """The key of the marker convention, on every figure that uses it: the states present
+    in the figure's points (grey markers)."""
+    from matplotlib.lines import Line2D
+
+    present = set(_point_states(data.results))
+    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
+             "metastable": "metastable (some seed)"}
+    handles = [Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
+                      mfc="grey" if fill != "none" else "white", mfcalt="white",
+                      label=words[name])
+               for name, fill in STATE_FILL.items() if name in present]
+    if handles and present != {"steady"} or len(handles) > 1:
+        ax.add_artist(ax.legend(handles=handles, loc=loc, frameon=False, fontsize=5.5,
+                                handletextpad=0.2, borderaxespad=0.2))
+    elif handles:
+        ax.text(0.99, 0.01, "filled: steady (every seed)", transform=ax.transAxes,
+                ha="right", va="bottom", fontsize=5.5, color="grey")
 
 
 def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
-    <sigma_x>/sigma_n(phi), per size, with error bars; open symbols: not stationary."""
+    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (:data:`STATE_FILL`)."""
     fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 2.9))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
@@ -269,7 +357,7 @@ def fig2a_friction(data: SweepData, plt):
     for ax in (a, c, b):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-        _stationarity_note(ax, data)
+        state_key(ax, data)
     a.legend(frameon=False, loc="lower left")
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
                 f"{data.sizes[0][1]})", fontsize=8)
@@ -308,6 +396,7 @@ def fig2b_asymmetry(data: SweepData, plt):
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
     ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
+    state_key(ax, data, loc="center right")
     ax.legend(frameon=False, fontsize=6.5)
     fig.tight_layout()
     return fig
@@ -323,6 +412,7 @@ def fig3_order(data: SweepData, plt):
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel(r"$\Psi(\infty)$")
     ax.set_ylim(0.4, 1.05)
+    state_key(ax, data, loc="lower right")
     ax.legend(frameon=False, loc="upper left")
     ax.set_title(r"Fig. 3: bond-orientational order $\Psi$", fontsize=9)
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
@@ -467,7 +557,8 @@ def fig_drops(data: SweepData, plt):
 
 FIGURES = {"fig1b_stress": fig1b_stress, "fig2a_friction": fig2a_friction,
            "fig2b_asymmetry": fig2b_asymmetry, "fig3_order": fig3_order,
-           "fig4a_clusters": fig4a_clusters, "fig_drops": fig_drops}
+           "fig4a_clusters": fig4a_clusters, "fig_drops": fig_drops,
+           "fig_contacts": fig_contacts}
 #: what each figure needs the runs to have recorded
 _NEEDS = {"fig2b_asymmetry": "lx_over_ly", "fig3_order": "psi_inf",
           "fig4a_clusters": "lx_over_ly"}
