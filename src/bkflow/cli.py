@@ -372,11 +372,7 @@ def _sweep(a) -> int:
         res = _rows_of(res, specs)
         _print_results(res, list(axes))
     if len(res):
-        unsteady = int((res.n_seeds - res.n_stationary).sum())
-        print(f"{unsteady} of {int(res.n_seeds.sum())} runs are NOT stationary over their "
-              "analysed window (column 'stationary': stationary runs / seeds)"
-              + ("; their numbers are a transient's: run longer, --until-stationary, or "
-                 "--start random" if unsteady else ""))
+        print(states_line(res))
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
     for job_id, msg in rep.failed.items():
         print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
@@ -407,6 +403,28 @@ def _rows_of(res, specs):
     return res[mask]
 
 
+def states_line(res) -> str:
+    """How many runs of a results table are steady, drifting, metastable, and what to do."""
+    total = int(res.n_seeds.sum())
+    n = {k: int(res[f"n_{k}"].sum()) if f"n_{k}" in res else 0
+         for k in ("steady", "drifting", "metastable")}
+    line = (f"{n['steady']} of {total} runs are steady over their analysed window, "
+            f"{n['drifting']} drifting, {n['metastable']} metastable (column 'state')")
+    if n["steady"] < total:
+        line += ("; the numbers of the others are not the steady state's: run longer (the "
+                 "steady protocol runs until steady; raise --t-end if a run stopped at it)")
+    return line
+
+
+def _cell_state(r) -> str:
+    """A point's state for the printed table: the state, with the count when not all seeds'
+    runs are steady."""
+    state = r.get("state") if isinstance(r.get("state"), str) else "drifting"
+    if state == "steady":
+        return "steady"
+    return f"{state} {int(r.get(f'n_{state}', 0))}/{int(r.n_seeds)}"
+
+
 def _print_results(res, axes=()) -> None:
     def pm(v, e, fmt):
         if v != v:
@@ -414,13 +432,13 @@ def _print_results(res, axes=()) -> None:
         return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
 
     extra = "".join(f" {k:>10}" for k in axes)
-    print(f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'stationary':>10}  {'mu_bar':>18}  "
+    print(f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'state':>15}  {'mu_bar':>18}  "
           f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
           f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime")
     for _, r in res.iterrows():
         cells = "".join(f" {str(r[k]):>10}" for k in axes)
         print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6}{cells} {r.n_seeds:>5} "
-              f"{f'{r.n_stationary}/{r.n_seeds}':>10}  "
+              f"{_cell_state(r):>15}  "
               f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>18}  "
               f"{pm(r.mu_bar_large, r.mu_bar_large_sem, '.4f'):>18}  "
               f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>18}  "
@@ -447,6 +465,7 @@ def _collect(a) -> int:
         from .plot import varied_parameters
 
         _print_results(c.results, varied_parameters(c.results))
+        print(states_line(c.results))
     print(f"wrote {a.dir}/{RUNS_FILE} ({len(c.runs)} rows) and {a.dir}/{RESULTS_FILE} "
           f"({len(c.results)} rows)")
     for j in c.failed:
