@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .params import RunSpec
+from .params import PARTIAL_FRACTION, RunSpec
 
 
 @dataclass(frozen=True)
@@ -62,9 +62,11 @@ def contact_start(spec: RunSpec) -> np.ndarray:
     """The contact displacement of each particle at t = 0, along x (docs/model.md "Starting
     state"), as the phase u_i times mu_s sigma_n A / k_e: 0 for the synchronized start; for the
     random start u_i uniform in [0, 1); for the stratified start u_i = (k_i + 1/2) / N with k_i
-    a random permutation of 0..N-1 (the phases evenly spread). Both draw from a stream of the
-    run's seed that is independent of the k_d^i draw (the child ``spawn_key=(1,)`` of the
-    seed's ``numpy.random.SeedSequence``).
+    a random permutation of 0..N-1 (the phases evenly spread); for the partial start, M =
+    round(PARTIAL_FRACTION N) contacts chosen at random share the phase 1/(2N) and the others
+    are stratified among themselves, u = (k + 1/2) / (N - M) (so R = M / N at t = 0). All draw
+    from a stream of the run's seed that is independent of the k_d^i draw (the child
+    ``spawn_key=(1,)`` of the seed's ``numpy.random.SeedSequence``).
 
     >>> spec = RunSpec(phi=10.0, Lx=4, Ly=3, start="stratified")
     >>> u = contact_start(spec) * spec.k_e / spec.friction_threshold
@@ -76,6 +78,13 @@ def contact_start(spec: RunSpec) -> np.ndarray:
     rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(1,)))
     if spec.start == "stratified":
         phases = (rng.permutation(spec.N) + 0.5) / spec.N
+    elif spec.start == "partial":
+        n = spec.N
+        m = int(round(PARTIAL_FRACTION * n))
+        chosen = rng.permutation(n)
+        phases = np.empty(n)
+        phases[chosen[:m]] = 0.5 / n
+        phases[chosen[m:]] = (rng.permutation(n - m) + 0.5) / (n - m)
     else:
         phases = rng.uniform(0.0, 1.0, spec.N)
     return phases * (spec.friction_threshold / spec.k_e)

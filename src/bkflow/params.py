@@ -67,8 +67,12 @@ ADAPTIVE_CHUNK_T = 100.0
 
 #: starting states (docs/model.md "Starting state"): synchronized, the paper's (every contact formed
 #: at t = 0, dr_i = 0); random (dr_i = (u_i, 0) mu_s sigma_n A / k_e, phases u_i uniform in
-#: [0, 1)); stratified (the phases evenly spread, u_i = (k_i + 1/2) / N in a random order)
-STARTS = ("synchronized", "random", "stratified")
+#: [0, 1)); stratified (the phases evenly spread, u_i = (k_i + 1/2) / N in a random order);
+#: partial (a cluster of PARTIAL_FRACTION of the contacts shares one phase, the others are
+#: evenly spread: partly synchronized, as the steady state of a stiff layer is)
+STARTS = ("synchronized", "random", "stratified", "partial")
+#: the share of the contacts that the partial start synchronizes (its R at t = 0)
+PARTIAL_FRACTION = 0.3
 
 #: the protocols of a run (docs/model.md "Steady state"). steady, the default: the start
 #: that forgets fastest (STEADY_START, measured: benchmarks/RESULTS.md "Time to steady"), run
