@@ -18,7 +18,7 @@ import numpy as np
 
 from . import __version__, clusters, order, phases, stationarity, stress
 from .lattice import square_lattice
-from .params import AnalysisSettings, RunSpec, transient_step
+from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import CLUSTERS, EVENTS, PSI, AnalysisError, DamagedRunError, RunDir  # noqa: F401
 
 
@@ -82,25 +82,50 @@ class StationarityResult:
 
 
 @dataclass(frozen=True)
+class CompanionResult:
+    """The companion run over the same window (RunSpec.companion): its own state, its mean
+    stress, and the gap main / companion - 1 of the two mean stresses."""
+
+    start: str
+    state: str
+    mean_stress_ratio: float
+    gap: float
+
+    @property
+    def agrees(self) -> bool:
+        return abs(self.gap) <= STEADY_AGREEMENT
+
+
+@dataclass(frozen=True)
 class StateResult:
     """The state of the run over its analysed window (docs/model.md "Steady state"): steady,
     drifting or metastable, from the stress's trend test and the contacts' phases
-    (:mod:`bkflow.phases`; ``contacts`` None for a run made before bkflow recorded them)."""
+    (:mod:`bkflow.phases`; ``contacts`` None for a run made before bkflow recorded them),
+    and with a companion run, from the pair: the run is steady only when the companion is
+    too and their mean stresses agree (a flat stress that disagrees with the other side's
+    still remembers its start: metastable)."""
 
     state: str
     contacts: phases.Coherence | None
+    companion: CompanionResult | None = None
 
     def row(self) -> dict:
-        c = self.contacts
+        c, k = self.contacts, self.companion
+        row = {"state": self.state, "state_evidence": "pair" if k is not None else "single run",
+               "contacts_recorded": c is not None,
+               "companion_start": None if k is None else k.start,
+               "companion_state": None if k is None else k.state,
+               "companion_mean_stress_ratio": math.nan if k is None else k.mean_stress_ratio,
+               "companion_gap": math.nan if k is None else k.gap}
         if c is None:
-            return {"state": self.state, "contacts_recorded": False, "phase_coherence": math.nan,
-                    "phase_coherence_static": math.nan, "phase_fluctuation": math.nan,
-                    "phase_r2": math.nan, "phase_u_std": math.nan, "phase_drift": math.nan,
+            return {**row, "phase_coherence": math.nan, "phase_coherence_static": math.nan,
+                    "phase_fluctuation": math.nan, "phase_r2": math.nan,
+                    "phase_u_std": math.nan, "phase_drift": math.nan,
                     "phase_drift_z": math.nan, "contacts_coherent": None}
-        return {"state": self.state, "contacts_recorded": True, "phase_coherence": c.R,
-                "phase_coherence_static": c.R_static, "phase_fluctuation": c.fluctuation,
-                "phase_r2": c.R2, "phase_u_std": c.u_std, "phase_drift": c.trend.drift,
-                "phase_drift_z": c.trend.drift_z, "contacts_coherent": c.coherent}
+        return {**row, "phase_coherence": c.R, "phase_coherence_static": c.R_static,
+                "phase_fluctuation": c.fluctuation, "phase_r2": c.R2, "phase_u_std": c.u_std,
+                "phase_drift": c.trend.drift, "phase_drift_z": c.trend.drift_z,
+                "contacts_coherent": c.coherent}
 
 
 @dataclass(frozen=True)
@@ -223,12 +248,40 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
                           {_key(f): at(f) for f in settings.report_thresholds})
 
 
+def _contacts(spec: RunSpec, settings: AnalysisSettings, phase: dict | None,
+              t_transient: float) -> phases.Coherence | None:
+    if phase is None:
+        return None
+    return phases.coherence(phase["t"], phase["Z_re"] + 1j * phase["Z_im"], t_transient,
+                            spec.N, phase["R2"], phase["u_std"], settings.n_blocks,
+                            settings.alpha)
+
+
+def companion_result(spec: RunSpec, settings: AnalysisSettings, t_transient: float,
+                     mean_stress_ratio: float, t, sigma, phase) -> CompanionResult:
+    """The companion's state and mean stress over the main run's window [t_transient, end]."""
+    comp = spec.companion_spec
+    t, sigma = np.asarray(t, float), np.asarray(sigma, float)
+    trend = stationarity.stationarity(t, sigma, t_transient, settings.n_blocks, settings.alpha)
+    own = phases.state(trend, _contacts(comp, settings, phase, t_transient))
+    late = t >= t_transient
+    mean = float(sigma[late].mean() / comp.sigma_n) if late.any() else math.nan
+    gap = mean_stress_ratio / mean - 1 if mean else math.nan
+    return CompanionResult(comp.start, own, mean, gap)
+
+
 def state_result(spec: RunSpec, settings: AnalysisSettings, steady: StationarityResult,
-                 phase: dict | None, t_transient: float) -> StateResult:
-    contacts = None if phase is None else phases.coherence(
-        phase["t"], phase["Z_re"] + 1j * phase["Z_im"], t_transient, spec.N, phase["R2"],
-        phase["u_std"], settings.n_blocks, settings.alpha)
-    return StateResult(phases.state(steady.test, contacts), contacts)
+                 phase: dict | None, t_transient: float,
+                 companion: CompanionResult | None = None) -> StateResult:
+    contacts = _contacts(spec, settings, phase, t_transient)
+    state = phases.state(steady.test, contacts)
+    if state == "steady" and companion is not None:
+        # the pair: the other side must be steady too, and both at the same stress
+        if companion.state != "steady":
+            state = companion.state
+        elif not companion.agrees:
+            state = "metastable"
+    return StateResult(state, contacts, companion)
 
 
 def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
@@ -301,12 +354,13 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
 
 def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(),
-              phase: dict | None = None) -> RunAnalysis:
+              phase: dict | None = None, companion=None) -> RunAnalysis:
     """The analysis of one run.
 
     ``t``, ``sigma``: the stress series (stress.csv). ``phase``: the contacts' phase series
     (phase.csv, columns of :data:`bkflow.rundir.PHASE_COLUMNS`), or None for a run made
-    before bkflow recorded it. ``snapshots``: (steps (F,), unwrapped
+    before bkflow recorded it. ``companion``: (t, sigma, phase) of the companion run
+    (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
     fix bk/slips, frames in pairs (maximum, minimum), or None.
     """
@@ -318,7 +372,9 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     fr = friction_result(spec, settings, t, sigma, t0)
     events = fr.friction.events
     steady = stationarity_result(settings, t, sigma, t0, t_equil)
-    verdict = state_result(spec, settings, steady, phase, t0)
+    comp = None if companion is None else companion_result(
+        spec, settings, t0, fr.friction.mean_stress_ratio, *companion)
+    verdict = state_result(spec, settings, steady, phase, t0, comp)
     large = large_drop_result(spec, settings, events, t0)
     drops = drop_result(settings, events.after(t0))
     orders = None if snapshots is None else order_result(spec, settings, *snapshots)
@@ -364,7 +420,11 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     if spec.writes_slips:
         f = rd.read_slip_frames(spec.N)
         slips = (f.steps, f.positions)
-    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase())
+    companion = None
+    if spec.companion is not None:
+        comp = rd.companion()
+        companion = (*comp.read_stress(), comp.read_phase())
+    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase(), companion)
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
     return rd.write_analysis(summary, res.tables())

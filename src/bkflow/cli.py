@@ -34,6 +34,8 @@ from .params import (  # noqa: E402
     PROTOCOLS,
     SCENES,
     STARTS,
+    STEADY_AGREEMENT,
+    STEADY_COMPANION,
     STEADY_DRIFT_BOUND,
     STEADY_START,
     AnalysisSettings,
@@ -113,6 +115,12 @@ def _state_args(p: argparse.ArgumentParser) -> None:
                         "synchronized (the paper's, every contact formed at t = 0), random "
                         "(each contact part-way through its cycle), stratified (the phases "
                         "evenly spread)")
+    p.add_argument("--companion", choices=STARTS + ("none",), default=None,
+                   help="the start of a companion run beside the run (in its companion/), "
+                        "from the other side of the steady state: the run is steady only when "
+                        f"both are and their mean stresses agree within "
+                        f"{100 * STEADY_AGREEMENT:g}%% (default: the protocol's: "
+                        f"{STEADY_COMPANION} for the steady protocol, none for the paper's)")
     p.add_argument("--until-steady", action="store_true",
                    help="with --protocol paper: run until the run is steady (the stress "
                         "trend-free, a drift above "
@@ -124,9 +132,10 @@ def _state_args(p: argparse.ArgumentParser) -> None:
 def _accuracy(a) -> dict:
     """The run's start, length rule, dt_factor and target_error: the protocol's, from the
     preset and the explicit options (bkflow.params.protocol_fields)."""
+    companion = "" if a.companion is None else None if a.companion == "none" else a.companion
     return protocol_fields(a.protocol, a.accuracy, start=a.start, t_end=a.t_end,
                            dt_factor=a.dt_factor, until_steady=a.until_steady,
-                           target_error=a.target_error)
+                           target_error=a.target_error, companion=companion)
 
 
 def _set_arg(p: argparse.ArgumentParser) -> None:
@@ -171,7 +180,7 @@ def _spec(a, deck: bool = False) -> RunSpec:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
     fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a)}
     if deck and a.protocol == "steady" and not a.until_steady:
-        fields.update(until_steady=False,
+        fields.update(until_steady=False, companion=None,
                       t_end=ACCURACY[a.accuracy].t_end if a.t_end is None else a.t_end)
     fields.update(RunSpec.assignments(a.set))
     return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
@@ -277,19 +286,29 @@ def state_line(s: dict) -> str:
                 f"{num('phase_coherence'):.3f}") if s.get("contacts_recorded") else \
         "contacts not recorded: the verdict rests on the stress alone"
     state = s.get("state") or "drifting"
+    pair = ""
+    if s.get("companion_start"):
+        pair = (f"; the companion run from the {s['companion_start']} start is "
+                f"{s.get('companion_state')}, its mean stress "
+                f"{num('companion_gap', -100):+.2f}% from this run's")
     if s.get("drift") is None:
         return (f"DRIFTING (untested) over {window}: too short for the trend test's blocks; "
                 "run longer")
     if state == "drifting":
         return (f"DRIFTING over {window}: the stress still drifts ({trend}); its numbers are "
                 "a transient's")
-    if state == "metastable":
+    if state == "metastable" and s.get("contacts_coherent"):
         return (f"METASTABLE over {window}: the stress is flat ({trend}) but the contacts "
                 f"still move together ({contacts}): the start is not forgotten, its numbers "
-                "are not the steady state's")
+                f"are not the steady state's{pair}")
+    if state == "metastable":
+        return (f"METASTABLE over {window}: the stress is flat ({trend}) but it disagrees "
+                f"with the other side's{pair} (agreement within "
+                f"{100 * STEADY_AGREEMENT:g}% needed): a start is not forgotten yet; run "
+                "longer")
     return (f"steady over {window}: the stress is flat ({trend}; a drift up to "
             f"{num('drift_bound', 100):.1f}% not excluded) and the contacts have forgotten "
-            f"the start ({contacts})")
+            f"the start ({contacts}){pair}")
 
 
 def _print_summary(s: dict) -> None:

@@ -39,6 +39,7 @@ from .params import (
     ADAPTIVE_CHUNK_T,
     ADAPTIVE_T_MIN,
     PATHS,
+    STEADY_AGREEMENT,
     STEADY_DRIFT_BOUND,
     STEADY_T_MIN,
     RunSpec,
@@ -47,7 +48,7 @@ from .params import (
 from .phases import COHERENT_FLUCTUATION, coherence, state
 from .plugin import build_info, lammps_version, open_lammps
 from .provenance import record as provenance
-from .rundir import DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
+from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
 from .stationarity import stationarity
 from .stress import Growing, RunningFriction
 
@@ -96,6 +97,8 @@ class AdaptiveStop:
         self.phase = Growing(len(PHASE_COLUMNS))
         self.met, self.checks = False, 0
         self.last_error = self.last_trend = self.last_contacts = self.last_state = None
+        self.last_mean = math.nan   # mean stress over the window of the last check
+        self.companion_gap = None   # the pair's gap at the last check (the main run's rule)
 
     def reached(self, step: int) -> bool:
         spec = self.spec
@@ -107,6 +110,8 @@ class AdaptiveStop:
             return False
         self.checks += 1
         t0 = transient_step(spec.transient, step) * spec.dt
+        late = self.stat.t >= t0
+        self.last_mean = float(self.stat.sigma[late].mean()) if late.any() else math.nan
         met = True
         if spec.target_error is not None:
             est = self.stat.error(t0)
@@ -130,7 +135,10 @@ class AdaptiveStop:
         if requested.target_error is not None:
             rules.append(f"mu_bar error <= {requested.target_error:g}")
         if requested.until_steady:
-            rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g})")
+            rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g}"
+                         + (f", the companion run from the {requested.companion} start steady "
+                            f"and within {100 * STEADY_AGREEMENT:g}%"
+                            if requested.companion else "") + ")")
         rules = " and ".join(rules)
         met = stopped_early or self.met
         missed = []  # what the last check found short of the rules
@@ -153,6 +161,13 @@ class AdaptiveStop:
             elif trend.drift_bound > STEADY_DRIFT_BOUND:
                 missed.append(f"a drift up to {100 * trend.drift_bound:.2g}% not excluded "
                               f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
+            if requested.companion is not None and self.companion_gap is not None \
+                    and not abs(self.companion_gap) <= STEADY_AGREEMENT:
+                missed.append(f"the companion run ({requested.companion} start) not yet steady "
+                              "or its mean stress "
+                              + (f"{100 * self.companion_gap:+.2f}% off"
+                                 if math.isfinite(self.companion_gap) else "not measurable")
+                              + f" (agreement within {100 * STEADY_AGREEMENT:g}% required)")
         return {"target_error": requested.target_error,
                 "until_steady": requested.until_steady,
                 "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
@@ -166,6 +181,7 @@ class AdaptiveStop:
                 "drift_z_at_stop": None if trend is None else trend.drift_z,
                 "drift_bound_at_stop": None if trend is None else trend.drift_bound,
                 "phase_fluctuation_at_stop": None if contacts is None else contacts.fluctuation,
+                "companion_gap_at_stop": self.companion_gap,
                 "checks": self.checks}
 
 
@@ -281,31 +297,88 @@ PIECE_WALL_S = 0.5
 FIRST_PIECE_RATE = 5e7
 
 
-def _advance(lmp, spec: RunSpec, rd: RunDir, chunk: int, bar: _Progress,
-             adaptive: AdaptiveStop | None) -> int:
-    """Run up to spec.n_steps; the steps run.
+class _Leg:
+    """One LAMMPS instance of a run: the main run, or its companion (RunSpec.companion: the
+    same model from another start, in the run directory's companion/). LAMMPS works inside
+    the leg's directory and names its files relative to it, so that no path (with spaces,
+    quotes, $, # or any other character) is parsed as input."""
 
-    LAMMPS runs in pieces of about PIECE_WALL_S of wall time, the state checked after each
-    (a run shorter than that is one ``run`` command). An adaptive run's stop rule is checked
-    at fixed steps (every ``chunk`` steps), so that it stops at the same step every time;
-    pieces end there too."""
+    def __init__(self, spec: RunSpec, rd: RunDir, path: str):
+        self.spec, self.rd, self.path = spec, rd, path
+        self.lmp = None
+        self.adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
+
+    def open(self) -> None:
+        with contextlib.chdir(self.rd.path):
+            self.lmp = open_lammps(log=LOG)
+            # one rank: every bond partner is local, ghosts beyond that are pure overhead
+            self.lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
+            try:
+                self.lmp.commands_string(setup_text(self.spec, DeckFiles(), path=self.path))
+            except Exception as exc:
+                raise _lammps_error(self.spec, exc, 0, 0, self.rd.file(LOG)) from None
+
+    def advance(self, step: int, n: int) -> float:
+        """Run n steps from ``step``; sigma_x after them, the state checked."""
+        with contextlib.chdir(self.rd.path):
+            try:
+                self.lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
+            except Exception as exc:  # LAMMPS errors arrive as plain exceptions
+                raise _lammps_error(self.spec, exc, step, n, self.rd.file(LOG)) from None
+        return _check(self.lmp, self.spec, step + n)
+
+    def counters(self) -> dict:
+        lmp, spec = self.lmp, self.spec
+        return {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
+                "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
+                                   for i, k in enumerate(("events", "written"))}
+                if spec.writes_slips else None,
+                "fronts": {k: int(_fix_vector(lmp, FRONTS_FIX, i))
+                           for i, k in enumerate(("events", "written"))}
+                if spec.writes_fronts else None,
+                "engine": _path_record(lmp, self.path)}
+
+    def close(self) -> None:
+        if self.lmp is not None:
+            self.lmp.close()
+            self.lmp = None
+
+
+def _stop(legs: list[_Leg], step: int) -> bool:
+    """The stop rule of an adaptive run at ``step``: its own (AdaptiveStop), and with a
+    companion, the companion's too and the agreement of their mean stresses."""
+    reached = [leg.adaptive.reached(step) for leg in legs]  # every leg reads its new samples
+    if len(legs) == 1:
+        return reached[0]
+    main, comp = legs[0].adaptive, legs[1].adaptive
+    main.companion_gap = main.last_mean / comp.last_mean - 1 if comp.last_mean else math.nan
+    ok = all(reached) and abs(main.companion_gap) <= STEADY_AGREEMENT
+    main.met = ok
+    return ok
+
+
+def _advance(legs: list[_Leg], chunk: int, bar: _Progress) -> int:
+    """Run the legs side by side, piece by piece, up to the run's n_steps; the steps run.
+
+    LAMMPS runs in pieces of about PIECE_WALL_S of wall time (for all legs together), the
+    state checked after each (a run shorter than that is one ``run`` command). An adaptive
+    run's stop rule is checked at fixed steps (every ``chunk`` steps), so that it stops at the
+    same step every time; pieces end there too."""
+    spec = legs[0].spec
     step, n_total = 0, spec.n_steps
-    piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / spec.N)))
+    piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / (spec.N * len(legs)))))
     while step < n_total:
         end = min(step + chunk, n_total)
         while step < end:
             n = min(piece, end - step)
             t0 = time.perf_counter()
-            try:
-                lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
-            except Exception as exc:  # LAMMPS errors arrive as plain exceptions
-                raise _lammps_error(spec, exc, step, n, rd.file(LOG)) from None
+            sigma = [leg.advance(step, n) for leg in legs][0]
             step += n
             wall = time.perf_counter() - t0
             if wall > 0:
                 piece = max(10, min(chunk, int(n * PIECE_WALL_S / wall)))
-            bar.update(step, _check(lmp, spec, step))
-        if adaptive is not None and adaptive.reached(step):
+            bar.update(step, sigma)
+        if legs[0].adaptive is not None and _stop(legs, step):
             break
     return step
 
@@ -361,39 +434,42 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     rd = RunDir(Path(out).absolute())
     with rd.lock():
         _claim(rd, overwrite)
-        _write_inputs(spec, rd, path)
+        legs = [_Leg(spec, rd, path)]
+        if spec.companion is not None:
+            comp = rd.companion()
+            comp.path.mkdir()
+            comp.mark()
+            legs.append(_Leg(spec.companion_spec, comp, path))
+        for leg in legs:
+            _write_inputs(leg.spec, leg.rd, path)
         started = time.time()
-        adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
         bar = _Progress(spec.label, spec.n_steps, progress)
-        # LAMMPS runs inside the run directory and names its files relative to it, so that
-        # no path (with spaces, quotes, $, # or any other character) is parsed as input
-        with contextlib.chdir(rd.path):
-            lmp = open_lammps(log=LOG)
-            try:
-                # one rank: every bond partner is local, ghosts beyond that are pure overhead
-                lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
-                try:
-                    lmp.commands_string(setup_text(spec, DeckFiles(), path=path))
-                except Exception as exc:
-                    raise _lammps_error(spec, exc, 0, 0, rd.file(LOG)) from None
-                t_wall = time.perf_counter()
-                step = _advance(lmp, spec, rd, _chunk(spec, chunk_steps), bar, adaptive)
-                wall = time.perf_counter() - t_wall
-                counters = {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
-                            "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
-                                               for i, k in enumerate(("events", "written"))}
-                            if spec.writes_slips else None,
-                            "fronts": {k: int(_fix_vector(lmp, FRONTS_FIX, i))
-                                       for i, k in enumerate(("events", "written"))}
-                            if spec.writes_fronts else None,
-                            "engine": _path_record(lmp, path)}
-            finally:
-                bar.close()
-                lmp.close()
+        try:
+            for leg in legs:
+                leg.open()
+            t_wall = time.perf_counter()
+            step = _advance(legs, _chunk(spec, chunk_steps), bar)
+            wall = time.perf_counter() - t_wall
+            counters = [leg.counters() for leg in legs]
+        finally:
+            bar.close()
+            for leg in legs:
+                leg.close()
         if _RUNS_IN_PROCESS["pid"] != os.getpid():
             _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
-        counters["process"] = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
-        meta = _meta(spec, step, wall, started, counters, adaptive, command)
+        process = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
+        if len(legs) > 1:  # the companion is committed first: the run's record names it
+            comp = legs[1]
+            comp.rd.commit({**_meta(comp.spec, step, wall, started,
+                                    {**counters[1], "process": process}, comp.adaptive,
+                                    command),
+                            "companion_of": ".."})
+        meta = _meta(spec, step, wall, started, {**counters[0], "process": process},
+                     legs[0].adaptive, command)
+        if len(legs) > 1:
+            meta["companion"] = {"start": spec.companion, "dir": COMPANION,
+                                 "gap_at_stop": legs[0].adaptive.companion_gap
+                                 if legs[0].adaptive is not None else None}
         result = RunResult(Path(out), rd.commit(meta))
         _RUNS_IN_PROCESS["runs"] += 1
         return result

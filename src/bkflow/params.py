@@ -80,7 +80,15 @@ PARTIAL_FRACTION = 0.3
 #: paper's synchronized start, a fixed t_end (the preset's)
 PROTOCOLS = ("steady", "paper")
 #: the start of the steady protocol: the one that forgets fastest
-STEADY_START = "stratified"
+STEADY_START = "random"
+#: the start of the steady protocol's companion run: from the other side of the steady state
+#: (the stratified and random starts approach a stiff layer's plateau from below, the partial
+#: one from above: benchmarks/RESULTS.md "Time to steady")
+STEADY_COMPANION = "partial"
+#: a run and its companion agree when their mean stresses over the analysed window differ by
+#: at most this (relative): then neither remembers its start (benchmarks/RESULTS.md "The
+#: verdict")
+STEADY_AGREEMENT = 0.005
 
 #: a run until steady (RunSpec.until_steady) must be able to exclude a drift of the stress
 #: larger than this across its analysed window (|drift| + 2 standard errors, relative)
@@ -207,6 +215,10 @@ class RunSpec:
     #: trend-free, a drift above STEADY_DRIFT_BOUND excluded, and the contacts' phases no
     #: longer the start's: bkflow.phases), with target_error if given too; t_end is the cap
     until_steady: bool = False
+    #: the start of a companion run of the same model (None: none): it runs beside this one,
+    #: step for step, into the run directory's companion/ (scene friction), and the run is
+    #: steady only when both are and their mean stresses agree (STEADY_AGREEMENT)
+    companion: str | None = None
 
     def __post_init__(self):
         def finite(name):
@@ -253,6 +265,12 @@ class RunSpec:
                             f"got {self.target_error!r}")
         if self.start not in STARTS:
             raise SpecError(f"start must be one of {', '.join(STARTS)}, got {self.start!r}")
+        if self.companion is not None and self.companion not in STARTS:
+            raise SpecError(f"companion must be none or one of {', '.join(STARTS)}, got "
+                            f"{self.companion!r}")
+        if self.companion is not None and self.companion == self.start:
+            raise SpecError(f"companion {self.companion!r} is the run's own start: a "
+                            "companion runs from another start")
         if not isinstance(self.until_steady, bool):
             raise SpecError(f"until_steady must be true or false, got {self.until_steady!r}")
         if self.scene not in SCENES:
@@ -421,6 +439,16 @@ class RunSpec:
         return self.target_error is not None or self.until_steady
 
     @property
+    def companion_spec(self) -> RunSpec | None:
+        """The companion run's parameters (None without one): this run from the companion's
+        start, recording only what the verdict reads (scene friction), with the steady rule
+        but not the error target."""
+        if self.companion is None:
+            return None
+        return self.replace(start=self.companion, companion=None, scene="friction",
+                            target_error=None)
+
+    @property
     def protocol(self) -> str:
         """Which protocol the run follows (:data:`PROTOCOLS`): steady (run until steady),
         paper (the synchronized start, a fixed length), or custom (anything else)."""
@@ -480,15 +508,20 @@ class RunSpec:
 def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
                     start: str | None = None, t_end: float | None = None,
                     dt_factor: float | None = None, until_steady: bool = False,
-                    target_error: float | None = None) -> dict:
-    """The RunSpec fields a protocol sets (start, until_steady, t_end, dt_factor,
+                    target_error: float | None = None, companion: str | None = "") -> dict:
+    """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, dt_factor,
     target_error) from an accuracy preset (:data:`ACCURACY`) and what is given explicitly
-    (None: the protocol's or the preset's). ``steady``: from STEADY_START until the run is
-    steady, at most the preset's t_cap; ``paper``: from the synchronized start, a fixed run
-    of the preset's t_end (``until_steady`` adds the steady rule, t_end is then its cap).
+    (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
+    none). ``steady``: from STEADY_START with a companion from STEADY_COMPANION (or, when
+    ``start`` is that, STEADY_START) until the pair is steady, at most the preset's t_cap;
+    ``paper``: from the synchronized start, a fixed run of the preset's t_end, no companion
+    (``until_steady`` adds the steady rule, t_end is then its cap).
 
-    >>> protocol_fields("paper")["start"], protocol_fields()["until_steady"]
-    ('synchronized', True)
+    >>> f = protocol_fields()
+    >>> f["start"], f["companion"], f["until_steady"]
+    ('random', 'partial', True)
+    >>> protocol_fields("paper")["start"], protocol_fields("paper")["companion"]
+    ('synchronized', None)
     """
     if protocol not in PROTOCOLS:
         raise SpecError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {protocol!r}")
@@ -498,7 +531,11 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     steady = protocol == "steady" or bool(until_steady)
     default_start = STEADY_START if protocol == "steady" else "synchronized"
     default_t = preset.t_cap if protocol == "steady" else preset.t_end
-    return {"start": default_start if start is None else start,
+    start = default_start if start is None else start
+    if companion == "":
+        companion = None if protocol != "steady" else (
+            STEADY_COMPANION if start != STEADY_COMPANION else STEADY_START)
+    return {"start": start, "companion": companion,
             "until_steady": steady,
             "t_end": default_t if t_end is None else t_end,
             "dt_factor": preset.dt_factor if dt_factor is None else dt_factor,

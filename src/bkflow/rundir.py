@@ -19,6 +19,7 @@ a file of a run.
 ``events.csv``              one row per slip: onset and end time, sigma_fail, drop, late
 ``psi.csv``                 ``t,psi``: Psi(t) (scenes order, full)
 ``clusters.csv``            one row per slip cluster (scenes clusters, full)
+``companion/``              the companion run (RunSpec.companion), a run directory itself
 ==========================  ===============================================================
 """
 
@@ -62,6 +63,9 @@ ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
 MOVIE_PATTERN, FRONT_MAPS_PATTERN = "movie_slip{}.gif", "fronts_slip{}.png"
 #: a sweep directory keeps its runs in signac's workspace/<job id>/
 WORKSPACE = "workspace"
+#: the subdirectory of a run that holds its companion run (RunSpec.companion), itself a run
+#: directory
+COMPANION = "companion"
 
 #: columns of the contacts' phase series (fix bk/phase)
 PHASE_COLUMNS = ("t", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std")
@@ -147,7 +151,15 @@ class RunDir:
                 return f"{name} is missing"
             if actual != size:
                 return f"{name} has {actual} bytes, the run wrote {size}"
+        if meta.get("companion"):
+            why = self.companion().problem()
+            if why is not None:
+                return f"its companion run ({COMPANION}/) is damaged: {why}"
         return None
+
+    def companion(self) -> RunDir:
+        """The run directory of this run's companion (RunSpec.companion)."""
+        return RunDir(self.path / COMPANION)
 
     def commit(self, meta: dict) -> dict:
         """Write meta.json last: the files' sizes and ``"status": "complete"`` with it."""
@@ -164,6 +176,11 @@ class RunDir:
         nothing drawn from the old run stays behind looking current)."""
         for name in RUN_FILES + ANALYSIS_FILES:
             self.file(name).unlink(missing_ok=True)
+        comp = self.companion()
+        if comp.path.is_dir() and comp.foreign() is None:
+            import shutil
+
+            shutil.rmtree(comp.path)
         for pattern in (MOVIE_PATTERN, FRONT_MAPS_PATTERN):
             for p in self.path.glob(pattern.format("*")):
                 p.unlink(missing_ok=True)

@@ -1,0 +1,74 @@
+"""What recording the contacts' phases costs (fix bk/phase, phase.csv; docs/model.md "Contact
+phase"): the LAMMPS loop of the engine's deck with and without it, side by side.
+
+    python benchmarks/phase_cost.py [--phi 10 1000] [--sizes 20x5 60x15] [--every 0.1 1 5]
+                                    [--t-end 1000] [--rounds 5]
+
+For every phi and lattice, the friction scene's deck (the fused path, one rank) runs
+--t-end time units without the phase fix and with it at each sampling interval --every
+(time units; the default is RunSpec.phase_every), in alternated rounds; the median loop wall
+time of each is printed with its ratio to the deck without the fix.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bkflow.deck import SERIAL_COMM_CUTOFF, DeckFiles, data_text, setup_text
+from bkflow.params import RunSpec, parse_size
+from bkflow.plugin import open_lammps
+
+
+def loop_time(spec: RunSpec, phase: bool, work: Path) -> float:
+    (work / "data.bk").write_text(data_text(spec))
+    lmp = open_lammps(log="none")
+    try:
+        lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
+        lmp.commands_string(setup_text(spec, DeckFiles(data=str(work / "data.bk"),
+                                                       stress=str(work / "stress.csv"),
+                                                       phase=str(work / "phase.csv")
+                                                       if phase else None)))
+        lmp.command("run 100 post no")  # warm-up
+        t0 = time.perf_counter()
+        lmp.command(f"run {spec.n_steps} pre no post no")
+        return time.perf_counter() - t0
+    finally:
+        lmp.close()
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--phi", type=float, nargs="+", default=[10.0, 1000.0])
+    ap.add_argument("--sizes", nargs="+", default=["20x5", "60x15"])
+    ap.add_argument("--every", type=float, nargs="+", default=[0.1, RunSpec.phase_every, 5.0])
+    ap.add_argument("--t-end", type=float, default=1000.0)
+    ap.add_argument("--rounds", type=int, default=5)
+    a = ap.parse_args(argv)
+    print("| lattice | phi | phase_every | samples | loop, no phase (s) | loop with phase (s) "
+          "| ratio |")
+    print("|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for size in a.sizes:
+            lx, ly = parse_size(size)
+            for phi in a.phi:
+                base = RunSpec(phi=phi, Lx=lx, Ly=ly, t_end=a.t_end, scene="friction")
+                cases = [(None, base)] + [(e, base.replace(phase_every=e)) for e in a.every]
+                times = {e: [] for e, _ in cases}
+                for _ in range(a.rounds):  # alternated: the machine's drift hits all alike
+                    for e, spec in cases:
+                        times[e].append(loop_time(spec, e is not None, work))
+                off = float(np.median(times[None]))
+                for e, spec in cases[1:]:
+                    on = float(np.median(times[e]))
+                    print(f"| {size} | {phi:g} | {e:g} | {spec.n_steps // spec.phase_nevery} "
+                          f"| {off:.3f} | {on:.3f} | {on / off:.3f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
