@@ -1,5 +1,6 @@
-"""Runs until stationary, the random start from the command line and the sweep, and what
-every summary says about stationarity and large drops."""
+"""The steady protocol end to end on a small lattice (a run from the random start beside its
+companion from the partial start, until both are steady and agree), the paper's protocol
+marked for what it is, and what every summary says of its state."""
 
 from __future__ import annotations
 
@@ -11,76 +12,124 @@ import pytest
 
 from bkflow.analysis import analyze
 from bkflow.engine import run
-from bkflow.params import STATIONARY_DRIFT_BOUND, RunSpec
-from bkflow.rundir import STRESS, RunDir
+from bkflow.params import (
+    STEADY_AGREEMENT,
+    STEADY_COMPANION,
+    STEADY_DRIFT_BOUND,
+    STEADY_START,
+    RunSpec,
+    protocol_fields,
+)
+from bkflow.rundir import COMPANION, PHASE, STRESS, RunDir
 from tests.support import tool
 
 pytestmark = pytest.mark.lammps
 
 
-def test_a_run_until_stationary_stops_stationary_and_equals_a_fixed_run(tmp_path):
-    spec = RunSpec(phi=10.0, t_end=20000.0, until_stationary=True, scene="friction",
-                   start="random")
+def _steady(**kw) -> RunSpec:
+    fields = protocol_fields("steady")
+    fields.update(t_end=20000.0)
+    return RunSpec(**{"phi": 10.0, "Lx": 12, "Ly": 3, "scene": "friction", **fields, **kw})
+
+
+def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(tmp_path):
+    spec = _steady()
+    assert (spec.start, spec.companion, spec.until_steady) == (STEADY_START, STEADY_COMPANION,
+                                                               True)
     meta = run(spec, tmp_path / "a", progress=False).meta
     ad = meta["adaptive"]
-    assert ad["reached"] and ad["t_run"] < spec.t_end and ad["until_stationary"]
-    assert ad["drift_bound_at_stop"] <= STATIONARY_DRIFT_BOUND
-    assert "stationary" in ad["stopped_because"] and meta["params"]["t_end"] == ad["t_run"]
+    assert ad["reached"] and ad["t_run"] < spec.t_end and ad["until_steady"]
+    assert ad["state_at_stop"] == "steady" and ad["drift_bound_at_stop"] <= STEADY_DRIFT_BOUND
+    assert abs(ad["companion_gap_at_stop"]) <= STEADY_AGREEMENT
+    assert meta["params"]["t_end"] == ad["t_run"] and meta["companion"]["start"] == "partial"
+    comp = RunDir(tmp_path / "a").companion()
+    assert comp.meta()["params"]["start"] == STEADY_COMPANION
+    assert comp.meta()["params"]["t_end"] == ad["t_run"]
     s = analyze(tmp_path / "a")
-    assert s["stationary"] and s["drift"] == pytest.approx(ad["drift_at_stop"])
-    # the same trajectory as a fixed run of the length it chose
-    fixed = spec.replace(t_end=ad["t_run"], until_stationary=False)
-    run(fixed, tmp_path / "f", progress=False)
-    assert RunDir(tmp_path / "a").file(STRESS).read_bytes() == \
-        RunDir(tmp_path / "f").file(STRESS).read_bytes()
-    f = analyze(tmp_path / "f")
-    assert (f["mu_bar"], f["stationary"], f["drift"]) == (s["mu_bar"], True, s["drift"])
+    assert s["state"] == "steady" and s["state_evidence"] == "pair"
+    assert s["companion_gap"] == pytest.approx(ad["companion_gap_at_stop"], rel=1e-9)
+    assert s["drift"] == pytest.approx(ad["drift_at_stop"])
+    # each leg is the very trajectory of a fixed run of the length the pair chose
+    for start, where in ((STEADY_START, tmp_path / "a"), (STEADY_COMPANION, comp.path)):
+        fixed = spec.replace(start=start, companion=None, until_steady=False,
+                             t_end=ad["t_run"])
+        out = tmp_path / f"fixed_{start}"
+        run(fixed, out, progress=False)
+        for name in (STRESS, PHASE):
+            assert (out / name).read_bytes() == (where / name).read_bytes(), (start, name)
+    f = analyze(tmp_path / f"fixed_{STEADY_START}")
+    assert (f["mu_bar"], f["drift"]) == (s["mu_bar"], s["drift"])
+    assert f["state_evidence"] == "single run"
 
 
-def test_a_run_until_stationary_that_hits_its_cap_says_why(tmp_path):
-    spec = RunSpec(phi=10.0, t_end=600.0, until_stationary=True, target_error=1e-7,
-                   scene="friction")
+def test_a_steady_run_that_hits_its_cap_says_why(tmp_path):
+    """The synchronized start of a stiff layer stays on its metastable plateau past a short
+    cap: the run says so, in meta.json and in its summary, and names the cause."""
+    spec = _steady(phi=1000.0, start="synchronized", t_end=1500.0)
     ad = run(spec, tmp_path, progress=False).meta["adaptive"]
-    assert not ad["reached"] and ad["t_run"] == 600.0
-    assert "cap t_end = 600 came first" in ad["stopped_because"]
-    # it names what fell short, with the value the last check found
-    assert f"mu_bar error {ad['mu_bar_err_at_stop']:.2g} > 1e-07" in ad["stopped_because"]
+    assert not ad["reached"] and ad["t_run"] == 1500.0
+    assert "cap t_end = 1500 came first" in ad["stopped_because"]
+    assert ad["state_at_stop"] == "metastable"
+    assert "metastable: the contacts still move together" in ad["stopped_because"]
+    s = analyze(tmp_path)
+    assert s["state"] == "metastable" and s["contacts_coherent"]
+    assert s["phase_fluctuation"] > 3
 
 
-def test_every_summary_says_whether_it_is_stationary_and_reads_large_drops(tmp_path):
+def test_every_summary_carries_its_state_and_reads_large_drops(tmp_path):
     run(RunSpec(phi=1000.0, t_end=1500.0, scene="clusters"), tmp_path, progress=False)
     s = analyze(tmp_path)
-    for key in ("stationary", "drift", "drift_err", "drift_z", "block_means", "t_equil",
+    for key in ("state", "state_evidence", "phase_coherence", "phase_fluctuation",
+                "phase_coherence_static", "phase_r2", "phase_u_std", "contacts_coherent",
+                "stationary", "drift", "drift_err", "drift_z", "block_means", "t_equil",
                 "mu_bar_large", "mu_bar_large_err", "n_slips_large", "large_drop_threshold",
                 "lx_over_ly_large", "regime_large"):
         assert key in s, key
-    assert isinstance(s["stationary"], bool) and len(s["block_means"]) == 10
+    # the paper's start on a stiff layer: its early plateau is the synchronized start's
+    assert s["state"] == "metastable" and s["state_evidence"] == "single run"
     ev = pd.read_csv(tmp_path / "events.csv")
     late = ev[ev.late == 1]
     assert s["large_drop_threshold"] == pytest.approx(late["drop"].mean())
     assert s["n_slips_large"] == int((late["drop"] > late["drop"].mean()).sum()) == ev.large.sum()
     assert s["mu_bar_large"] == pytest.approx(
         late.sigma_fail[late.large == 1].mean() / RunSpec.sigma_n)
-    # the large drops of a stiff layer are its big slips: their peaks are higher
     assert s["mu_bar_large"] > s["mu_bar"]
 
 
-def test_random_start_and_until_stationary_from_the_cli_and_the_sweep(tmp_path):
+def test_the_default_protocol_from_the_cli_and_the_sweep(tmp_path):
     out = tmp_path / "r"
-    proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--start", "random",
-                           "--until-stationary", "--t-end", "20000", "--scene", "friction",
-                           "--out", str(out)], capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    assert "stopped because" in proc.stdout and "  stationary (no trend" in proc.stdout
-    meta = json.loads((out / "meta.json").read_text())
-    assert meta["params"]["start"] == "random" and meta["adaptive"]["reached"]
-    sw = tmp_path / "s"
-    proc = subprocess.run([tool("bkflow"), "sweep", "--phi", "1,10", "--seeds", "1",
-                           "--start", "random", "--until-stationary", "--t-end", "20000",
-                           "--scene", "friction", "--jobs", "2", "--out", str(sw)],
+    proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--size", "12x3",
+                           "--scene", "friction", "--out", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    assert "0 of 2 runs are NOT stationary" in proc.stdout
+    assert "stopped because steady" in proc.stdout and "\n  steady over t = " in proc.stdout
+    assert "(steady)" in proc.stdout and f"companion run from the {STEADY_COMPANION}" \
+        in proc.stdout
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["params"]["start"] == STEADY_START and meta["adaptive"]["reached"]
+    assert (out / COMPANION / "meta.json").is_file()
+    sw = tmp_path / "s"
+    proc = subprocess.run([tool("bkflow"), "sweep", "--phi", "1,10", "--seeds", "1",
+                           "--sizes", "12x3", "--aspect", "any", "--scene", "friction",
+                           "--jobs", "2", "--out", str(sw)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "2 of 2 runs are steady" in proc.stdout
     runs = pd.read_csv(sw / "runs.csv")
-    assert set(runs.start) == {"random"} and runs.until_stationary.all()
-    assert runs.stationary.all() and (runs.t_run < 20000).all()
+    assert set(runs.start) == {STEADY_START} and runs.until_steady.all()
+    assert (runs.state == "steady").all() and (runs.state_evidence == "pair").all()
+    assert set(runs.companion) == {STEADY_COMPANION}
+
+
+def test_the_papers_protocol_is_a_fixed_run_from_the_synchronized_start(tmp_path):
+    out = tmp_path / "p"
+    proc = subprocess.run([tool("bkflow"), "run", "--phi", "1000", "--size", "12x3",
+                           "--protocol", "paper", "--t-end", "1500", "--scene", "friction",
+                           "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    meta = json.loads((out / "meta.json").read_text())
+    p = meta["params"]
+    assert (p["start"], p["until_steady"], p["companion"], p["t_end"]) == \
+        ("synchronized", False, None, 1500.0)
+    assert "METASTABLE" in proc.stdout and "(metastable)" in proc.stdout
+    assert not (out / COMPANION).exists()
