@@ -9,7 +9,14 @@ import pytest
 
 from bkflow.analysis import analyze
 from bkflow.engine import run
-from bkflow.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
+from bkflow.params import (
+    ACCURACY,
+    ADAPTIVE_T_MIN,
+    DT_FACTOR_MAX,
+    RunSpec,
+    SpecError,
+    protocol_fields,
+)
 from bkflow.project import open_project
 from bkflow.sweep import sweep
 from tests.support import tool
@@ -55,12 +62,16 @@ def test_adaptive_sweep_is_not_redone(tmp_path):
 
 @pytest.mark.parametrize("preset", sorted(ACCURACY))
 def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
-    c, t = ACCURACY[preset]
+    """A deck runs the preset's fixed length (a deck cannot stop by itself); a run of the
+    steady protocol is capped at the preset's t_cap."""
+    c, t, cap = ACCURACY[preset]
     proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", preset, "--out",
                            str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     p = json.loads((tmp_path / "params.json").read_text())
-    assert (p["dt_factor"], p["t_end"]) == (c, t)
+    assert (p["dt_factor"], p["t_end"], p["until_steady"]) == (c, t, False)
+    steady = protocol_fields("steady", preset)
+    assert (steady["dt_factor"], steady["t_end"], steady["until_steady"]) == (c, cap, True)
 
 
 def test_explicit_options_override_the_preset(tmp_path):

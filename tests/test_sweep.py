@@ -147,7 +147,8 @@ def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
     assert np.isfinite(runs.mu_bar).all() and np.isfinite(runs.psi_inf).all()
     # the table printed is the table written
     for phi, mu in zip(res.phi, res.mu_bar):
-        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+\d/1\s+{mu:.4f}", proc.stdout), proc.stdout
+        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+(steady|(drifting|metastable) \d/1)"
+                         rf"\s+{mu:.4f}", proc.stdout), proc.stdout
     for d in job_dirs(out):
         assert run_problem(d) is None
         assert (d / "summary.json").exists() and (d / "clusters.csv").exists()
@@ -168,7 +169,7 @@ def test_plot_writes_every_figure(tiny_sweep, tmp_path):
     proc = bkflow("plot", out, "--out", figs)
     assert proc.returncode == 0, proc.stderr
     names = {"fig1b_stress", "fig2a_friction", "fig2b_asymmetry", "fig3_order",
-             "fig4a_clusters", "fig_drops"}
+             "fig4a_clusters", "fig_drops", "fig_contacts"}
     assert {p.name for p in figs.iterdir()} == {f"{n}.{e}" for n in names for e in ("png", "pdf")}
     for p in figs.glob("*.png"):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
@@ -186,7 +187,8 @@ def test_plot_skips_what_a_scene_did_not_record(tmp_path):
     from bkflow.plot import plot
 
     written, skipped = plot(tmp_path / "s", formats=("png",))
-    assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops"}
+    assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops",
+                                         "fig_contacts"}
     assert set(skipped) == {"fig2b_asymmetry", "fig3_order", "fig4a_clusters"}
     assert all("friction" in why for why in skipped.values())
 

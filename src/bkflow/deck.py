@@ -186,7 +186,8 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str =
     return lines
 
 
-def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[str]:
+def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None,
+             contact: bool = True) -> list[str]:
     """The outputs of the run's scene, and nothing else.
 
     friction: sigma_x every stress_nevery steps (``stress.csv``) and the contacts' phase
@@ -211,7 +212,7 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None) -> list[
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"file {files.stress}",
         ]
-    if files.phase:
+    if files.phase and contact:
         lines += [  # the contacts' load phases: what the steady-state verdict reads
             f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
             f"file {files.phase}",
@@ -262,7 +263,7 @@ def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int 
     fast = _path(path, fast)
     lines = (_header(spec, path) + _system(spec, files, fast)
              + _dynamics(spec, drive, contact, damp, path, fast)
-             + _outputs(spec, files, thermo_every))
+             + _outputs(spec, files, thermo_every, contact))
     return "\n".join(lines)
 
 

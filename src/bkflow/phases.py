@@ -29,7 +29,7 @@ the steady state looks like at the run's phi, and it grows with N where a memory
 >>> coherence(t, turning, 200.0, 100).fluctuation > 30
 True
 >>> still = np.full(len(t), 0.28 + 0j)                   # a steady, non-uniform distribution
->>> coherence(t, still, 200.0, 100).fluctuation
+>>> round(coherence(t, still, 200.0, 100).fluctuation, 12)
 0.0
 """
 
