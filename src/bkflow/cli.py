@@ -578,7 +578,8 @@ def _run_locked(a, argv, spec) -> int:
               command="bkflow " + shlex.join(argv), force=a.force, path=a.path)
     m = res.meta
     eng = m["engine"]
-    print(f"{a.out}: {m['derived']['n_steps']} steps in {m['wall_time_s']:.1f} s "
+    pair = " (and as many for its companion)" if m.get("companion") else ""
+    print(f"{a.out}: {m['derived']['n_steps']} steps{pair} in {m['wall_time_s']:.1f} s "
           f"({m['atom_steps_per_s']:.3g} atom-steps/s, {eng['path']} path"
           + (f", {eng['kernel']} kernel" if eng["kernel"] else "")
           + f"), {m['contact_breaks']} contact breaks")

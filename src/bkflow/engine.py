@@ -91,6 +91,8 @@ class AdaptiveStop:
     finished run finds the very same slips, error, trend and state."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
+        import scipy.stats  # noqa: F401  (the trend test's; imported before the loop is timed)
+
         self.spec, self.tail = spec, run_dir.stress_reader()
         self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
         self.phase_tail = run_dir.phase_reader() if spec.until_steady else None
@@ -462,10 +464,10 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             comp = legs[1]
             comp.rd.commit({**_meta(comp.spec, step, wall, started,
                                     {**counters[1], "process": process}, comp.adaptive,
-                                    command),
+                                    command, len(legs)),
                             "companion_of": ".."})
         meta = _meta(spec, step, wall, started, {**counters[0], "process": process},
-                     legs[0].adaptive, command)
+                     legs[0].adaptive, command, len(legs))
         if len(legs) > 1:
             meta["companion"] = {"start": spec.companion, "dir": COMPANION,
                                  "gap_at_stop": legs[0].adaptive.companion_gap
@@ -476,9 +478,10 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
 
 
 def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
-          adaptive: AdaptiveStop | None, command: str | None) -> dict:
+          adaptive: AdaptiveStop | None, command: str | None, legs: int = 1) -> dict:
     """meta.json of a run that ran ``step`` steps (an adaptive run that met its target is a
-    run of that length)."""
+    run of that length); ``legs``: the LAMMPS runs that shared the wall time (2 with a
+    companion)."""
     stopped_early = step < requested.n_steps
     spec = requested.replace(t_end=step * requested.dt) if stopped_early else requested
     return {
@@ -499,7 +502,7 @@ def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: 
         "scene": spec.scene,
         "seed": spec.seed,
         "wall_time_s": wall,
-        "atom_steps_per_s": spec.N * step / wall if wall > 0 else None,
+        "atom_steps_per_s": legs * spec.N * step / wall if wall > 0 else None,
         **counters,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
         "host": platform.node(),
