@@ -12,6 +12,7 @@ namespace bkfused {
   long run(const Model &, Arrays &, const Mirror &, int64_t, int64_t, long *);              \
   void setup(const Model &, Arrays &, const Mirror &, int64_t, const double *,               \
              const double *);                                                                 \
+  void phase(const double *, const double *, int, double, double *);                         \
   }
 BK_DECLARE(baseline)
 #ifdef BK_FUSED_AVX2
@@ -33,13 +34,14 @@ Kernel select()
 #endif
 #ifdef BK_FUSED_AVX512
   if (!avx2_max && __builtin_cpu_supports("avx512f"))
-    return {"avx512", &avx512::run, &avx512::setup};
+    return {"avx512", &avx512::run, &avx512::setup, &avx512::phase};
 #endif
 #ifdef BK_FUSED_AVX2
-  if (!baseline_only && __builtin_cpu_supports("avx2")) return {"avx2", &avx2::run, &avx2::setup};
+  if (!baseline_only && __builtin_cpu_supports("avx2"))
+    return {"avx2", &avx2::run, &avx2::setup, &avx2::phase};
 #endif
   (void) avx2_max;
-  return {"baseline", &baseline::run, &baseline::setup};
+  return {"baseline", &baseline::run, &baseline::setup, &baseline::phase};
 }
 
 }    // namespace bkfused

@@ -66,10 +66,16 @@ using RunFn = long (*)(const Model &, Arrays &, const Mirror &, int64_t n_first,
 using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, const double *ux,
                          const double *uy);
 
+/* The contacts' phase sums (bk_model.h, bkmodel::NPHASE values, added to sums) of the n
+   contacts of drx, dry; inv_lim = k_e / (mu_s sigma_n A). The same bits in every build. */
+using PhaseFn = void (*)(const double *drx, const double *dry, int n, double inv_lim,
+                         double *sums);
+
 struct Kernel {
   const char *isa;    // "avx512", "avx2" or "baseline"
   RunFn run;
   SetupFn setup;
+  PhaseFn phase;
 };
 
 /* The build for this CPU: "avx512" where the CPU has AVX-512F, else "avx2" where it has AVX2

@@ -509,10 +509,7 @@ void FixBKFused::contact_phase(double *sums)
 {
   if (!lattice_ready || !have_state) return FixBKSubstrate::contact_phase(sums);
   double local[bkmodel::NPHASE] = {};
-  if (contact != NO_CONTACT) {
-    const double inv_lim = ke / fmax;
-    for (int k = 0; k < N; k++) bkmodel::add_phase(local, arr.drx[k], arr.dry[k], inv_lim);
-  }
+  if (contact != NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
   MPI_Allreduce(local, sums, bkmodel::NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 

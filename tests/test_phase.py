@@ -3,6 +3,7 @@ bk/phase writes phase.csv, t,R,Z_re,Z_im,R2,u_mean,u_std, from fix bk/substrate'
 displacements. Checked against the reference integrator on both integration paths and from
 every start, on one and two ranks, and across a restart."""
 
+import math
 import subprocess
 
 import numpy as np
@@ -69,8 +70,28 @@ def test_phases_match_the_reference_integrator(path, start, phi, mode, workdir):
     assert breaks > 0 and len(got) == len(want) == STEPS // EVERY + 1
     np.testing.assert_allclose(got["t"], np.arange(len(got)) * EVERY * spec.dt, rtol=1e-9)
     for col in COLUMNS:
+        if col == "u_std":  # from one-pass sums: the variance is exact to rounding, so the
+            # spread of contacts that all sit at one phase (coulomb: at u = 1) is ~sqrt(eps)
+            np.testing.assert_allclose(got[col] ** 2, want[col] ** 2, rtol=0, atol=1e-9)
+            continue
         np.testing.assert_allclose(got[col], want[col], rtol=0, atol=1e-9, err_msg=col)
     assert got["R"].std() > 0.01  # the phases moved
+
+
+def test_the_phasor_is_libms_to_rounding():
+    """bk_model.h's branch-free exp(2 pi i u) against libm's, here through the plugin's
+    phase.csv of a stratified start: R = |sum exp(2 pi i (k + 1/2)/N)| / N = 0 to rounding, and
+    through the reference on random phases (test above); this checks the polynomial directly,
+    transcribed, on u in [-1, 2]."""
+    u = np.linspace(-1.0, 2.0, 300_001)
+    h = np.pi * (u - np.floor(u + 0.5))
+    h2 = h * h
+    sn = h * np.polynomial.polynomial.polyval(h2, [1 / math.factorial(2 * k + 1) * (-1) ** k
+                                                   for k in range(11)])
+    cs = np.polynomial.polynomial.polyval(h2, [1 / math.factorial(2 * k) * (-1) ** k
+                                               for k in range(11)])
+    np.testing.assert_allclose(cs * cs - sn * sn, np.cos(2 * np.pi * u), rtol=0, atol=2e-15)
+    np.testing.assert_allclose(2 * sn * cs, np.sin(2 * np.pi * u), rtol=0, atol=2e-15)
 
 
 def test_the_starts_have_their_coherence():

@@ -7,7 +7,7 @@ hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
 >>> spec.k_b, spec.N
 (10.0, 100)
 >>> round(spec.dt, 6)
-0.027735
+0.013868
 """
 
 from __future__ import annotations
@@ -56,8 +56,8 @@ class Preset(NamedTuple):
 
 #: accuracy presets, chosen from the work-precision benchmarks (benchmarks/work_precision.py,
 #: errors and costs in benchmarks/RESULTS.md)
-ACCURACY = {"fast": Preset(0.4, 2000.0, 16000.0), "default": Preset(0.2, 8000.0, 64000.0),
-            "precise": Preset(0.1, 16000.0, 128000.0)}
+ACCURACY = {"fast": Preset(0.2, 2000.0, 16000.0), "default": Preset(0.1, 8000.0, 64000.0),
+            "precise": Preset(0.05, 16000.0, 64000.0)}
 
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
