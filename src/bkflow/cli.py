@@ -83,13 +83,13 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
                        f"{k} (C = {c.dt_factor:g}; t_end = {c.t_end:g} for the paper's "
                        f"protocol, at most {c.t_cap:g} for the steady one)"
                        for k, c in ACCURACY.items()))
-    p.add_argument("--t-end", type=float, default=None,
+    p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="run length in time units (default: the --accuracy preset's); for "
                         "the steady protocol or with --target-error, the longest the run may "
                         "go (raise it if a run stops at it before it is steady)")
-    p.add_argument("--dt-factor", type=float, default=None,
+    p.add_argument("--dt-factor", type=float, default=None, metavar="C",
                    help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
-    p.add_argument("--target-error", type=float, default=None,
+    p.add_argument("--target-error", type=float, default=None, metavar="E",
                    help="run until mu_bar's standard error is below this (checked every 1%% of "
                         f"--t-end, at most every {ADAPTIVE_CHUNK_T:g} time units, from t = "
                         f"{ADAPTIVE_T_MIN:g}), at most --t-end")
@@ -148,14 +148,16 @@ def _set_arg(p: argparse.ArgumentParser) -> None:
 
 
 def _spec_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--phi", type=float, required=True, help="k_b / dk_d (> 0)")
+    p.add_argument("--phi", type=float, required=True, metavar="PHI", help="k_b / dk_d (> 0)")
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--size", help=f"lattice LXxLY (default {RunSpec.Lx}x{RunSpec.Ly})")
+    size.add_argument("--size", metavar="LXxLY",
+                      help=f"lattice LXxLY (default {RunSpec.Lx}x{RunSpec.Ly})")
     size.add_argument("--n", type=int, help="the paper's sizes: " + ", ".join(
         f"{n} ({lx}x{ly})" for n, (lx, ly) in PAPER_SIZES.items()))
     _accuracy_args(p)
     _state_args(p)
-    p.add_argument("--seed", type=int, default=RunSpec.seed, help="seed of the k_d^i draw")
+    p.add_argument("--seed", type=int, default=RunSpec.seed, metavar="S",
+                   help="seed of the k_d^i draw")
     _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
@@ -163,7 +165,7 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
                         "particle's slip rate through every slip), full (default; the fronts "
                         "of the first slips only)")
     _set_arg(p)
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
 
 
 def _spec(a, deck: bool = False) -> RunSpec:
@@ -214,17 +216,17 @@ def build_parser() -> argparse.ArgumentParser:
     _path_arg(d)
     sw = sub.add_parser("sweep", help="run a grid of phi x sizes x seeds in parallel "
                                       "(signac-flow); re-running skips finished runs")
-    sw.add_argument("--phi", required=True,
+    sw.add_argument("--phi", required=True, metavar="A:B|a,b,c",
                     help="range A:B (log-spaced, --points-per-decade per decade) or list a,b,c")
-    sw.add_argument("--points-per-decade", type=int, default=POINTS_PER_DECADE,
+    sw.add_argument("--points-per-decade", type=int, default=POINTS_PER_DECADE, metavar="K",
                     help=f"phi values per decade of a range (default {POINTS_PER_DECADE})")
-    sw.add_argument("--sizes", default=f"{RunSpec.Lx}x{RunSpec.Ly}",
+    sw.add_argument("--sizes", default=f"{RunSpec.Lx}x{RunSpec.Ly}", metavar="LXxLY,...",
                     help="lattices LXxLY[,LXxLY...] or the paper's N ("
                          + ",".join(map(str, PAPER_SIZES))
                          + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
-    sw.add_argument("--aspect", default=None,
+    sw.add_argument("--aspect", default=None, metavar="R|any",
                     help=f"Lx/Ly every size must have (default {ASPECT}, the paper's), or 'any'")
-    sw.add_argument("--seeds", type=int, default=SEEDS,
+    sw.add_argument("--seeds", type=int, default=SEEDS, metavar="K",
                     help=f"seeds 1..K per (phi, size) (default {SEEDS})")
     _accuracy_args(sw)
     _state_args(sw)
@@ -236,9 +238,10 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--vary", action="append", default=[], metavar="NAME=V1,V2,...",
                     help="another axis of the grid (repeatable): any parameter --set takes, "
                          "e.g. --vary gamma=0.05,0.1,0.2; every combination is run")
-    sw.add_argument("--jobs", type=int, default=None,
+    sw.add_argument("--jobs", type=int, default=None, metavar="J",
                     help="runs at a time, one process each (default: all cores)")
-    sw.add_argument("--out", default="runs/sweep", help="sweep directory (default runs/sweep)")
+    sw.add_argument("--out", default="runs/sweep", metavar="DIR",
+                    help="sweep directory (default runs/sweep)")
     sw.add_argument("--quiet", action="store_true", help="no progress output")
     sw.add_argument("--force", action="store_true",
                     help="run even above the limits (runs, processes, work, memory, disk)")
@@ -309,6 +312,22 @@ def state_line(s: dict) -> str:
     return (f"steady over {window}: the stress is flat ({trend}; a drift up to "
             f"{num('drift_bound', 100):.1f}% not excluded) and the contacts have forgotten "
             f"the start ({contacts}){pair}")
+
+
+def subcommands(parser: argparse.ArgumentParser | None = None) -> dict:
+    """{name: parser} of bkflow's commands."""
+    parser = parser or build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(sub.choices)
+
+
+def synopsis(command: str, width: int = 96) -> str:
+    """The usage of ``bkflow COMMAND`` with every option, as argparse writes it, wrapped to
+    ``width``: the synopses of the README (tests/test_readme.py keeps them equal)."""
+    p = subcommands()[command]
+    formatter = argparse.HelpFormatter(p.prog, width=width)
+    formatter.add_usage(p.usage, p._actions, p._mutually_exclusive_groups, prefix="")
+    return formatter.format_help().rstrip()
 
 
 def _print_summary(s: dict) -> None:
