@@ -54,6 +54,8 @@ from bkflow.rundir import DATA, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
 KERNEL = Path(__file__).with_name("floor_kernel.c")
+#: the model's one header (plugins/bk_model.h), which the kernel includes
+MODEL_HEADER_DIR = Path(__file__).resolve().parents[1] / "plugins"
 CFLAGS = ["-O3", "-march=native", "-fno-math-errno"]
 
 
@@ -73,8 +75,8 @@ class Arrays(ctypes.Structure):
 
 def build(out_dir: Path) -> ctypes.CDLL:
     lib = out_dir / "libbkfloor.so"
-    subprocess.run(["gcc", *CFLAGS, "-shared", "-fPIC", "-Wall", "-Wextra", str(KERNEL),
-                    "-o", str(lib), "-lm"], check=True)
+    subprocess.run(["gcc", *CFLAGS, "-shared", "-fPIC", "-Wall", "-Wextra",
+                    f"-I{MODEL_HEADER_DIR}", str(KERNEL), "-o", str(lib), "-lm"], check=True)
     dll = ctypes.CDLL(str(lib))
     dll.bk_floor_run.restype = ctypes.c_long
     dll.bk_floor_run.argtypes = [ctypes.POINTER(Params), ctypes.POINTER(Arrays), ctypes.c_long,

@@ -25,7 +25,12 @@
    arrays do not overlap.
 
    Setup (LAMMPS's setup(): the forces of the stored state without advancing the contact
-   history, damping with the velocity v) runs when `setup` is nonzero. */
+   history, damping with the velocity v) runs when `setup` is nonzero.
+
+   Every formula is a function of plugins/bk_model.h, the model's one header, which the plugin's
+   paths call too (floor.py compiles with -I plugins). */
+
+#include "bk_model.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -59,12 +64,6 @@ typedef struct {
   double hv, lim2, fmax2, ke2;
 } bk_ctx;
 
-static inline double bond_f(double d2, double kb, double r0)
-{
-  const double r = sqrt(d2);
-  return -kb * (r - r0) / r;
-}
-
 /* initial_integrate of particles [k0, k1) (v becomes the half-step velocity), and their contact
    history: dr += v dt, re-formed inside the step where |k_e dr| passed f_max. Returns the
    breaks. */
@@ -79,29 +78,21 @@ static long advance(const bk_ctx *c, int k0, int k1)
   long nb = 0;
 #pragma GCC ivdep
   for (int k = k0; k < k1; k++) {
-    vx[k] += hv * fx[k];
-    vy[k] += hv * fy[k];
-    x[k] += dt * vx[k];
-    y[k] += dt * vy[k];
+    vx[k] = bk_kick(vx[k], hv, fx[k]);
+    vy[k] = bk_kick(vy[k], hv, fy[k]);
+    x[k] = bk_drift(x[k], dt, vx[k]);
+    y[k] = bk_drift(y[k], dt, vy[k]);
     drx[k] += vx[k] * dt;
     dry[k] += vy[k] * dt;
-    const int o = ke2 * (drx[k] * drx[k] + dry[k] * dry[k]) > fmax2;
+    const int o = bk_contact_over(drx[k], dry[k], ke2, fmax2);
     over[k] = o;
     nb += o;
   }
   if (!nb) return 0;
-  const double lim2 = c->lim2;
-  for (int k = k0; k < k1; k++) {
-    if (over[k] == 0.0) continue;
-    const double wx = vx[k] * dt, wy = vy[k] * dt;
-    const double ox = drx[k] - wx, oy = dry[k] - wy;
-    const double qa = wx * wx + wy * wy, qb = ox * wx + oy * wy;
-    const double qc = ox * ox + oy * oy - lim2;
-    double th = qa > 0.0 ? (-qb + sqrt(qb * qb > qa * qc ? qb * qb - qa * qc : 0.0)) / qa : 1.0;
-    th = th < 0.0 ? 0.0 : (th > 1.0 ? 1.0 : th);
-    drx[k] = (1.0 - th) * wx;
-    dry[k] = (1.0 - th) * wy;
-  }
+  for (int k = k0; k < k1; k++)
+    if (over[k] != 0.0)
+      bk_contact_break(BK_RESET, &drx[k], &dry[k], vx[k] * dt, vy[k] * dt, c->p->fmax,
+                       c->p->ke, c->lim2);
   return nb;
 }
 
@@ -118,7 +109,7 @@ static void right_bonds(const bk_ctx *c, int r0, int r1)
 #pragma GCC ivdep
   for (int k = k0; k < k1 - 1; k++) {
     const double dx = x[k] - x[k + 1] + srx[k], dy = y[k] - y[k + 1] + sry[k];
-    const double fb = bond_f(dx * dx + dy * dy, kb, b0);
+    const double fb = bk_bond_factor(dx * dx + dy * dy, kb, b0);
     brx[k] = fb * dx;
     bry[k] = fb * dy;
     blx[k + 1] = fb * dx;
@@ -127,7 +118,7 @@ static void right_bonds(const bk_ctx *c, int r0, int r1)
   for (int r = r0; r < r1; r++) {
     const int k = r * Lx + Lx - 1, j = r * Lx;
     const double dx = x[k] - x[j] + srx[k], dy = y[k] - y[j] + sry[k];
-    const double fb = bond_f(dx * dx + dy * dy, kb, b0);
+    const double fb = bk_bond_factor(dx * dx + dy * dy, kb, b0);
     brx[k] = fb * dx;
     bry[k] = fb * dy;
     blx[j] = fb * dx;
@@ -145,7 +136,7 @@ static void up_range(const bk_ctx *c, int k0, int k1, int off)
 #pragma GCC ivdep
   for (int k = k0; k < k1; k++) {
     const double dx = x[k] - x[k + off] + sux[k], dy = y[k] - y[k + off] + suy[k];
-    const double fb = bond_f(dx * dx + dy * dy, kb, b0);
+    const double fb = bk_bond_factor(dx * dx + dy * dy, kb, b0);
     bux[k] = fb * dx;
     buy[k] = fb * dy;
     bdx[k + off] = fb * dx;
@@ -185,18 +176,18 @@ static void forces(const bk_ctx *c, int k0, int k1, double shift, int final)
   for (int k = k0; k < k1; k++) {
     const double fbx = brx[k] - blx[k] + bux[k] - bdx[k];
     const double fby = bry[k] - bly[k] + buy[k] - bdy[k];
-    double gx = kd[k] * (shift - (x[k] - ax[k]));
-    double gy = -kd[k] * (y[k] - ay[k]);
+    double gx = bk_drive_x(kd[k], shift, x[k] - ax[k]);
+    double gy = bk_drive_y(kd[k], y[k] - ay[k]);
     gx -= ke * drx[k];
     gy -= ke * dry[k];
-    gx -= mg * (vx[k] + h * (fbx + gx)) * den;
-    gy -= mg * (vy[k] + h * (fby + gy)) * den;
+    gx -= bk_damping(BK_IMPLICIT, mg, vx[k], h, fbx + gx, den);
+    gy -= bk_damping(BK_IMPLICIT, mg, vy[k], h, fby + gy, den);
     const double Fx = fbx + gx, Fy = fby + gy;
     fx[k] = Fx;
     fy[k] = Fy;
     if (final) {
-      vx[k] += hv * Fx;
-      vy[k] += hv * Fy;
+      vx[k] = bk_kick(vx[k], hv, Fx);
+      vy[k] = bk_kick(vy[k], hv, Fy);
     }
   }
 }
@@ -259,14 +250,14 @@ long bk_floor_run(const bk_params *p, bk_arrays *a, long step0, long nsteps, int
   if (setup) {
     right_bonds(&c, 0, p->Ly);
     up_bonds(&c, 0, p->Ly);
-    forces(&c, 0, N, p->vd * ((double) step0 * dt), 0);
+    forces(&c, 0, N, bk_plate_shift(p->vd, 0.0, (double) step0, dt), 0);
   }
   for (long n = step0 + 1; n <= step0 + nsteps; n++) {
-    const double shift = p->vd * ((double) n * dt);
+    const double shift = bk_plate_shift(p->vd, 0.0, (double) n, dt);
     breaks += step(&c, shift, B);
     if (sigma && nevery > 0 && n % nevery == 0) {
       double sx = 0.0;
-      for (int k = 0; k < N; k++) sx += a->kd[k] * (shift - (a->x[k] - a->ax[k]));
+      for (int k = 0; k < N; k++) sx += bk_drive_x(a->kd[k], shift, a->x[k] - a->ax[k]);
       sigma[nsig++] = sx / area;
     }
   }

@@ -6,20 +6,18 @@
 #ifndef BKFLOW_BK_FUSED_KERNEL_H
 #define BKFLOW_BK_FUSED_KERNEL_H
 
+#include "bk_model.h"
+
 #include <cstdint>
 
 namespace bkfused {
-
-// the same numbering as FixBKSubstrate::Contact and ::Damping
-enum Contact { NO_CONTACT, RESET, RESET_STEP, COULOMB, NCONTACT };
-enum Damping { NO_DAMPING, IMPLICIT, HALF, NDAMPING };
 
 /* Particle k = ix + Lx iy (atom ID k + 1) owns the bond to its +x neighbour (R) and to its +y
    neighbour (U); each bond keeps a fixed periodic shift (srx, sry; sux, suy) so that the bond
    vector is d = x_k - x_partner + s. Positions are unwrapped. */
 struct Model {
   int Lx = 0, Ly = 0, N = 0;
-  int drive = 0, contact = NO_CONTACT, damping = NO_DAMPING;
+  int drive = 0, contact = BK_NO_CONTACT, damping = BK_NO_DAMPING;    // bk_model.h
   double dt = 0.0;
   double hv = 0.0;     // fix nve's dtf / m: v += hv f
   double hd = 0.0;     // the damping's dt / (2 m)
@@ -66,7 +64,7 @@ using RunFn = long (*)(const Model &, Arrays &, const Mirror &, int64_t n_first,
 using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, const double *ux,
                          const double *uy);
 
-/* The contacts' phase sums (bk_model.h, bkmodel::NPHASE values, added to sums) of the n
+/* The contacts' phase sums (bk_model.h, BK_NPHASE values, added to sums) of the n
    contacts of drx, dry; inv_lim = k_e / (mu_s sigma_n A). The same bits in every build. */
 using PhaseFn = void (*)(const double *drx, const double *dry, int n, double inv_lim,
                          double *sums);

@@ -16,7 +16,6 @@
 #include "fix_bk_fused.h"
 
 #include "atom.h"
-#include "bk_model.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
@@ -37,10 +36,6 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 namespace {
-inline double round_small(double v)
-{
-  return static_cast<double>(static_cast<int>(v + (v >= 0.0 ? 0.5 : -0.5)));
-}
 constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
 }    // namespace
 
@@ -287,7 +282,7 @@ void FixBKFused::build_lattice()
   }
   const double xprd = domain->xprd, yprd = domain->yprd;
   auto image_shift = [](double d, double prd, int periodic) {
-    return periodic ? -prd * round_small(d / prd) : 0.0;
+    return periodic ? bk_image_shift(d, prd) : 0.0;
   };
   for (int k = 0; k < N; k++) {
     const int ix = k % Lx, iy = k / Lx;
@@ -392,9 +387,9 @@ void FixBKFused::set_model()
   m.den = 1.0 / (1.0 + 0.5 * gamma * dt);
   m.kb = kb, m.r0 = r0;
   m.ke = ke, m.fmax = fmax, m.fmax2 = fmax * fmax, m.ke2 = ke * ke;
-  m.lim2 = contact != NO_CONTACT ? m.fmax2 / m.ke2 : 0.0;
+  m.lim2 = contact != BK_NO_CONTACT ? m.fmax2 / m.ke2 : 0.0;
   m.vd = vd;
-  elapsed();    // rebases the plate's clock if the time step changed
+  plate_now();    // rebases the plate's clock if the time step changed
   m.e0 = elapsed_base, m.n0 = step_base, m.dt0 = dt_base;
 }
 
@@ -407,8 +402,8 @@ void FixBKFused::setup(int /*vflag*/)
   update_map();
   adopt_atoms();
   set_model();
-  plate_shift = vd * elapsed();
-  const int use_vh = vh_valid && damping != NO_DAMPING;
+  plate_shift = plate_now();
+  const int use_vh = vh_valid && damping != BK_NO_DAMPING;
   mirror_to.x = atom->x;
   mirror_to.v = atom->v;
   mirror_to.state = nullptr;
@@ -422,7 +417,7 @@ void FixBKFused::setup(int /*vflag*/)
 void FixBKFused::initial_integrate(int /*vflag*/)
 {
   const bigint n = update->ntimestep;
-  plate_shift = vd * elapsed();
+  plate_shift = plate_now();
   model.e0 = elapsed_base, model.n0 = step_base, model.dt0 = dt_base;
   const bool due = mirror_due(n);
   mirror_to.x = due ? atom->x : nullptr;
@@ -432,7 +427,7 @@ void FixBKFused::initial_integrate(int /*vflag*/)
   const long nb = kernel.run(model, arr, mirror_to, n, 1, &last);
   nbreak_step = last;
   nbreak_total += nb;
-  if (damping != NO_DAMPING) vh_valid = 1;
+  if (damping != BK_NO_DAMPING) vh_valid = 1;
   sigma_step = rmax_step = -1;
 }
 
@@ -462,7 +457,7 @@ double FixBKFused::sum_sigma()
 {
   const double shift = plate_shift;
   double s = 0.0;
-  for (int k = 0; k < N; k++) s += arr.kd[k] * (shift - (arr.x[k] - arr.ax[k]));
+  for (int k = 0; k < N; k++) s += bk_drive_x(arr.kd[k], shift, arr.x[k] - arr.ax[k]);
   return s / (domain->xprd * domain->yprd);
 }
 
@@ -508,9 +503,9 @@ double FixBKFused::compute_vector(int n)
 void FixBKFused::contact_phase(double *sums)
 {
   if (!lattice_ready || !have_state) return FixBKSubstrate::contact_phase(sums);
-  double local[bkmodel::NPHASE] = {};
-  if (contact != NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
-  MPI_Allreduce(local, sums, bkmodel::NPHASE, MPI_DOUBLE, MPI_SUM, world);
+  double local[BK_NPHASE] = {};
+  if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
+  MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
 // the bond energy sum k_b/2 (r - r0)^2
@@ -521,8 +516,7 @@ double FixBKFused::compute_scalar()
   for (int k = 0; k < N; k++) {
     double a, b;
     bond_r2(k, a, b);
-    const double d1 = sqrt(a) - r0, d2 = sqrt(b) - r0;
-    e += 0.5 * kb * d1 * d1 + 0.5 * kb * d2 * d2;
+    e += bk_bond_energy(a, kb, r0) + bk_bond_energy(b, kb, r0);
   }
   return e;
 }

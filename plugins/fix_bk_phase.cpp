@@ -44,14 +44,13 @@ void FixBKPhase::init()
 
 void FixBKPhase::sample()
 {
-  using namespace bkmodel;
-  double s[NPHASE];
+  double s[BK_NPHASE];
   substrate->contact_phase(s);    // collective: every rank calls it
   if (!fp) return;
-  const double n = s[PH_N] > 0.0 ? s[PH_N] : 1.0;
-  const double zr = s[PH_C1] / n, zi = s[PH_S1] / n;
-  const double z2r = s[PH_C2] / n, z2i = s[PH_S2] / n;
-  const double mean = s[PH_U] / n, var = s[PH_UU] / n - mean * mean;
+  const double n = s[BK_PH_N] > 0.0 ? s[BK_PH_N] : 1.0;
+  const double zr = s[BK_PH_C1] / n, zi = s[BK_PH_S1] / n;
+  const double z2r = s[BK_PH_C2] / n, z2i = s[BK_PH_S2] / n;
+  const double mean = s[BK_PH_U] / n, var = s[BK_PH_UU] / n - mean * mean;
   const double values[6] = {std::sqrt(zr * zr + zi * zi), zr, zi,
                             std::sqrt(z2r * z2r + z2i * z2i), mean,
                             std::sqrt(var > 0.0 ? var : 0.0)};

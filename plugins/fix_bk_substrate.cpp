@@ -39,10 +39,13 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 namespace {
-// nearest integer of a small value, without a libm call
-inline double round_small(double v)
+// "a, b or c" of the names of a rule table (entry 0: none)
+std::string names_of(const char *const *names, int n)
 {
-  return static_cast<double>(static_cast<int>(v + (v >= 0.0 ? 0.5 : -0.5)));
+  std::string out;
+  for (int k = 1; k < n; k++)
+    out += std::string(names[k]) + (k < n - 2 ? ", " : k == n - 2 ? " or " : "");
+  return out;
 }
 
 const char *USAGE =
@@ -105,16 +108,12 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
       mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
       sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
       area = positive(FLERR, "A", arg[iarg + 4], lmp);
-      if (strcmp(arg[iarg + 5], "reset") == 0)
-        contact = RESET;
-      else if (strcmp(arg[iarg + 5], "reset/step") == 0)
-        contact = RESET_STEP;
-      else if (strcmp(arg[iarg + 5], "coulomb") == 0)
-        contact = COULOMB;
-      else
-        error->all(FLERR,
-                   "fix bk/substrate friction mode must be reset, reset/step or coulomb, got {}",
-                   arg[iarg + 5]);
+      contact = BK_NO_CONTACT;
+      for (int rule = BK_NO_CONTACT + 1; rule < BK_NCONTACT; rule++)
+        if (strcmp(arg[iarg + 5], BK_CONTACT_NAMES[rule]) == 0) contact = rule;
+      if (contact == BK_NO_CONTACT)
+        error->all(FLERR, "fix bk/substrate friction mode must be {}, got {}",
+                   names_of(BK_CONTACT_NAMES, BK_NCONTACT), arg[iarg + 5]);
       fmax = mus * sigman * area;
       iarg += 6;
     } else if (strcmp(arg[iarg], "damp") == 0) {
@@ -123,14 +122,14 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
       gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
       iarg += 2;
-      int implicit = 1;
-      if (iarg < narg && strcmp(arg[iarg], "implicit") == 0) {
-        iarg++;
-      } else if (iarg < narg && strcmp(arg[iarg], "half") == 0) {
-        implicit = 0;
-        iarg++;
-      }
-      damping = gamma > 0.0 ? (implicit ? IMPLICIT : HALF) : NO_DAMPING;
+      int scheme = BK_IMPLICIT;    // the default when none is named
+      for (int d = BK_NO_DAMPING + 1; iarg < narg && d < BK_NDAMPING; d++)
+        if (strcmp(arg[iarg], BK_DAMPING_NAMES[d]) == 0) {
+          scheme = d;
+          iarg++;
+          break;
+        }
+      damping = gamma > 0.0 ? scheme : BK_NO_DAMPING;
     } else if (strcmp(arg[iarg], "integrate") == 0) {
       integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
       iarg++;
@@ -145,7 +144,7 @@ FixBKSubstrate::FixBKSubstrate(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, nar
 
   if (bonds_on && !atom->molecular)
     error->all(FLERR, "fix bk/substrate bonds needs a molecular atom style (atom_style bond)");
-  if (!start_name.empty() && contact == NO_CONTACT)
+  if (!start_name.empty() && contact == BK_NO_CONTACT)
     error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
 
   time_integrate = integrate;
@@ -219,7 +218,7 @@ void FixBKSubstrate::init()
   if (bonds_on && force->newton_bond)
     error->all(FLERR, "fix bk/substrate bonds needs every atom to hold all its bonds: "
                       "use `newton on off` (newton_bond off) before read_data");
-  if (damping != NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
+  if (damping != BK_NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
   if (integrate) reset_dt();
 }
@@ -245,14 +244,9 @@ template <bool DRIFT> void FixBKSubstrate::nve_step()
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double dtfm = dtf / (rmass ? rmass[i] : mass[type[i]]);
-    v[i][0] += dtfm * f[i][0];
-    v[i][1] += dtfm * f[i][1];
-    v[i][2] += dtfm * f[i][2];
-    if constexpr (DRIFT) {
-      x[i][0] += dtv * v[i][0];
-      x[i][1] += dtv * v[i][1];
-      x[i][2] += dtv * v[i][2];
-    }
+    for (int d = 0; d < 3; d++) v[i][d] = bk_kick(v[i][d], dtfm, f[i][d]);
+    if constexpr (DRIFT)
+      for (int d = 0; d < 3; d++) x[i][d] = bk_drift(x[i][d], dtv, v[i][d]);
   }
 }
 
@@ -281,14 +275,15 @@ double FixBKSubstrate::current_time() const
   return update->atime + static_cast<double>(update->ntimestep - update->atimestep) * update->dt;
 }
 
-double FixBKSubstrate::elapsed()
+double FixBKSubstrate::plate_now()
 {
   if (update->dt != dt_base) {    // a new time step from here on
     elapsed_base += static_cast<double>(update->ntimestep - step_base) * dt_base;
     step_base = update->ntimestep;
     dt_base = update->dt;
   }
-  return elapsed_base + static_cast<double>(update->ntimestep - step_base) * dt_base;
+  return bk_plate_shift(vd, elapsed_base, static_cast<double>(update->ntimestep - step_base),
+                        dt_base);
 }
 
 /* setup() applies the forces of the current state without advancing the contact history.
@@ -297,7 +292,7 @@ double FixBKSubstrate::elapsed()
 
 void FixBKSubstrate::setup(int /*vflag*/)
 {
-  plate_shift = vd * elapsed();
+  plate_shift = plate_now();
   update_displacements(0);
   apply_forces(0);
   if (integrate) enforce2d();
@@ -305,7 +300,7 @@ void FixBKSubstrate::setup(int /*vflag*/)
 
 void FixBKSubstrate::post_force(int /*vflag*/)
 {
-  plate_shift = vd * elapsed();
+  plate_shift = plate_now();
   update_displacements(0);
   apply_forces(1);
   if (integrate) enforce2d();
@@ -360,8 +355,8 @@ void FixBKSubstrate::build_bond_list()
       bl_i[nblist] = i;
       bl_j[nblist] = j;
       bl_both[nblist] = both;
-      bl_sx[nblist] = -xprd * round_small((wx - (u[i][0] - u[j][0])) / xprd);
-      bl_sy[nblist] = -yprd * round_small((wy - (u[i][1] - u[j][1])) / yprd);
+      bl_sx[nblist] = bk_image_shift(wx - (u[i][0] - u[j][0]), xprd);
+      bl_sy[nblist] = bk_image_shift(wy - (u[i][1] - u[j][1]), yprd);
       nblist++;
     }
   }
@@ -440,8 +435,8 @@ double FixBKSubstrate::compute_scalar()
     for (int b = 0; b < nblist; b++) {
       const int i = bl_i[b], j = bl_j[b];
       const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
-      const double dr = sqrt(dx * dx + dy * dy) - r0;
-      e += (bl_both[b] ? 0.5 : 0.25) * kb * dr * dr;
+      // a bond held by an atom of another rank too counts half here
+      e += (bl_both[b] ? 1.0 : 0.5) * bk_bond_energy(dx * dx + dy * dy, kb, r0);
     }
   }
   double all = 0.0;
@@ -459,8 +454,7 @@ double FixBKSubstrate::bond_forces()
     const int i = bl_i[b], j = bl_j[b];
     const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
     const double r2 = dx * dx + dy * dy;
-    const double r = sqrt(r2);
-    const double fb = -kb * (r - r0) / r;
+    const double fb = bk_bond_factor(r2, kb, r0);
     f[i][0] += fb * dx;
     f[i][1] += fb * dy;
     if (bl_both[b]) {
@@ -484,7 +478,7 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
   const int *const type = atom->type;
   const double dt = update->dt;
   const double shift = plate_shift;
-  const double fmax2 = fmax * fmax, ke2 = ke * ke;
+  const double fmax2 = fmax * fmax, ke2 = ke * ke, lim2 = fmax2 / ke2;
   const int use_vh = !ADVANCE && vh_valid;
   double *const *const uu = u;
 
@@ -495,57 +489,31 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
     double *const s = state[i];
     double fx = 0.0, fy = 0.0;
     if constexpr (DRIVE) {
-      const double fdx = kd[i] * (shift - uu[i][0]);
+      const double fdx = bk_drive_x(kd[i], shift, uu[i][0]);
       fx += fdx;
-      fy -= kd[i] * uu[i][1];
+      fy += bk_drive_y(kd[i], uu[i][1]);
       sfx += fdx;
     }
     const double vx = use_vh ? s[VHX] : v[i][0];
     const double vy = use_vh ? s[VHY] : v[i][1];
-    if constexpr (CONTACT != NO_CONTACT) {
+    if constexpr (CONTACT != BK_NO_CONTACT) {
       if constexpr (ADVANCE) {
         s[DRX] += vx * dt;
         s[DRY] += vy * dt;
-        const double r2 = s[DRX] * s[DRX] + s[DRY] * s[DRY];
-        if (ke2 * r2 > fmax2) {
+        if (bk_contact_over(s[DRX], s[DRY], ke2, fmax2)) {
           nb++;
-          if constexpr (CONTACT == COULOMB) {
-            const double scale = fmax / (ke * sqrt(r2));
-            s[DRX] *= scale;
-            s[DRY] *= scale;
-          } else if constexpr (CONTACT == RESET) {
-            // the contact broke at the fraction th of the step where |dr| reached the
-            // threshold, and the re-formed contact carried the rest of the step's motion
-            const double wx = vx * dt, wy = vy * dt;
-            const double ox = s[DRX] - wx, oy = s[DRY] - wy;
-            const double a = wx * wx + wy * wy, b = ox * wx + oy * wy;
-            const double c = ox * ox + oy * oy - fmax2 / ke2;
-            double th = a > 0.0 ? (-b + sqrt(b * b > a * c ? b * b - a * c : 0.0)) / a : 1.0;
-            th = th < 0.0 ? 0.0 : (th > 1.0 ? 1.0 : th);
-            s[DRX] = (1.0 - th) * wx;
-            s[DRY] = (1.0 - th) * wy;
-          } else {    // RESET_STEP
-            s[DRX] = 0.0;
-            s[DRY] = 0.0;
-          }
+          bk_contact_break(CONTACT, &s[DRX], &s[DRY], vx * dt, vy * dt, fmax, ke, lim2);
         }
       }
       fx -= ke * s[DRX];
       fy -= ke * s[DRY];
     }
-    if constexpr (DAMPING != NO_DAMPING) {
+    if constexpr (DAMPING != BK_NO_DAMPING) {
       const double m = rmass ? rmass[i] : mass[type[i]];
       const double mg = m * gamma;
-      if constexpr (DAMPING == IMPLICIT) {
-        // -m gamma v at the end of the step, v1 = vh + dt/(2m) (F_other - m gamma v1)
-        // solved for v1: second order, where the half-step velocity is first order
-        const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
-        fx -= mg * (vx + h * (f[i][0] + fx)) * den;
-        fy -= mg * (vy + h * (f[i][1] + fy)) * den;
-      } else {    // HALF
-        fx -= mg * vx;
-        fy -= mg * vy;
-      }
+      const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
+      fx -= bk_damping(DAMPING, mg, vx, h, f[i][0] + fx, den);
+      fy -= bk_damping(DAMPING, mg, vy, h, f[i][1] + fy, den);
       if constexpr (ADVANCE) {
         s[VHX] = vx;
         s[VHY] = vy;
@@ -558,14 +526,14 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
   sum_fx_drive = sfx;
   nbreak_step = nb;
   nbreak_total += nb;
-  if (ADVANCE && DAMPING != NO_DAMPING) vh_valid = 1;
+  if (ADVANCE && DAMPING != BK_NO_DAMPING) vh_valid = 1;
 }
 
 namespace LAMMPS_NS {
 // eval() specialisations indexed by drive (0, 1), contact rule, damping and advance (0, 1)
 struct BKSubstrateTable {
   using Eval = void (FixBKSubstrate::*)();
-  static constexpr int NC = FixBKSubstrate::NCONTACT, ND = FixBKSubstrate::NDAMPING;
+  static constexpr int NC = BK_NCONTACT, ND = BK_NDAMPING;
   static constexpr std::size_t SIZE = 2 * NC * ND * 2;
 
   static constexpr int index(int drive, int contact, int damping, int advance)
@@ -622,15 +590,15 @@ double FixBKSubstrate::compute_vector(int n)
 
 void FixBKSubstrate::contact_phase(double *sums)
 {
-  double local[bkmodel::NPHASE] = {};
-  if (contact != NO_CONTACT) {
+  double local[BK_NPHASE] = {};
+  if (contact != BK_NO_CONTACT) {
     const double inv_lim = ke / fmax;
     const int *const mask = atom->mask;
     const int nlocal = atom->nlocal;
     for (int i = 0; i < nlocal; i++)
-      if (mask[i] & groupbit) bkmodel::add_phase(local, state[i][DRX], state[i][DRY], inv_lim);
+      if (mask[i] & groupbit) bk_add_phase(local, state[i][DRX], state[i][DRY], inv_lim);
   }
-  MPI_Allreduce(local, sums, bkmodel::NPHASE, MPI_DOUBLE, MPI_SUM, world);
+  MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
 /* global restart state: t0, vh_valid, total breaks, and the plate's clock (elapsed_base,

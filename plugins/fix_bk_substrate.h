@@ -5,6 +5,7 @@
 #ifndef BKFLOW_FIX_BK_SUBSTRATE_H
 #define BKFLOW_FIX_BK_SUBSTRATE_H
 
+#include "bk_model.h"
 #include "fix.h"
 
 namespace LAMMPS_NS {
@@ -44,25 +45,21 @@ class FixBKSubstrate : public Fix {
   // LAMMPS's simulation time at the current step (the t of bk/stress; t0 of the anchors)
   double current_time() const;
   // whether the fix has contacts (friction), whose load phases bk/phase samples
-  bool has_contacts() const { return contact != NO_CONTACT; }
-  // the contacts' phase sums of the current step (bk_model.h, bkmodel::NPHASE values),
+  bool has_contacts() const { return contact != BK_NO_CONTACT; }
+  // the contacts' phase sums of the current step (bk_model.h, BK_NPHASE values),
   // reduced over every rank: collective
   virtual void contact_phase(double *sums);
 
   // per-atom state columns
   enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };
-  // contact rule of the friction part (NO_CONTACT: no friction)
-  enum Contact { NO_CONTACT, RESET, RESET_STEP, COULOMB, NCONTACT };
-  // velocity in the damping force -m gamma v (NO_DAMPING: no damping, or gamma = 0)
-  enum Damping { NO_DAMPING, IMPLICIT, HALF, NDAMPING };
 
  protected:    // FixBKFused (fix_bk_fused.h), the fused path, shares all of it
   friend struct BKSubstrateTable;
 
   // model parameters (docs/model.md "Forces on particle i")
   int bonds_on = 0, drive_on = 0;
-  int contact = NO_CONTACT;      // reset: the break is located inside the step
-  int damping = NO_DAMPING;      // implicit: the end-of-step velocity; half: the half-step one
+  int contact = BK_NO_CONTACT;   // the contact rule (bk_model.h), none without friction
+  int damping = BK_NO_DAMPING;   // the damping scheme (bk_model.h), none when gamma = 0
   double kb = 0.0, r0 = 0.0;     // bond stiffness (force k_b (r - r0)) and rest length
   double vd = 0.0;               // plate velocity along +x
   double ke = 0.0, fmax = 0.0;   // contact spring, break threshold mu_s*sigma_n*A
@@ -102,7 +99,7 @@ class FixBKSubstrate : public Fix {
   double reduced_vec[3] = {0.0, 0.0, 0.0};
 
   int double_property(const char *name, const char *keyword);
-  double elapsed();
+  double plate_now();    // the plate's shift at the current step (rebases the clock on a new dt)
   void grow_displacements();
   void update_offsets();
   void update_displacements(int ghosts);
