@@ -26,7 +26,7 @@ struct Model {
   double kb = 0.0, r0 = 0.0;
   double ke = 0.0, fmax = 0.0, fmax2 = 0.0, ke2 = 0.0, lim2 = 0.0;    // lim2 = (fmax / ke)^2
   double vd = 0.0;
-  // the plate's clock (FixBKSubstrate::elapsed): shift(n) = vd (e0 + (n - n0) dt0)
+  // the plate's clock (FixBKLayer::plate_now): shift(n) = vd (e0 + (n - n0) dt0)
   double e0 = 0.0, dt0 = 0.0;
   int64_t n0 = 0;
 };
@@ -44,7 +44,7 @@ struct Arrays {
 /* Where the state is mirrored: LAMMPS's wrapped positions x = X - offset and velocities of
    local atom loc[k] (loc == nullptr: atom k is local atom k, whose z = z[k] is rewritten and
    v_z = 0); with `state`, the contact displacement and half-step velocity of
-   FixBKSubstrate's per-atom array (columns col_dr, col_dr + 1 and col_vh, col_vh + 1).
+   FixBKLayer's per-atom array (columns col_dr, col_dr + 1 and col_vh, col_vh + 1).
    x == nullptr: no mirror. */
 struct Mirror {
   double **x = nullptr, **v = nullptr;

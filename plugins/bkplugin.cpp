@@ -70,7 +70,7 @@ static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
     if (strcmp(argv[i], "fused") == 0) return new FixBKFused(lmp, argc, argv);
     if (strcmp(argv[i], "integrate") == 0) integrate = true;
   }
-  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp))
+  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp) > 0)
     return new FixBKFused(lmp, argc, argv);
   return new FixBKSubstrate(lmp, argc, argv);
 }

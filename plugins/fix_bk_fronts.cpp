@@ -25,7 +25,7 @@
 #include "atom.h"
 #include "comm.h"
 #include "error.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 #include "update.h"
 
 #include <algorithm>
@@ -76,7 +76,7 @@ void FixBKFronts::record(bigint step)
 void FixBKFronts::sample()
 {
   const bigint step = update->ntimestep;
-  const auto event = zigzag.feed(substrate->compute_vector(0), step);
+  const auto event = zigzag.feed(substrate->compute_vector(BK_SLOT_SIGMA), step);
   if (event == BKZigzag::CONFIRMED) {
     nevents++;
     if (writes(zigzag.event_max)) {

@@ -39,14 +39,10 @@ namespace {
 constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
 }    // namespace
 
-/* The fix's arguments without `fused`, which FixBKSubstrate does not know, after the checks
-   that must come before FixBKSubstrate's constructor (an error after it, which registered
-   callbacks with Atom, would leave them dangling). */
-struct FixBKFused::Args {
-  std::vector<char *> base;
-};
-
-static FixBKFused::Args split_args(LAMMPS *lmp, int narg, char **arg)
+/* What must be true before FixBKLayer's constructor runs (an error after it, which registered
+   callbacks with Atom, would leave them dangling): one rank, group all, the bonds. Returns
+   narg. */
+static int fused_args(LAMMPS *lmp, int narg, char **arg)
 {
   if (lmp->comm->nprocs != 1)
     lmp->error->all(FLERR,
@@ -55,26 +51,16 @@ static FixBKFused::Args split_args(LAMMPS *lmp, int narg, char **arg)
                     lmp->comm->nprocs);
   if (narg < 3 || strcmp(arg[1], "all") != 0)
     lmp->error->all(FLERR, "fix bk/substrate fused acts on group all only");
-  FixBKFused::Args a;
   bool bonds = false;
-  for (int i = 0; i < narg; i++) {
-    if (i >= 3 && strcmp(arg[i], "bonds") == 0) bonds = true;
-    if (i < 3 || (strcmp(arg[i], "fused") != 0 && strcmp(arg[i], "integrate") != 0))
-      a.base.push_back(arg[i]);
-  }
+  for (int i = 3; i < narg; i++) bonds = bonds || strcmp(arg[i], "bonds") == 0;
   if (!bonds)
     lmp->error->all(FLERR,
                     "fix bk/substrate fused needs the bonds (the lattice): add bonds k_b r0");
-  return a;
+  return narg;
 }
 
 FixBKFused::FixBKFused(LAMMPS *lmp, int narg, char **arg) :
-    FixBKFused(lmp, split_args(lmp, narg, arg))
-{
-}
-
-FixBKFused::FixBKFused(LAMMPS *lmp, Args &&a) :
-    FixBKSubstrate(lmp, static_cast<int>(a.base.size()), a.base.data())
+    FixBKLayer(lmp, fused_args(lmp, narg, arg), arg)
 {
   time_integrate = 1;
   // the base's constructor called its own grow_arrays and set_arrays
@@ -97,7 +83,7 @@ int FixBKFused::setmask()
 
 void FixBKFused::init()
 {
-  FixBKSubstrate::init();
+  FixBKLayer::init();
   if (comm->nprocs != 1)
     error->all(FLERR, "fix bk/substrate fused runs on one MPI rank only (this run has {})",
                comm->nprocs);
@@ -185,16 +171,26 @@ static bool lattice_matches(LAMMPS *lmp, int n, int lx)
   return true;
 }
 
-/* Lx of the lattice the fused path can run, 0 when it cannot: one rank holding atom IDs 1..N,
-   an atom map, the bonds of bkflow's periodic square lattice, one mass. `integrate` takes the
-   fused path exactly when this is not 0 (plugins/bkplugin.cpp). */
+/* The one lattice detector: Lx of the lattice the fused path can run, 0 when it cannot, with
+   the reason in *why (the end of an error message): one rank holding atom IDs 1..N, an atom map, the bonds of bkflow's
+   periodic square lattice, one positive mass. `integrate` takes the fused path exactly when
+   this is not 0 (plugins/bkplugin.cpp); `fused` refuses a deck it is 0 for. */
 
-int FixBKFused::fused_lattice(LAMMPS *lmp)
+int FixBKFused::fused_lattice(LAMMPS *lmp, std::string *why)
 {
   Atom *atom = lmp->atom;
-  if (lmp->comm->nprocs != 1 || atom->map_style == Atom::MAP_NONE || !atom->molecular ||
-      !atom->num_bond || atom->natoms > 2000000000 || atom->nlocal != atom->natoms)
+  auto no = [why](std::string reason) {
+    if (why) *why = std::move(reason);
     return 0;
+  };
+  if (lmp->comm->nprocs != 1)
+    return no(fmt::format(" runs on one MPI rank only (this run has {})", lmp->comm->nprocs));
+  if (atom->map_style == Atom::MAP_NONE)
+    return no(" needs an atom map: atom_modify map array");
+  if (!atom->molecular || !atom->num_bond)
+    return no(" needs the bonds (the lattice): add bonds k_b r0");
+  if (atom->natoms > 2000000000 || atom->nlocal != atom->natoms)
+    return no(fmt::format(": {} atoms, {} of them local", atom->natoms, atom->nlocal));
   const int n = static_cast<int>(atom->natoms);
   auto mass_of = [atom](int i) {
     return atom->rmass ? atom->rmass[i] : atom->mass ? atom->mass[atom->type[i]] : 0.0;
@@ -202,47 +198,28 @@ int FixBKFused::fused_lattice(LAMMPS *lmp)
   double m0 = 0.0;
   for (int k = 0; k < n; k++) {
     const int i = atom->map(k + 1);
-    if (i < 0 || i >= atom->nlocal) return 0;
+    if (i < 0 || i >= atom->nlocal)
+      return no(fmt::format(" needs atom IDs 1..{} (the lattice's), {} is missing", n, k + 1));
     if (k == 0) m0 = mass_of(i);
-    if (!(mass_of(i) > 0.0) || mass_of(i) != m0) return 0;
+    if (mass_of(i) != m0)
+      return no(fmt::format(" needs one mass for every atom ({} and {})", m0, mass_of(i)));
   }
+  if (!(m0 > 0.0)) return no(": mass must be > 0");
   for (int lx = 3; lx <= n / 3; lx++)
     if (n % lx == 0 && lattice_matches(lmp, n, lx)) return lx;
-  return 0;
+  return no(": the bonds are not a periodic square lattice with atom ID 1 + ix + Lx iy bonded "
+            "to its neighbours at ix +- 1 and iy +- 1 (Lx, Ly >= 3), which the fused path "
+            "needs: drop `fused`");
 }
 
 void FixBKFused::build_lattice()
 {
-  if (atom->natoms > 2000000000 || atom->nlocal != atom->natoms)
-    error->all(FLERR, "fix bk/substrate fused: {} atoms, {} of them local", atom->natoms,
-               atom->nlocal);
+  std::string why;
+  Lx = fused_lattice(lmp, &why);
+  if (!Lx) error->all(FLERR, "fix bk/substrate fused{}", why);
   N = static_cast<int>(atom->natoms);
-  for (int k = 0; k < N; k++) {
-    const int i = atom->map(k + 1);
-    if (i < 0 || i >= atom->nlocal)
-      error->all(FLERR, "fix bk/substrate fused needs atom IDs 1..{} (the lattice's), {} is "
-                        "missing", N, k + 1);
-  }
-  Lx = 0;
-  for (int lx = 3; lx <= N / 3 && !Lx; lx++)
-    if (N % lx == 0 && lattice_matches(lmp, N, lx)) Lx = lx;
-  if (!Lx)
-    error->all(FLERR,
-               "fix bk/substrate fused: the bonds are not a periodic square lattice with atom "
-               "ID 1 + ix + Lx iy bonded to its neighbours at ix +- 1 and iy +- 1 (Lx, Ly >= "
-               "3), which the fused path needs: drop `fused`");
   Ly = N / Lx;
-
-  // one mass for all (what the kernel assumes)
-  const int *type = atom->type;
-  for (int i = 0; i < N; i++) {
-    const double m = atom->rmass ? atom->rmass[i] : atom->mass[type[i]];
-    if (i == 0) mass = m;
-    if (m != mass)
-      error->all(FLERR, "fix bk/substrate fused needs one mass for every atom ({} and {})",
-                 mass, m);
-  }
-  if (!(mass > 0.0)) error->all(FLERR, "fix bk/substrate fused: mass must be > 0");
+  mass = atom->rmass ? atom->rmass[atom->map(1)] : atom->mass[atom->type[atom->map(1)]];
 
   // every array in one pool, each 64-byte aligned and padded
   const size_t stride = (static_cast<size_t>(N) + 7) / 8 * 8;
@@ -450,15 +427,20 @@ void FixBKFused::sync_state()
   }
 }
 
-/* sigma_x = sum_k k_d^k (plate shift - (X_k - anchor_k)) / (Lx Ly), in lattice order, when
-   asked (bk/stress, thermo), from the positions of the step */
+/* sigma_x = sum_k k_d^k (plate shift - (X_k - anchor_k)) / (Lx Ly), in lattice order, from
+   the positions of the step, computed once per step when first asked (bk/stress, thermo) */
 
-double FixBKFused::sum_sigma()
+double FixBKFused::sigma_x()
 {
-  const double shift = plate_shift;
-  double s = 0.0;
-  for (int k = 0; k < N; k++) s += bk_drive_x(arr.kd[k], shift, arr.x[k] - arr.ax[k]);
-  return s / (domain->xprd * domain->yprd);
+  const bigint step = update->ntimestep;
+  if (sigma_step != step) {
+    const double shift = plate_shift;
+    double s = 0.0;
+    for (int k = 0; k < N; k++) s += bk_drive_x(arr.kd[k], shift, arr.x[k] - arr.ax[k]);
+    sigma_value = s / (domain->xprd * domain->yprd);
+    sigma_step = step;
+  }
+  return sigma_value;
 }
 
 /* the squared lengths of particle k's +x and +y bonds (at their fixed lattice images) */
@@ -474,35 +456,31 @@ void FixBKFused::bond_r2(int k, double &rx2, double &uy2) const
 
 double FixBKFused::longest_bond()
 {
-  double r2max = 0.0;
-  for (int k = 0; k < N; k++) {
-    double a, b;
-    bond_r2(k, a, b);
-    r2max = std::max(r2max, std::max(a, b));
+  const bigint step = update->ntimestep;
+  if (rmax_step != step) {
+    double r2max = 0.0;
+    for (int k = 0; k < N; k++) {
+      double a, b;
+      bond_r2(k, a, b);
+      r2max = std::max(r2max, std::max(a, b));
+    }
+    rmax_value = sqrt(r2max);
+    rmax_step = step;
   }
-  return sqrt(r2max);
+  return rmax_value;
 }
 
-double FixBKFused::compute_vector(int n)
+int FixBKFused::path_code() const
 {
-  const bigint step = update->ntimestep;
-  if (n == 0) {
-    if (sigma_step != step) sigma_value = sum_sigma(), sigma_step = step;
-    return sigma_value;
-  }
-  if (n == 1) return static_cast<double>(nbreak_step);
-  if (n == 2) return static_cast<double>(nbreak_total);
-  if (n == 3) return plate_shift;
-  if (n == 5)
-    return strcmp(kernel.isa, "avx512") == 0 ? 3.0 : strcmp(kernel.isa, "avx2") == 0 ? 2.0 : 1.0;
-  if (rmax_step != step) rmax_value = longest_bond(), rmax_step = step;
-  return rmax_value;
+  return strcmp(kernel.isa, "avx512") == 0 ? BK_PATH_FUSED_AVX512
+      : strcmp(kernel.isa, "avx2") == 0    ? BK_PATH_FUSED_AVX2
+                                           : BK_PATH_FUSED_BASELINE;
 }
 
 // the contacts' phase sums from the fix's own arrays, in lattice order
 void FixBKFused::contact_phase(double *sums)
 {
-  if (!lattice_ready || !have_state) return FixBKSubstrate::contact_phase(sums);
+  if (!lattice_ready || !have_state) return FixBKLayer::contact_phase(sums);
   double local[BK_NPHASE] = {};
   if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
@@ -511,7 +489,7 @@ void FixBKFused::contact_phase(double *sums)
 // the bond energy sum k_b/2 (r - r0)^2
 double FixBKFused::compute_scalar()
 {
-  if (!lattice_ready || !have_state) return FixBKSubstrate::compute_scalar();
+  if (!lattice_ready || !have_state) return 0.0;    // before the first setup: no state yet
   double e = 0.0;
   for (int k = 0; k < N; k++) {
     double a, b;
@@ -523,32 +501,32 @@ double FixBKFused::compute_scalar()
 
 double FixBKFused::memory_usage()
 {
-  return FixBKSubstrate::memory_usage() + static_cast<double>(atom->nmax) * 2 * sizeof(double) +
+  return FixBKLayer::memory_usage() + static_cast<double>(atom->nmax) * 2 * sizeof(double) +
       static_cast<double>(pool.size()) * sizeof(double) +
       static_cast<double>(loc.size()) * (sizeof(int) + 3 * sizeof(double));
 }
 
 void FixBKFused::grow_arrays(int nmax)
 {
-  FixBKSubstrate::grow_arrays(nmax);
+  FixBKLayer::grow_arrays(nmax);
   memory->grow(xu, nmax, 2, "bk/substrate:xu");
 }
 
 void FixBKFused::copy_arrays(int i, int j, int delflag)
 {
-  FixBKSubstrate::copy_arrays(i, j, delflag);
+  FixBKLayer::copy_arrays(i, j, delflag);
   xu[j][0] = xu[i][0];
   xu[j][1] = xu[i][1];
 }
 
-// a new atom: as FixBKSubstrate's, its exact position unknown (x + offset is used)
+// a new atom: as FixBKLayer's, its exact position unknown (x + offset is used)
 void FixBKFused::set_arrays(int i)
 {
-  FixBKSubstrate::set_arrays(i);
+  FixBKLayer::set_arrays(i);
   xu[i][0] = xu[i][1] = NaN;
 }
 
-/* restart files: FixBKSubstrate's columns, then the exact unwrapped position (which x and the
+/* restart files: FixBKLayer's columns, then the exact unwrapped position (which x and the
    image flags give only to rounding), so that a continued run follows the uninterrupted one
    bit for bit. The count in buf[0] lets fix bk/substrate read a fused restart (it reads its
    own columns and skips these) and the fused path read a bk/substrate one (no exact position:

@@ -8,13 +8,14 @@
 #define BKFLOW_FIX_BK_FUSED_H
 
 #include "bk_fused_kernel.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 
+#include <string>
 #include <vector>
 
 namespace LAMMPS_NS {
 
-class FixBKFused : public FixBKSubstrate {
+class FixBKFused : public FixBKLayer {
  public:
   FixBKFused(class LAMMPS *, int, char **);
   ~FixBKFused() override;
@@ -25,7 +26,6 @@ class FixBKFused : public FixBKSubstrate {
   void post_neighbor() override;
   void initial_integrate(int) override;
   void post_run() override;
-  double compute_vector(int) override;
   double compute_scalar() override;
   void contact_phase(double *sums) override;
 
@@ -38,15 +38,12 @@ class FixBKFused : public FixBKSubstrate {
   int size_restart(int) override;
   int maxsize_restart() override;
 
-  // restart columns: FixBKSubstrate's, then the exact unwrapped position
+  // restart columns: FixBKLayer's, then the exact unwrapped position
   enum { XU = NSTATE, YU, NRESTART };
-  // the arguments without `fused` (or `integrate`)
-  struct Args;
-  // Lx of a lattice the fused path runs, 0 if it cannot (fix_bk_fused.cpp)
-  static int fused_lattice(class LAMMPS *);
+  // Lx of a lattice the fused path runs, 0 if it cannot; why not in *why (fix_bk_fused.cpp)
+  static int fused_lattice(class LAMMPS *, std::string *why = nullptr);
 
  private:
-  FixBKFused(class LAMMPS *, Args &&);
 
   double **xu = nullptr;              // per atom: exact unwrapped position from a restart
                                      // file (NaN: none, use x + offset)
@@ -70,14 +67,18 @@ class FixBKFused : public FixBKSubstrate {
   bigint sigma_step = -1, rmax_step = -1;    // steps of the cached sigma_x and longest bond
   double sigma_value = 0.0, rmax_value = 0.0;
 
+  double sigma_x() override;
+  double breaks(bool total) override { return static_cast<double>(total ? nbreak_total
+                                                                         : nbreak_step); }
+  double longest_bond() override;
+  int path_code() const override;
+
   bool mirror_due(bigint step) const;
   void build_lattice();
   void update_map();
   void adopt_atoms();
   void sync_state();
   void set_model();
-  double sum_sigma();
-  double longest_bond();
   void bond_r2(int k, double &rx2, double &uy2) const;
 };
 

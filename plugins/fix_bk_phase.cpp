@@ -8,7 +8,7 @@
    phase"), Z = (1/N) sum_i exp(2 pi i u_i) (the Kuramoto order parameter), R = |Z|, R2 = |(1/N)
    sum_i exp(4 pi i u_i)| (its second harmonic), and the mean and standard deviation of u
    (1/2 and 1/sqrt(12) = 0.2887 for uniform phases). The sums come from the substrate fix
-   (FixBKSubstrate::contact_phase, one pass over the contacts, reduced over ranks); t is
+   (FixBKLayer::contact_phase, one pass over the contacts, reduced over ranks); t is
    written to 10 significant digits, the rest as the shortest decimal that reads back as the
    same double, through the buffer of FixBKReader. */
 
@@ -16,7 +16,7 @@
 
 #include "bk_model.h"
 #include "error.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 
 #include <charconv>
 #include <cmath>

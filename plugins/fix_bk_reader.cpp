@@ -7,7 +7,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 #include "modify.h"
 #include "update.h"
 
@@ -66,7 +66,7 @@ void FixBKReader::init()
   Fix *fix = modify->get_fix_by_id(substrate_id);
   if (!fix)
     error->all(FLERR, "fix {}: no fix with ID {} (the bk/substrate fix)", style, substrate_id);
-  substrate = dynamic_cast<FixBKSubstrate *>(fix);
+  substrate = dynamic_cast<FixBKLayer *>(fix);
   if (!substrate)
     error->all(FLERR, "fix {}: fix {} is {}, not bk/substrate", style, substrate_id, fix->style);
   if (modify->find_fix(id) < modify->find_fix(substrate_id))

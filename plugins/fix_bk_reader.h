@@ -35,7 +35,7 @@ class FixBKReader : public Fix {
 
  protected:
   const char *usage;
-  class FixBKSubstrate *substrate = nullptr;    // set by init()
+  class FixBKLayer *substrate = nullptr;    // the bk/substrate fix, set by init()
   FILE *fp = nullptr;                           // FILE on rank 0, nullptr elsewhere
 
   // parses `file FILE` at arg[iarg] and opens FILE (rank 0); returns the next iarg

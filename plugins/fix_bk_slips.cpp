@@ -21,7 +21,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 #include "update.h"
 
 #include <algorithm>
@@ -100,7 +100,7 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
 void FixBKSlips::sample()
 {
   const bigint step = update->ntimestep;
-  switch (zigzag.feed(substrate->compute_vector(0), step)) {
+  switch (zigzag.feed(substrate->compute_vector(BK_SLOT_SIGMA), step)) {
     case BKZigzag::NEW_MAX:
       snapshot(snap_max);
       break;

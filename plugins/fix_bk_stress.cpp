@@ -14,7 +14,7 @@
 #include "fix_bk_stress.h"
 
 #include "error.h"
-#include "fix_bk_substrate.h"
+#include "fix_bk_layer.h"
 
 #include <charconv>
 
@@ -33,7 +33,7 @@ FixBKStress::FixBKStress(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
 
 void FixBKStress::sample()
 {
-  const double sigma = substrate->compute_vector(0);    // collective: every rank calls it
+  const double sigma = substrate->compute_vector(BK_SLOT_SIGMA);    // collective: every rank calls it
   if (!fp) return;
   const double t = substrate->current_time();
   char line[64];

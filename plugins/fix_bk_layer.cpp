@@ -1,0 +1,342 @@
+/* bkflow LAMMPS plugin: FixBKLayer (fix_bk_layer.h), the part of fix bk/substrate that both of
+   its paths share: the arguments, the per-atom state of the layer and its migration and
+   restart, the plate's clock, and the output vector. The equations are those of
+   docs/model.md, written in bk_model.h; plugins/README.md documents the syntax. */
+
+#include "fix_bk_layer.h"
+
+#include "atom.h"
+#include "bkplugin.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "update.h"
+
+#include <cstring>
+
+using namespace LAMMPS_NS;
+
+namespace {
+// "a, b or c" of the names of a rule table (entry 0: none); with `bar`, "a|b|c"
+std::string names_of(const char *const *names, int n, bool bar = false)
+{
+  std::string out;
+  for (int k = 1; k < n; k++)
+    out += std::string(names[k]) +
+        (k == n - 1 ? "" : bar ? "|" : k < n - 2 ? ", " : " or ");
+  return out;
+}
+
+const char *USAGE =
+    "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
+    "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]] "
+    "[start dr_property] [integrate|fused]";
+
+double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
+{
+  double value = utils::numeric(file, line, str, false, lmp);
+  if (!(value > 0.0))
+    lmp->error->all(file, line, "fix bk/substrate: {} must be > 0, got {}", what, str);
+  return value;
+}
+
+// NAME of a per-atom property written d_NAME or NAME
+std::string property_name(const char *file, int line, const char *keyword, const char *str,
+                          LAMMPS *lmp)
+{
+  if (strncmp(str, "d_", 2) == 0) str += 2;
+  if (*str == '\0')
+    lmp->error->all(file, line, "fix bk/substrate {}: empty property name", keyword);
+  return str;
+}
+}    // namespace
+
+FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
+{
+  const std::string mismatch = bk_version_mismatch(lmp);
+  if (!mismatch.empty())
+    error->all(FLERR,
+               "fix bk/substrate: the bkflow plugin was {}; rebuild it with `pip install -e .` "
+               "against this LAMMPS",
+               mismatch);
+
+  if (domain->dimension != 2) error->all(FLERR, "fix bk/substrate requires dimension 2");
+  if (domain->triclinic) error->all(FLERR, "fix bk/substrate requires an orthogonal box");
+  if (narg < 4) error->all(FLERR, "Illegal fix bk/substrate command: expected {}", USAGE);
+
+  std::string start_name;    // per-atom property holding dr_x at the fix's creation
+  int iarg = 3;
+  while (iarg < narg) {
+    if (strcmp(arg[iarg], "bonds") == 0) {
+      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate bonds needs: bonds k_b r0");
+      kb = positive(FLERR, "k_b", arg[iarg + 1], lmp);
+      r0 = positive(FLERR, "r0", arg[iarg + 2], lmp);
+      bonds_on = 1;
+      iarg += 3;
+    } else if (strcmp(arg[iarg], "drive") == 0) {
+      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
+      vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      kd_name = property_name(FLERR, "drive", arg[iarg + 2], lmp);
+      drive_on = 1;
+      iarg += 3;
+    } else if (strcmp(arg[iarg], "friction") == 0) {
+      if (iarg + 6 > narg)
+        error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A {}",
+                   names_of(BK_CONTACT_NAMES, BK_NCONTACT, true));
+      ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
+      mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
+      sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
+      area = positive(FLERR, "A", arg[iarg + 4], lmp);
+      contact = BK_NO_CONTACT;
+      for (int rule = BK_NO_CONTACT + 1; rule < BK_NCONTACT; rule++)
+        if (strcmp(arg[iarg + 5], BK_CONTACT_NAMES[rule]) == 0) contact = rule;
+      if (contact == BK_NO_CONTACT)
+        error->all(FLERR, "fix bk/substrate friction mode must be {}, got {}",
+                   names_of(BK_CONTACT_NAMES, BK_NCONTACT), arg[iarg + 5]);
+      fmax = mus * sigman * area;
+      iarg += 6;
+    } else if (strcmp(arg[iarg], "damp") == 0) {
+      if (iarg + 2 > narg)
+        error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
+      gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
+      iarg += 2;
+      int scheme = BK_IMPLICIT;    // the default when none is named
+      for (int d = BK_NO_DAMPING + 1; iarg < narg && d < BK_NDAMPING; d++)
+        if (strcmp(arg[iarg], BK_DAMPING_NAMES[d]) == 0) {
+          scheme = d;
+          iarg++;
+          break;
+        }
+      damping = gamma > 0.0 ? scheme : BK_NO_DAMPING;
+    } else if (strcmp(arg[iarg], "integrate") == 0 || strcmp(arg[iarg], "fused") == 0) {
+      integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
+      iarg++;
+    } else if (strcmp(arg[iarg], "start") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
+      start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
+      iarg += 2;
+    } else {
+      error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", arg[iarg], USAGE);
+    }
+  }
+
+  if (bonds_on && !atom->molecular)
+    error->all(FLERR, "fix bk/substrate bonds needs a molecular atom style (atom_style bond)");
+  if (!start_name.empty() && contact == BK_NO_CONTACT)
+    error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
+
+  time_integrate = integrate;
+  vector_flag = 1;
+  size_vector = BK_NSLOTS;
+  scalar_flag = 1;
+  extscalar = 1;
+  energy_global_flag = 1;
+  global_freq = 1;
+  extvector = 0;
+  restart_global = 1;
+  restart_peratom = 1;
+  peratom_flag = 1;
+  size_peratom_cols = NSTATE;
+  peratom_freq = 1;
+  dynamic_group_allow = 0;
+
+  FixBKLayer::grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+
+  for (int i = 0; i < atom->nlocal; i++) FixBKLayer::set_arrays(i);
+  // contacts already part-way through their cycle; a restart file's state, unpacked after
+  // the constructor, replaces these values as it does the anchors
+  if (!start_name.empty()) {
+    const double *const dr0 = atom->dvector[double_property(start_name.c_str(), "start")];
+    for (int i = 0; i < atom->nlocal; i++) state[i][DRX] = dr0[i];
+  }
+  t0 = current_time();
+  elapsed_base = 0.0;
+  dt_base = update->dt;
+  step_base = update->ntimestep;
+}
+
+FixBKLayer::~FixBKLayer()
+{
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  memory->destroy(state);
+}
+
+// index of the per-atom double property d_NAME (fix property/atom), for `keyword`
+int FixBKLayer::double_property(const char *name, const char *keyword)
+{
+  int flag, cols;
+  const int index = atom->find_custom(name, flag, cols);
+  if (index < 0 || flag != 1 || cols != 0)
+    error->all(FLERR,
+               "fix bk/substrate {}: no per-atom double property d_{}; define it with "
+               "`fix ID all property/atom d_{}` before read_data",
+               keyword, name, name);
+  return index;
+}
+
+void FixBKLayer::init()
+{
+  if (drive_on) kd_index = double_property(kd_name.c_str(), "drive");
+  if (bonds_on && force->newton_bond)
+    error->all(FLERR, "fix bk/substrate bonds needs every atom to hold all its bonds: "
+                      "use `newton on off` (newton_bond off) before read_data");
+  if (damping != BK_NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
+    error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
+}
+
+double FixBKLayer::current_time() const
+{
+  return update->atime + static_cast<double>(update->ntimestep - update->atimestep) * update->dt;
+}
+
+double FixBKLayer::plate_now()
+{
+  if (update->dt != dt_base) {    // a new time step from here on
+    elapsed_base += static_cast<double>(update->ntimestep - step_base) * dt_base;
+    step_base = update->ntimestep;
+    dt_base = update->dt;
+  }
+  return bk_plate_shift(vd, elapsed_base, static_cast<double>(update->ntimestep - step_base),
+                        dt_base);
+}
+
+/* the global vector, slots of bk_model.h's bk_slot: 1 sigma_x = sum_i k_d^i (anchor_x - x_i) /
+   (Lx Ly); 2 contact breaks in the last step; 3 contact breaks since the fix was defined;
+   4 plate displacement V_d (t - t0); 5 longest bond in the last step; 6 the path that ran
+   (bk_path_code) */
+
+double FixBKLayer::compute_vector(int n)
+{
+  switch (n) {
+    case BK_SLOT_SIGMA:
+      return sigma_x();
+    case BK_SLOT_BREAKS_STEP:
+      return breaks(false);
+    case BK_SLOT_BREAKS_TOTAL:
+      return breaks(true);
+    case BK_SLOT_PLATE:
+      return plate_shift;
+    case BK_SLOT_BOND_MAX:
+      return longest_bond();
+    default:
+      return path_code();
+  }
+}
+
+/* the contacts' load phases u_i = k_e |dr_i| / (mu_s sigma_n A) of the local atoms in the
+   group, summed (bk_model.h) and reduced over ranks */
+
+void FixBKLayer::contact_phase(double *sums)
+{
+  double local[BK_NPHASE] = {};
+  if (contact != BK_NO_CONTACT) {
+    const double inv_lim = ke / fmax;
+    const int *const mask = atom->mask;
+    const int nlocal = atom->nlocal;
+    for (int i = 0; i < nlocal; i++)
+      if (mask[i] & groupbit) bk_add_phase(local, state[i][DRX], state[i][DRY], inv_lim);
+  }
+  MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
+}
+
+/* global restart state: t0, vh_valid, total breaks, and the plate's clock (elapsed_base,
+   step_base, dt_base) */
+
+void FixBKLayer::write_restart(FILE *fp)
+{
+  double local = static_cast<double>(nbreak_total), total = 0.0;
+  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, world);
+  if (comm->me == 0) {
+    double list[6] = {t0, static_cast<double>(vh_valid), total, elapsed_base,
+                      static_cast<double>(step_base), dt_base};
+    int size = 6 * sizeof(double);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(list, sizeof(double), 6, fp);
+  }
+}
+
+void FixBKLayer::restart(char *buf)
+{
+  auto *list = reinterpret_cast<double *>(buf);
+  t0 = list[0];
+  vh_valid = static_cast<int>(list[1]);
+  nbreak_total = comm->me == 0 ? static_cast<bigint>(list[2]) : 0;
+  elapsed_base = list[3];
+  step_base = static_cast<bigint>(list[4]);
+  dt_base = list[5];
+}
+
+double FixBKLayer::memory_usage()
+{
+  return static_cast<double>(atom->nmax) * NSTATE * sizeof(double);
+}
+
+void FixBKLayer::grow_arrays(int nmax)
+{
+  memory->grow(state, nmax, NSTATE, "bk/substrate:state");
+  array_atom = state;
+}
+
+void FixBKLayer::copy_arrays(int i, int j, int /*delflag*/)
+{
+  for (int k = 0; k < NSTATE; k++) state[j][k] = state[i][k];
+}
+
+// a new atom: anchored where it stands, no contact history, velocity as given
+void FixBKLayer::set_arrays(int i)
+{
+  double r[3];
+  domain->unmap(atom->x[i], atom->image[i], r);
+  state[i][AX] = r[0];
+  state[i][AY] = r[1];
+  state[i][DRX] = state[i][DRY] = 0.0;
+  state[i][VHX] = atom->v[i][0];
+  state[i][VHY] = atom->v[i][1];
+}
+
+int FixBKLayer::pack_exchange(int i, double *buf)
+{
+  for (int k = 0; k < NSTATE; k++) buf[k] = state[i][k];
+  return NSTATE;
+}
+
+int FixBKLayer::unpack_exchange(int nlocal, double *buf)
+{
+  for (int k = 0; k < NSTATE; k++) state[nlocal][k] = buf[k];
+  return NSTATE;
+}
+
+/* restart files: buf[0] holds the count (as every fix reading atom->extra expects), then the
+   NSTATE columns; a path may write more columns after them (FixBKFused), which this one skips */
+
+int FixBKLayer::pack_restart(int i, double *buf)
+{
+  buf[0] = NSTATE + 1;
+  for (int k = 0; k < NSTATE; k++) buf[k + 1] = state[i][k];
+  return NSTATE + 1;
+}
+
+void FixBKLayer::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
+  m++;
+  for (int k = 0; k < NSTATE; k++) state[nlocal][k] = extra[nlocal][m++];
+}
+
+int FixBKLayer::size_restart(int /*nlocal*/)
+{
+  return NSTATE + 1;
+}
+
+int FixBKLayer::maxsize_restart()
+{
+  return NSTATE + 1;
+}

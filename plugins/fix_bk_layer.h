@@ -1,0 +1,95 @@
+/* bkflow LAMMPS plugin: FixBKLayer, what both paths of fix bk/substrate share: the arguments,
+   the per-atom state of the layer (anchors, contact displacements, half-step velocities) with
+   its migration and restart, the plate's clock, and the global output vector. The paths are its
+   two siblings, each overriding only what it computes its own way:
+
+     FixBKSubstrate (fix_bk_substrate.h)  the general path: forces in post_force over local
+                                          atoms and their bond lists, any number of ranks
+     FixBKFused     (fix_bk_fused.h)      the fused path: the whole step in one pass over
+                                          arrays in lattice order (bk_fused_kernel.inc)
+
+   as LAMMPS's FixNVEOMP derives from FixNVE and overrides its loops only. Their physics is one
+   header's (bk_model.h). plugins/README.md documents the syntax. */
+
+#ifndef BKFLOW_FIX_BK_LAYER_H
+#define BKFLOW_FIX_BK_LAYER_H
+
+#include "bk_model.h"
+#include "fix.h"
+
+#include <string>
+
+namespace LAMMPS_NS {
+
+class FixBKLayer : public Fix {
+ public:
+  FixBKLayer(class LAMMPS *, int, char **);
+  ~FixBKLayer() override;
+  void init() override;
+  double compute_vector(int) override;
+
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+
+  double memory_usage() override;
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+
+  // LAMMPS's simulation time at the current step (the t of bk/stress; t0 of the anchors)
+  double current_time() const;
+  // whether the fix has contacts (friction), whose load phases bk/phase samples
+  bool has_contacts() const { return contact != BK_NO_CONTACT; }
+  // the contacts' phase sums of the current step (bk_model.h, BK_NPHASE values), reduced over
+  // every rank: collective. Here over the per-atom state of local atoms.
+  virtual void contact_phase(double *sums);
+
+  // per-atom state columns
+  enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };
+
+ protected:
+  // model parameters (docs/model.md "Forces on particle i")
+  int bonds_on = 0, drive_on = 0;
+  int contact = BK_NO_CONTACT;   // the contact rule (bk_model.h), none without friction
+  int damping = BK_NO_DAMPING;   // the damping scheme (bk_model.h), none when gamma = 0
+  double kb = 0.0, r0 = 0.0;     // bond stiffness (force k_b (r - r0)) and rest length
+  double vd = 0.0;               // plate velocity along +x
+  double ke = 0.0, fmax = 0.0;   // contact spring, break threshold mu_s*sigma_n*A
+  double mus = 0.0, sigman = 0.0, area = 0.0;
+  double gamma = 0.0;            // damping rate
+  std::string kd_name;           // name of the per-atom double property holding k_d^i
+  int kd_index = -1;
+  int integrate = 0;             // `integrate` or `fused`: the fix integrates the layer too
+
+  double **state = nullptr;      // AX, AY: anchor at t0 (unwrapped); DR*: contact
+                                 // displacement; VH*: half-step velocity of the last step
+  double t0 = 0.0;               // simulation time at which anchors were taken
+  // the plate's clock, time since t0 counted in whole steps: elapsed = elapsed_base +
+  // (ntimestep - step_base) * dt_base, rebased only when the time step changes. LAMMPS's
+  // own clock (atime) is re-summed at every run command, so a run split into chunks would
+  // otherwise differ from one long run in the last bits, which the dynamics then amplify.
+  double elapsed_base = 0.0, dt_base = 0.0;
+  bigint step_base = 0;
+  double plate_shift = 0.0;      // the plate's displacement at the current step
+  int vh_valid = 0;              // VH* hold the velocity used by the last step
+  bigint nbreak_step = 0, nbreak_total = 0;    // contact breaks (local on the general path)
+
+  int double_property(const char *name, const char *keyword);
+  double plate_now();    // the plate's shift at the current step (rebases the clock on a new dt)
+
+  // the output vector's slots (bk_model.h bk_slot) that the paths compute their own way
+  virtual double sigma_x() = 0;
+  virtual double breaks(bool total) = 0;
+  virtual double longest_bond() = 0;
+  virtual int path_code() const = 0;
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
