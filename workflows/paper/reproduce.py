@@ -4,20 +4,22 @@
         [--protocols paper,steady,steady_3600,sync_steady,aspect] [--figures DIR]
         [--numbers FILE]
 
-Every sweep uses the default time step (C = 0.2) and scene full, seeds 1..3, 13 phi from 1e-1
-to 1e3 (3 per decade) unless said otherwise; each goes into OUT/<name>:
+Every sweep uses the default time step (C = 0.1, the default preset's) and scene full, seeds
+1..3, 13 phi from 1e-1 to 1e3 (3 per decade) unless said otherwise; each goes into OUT/<name>:
 
-paper        the paper's protocol: the synchronized start (every contact formed at t = 0)
-             run for a finite length, t_end = 1000, 4000 and 16000, at N = 100, 400, 900
-             (20x5, 40x10, 60x15): how the curves move with run length.
-steady       the steady state: the random start (every contact part-way through its cycle),
-             each run until its stress is stationary (bkflow run --start random
-             --until-stationary), capped at t_end = 32000, at N = 100, 400, 900.
-steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade, 2 seeds.
-sync_steady  the synchronized start run until stationary (cap 64000) at N = 100, phi = 10,
-             100, 1000: does the paper's start reach the same steady state?
+paper        the paper's protocol (bkflow run --protocol paper): the synchronized start
+             (every contact formed at t = 0) run for a finite length, t_end = 1000, 4000 and
+             16000, at N = 100, 400, 900 (20x5, 40x10, 60x15): how the curves move with run
+             length, and which of their points are metastable.
+steady       the steady protocol (bkflow run, the default): each run from the random start
+             beside its companion from the partial start, until both are steady and agree
+             within 0.5%, capped at t_end = 32000, at N = 100, 400, 900.
+steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade, 2 seeds,
+             capped at 16000.
+sync_steady  the synchronized start beside its partial companion until steady (cap 64000) at
+             N = 100, phi = 10, 100, 1000: does the paper's start reach the same steady state?
 aspect       the aspect-ratio check ("with Lx <= Ly the DT regime does not appear"): N = 100
-             on 20x5, 10x10 and 5x20, t_end = 8000.
+             on 20x5, 10x10 and 5x20, the paper's protocol, t_end = 8000.
 
 Then the figures (``bkflow plot`` of each protocol, and the comparisons below) as PNG into
 workflows/paper/figures/, and workflows/paper/numbers.md: every number REPRODUCTION.md cites,
@@ -38,8 +40,8 @@ import pandas as pd
 
 from bkflow import io
 from bkflow.grid import phi_values, sweep_specs
-from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec
-from bkflow.plot import STYLE, SweepData, _style, cluster_scatter, plot
+from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
+from bkflow.plot import STATE_FILL, STYLE, SweepData, _style, cluster_scatter, plot
 from bkflow.rundir import sweep_run_dir
 from bkflow.sweep import available_cores, fmt_duration, sweep
 from bkflow.tables import SETTINGS_FILE, read_tables
@@ -50,35 +52,31 @@ ASPECT_SIZES = [(20, 5), (10, 10), (5, 20)]
 GRID_SIZES = [PAPER_SIZES[n] for n in (100, 400, 900)]
 #: the paper's protocol: the synchronized start run for a finite length, at three lengths
 PAPER_LENGTHS = (1000.0, 4000.0, 16000.0)
-#: the steady state: the random start run until stationary, capped at this length
+#: the steady protocol, capped at this length (the stiff layers' pairs that have not agreed by
+#: then end metastable, with the bracket of their two starts)
 STEADY_CAP = 32000.0
-#: beyond the paper: N = 3600 in the steady state, one phi per decade
-LARGE_SIZE, LARGE_PHI = (120, 30), "1e-1,1,10,100,1e3"
-#: the synchronized start run until stationary, on a few points: does it reach the random
-#: start's steady state?
+#: beyond the paper: N = 3600 in the steady state, one phi per decade, a shorter cap
+LARGE_SIZE, LARGE_PHI, LARGE_CAP = (120, 30), "1e-1,1,10,100,1e3", 16000.0
+#: the synchronized start beside its companion until steady, on a few points: does the
+#: paper's start reach the same steady state?
 SYNC_STEADY_PHI, SYNC_STEADY_CAP = "10,100,1e3", 64000.0
-#: the random start run for a fixed long time at the same phi: does its early stationary
-#: state last, or does it drift over times its short window cannot see?
-LONG_T = 16000.0
 
 
 def protocols(seeds: int, dt_factor: float) -> dict[str, list[RunSpec]]:
     """Every sweep of the reproduction: name -> its RunSpecs (the directory OUT/name)."""
     grid = phi_values(PHI)
-    common = {"dt_factor": dt_factor}
+    paper = protocol_fields("paper", dt_factor=dt_factor)
+    steady = protocol_fields("steady", dt_factor=dt_factor)
     return {
         "paper": [s for t_end in PAPER_LENGTHS for s in
-                  sweep_specs(grid, GRID_SIZES, seeds, t_end=t_end, **common)],
-        "steady": sweep_specs(grid, GRID_SIZES, seeds, t_end=STEADY_CAP, start="random",
-                              until_stationary=True, **common),
+                  sweep_specs(grid, GRID_SIZES, seeds, **{**paper, "t_end": t_end})],
+        "steady": sweep_specs(grid, GRID_SIZES, seeds, **{**steady, "t_end": STEADY_CAP}),
         "steady_3600": sweep_specs(phi_values(LARGE_PHI), [LARGE_SIZE], min(seeds, 2),
-                                   t_end=STEADY_CAP, start="random", until_stationary=True,
-                                   **common),
+                                   **{**steady, "t_end": LARGE_CAP}),
         "sync_steady": sweep_specs(phi_values(SYNC_STEADY_PHI), [PAPER_SIZES[100]], seeds,
-                                   t_end=SYNC_STEADY_CAP, until_stationary=True, **common),
-        "random_long": sweep_specs(phi_values(SYNC_STEADY_PHI), GRID_SIZES, min(seeds, 2),
-                                   t_end=LONG_T, start="random", **common),
-        "aspect": sweep_specs(grid, ASPECT_SIZES, seeds, **common),
+                                   **{**steady, "start": "synchronized",
+                                      "t_end": SYNC_STEADY_CAP}),
+        "aspect": sweep_specs(grid, ASPECT_SIZES, seeds, **paper),
     }
 
 
@@ -120,10 +118,9 @@ CURVES = {
     "paper, t_end = 1000": ("paper", {"t_end": 1000.0}),
     "paper, t_end = 4000": ("paper", {"t_end": 4000.0}),
     "paper, t_end = 16000": ("paper", {"t_end": 16000.0}),
-    "steady (random start)": ("steady", {}),
-    "steady, N = 3600": ("steady_3600", {}),
-    "random start, t_end = 16000": ("random_long", {}),
-    "synchronized until stationary": ("sync_steady", {}),
+    "steady protocol": ("steady", {}),
+    "steady protocol, N = 3600": ("steady_3600", {}),
+    "synchronized start until steady": ("sync_steady", {}),
 }
 OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)"),
                ("mu_bar_large", "mu_bar (large drops: drop > mean drop)"),
@@ -171,17 +168,23 @@ def numbers(out: Path, wall: dict) -> str:
     """The tables REPRODUCTION.md cites, as markdown."""
     cs = curves(out)
     lines = ["# Numbers of the reproduction (generated by workflows/paper/reproduce.py)", "",
-             "Errors are standard errors over seeds. `stationary` counts the runs whose stress "
-             "passed the trend test over their analysed window (bkflow.stationarity).",
+             "Errors are standard errors over seeds. `state` is a point's: steady when every "
+             "seed's run was steady over its analysed window, metastable when one was (a flat "
+             "stress that still remembers its start, or a pair whose two starts disagree), "
+             "drifting otherwise (docs/model.md \"Steady state\"); the counts are "
+             "steady/drifting/metastable runs.",
              f"This invocation: {', '.join(f'{k} {v}' for k, v in wall.items()) or 'no runs'} "
              "wall (runs finished earlier are not redone).", "",
              "## The runs", "",
-             "| curve | runs | stationary | t_run (min - max) | LAMMPS core-seconds |",
-             "|---|---|---|---|---|"]
+             "| curve | runs | steady | drifting | metastable | t_run (min - max) | "
+             "LAMMPS core-seconds |",
+             "|---|---|---|---|---|---|---|"]
     for label, (runs, _) in cs.items():
-        st = runs.stationary.astype(bool)
-        lines.append(f"| {label} | {len(runs)} | {int(st.sum())} | {runs.t_run.min():.0f} - "
-                     f"{runs.t_run.max():.0f} | {runs.wall_time_s.sum():.0f} |")
+        n = runs.state.value_counts()
+        lines.append(f"| {label} | {len(runs)} | {n.get('steady', 0)} | "
+                     f"{n.get('drifting', 0)} | {n.get('metastable', 0)} | "
+                     f"{runs.t_run.min():.0f} - {runs.t_run.max():.0f} | "
+                     f"{runs.wall_time_s.sum():.0f} |")
 
     for field, title in OBSERVABLES:
         lines += ["", f"## {title}: minimum against the ends", "",
@@ -201,13 +204,14 @@ def numbers(out: Path, wall: dict) -> str:
                              f"{m['z_hi']:.1f} | {'yes' if m['non_monotonic'] else 'no'} |")
 
     lines += ["", "## Per phi: every curve", "",
-              "| curve | N | phi | stationary | t_run | mu_bar | mu_bar (large) | "
+              "| curve | N | phi | state (s/d/m) | t_run | mu_bar | mu_bar (large) | "
               "<sigma_x>/sigma_n | Psi(inf) | <l_x>/<l_y> | <l_x>/<l_y> (large) | regime | "
               "t_equil |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for label, (_, res) in cs.items():
         for _, r in res.sort_values(["N", "phi"]).iterrows():
             lines.append(
-                f"| {label} | {r.N} | {r.phi:g} | {r.n_stationary}/{r.n_seeds} | "
+                f"| {label} | {r.N} | {r.phi:g} | {r.state} ({r.n_steady}/{r.n_drifting}/"
+                f"{r.n_metastable}) | "
                 f"{r.t_run:.0f} | {_pm(r.mu_bar, r.mu_bar_sem)} | "
                 f"{_pm(r.mu_bar_large, r.mu_bar_large_sem)} | "
                 f"{_pm(r.mean_stress_ratio, r.mean_stress_ratio_sem)} | "
@@ -253,26 +257,27 @@ def numbers(out: Path, wall: dict) -> str:
     sync = _tables(out, "sync_steady")
     steady = _tables(out, "steady")
     if sync is not None:
-        lines += ["", "## One steady state from both starts? (N = 100, until stationary)", "",
-                  "| phi | start | stationary | t_run (mean, max) | mu_bar | mu_bar (large) | "
+        lines += ["", "## One steady state from both starts? (N = 100, until steady)", "",
+                  "| phi | start | state | t_run (mean, max) | mu_bar | mu_bar (large) | "
                   "<sigma_x>/sigma_n | difference / combined error (<sigma_x>) |",
                   "|---|---|---|---|---|---|---|---|"]
         for phi, g in sync[1].groupby("phi"):
             rnd = steady[1][(steady[1].N == 100) & np.isclose(steady[1].phi, phi)] \
                 if steady is not None else pd.DataFrame()
             for start, r in (("synchronized", g.iloc[0]),
-                             ("random", rnd.iloc[0] if len(rnd) else None)):
+                             ("random (the steady protocol)", rnd.iloc[0] if len(rnd)
+                              else None)):
                 if r is None:
                     continue
                 runs = (sync[0] if start == "synchronized" else steady[0])
                 rr = runs[(runs.N == 100) & np.isclose(runs.phi, phi)]
                 diff = ""
-                if start == "random":
+                if start != "synchronized":
                     s0 = g.iloc[0]
                     d = r.mean_stress_ratio - s0.mean_stress_ratio
                     err = math.hypot(r.mean_stress_ratio_sem, s0.mean_stress_ratio_sem)
                     diff = f"{d / err:.1f}"
-                lines.append(f"| {phi:g} | {start} | {r.n_stationary}/{r.n_seeds} | "
+                lines.append(f"| {phi:g} | {start} | {r.state} | "
                              f"{rr.t_run.mean():.0f}, {rr.t_run.max():.0f} | "
                              f"{_pm(r.mu_bar, r.mu_bar_sem)} | "
                              f"{_pm(r.mu_bar_large, r.mu_bar_large_sem)} | "
@@ -324,7 +329,7 @@ def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
 
 def protocols_figure(out: Path, figs: Path) -> Path | None:
     """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
-    one curve per protocol and run length; open symbols: not every seed stationary."""
+    one curve per protocol and run length; markers by state (bkflow.plot.STATE_FILL)."""
     cs = curves(out)
     if not cs:
         return None
@@ -332,8 +337,8 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
     fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns), 7.2),
                              squeeze=False, sharex=True)
-    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:blue",
-                                "tab:cyan", "tab:green")))
+    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:cyan",
+                                "tab:green")))
     for col, n in enumerate(ns):
         for row, (field, title) in enumerate(OBSERVABLES):
             ax = axes[row, col]
@@ -341,12 +346,14 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                 g = res[res.N == n].sort_values("phi")
                 if not len(g) or field not in g:
                     continue
-                steady = g.stationary.astype(bool).to_numpy()
+                states = g.state.fillna("drifting").to_numpy()
                 c = colours[label]
                 ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.8,
                             capsize=1.5, marker="none", label=label)
-                ax.plot(g.phi[steady], g[field][steady], "o", color=c, ms=3.5)
-                ax.plot(g.phi[~steady], g[field][~steady], "o", color=c, ms=3.5, mfc="white")
+                for name, fill in STATE_FILL.items():
+                    k = states == name
+                    ax.plot(g.phi[k], g[field][k], "o", color=c, ms=3.5, fillstyle=fill,
+                            mfc=c if fill != "none" else "white", mfcalt="white")
             ax.set_xscale("log")
             if col == 0:
                 ax.set_ylabel(title, fontsize=7.5)
@@ -355,8 +362,8 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
             if row == len(OBSERVABLES) - 1:
                 ax.set_xlabel(r"$\phi$")
     axes[0, 0].legend(frameon=False, fontsize=6, loc="best")
-    fig.text(0.99, 0.005, "open symbols: some seed not stationary", ha="right", fontsize=6.5,
-             color="grey")
+    fig.text(0.99, 0.005, "markers: filled, every seed steady; half-filled, some metastable; "
+             "open, some drifting", ha="right", fontsize=6.5, color="grey")
     fig.tight_layout()
     return _write(fig, figs / "fig2a_protocols.png")
 
@@ -374,8 +381,8 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     plt = _style()
     fig, ax = plt.subplots(figsize=(4.6, 3.2))
     drawn = False
-    for label, ls in (("paper, t_end = 16000", "-"), ("steady (random start)", ":"),
-                      ("steady, N = 3600", ":")):
+    for label, ls in (("paper, t_end = 16000", "-"), ("steady protocol", ":"),
+                      ("steady protocol, N = 3600", ":")):
         if label not in cs:
             continue
         runs = cs[label][0]
@@ -383,7 +390,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
             med = g.groupby("phi").t_equil.median()
             ax.plot(med.index, med.to_numpy(), m + ls, lw=0.8, ms=3.5,
                     mfc="none" if ls == ":" else None,
-                    label=f"{'synchronized' if ls == '-' else 'random'}, N = {n}")
+                    label=f"{'synchronized' if ls == '-' else 'steady protocol'}, N = {n}")
             drawn = True
     if not drawn:
         return None
@@ -397,39 +404,6 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     return _write(fig, figs / "relaxation.png")
 
 
-def stress_history_figure(out: Path, figs: Path) -> Path | None:
-    """The stress against time (block means over 400 time units, seeds averaged) of the
-    synchronized start (t_end = 16000) and the random start (t_end = 16000) at phi = 10, 100,
-    1000, one panel per N: how each start approaches the steady state."""
-    from bkflow.stationarity import block_means
-
-    sync, rnd = _tables(out, "paper", {"t_end": 16000.0}), _tables(out, "random_long")
-    if sync is None or rnd is None:
-        return None
-    plt = _style()
-    ns = sorted(set(rnd[0].N))
-    fig, axes = plt.subplots(1, len(ns), figsize=(3.3 * len(ns), 3.0), squeeze=False)
-    for ax, n in zip(axes[0], ns):
-        for phi, colour in zip((10.0, 100.0, 1000.0), ("tab:green", "tab:blue", "black")):
-            for (name, runs), ls in ((("synchronized", sync[0]), "-"), (("random", rnd[0]), ":")):
-                sel = runs[(runs.N == n) & np.isclose(runs.phi, phi)]
-                curves = []
-                for job in sel.job:
-                    t, sigma = sweep_run_dir(out / ("paper" if name == "synchronized"
-                                                    else "random_long"), job).read_stress()
-                    tc, m = block_means(t, sigma / float(sel.sigma_n.iloc[0]), 0.0, 40)
-                    curves.append(m)
-                if curves:
-                    ax.plot(tc, np.mean(curves, axis=0), ls, color=colour, lw=0.9,
-                            label=f"phi = {phi:g}, {name}")
-        ax.set_title(f"N = {n}", fontsize=9)
-        ax.set_xlabel("t")
-    axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$, blocks of 400 time units")
-    axes[0, 0].legend(frameon=False, fontsize=5.5)
-    fig.tight_layout()
-    return _write(fig, figs / "stress_history.png")
-
-
 def figures(out: Path, figs: Path) -> list[Path]:
     written = []
     for label, (name, where) in CURVES.items():
@@ -438,7 +412,7 @@ def figures(out: Path, figs: Path) -> list[Path]:
         sub = figs / label.split(" (")[0].replace(", ", "_").replace(" = ", "").replace(" ", "_")
         paths, _ = plot(out / name, sub, formats=("png",), where=where)
         written += paths
-    for make in (protocols_figure, relaxation_figure, stress_history_figure):
+    for make in (protocols_figure, relaxation_figure):
         path = make(out, figs)
         if path is not None:
             written.append(path)
