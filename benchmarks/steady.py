@@ -289,9 +289,9 @@ def report(runs: list[dict]) -> None:
         print("\nthe false ones:\n")
         print(_md(bad, index=False))
     print(f"\n### Time to steady and within {100 * WITHIN:g}% of the plateau (median over "
-          "seeds; inf: not within the run, whose length is in the last column)\n")
+          "seeds; inf: not within the run; the last column is the shortest run of the row)\n")
     table = ttl.groupby(["N", "phi", "start"]).t_steady.median().unstack("start")
-    table["run length"] = ttl.groupby(["N", "phi"]).t_end.min()
+    table["shortest run"] = ttl.groupby(["N", "phi"]).t_end.min()
     print(_md(table))
 
 
