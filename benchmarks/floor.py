@@ -153,7 +153,7 @@ def check(dll, sizes=((8, 3), (20, 5)), phis=(10.0, 1000.0), steps=2000) -> bool
                     lmp = lammps_with(spec, lattice, v0, Path(tmp), preload=1.2)
                     lmp.command(f"run {steps}")
                     got = unwrapped_state(lmp)
-                    breaks = int(global_vector(lmp, 2))
+                    breaks = int(global_vector(lmp, "breaks_total"))
                     lmp.close()
                 finally:
                     os.chdir(cwd)

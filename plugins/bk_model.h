@@ -239,14 +239,4 @@ static inline void bk_phase_sums(const double *drx, const double *dry, int n, do
   sums[BK_PH_N] += n;
 }
 
-/* ----------------------------------------------------------------------- the fix's outputs */
-
-/* the slots of fix bk/substrate's global vector (f_ID[slot + 1] in a deck; mirrored by name in
-   bkflow.deck.SLOTS, checked by tests/test_plugin.py) */
-enum bk_slot { BK_SLOT_SIGMA, BK_SLOT_BREAKS_STEP, BK_SLOT_BREAKS_TOTAL, BK_SLOT_PLATE,
-               BK_SLOT_BOND_MAX, BK_SLOT_PATH, BK_NSLOTS };
-/* what slot BK_SLOT_PATH says ran (mirrored by name in bkflow.engine.PATH_CODES) */
-enum bk_path_code { BK_PATH_GENERAL, BK_PATH_FUSED_BASELINE, BK_PATH_FUSED_AVX2,
-                    BK_PATH_FUSED_AVX512 };
-
 #endif

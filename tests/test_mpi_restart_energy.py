@@ -20,7 +20,7 @@ def _state_after(lmp, steps, chunks=1):
     for k in range(chunks):
         lmp.command(f"run {per} pre {'yes' if k == 0 else 'no'} post no")
     out = unwrapped_state(lmp)
-    out["breaks"] = global_vector(lmp, 2)
+    out["breaks"] = global_vector(lmp, "breaks_total")
     lmp.close()
     return out
 

@@ -36,8 +36,8 @@ def _run(spec, workdir, path, fast=None, lattice=None, velocities=None, steps=ST
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         lmp.command(f"run {steps} post no")
         out = unwrapped_state(lmp)
-        out["breaks"] = int(global_vector(lmp, 2))
-        out["path"] = int(global_vector(lmp, 5))
+        out["breaks"] = int(global_vector(lmp, "breaks_total"))
+        out["path"] = int(global_vector(lmp, "path"))
     finally:
         lmp.close()
     return out

@@ -37,8 +37,8 @@ def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):
     lmp = lammps_with(spec, lattice, v0, workdir, preload=PRELOAD)
     lmp.command(f"run {STEPS}")
     got = unwrapped_state(lmp)
-    breaks = int(global_vector(lmp, 2))
-    sigma_x = global_vector(lmp, 0)
+    breaks = int(global_vector(lmp, "breaks_total"))
+    sigma_x = global_vector(lmp, "sigma_x")
     lmp.close()
 
     ref = reference_for(spec, lattice)

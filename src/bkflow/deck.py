@@ -24,8 +24,13 @@ from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
 from .rundir import DATA, DECK, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
 
-#: fix ID of the substrate; its vector is [sigma_x, breaks last step, breaks total, plate shift]
+#: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
+#: the slots of fix bk/substrate's global vector, 0-based (f_bk[slot + 1] in a deck): the
+#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/test_plugin.py checks
+#: that the two agree
+SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
+         "path": 5}
 #: fix ID of fix bk/slips (scenes clusters, full); its vector is [events, events written]
 SLIPS_FIX = "slips"
 #: fix ID of fix bk/fronts (scenes fronts, full); its vector is [events, events written]
@@ -236,7 +241,8 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None,
             f"{spec.slips_start_step}{limit}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)
-    cols = f"f_{SUBSTRATE_FIX}[1] f_{SUBSTRATE_FIX}[2] f_{SUBSTRATE_FIX}[3] f_{SUBSTRATE_FIX}[5] "
+    cols = "".join(f"f_{SUBSTRATE_FIX}[{SLOTS[k] + 1}] "
+                   for k in ("sigma_x", "breaks_step", "breaks_total", "bond_max"))
     lines += [
         f"thermo          {thermo}",
         f"thermo_style    custom step time {cols}cpuremain",

@@ -28,6 +28,7 @@ from .deck import (
     FRONTS_FIX,
     SERIAL_COMM_CUTOFF,
     SLIPS_FIX,
+    SLOTS,
     SUBSTRATE_FIX,
     DeckFiles,
     data_text,
@@ -46,7 +47,7 @@ from .params import (
     transient_step,
 )
 from .phases import COHERENT_FLUCTUATION, coherence, state
-from .plugin import build_info, lammps_version, open_lammps
+from .plugin import ERROR_TOKENS, PATH_CODES, build_info, lammps_version, open_lammps
 from .provenance import record as provenance
 from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
 from .stationarity import stationarity
@@ -236,11 +237,11 @@ def _check(lmp, spec: RunSpec, step: int) -> float:
         raise RunError(f"{where}: lost atoms ({natoms} of {spec.N} left); the run blew up, "
                        "try a smaller --dt-factor")
     x = lmp.numpy.extract_atom("x")
-    sx = _fix_vector(lmp, SUBSTRATE_FIX, 0)
+    sx = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["sigma_x"])
     if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
         raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
                        "try a smaller --dt-factor")
-    longest = _fix_vector(lmp, SUBSTRATE_FIX, 4)
+    longest = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["bond_max"])
     if not longest < spec.bond_limit:
         if spec.dt_factor <= TEAR_IS_PHYSICAL_BELOW_C:
             # at an accurate time step a torn layer is the model's own answer: bonds this
@@ -256,13 +257,17 @@ def _check(lmp, spec: RunSpec, step: int) -> float:
 
 
 def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Path) -> RunError:
-    """A LAMMPS exception as a RunError that says what happened."""
+    """A LAMMPS exception as a RunError that says what happened: the plugin's errors are told
+    apart by their tokens (bkflow.plugin.ERROR_TOKENS), which the message then drops."""
     msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    if "writing" in msg and "failed" in msg or "No space left" in msg:
+    tokens = {name for name, token in ERROR_TOKENS.items() if token in msg}
+    for token in ERROR_TOKENS.values():
+        msg = msg.replace(token + " ", "").replace(token, "")
+    if tokens & {"write_failed", "cannot_open"} or "No space left" in msg:
         core = msg.split(": ", 1)[-1].split(" (/")[0]
         return RunDiskError(f"{spec.label}, step {step}: {core}; free space (or choose "
                             "another --out) and run the same command again")
-    if ("bond partner" in msg and "missing" in msg) or ("fused" in msg and "not local" in msg):
+    if tokens & {"partner_missing", "atom_lost"}:
         # one rank holds every atom: a partner is "missing" (general path), or an atom is no
         # longer local (fused path), only when atoms flew off (NaN, or past the ghost cutoff)
         # within a piece, i.e. the integration blew up
@@ -331,7 +336,7 @@ class _Leg:
 
     def counters(self) -> dict:
         lmp, spec = self.lmp, self.spec
-        return {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, 2)),
+        return {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"])),
                 "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
                                    for i, k in enumerate(("events", "written"))}
                 if spec.writes_slips else None,
@@ -402,15 +407,10 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
 _RUNS_IN_PROCESS = {"pid": None, "runs": 0}
 
 
-#: f_bk[6] of fix bk/substrate: the path that ran and its kernel
-_PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2"),
-               3: ("fused", "avx512")}
-
-
 def _path_record(lmp, requested: str) -> dict:
     """What meta.json says of the integration path: asked for, taken, kernel, ranks."""
-    code = int(_fix_vector(lmp, SUBSTRATE_FIX, 5))
-    path, kernel = _PATH_CODES.get(code, (f"unknown ({code})", None))
+    code = int(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["path"]))
+    path, kernel = PATH_CODES.get(code, (f"unknown ({code})", None))
     return {"requested": requested, "path": path, "kernel": kernel,
             "ranks": int(lmp.extract_setting("world_size"))}
 

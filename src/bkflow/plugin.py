@@ -16,6 +16,14 @@ import os
 from pathlib import Path
 
 PLUGIN_FILE = "bkflowplugin.so"
+#: what slot "path" of fix bk/substrate's vector says ran: (path, kernel) by code, as
+#: plugins/bk_interface.h names them (enum bk_path_code; tests/test_plugin.py checks)
+PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2"),
+              3: ("fused", "avx512")}
+#: the tokens that start the plugin's error messages a program tells apart, by name
+#: (plugins/bk_interface.h, BK_ERR_*; tests/test_plugin.py checks)
+ERROR_TOKENS = {"write_failed": "[bk:write-failed]", "cannot_open": "[bk:cannot-open]",
+                "partner_missing": "[bk:partner-missing]", "atom_lost": "[bk:atom-lost]"}
 #: environment variable naming another plugin directory (a development build)
 PLUGIN_DIR_ENV = "BKFLOW_PLUGIN_DIR"
 FIX_STYLE = "bk/substrate"
