@@ -124,10 +124,10 @@ def report(out: Path, refs: pd.DataFrame, sizes) -> None:
           "C = 0.05 (mean over seeds)\n")
     print("| N | phi | <sigma_x>/sigma_n at C = 0.2 / 0.1 | mu_bar at C = 0.2 / 0.1 |")
     print("|---|---|---|---|")
-    for r in refs.itertuples():
-        print(f"| {r.N} | {r.phi:g} | {100 * r.mean_stress_ratio_C0_2:+.2f}% / "
-              f"{100 * r.mean_stress_ratio_C0_1:+.2f}% | {100 * r.mu_bar_C0_2:+.2f}% / "
-              f"{100 * r.mu_bar_C0_1:+.2f}% |")
+    for _, r in refs.iterrows():
+        print(f"| {r.N:g} | {r.phi:g} | {100 * r['mean_stress_ratio_C0.2']:+.2f}% / "
+              f"{100 * r['mean_stress_ratio_C0.1']:+.2f}% | {100 * r['mu_bar_C0.2']:+.2f}% / "
+              f"{100 * r['mu_bar_C0.1']:+.2f}% |")
     print("\n## The presets under the steady protocol, against the converged steady reference "
           "(mean over seeds)\n")
     print("| preset | N | phi | wall per run (s) | states | error <sigma_x>/sigma_n | error "

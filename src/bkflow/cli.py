@@ -76,13 +76,15 @@ class _Parser(argparse.ArgumentParser):
 def _accuracy_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=PROTOCOLS, default="steady",
                    help="steady (default): from the start that forgets fastest "
-                        f"({STEADY_START}), run until the run is steady, at most --t-end; "
+                        f"({STEADY_START}), beside a companion run from the "
+                        f"{STEADY_COMPANION} start, until both are steady and agree and "
+                        "mu_bar's error is below the preset's target, at most --t-end; "
                         "paper: the paper's, from the synchronized start, a fixed --t-end")
     p.add_argument("--accuracy", choices=tuple(ACCURACY), default="default",
-                   help="preset of --dt-factor and --t-end: " + ", ".join(
-                       f"{k} (C = {c.dt_factor:g}; t_end = {c.t_end:g} for the paper's "
-                       f"protocol, at most {c.t_cap:g} for the steady one)"
-                       for k, c in ACCURACY.items()))
+                   help="preset of --dt-factor, --t-end and --target-error: " + ", ".join(
+                       f"{k} (C = {c.dt_factor:g}; the steady protocol until mu_bar's error "
+                       f"is below {c.target_error:g}, at most t = {c.t_cap:g}; the paper's "
+                       f"protocol t_end = {c.t_end:g})" for k, c in ACCURACY.items()))
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="run length in time units (default: the --accuracy preset's); for "
                         "the steady protocol or with --target-error, the longest the run may "
@@ -92,7 +94,8 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--target-error", type=float, default=None, metavar="E",
                    help="run until mu_bar's standard error is below this (checked every 1%% of "
                         f"--t-end, at most every {ADAPTIVE_CHUNK_T:g} time units, from t = "
-                        f"{ADAPTIVE_T_MIN:g}), at most --t-end")
+                        f"{ADAPTIVE_T_MIN:g}), at most --t-end (default: the steady "
+                        "protocol's preset target; none for the paper's)")
 
 
 def _contact_rule_arg(p: argparse.ArgumentParser) -> None:

@@ -47,17 +47,22 @@ DAMPING_MODES = ("implicit", "half")
 
 class Preset(NamedTuple):
     """An accuracy preset: the time-step factor C, the length of a fixed run (the paper's
-    protocol) and the cap of a run until steady (the steady protocol)."""
+    protocol), the cap of a run until steady (the steady protocol) and the standard error of
+    mu_bar that the steady protocol also waits for (absolute; mu_bar is 0.10-0.12, so 2e-4
+    is about 0.2%)."""
 
     dt_factor: float
     t_end: float
     t_cap: float
+    target_error: float
 
 
-#: accuracy presets, chosen from the work-precision benchmarks (benchmarks/work_precision.py,
-#: errors and costs in benchmarks/RESULTS.md)
-ACCURACY = {"fast": Preset(0.2, 2000.0, 16000.0), "default": Preset(0.1, 8000.0, 64000.0),
-            "precise": Preset(0.05, 16000.0, 64000.0)}
+#: accuracy presets, chosen from the work-precision benchmarks of the steady state
+#: (benchmarks/steady_presets.py: C = 0.2 is 0.8% low at phi = 0.1, C = 0.1 within 0.1%
+#: everywhere; errors and costs in benchmarks/RESULTS.md)
+ACCURACY = {"fast": Preset(0.2, 2000.0, 16000.0, 5e-4),
+            "default": Preset(0.1, 8000.0, 64000.0, 2e-4),
+            "precise": Preset(0.05, 16000.0, 64000.0, 1e-4)}
 
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
@@ -513,9 +518,10 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     target_error) from an accuracy preset (:data:`ACCURACY`) and what is given explicitly
     (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
     none). ``steady``: from STEADY_START with a companion from STEADY_COMPANION (or, when
-    ``start`` is that, STEADY_START) until the pair is steady, at most the preset's t_cap;
-    ``paper``: from the synchronized start, a fixed run of the preset's t_end, no companion
-    (``until_steady`` adds the steady rule, t_end is then its cap).
+    ``start`` is that, STEADY_START) until the pair is steady and mu_bar's error is below the
+    preset's target, at most the preset's t_cap; ``paper``: from the synchronized start, a
+    fixed run of the preset's t_end, no companion (``until_steady`` adds the steady rule,
+    t_end is then its cap).
 
     >>> f = protocol_fields()
     >>> f["start"], f["companion"], f["until_steady"]
@@ -539,7 +545,8 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
             "until_steady": steady,
             "t_end": default_t if t_end is None else t_end,
             "dt_factor": preset.dt_factor if dt_factor is None else dt_factor,
-            "target_error": target_error}
+            "target_error": target_error if target_error is not None
+            else preset.target_error if protocol == "steady" else None}
 
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
