@@ -149,6 +149,151 @@ class SpecError(ValueError):
     """A parameter outside its meaning; the message names the field and the accepted range."""
 
 
+#: why a lattice needs 3 cells along each axis (RunSpec.Lx, Ly)
+_TWO_CELLS = (": with 2 cells along an axis the bonds to the neighbours on either side join the "
+              "same pair of particles at exactly half the box, where the bond's periodic image "
+              "is undefined")
+
+
+# ------------------------------------------------------------------------ checks of one value
+# Each field of RunSpec and AnalysisSettings carries its own check (its dataclass metadata):
+# a function (name, value) -> None that raises a SpecError naming the field and its range.
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def number(gt: float | None = None, ge: float | None = None, lt: float | None = None,
+           le: float | None = None, why: str = "", optional: bool = False, noun: str = ""):
+    """A check: a finite number within the bounds given (``why``: what the bound means,
+    after it; ``noun``: before it, as in "a number > 0"), or None when ``optional``."""
+    def check(name, v):
+        if optional and v is None:
+            return
+        if not _is_number(v):
+            what = f"{noun}> {gt:g}" if noun and gt is not None else "a finite number"
+            raise SpecError(f"{name} must be {what}, got {v!r}")
+        for bound, ok, sign in ((gt, lambda b: v > b, ">"), (ge, lambda b: v >= b, ">="),
+                                (lt, lambda b: v < b, "<"), (le, lambda b: v <= b, "<=")):
+            if bound is not None and not ok(bound):
+                raise SpecError(f"{name} must be {noun}{sign} {bound:g}{why}, got {v!r}")
+    return check
+
+
+def interval(lo: float, hi: float):
+    """A check: a number in the open interval (lo, hi)."""
+    def check(name, v):
+        if not (_is_number(v) and lo < v < hi):
+            raise SpecError(f"{name} must lie in ({lo:g}, {hi:g}), got {v!r}")
+    return check
+
+
+def fraction(closed_high: bool = False, why: str = "", optional: bool = False):
+    """A check: a number in [0, 1) (or (0, 1] with ``closed_high``), or None when
+    ``optional``."""
+    def check(name, v):
+        if optional and v is None:
+            return
+        ok = _is_number(v) and (0 < v <= 1 if closed_high else 0 <= v < 1)
+        if not ok:
+            span = "(0, 1]" if closed_high else "[0, 1)"
+            raise SpecError(f"{name} must lie in {span}{why}, got {v!r}")
+    return check
+
+
+def integer(ge: int, phrase: str | None = None, tail: str = ""):
+    """A check: an int (not a bool) >= ge; ``phrase`` replaces "an integer >= ge" in the
+    message, ``tail`` follows it."""
+    def check(name, v):
+        if not isinstance(v, int) or isinstance(v, bool) or v < ge:
+            raise SpecError(f"{name} must be {phrase or f'an integer >= {ge}'}, got {v!r}"
+                            f"{tail}")
+    return check
+
+
+def choice(options, optional: bool = False):
+    """A check: one of ``options`` (or None when ``optional``)."""
+    def check(name, v):
+        if optional and v is None:
+            return
+        if v not in options:
+            none = "none or " if optional else ""
+            raise SpecError(f"{name} must be {none}one of {', '.join(options)}, got {v!r}")
+    return check
+
+
+def boolean(name, v):
+    """A check: True or False."""
+    if not isinstance(v, bool):
+        raise SpecError(f"{name} must be true or false, got {v!r}")
+
+
+def checked(default=dataclasses.MISSING, check=None, **kw):
+    """A dataclass field with its check (see :func:`check_fields`)."""
+    return dataclasses.field(default=default, metadata={"check": check}, **kw)
+
+
+def check_fields(obj, prefix: str = "") -> None:
+    """Every field's own check; ``prefix`` names what the field is (e.g. "analysis setting
+    ")."""
+    for f in dataclasses.fields(obj):
+        check = f.metadata.get("check")
+        if check is not None:
+            check(prefix + f.name, getattr(obj, f.name))
+
+
+# ------------------------------------------------------------------------ NAME=VALUE
+def split_assignment(item, option: str, values: bool = False) -> tuple[str, list[str] | str]:
+    """(NAME, VALUE) of ``NAME=VALUE`` (``-`` in NAME reads as ``_``), or with ``values``
+    (NAME, [V1, V2, ...]) of ``NAME=V1,V2,...``: the one parser of bkflow's NAME=VALUE
+    options (--set, --vary, --analysis, --where)."""
+    name, sep, text = str(item).partition("=")
+    name = name.strip().replace("-", "_")
+    if not values:
+        if not sep or not name:
+            raise SpecError(f"{option} {item!r}: give NAME=VALUE")
+        return name, text
+    if not sep or not name or not text.strip():
+        raise SpecError(f"{option} {item!r}: give NAME=V1,V2,...")
+    parts = text.split(",")
+    if any(not v.strip() for v in parts):
+        raise SpecError(f"{option} {item!r}: an empty value in the list")
+    return name, parts
+
+
+def parse_typed(kind: str, text: str, what: str, none_words=("none",)):
+    """``text`` as a value of the type annotation ``kind`` (bool, int, float, str, tuple of
+    floats, X | None); ``kind`` "any" guesses (a number, true/false, none or a word).
+    ``what`` names the value in the SpecError (e.g. "--set gamma=x")."""
+    t = str(text).strip()
+    if t == "":
+        raise SpecError(f"{what}: give a value after '='")
+    if ("None" in kind or kind == "any") and t.lower() in none_words:
+        return None
+    try:
+        if kind == "any":
+            try:
+                return float(t)
+            except ValueError:
+                return {"true": True, "false": False}.get(t.lower(), t)
+        if kind.startswith("bool"):
+            if t.lower() not in ("true", "false", "yes", "no", "1", "0"):
+                raise ValueError
+            return t.lower() in ("true", "yes", "1")
+        if kind.startswith("int"):
+            return int(t)
+        if kind.startswith("float"):
+            return float(t)
+        if kind.startswith("tuple"):
+            return tuple(float(v) for v in t.strip("[]()").split(",") if v.strip())
+    except ValueError:
+        shown = ("true or false" if kind.startswith("bool") else "numbers"
+                 if kind.startswith("tuple") else f"a {kind.split()[0]}")
+        raise SpecError(f"{what}: must be {shown}") from None
+    return t
+
+
 def parse_size(text: str) -> tuple[int, int]:
     """``"20x5"`` -> ``(20, 5)``; a clear :class:`SpecError` for anything else."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", str(text))
@@ -173,75 +318,69 @@ class RunSpec:
     ``stress_every`` is the sampling interval of sigma_x in time units (rounded to whole steps).
     """
 
-    phi: float
-    Lx: int = 20
-    Ly: int = 5
-    seed: int = 1
-    t_end: float = ACCURACY["default"][1]
-    dt_factor: float = ACCURACY["default"][0]
+    phi: float = checked(check=number(gt=0))
+    Lx: int = checked(20, integer(3, tail=_TWO_CELLS))
+    Ly: int = checked(5, integer(3, tail=_TWO_CELLS))
+    seed: int = checked(1, integer(0, "a non-negative integer"))
+    t_end: float = checked(ACCURACY["default"].t_end, number(gt=0))
+    dt_factor: float = checked(ACCURACY["default"].dt_factor, number(gt=0))
     #: rule at a contact break (CONTACT_RULES)
-    contact_rule: str = "reset"
+    contact_rule: str = checked("reset", choice(CONTACT_RULES))
     #: starting state of the contacts (STARTS)
-    start: str = "synchronized"
+    start: str = checked("synchronized", choice(STARTS))
     #: velocity of the damping force (DAMPING_MODES; benchmarks/RESULTS.md "Convergence order")
-    damping: str = "implicit"
-    k_d: float = 1.0
-    dk_d: float = 1.0
-    k_e: float = 10.0
-    mu_s: float = 0.2
-    sigma_n: float = 5.0
-    area: float = 1.0
-    V_d: float = 0.02
-    gamma: float = 0.2
-    mass: float = 1.0
-    stress_every: float = 0.1
+    damping: str = checked("implicit", choice(DAMPING_MODES))
+    k_d: float = checked(1.0, number(gt=0))
+    #: half-width of the k_d^i, in (0, k_d] (checked with k_d)
+    dk_d: float = checked(1.0, number())
+    k_e: float = checked(10.0, number(gt=0))
+    mu_s: float = checked(0.2, number(gt=0))
+    sigma_n: float = checked(5.0, number(gt=0))
+    area: float = checked(1.0, number(gt=0))
+    V_d: float = checked(0.02, number(gt=0, why=" (the plate moves along +x: docs/model.md)"))
+    gamma: float = checked(0.2, number(ge=0))
+    mass: float = checked(1.0, number(gt=0))
+    stress_every: float = checked(0.1, number(gt=0))
     #: sampling interval of the contacts' phase statistics (phase.csv; time units, rounded to
     #: a whole number of stress samples): a load cycle of a contact lasts about
     #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves
-    phase_every: float = 1.0
+    phase_every: float = checked(1.0, number(gt=0))
     #: observables to record: friction (sigma_x only), order (+ snapshots for Psi(t)),
     #: clusters (+ positions at every slip's maximum and minimum), full (all)
-    scene: str = "full"
+    scene: str = checked("full", choice(SCENES))
     #: interval of the snapshots of the order scene (time units, rounded to whole steps)
-    snapshot_every: float = 20.0
+    snapshot_every: float = checked(20.0, number(gt=0))
     #: slips that fix bk/slips records: drops above this fraction of mu_s sigma_n
     #: (docs/model.md "Shear stress and slip events"); also the analysis's threshold unless
     #: AnalysisSettings says otherwise
-    slip_threshold: float = SLIP_THRESHOLD
+    slip_threshold: float = checked(SLIP_THRESHOLD,
+                                    number(gt=0, lt=1, why=" (a fraction of mu_s sigma_n)"))
     #: fraction of the run treated as transient: no slip snapshots are written before it, and
     #: the analysis leaves it out unless AnalysisSettings says otherwise
-    transient: float = TRANSIENT
+    transient: float = checked(TRANSIENT, fraction(why=" (a fraction of the run)"))
     #: a bond longer than this (lattice units) stops the run as torn apart
-    bond_limit: float = 10.0
+    bond_limit: float = checked(10.0, number(gt=1, why=" (lattice units: a bond at rest is 1 "
+                                                        "long)"))
     #: adaptive run length: stop once mu_bar's standard error is below this (t_end is then
     #: the cap); None = run exactly t_end
-    target_error: float | None = None
+    target_error: float | None = checked(None, number(gt=0, why=" (a standard error of mu_bar)",
+                                                      optional=True))
     #: adaptive run length: go on until the run is steady over its analysed window (the stress
     #: trend-free, a drift above STEADY_DRIFT_BOUND excluded, and the contacts' phases no
     #: longer the start's: bkflow.phases), with target_error if given too; t_end is the cap
-    until_steady: bool = False
+    until_steady: bool = checked(False, boolean)
     #: the start of a companion run of the same model (None: none): it runs beside this one,
     #: step for step, into the run directory's companion/ (scene friction), and the run is
     #: steady only when both are and their mean stresses agree (STEADY_AGREEMENT)
-    companion: str | None = None
+    companion: str | None = checked(None, choice(STARTS, optional=True))
 
     def __post_init__(self):
-        def finite(name):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise SpecError(f"{name} must be a finite number, got {v!r}")
-            return v
+        check_fields(self)  # every field's own check (its metadata), then what joins fields
+        self._check_together()
+        self._check_counts()
 
-        for name in ("phi", "t_end", "dt_factor", "k_d", "k_e", "mu_s", "sigma_n", "area",
-                     "mass", "stress_every", "phase_every", "bond_limit", "snapshot_every",
-                     "slip_threshold"):
-            if not finite(name) > 0:
-                raise SpecError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        for name in ("dk_d", "gamma", "V_d"):
-            finite(name)
-        if self.gamma < 0:
-            raise SpecError(f"gamma must be >= 0, got {self.gamma!r}")
-        if not 0 <= self.dk_d <= self.k_d:
+    def _check_together(self) -> None:
+        if not self.dk_d <= self.k_d or self.dk_d < 0:
             raise SpecError(
                 f"dk_d must lie in (0, k_d] = (0, {self.k_d}] so that every k_d^i >= 0, "
                 f"got {self.dk_d!r}")
@@ -253,42 +392,16 @@ class RunSpec:
             if not math.isfinite(value) or value <= 0:
                 raise SpecError(f"{what} = {value!r} is not a finite positive number; "
                                 "choose smaller values")
-        for name in ("Lx", "Ly"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v < 3:
-                raise SpecError(
-                    f"{name} must be an integer >= 3, got {v!r}: with 2 cells along an axis the "
-                    f"bonds to the neighbours on either side join the same pair of particles at "
-                    f"exactly half the box, where the bond's periodic image is undefined")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise SpecError(f"seed must be a non-negative integer, got {self.seed!r}")
-        if not 0 <= finite("transient") < 1:
-            raise SpecError(f"transient must lie in [0, 1) (a fraction of the run), "
-                            f"got {self.transient!r}")
-        if self.target_error is not None and not finite("target_error") > 0:
-            raise SpecError(f"target_error must be > 0 (a standard error of mu_bar), "
-                            f"got {self.target_error!r}")
-        if self.start not in STARTS:
-            raise SpecError(f"start must be one of {', '.join(STARTS)}, got {self.start!r}")
-        if self.companion is not None and self.companion not in STARTS:
-            raise SpecError(f"companion must be none or one of {', '.join(STARTS)}, got "
-                            f"{self.companion!r}")
         if self.companion is not None and self.companion == self.start:
             raise SpecError(f"companion {self.companion!r} is the run's own start: a "
                             "companion runs from another start")
-        if not isinstance(self.until_steady, bool):
-            raise SpecError(f"until_steady must be true or false, got {self.until_steady!r}")
-        if self.scene not in SCENES:
-            raise SpecError(f"scene must be one of {', '.join(SCENES)}, got {self.scene!r}")
-        if self.damping not in DAMPING_MODES:
-            raise SpecError(f"damping must be one of {DAMPING_MODES}, got {self.damping!r}")
-        if self.contact_rule not in CONTACT_RULES:
-            raise SpecError(f"contact_rule must be one of {', '.join(CONTACT_RULES)}, "
-                            f"got {self.contact_rule!r}")
         if self.dt_factor > DT_FACTOR_MAX:
             raise SpecError(
                 f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
                 f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
+
+    def _check_counts(self) -> None:
+        """What LAMMPS has to count: steps, samples, atoms."""
         if self.n_steps < 1:
             raise SpecError(f"t_end {self.t_end} is shorter than one time step ({self.dt:g})")
         if self.stress_every > self.t_end:
@@ -321,43 +434,21 @@ class RunSpec:
             settable = sorted(f for f in fields if f not in cls.OWN_OPTIONS)
             raise SpecError(f"{option} {name}: not a parameter; parameters: "
                             f"{', '.join(settable)}")
-        kind = str(fields[name].type)
-        t = text.strip()
-        if t == "":
-            raise SpecError(f"{option} {name}=: give a value after '='")
-        if "None" in kind and t.lower() == "none":
-            return None
-        try:
-            if kind.startswith("bool"):
-                if t.lower() not in ("true", "false", "yes", "no", "1", "0"):
-                    raise ValueError
-                return t.lower() in ("true", "yes", "1")
-            if kind.startswith("int"):
-                return int(t)
-            if kind.startswith("float"):
-                return float(t)
-        except ValueError:
-            what = "true or false" if kind.startswith("bool") else f"a {kind.split()[0]}"
-            raise SpecError(f"{option} {name}={t}: {name} must be {what}") from None
-        return t
-
-    @classmethod
-    def parse_assignment(cls, item: str, option: str = "--set") -> tuple[str, object]:
-        """(name, value) of ``NAME=VALUE`` (``-`` in NAME reads as ``_``)."""
-        name, sep, text = str(item).partition("=")
-        name = name.strip().replace("-", "_")
-        if not sep or not name:
-            raise SpecError(f"{option} {item!r}: give NAME=VALUE")
         if name in cls.OWN_OPTIONS:
             raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
-        return name, cls.parse_value(name, text, option)
+        kind = str(fields[name].type)
+        try:
+            return parse_typed(kind, text, f"{option} {name}={str(text).strip()}")
+        except SpecError as exc:  # "must be a float" of the field, by name
+            raise SpecError(str(exc).replace(": must be", f": {name} must be")) from None
 
     @classmethod
     def assignments(cls, items, option: str = "--set") -> dict:
         """{name: value} of ``NAME=VALUE`` strings; a name given twice is refused."""
         out = {}
         for item in items:
-            name, value = cls.parse_assignment(item, option)
+            name, text = split_assignment(item, option)
+            value = cls.parse_value(name, text, option)
             if name in out:
                 raise SpecError(f"{option} {name} given twice")
             out[name] = value
@@ -368,17 +459,12 @@ class RunSpec:
         """{name: [values]} of ``NAME=V1,V2,...`` strings (a sweep's extra axes)."""
         out = {}
         for item in items:
-            name, sep, text = str(item).partition("=")
-            name = name.strip().replace("-", "_")
-            if not sep or not name or not text.strip():
-                raise SpecError(f"{option} {item!r}: give NAME=V1,V2,...")
+            name, texts = split_assignment(item, option, values=True)
             if name in cls.OWN_OPTIONS:
                 raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
             if name in out:
                 raise SpecError(f"{option} {name} given twice")
-            if any(not v.strip() for v in text.split(",")):
-                raise SpecError(f"{option} {item!r}: an empty value in the list")
-            values = [cls.parse_value(name, v, option) for v in text.split(",")]
+            values = [cls.parse_value(name, v, option) for v in texts]
             if len(set(map(repr, values))) != len(values):
                 raise SpecError(f"{option} {name}: a value is given twice")
             out[name] = values
@@ -566,55 +652,42 @@ class AnalysisSettings:
     """
 
     #: slip threshold, fraction of mu_s sigma_n (None: the run's RunSpec.slip_threshold)
-    slip_threshold: float | None = None
+    slip_threshold: float | None = checked(None, number(gt=0, lt=1, optional=True,
+                                                        noun="a number "))
     #: transient, fraction of the run (None: the run's RunSpec.transient); used by the
     #: transient_rule "fixed"
-    transient: float | None = None
+    transient: float | None = checked(None, fraction(optional=True))
     #: fixed: the first ``transient`` of the run; detect: from the stress series by
     #: equilibration detection (bkflow.stationarity.equilibration_time)
-    transient_rule: str = "fixed"
+    transient_rule: str = checked("fixed", choice(TRANSIENT_RULES))
     #: blocks and level of the trend test (bkflow.stationarity)
-    n_blocks: int = 10
-    alpha: float = 0.05
+    n_blocks: int = checked(10, integer(3))
+    alpha: float = checked(0.05, interval(0, 1))
     #: large drops: drop > large_drop_factor * mean drop after the transient
-    large_drop_factor: float = LARGE_DROP_FACTOR
-    s_x: float = S_X
-    span_fraction: float = SPAN_FRACTION
-    psi_crystal: float = PSI_CRYSTAL
-    psi_late_fraction: float = PSI_LATE_FRACTION
-    report_thresholds: tuple = REPORT_THRESHOLDS
+    large_drop_factor: float = checked(LARGE_DROP_FACTOR, number(gt=0, noun="a number "))
+    s_x: float = checked(S_X, number(gt=0, noun="a number "))
+    span_fraction: float = checked(SPAN_FRACTION, fraction(closed_high=True))
+    psi_crystal: float = checked(PSI_CRYSTAL, fraction(closed_high=True))
+    psi_late_fraction: float = checked(PSI_LATE_FRACTION, fraction(closed_high=True))
+    report_thresholds: tuple = checked(REPORT_THRESHOLDS)
     #: lower cut of the stress-drop power law, as a multiple of the slip threshold (the
     #: smallest drop that counts as a slip); None = chosen by the KS rule of Clauset et al.
-    drop_x_min_over_threshold: float | None = 1.0
+    drop_x_min_over_threshold: float | None = checked(1.0, number(gt=0, optional=True,
+                                                                  noun="a number "))
+
+    #: words that mean "the run's own" for the settings that default to it
+    RUN_WORDS = ("none", "run")
 
     def __post_init__(self):
-        object.__setattr__(self, "report_thresholds",
-                           tuple(float(v) for v in self.report_thresholds))
-        if self.transient_rule not in TRANSIENT_RULES:
-            raise SpecError(f"analysis setting transient_rule must be one of "
-                            f"{', '.join(TRANSIENT_RULES)}, got {self.transient_rule!r}")
-        if not (isinstance(self.n_blocks, int) and self.n_blocks >= 3):
-            raise SpecError(f"analysis setting n_blocks must be an integer >= 3, "
-                            f"got {self.n_blocks!r}")
-        if not (isinstance(self.alpha, float) and 0 < self.alpha < 1):
-            raise SpecError(f"analysis setting alpha must lie in (0, 1), got {self.alpha!r}")
-        for name in ("slip_threshold", "s_x", "span_fraction", "psi_crystal",
-                     "psi_late_fraction", "drop_x_min_over_threshold", "large_drop_factor"):
-            v = getattr(self, name)
-            if v is None and name in ("slip_threshold", "drop_x_min_over_threshold"):
-                continue
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or not v > 0:
-                raise SpecError(f"analysis setting {name} must be a number > 0, got {v!r}")
-        if self.transient is not None and not (isinstance(self.transient, (int, float))
-                                               and 0 <= self.transient < 1):
-            raise SpecError(f"analysis setting transient must lie in [0, 1), "
-                            f"got {self.transient!r}")
-        if not self.report_thresholds or not all(v > 0 for v in self.report_thresholds):
-            raise SpecError("analysis setting report_thresholds must be numbers > 0")
-        for name in ("psi_late_fraction", "psi_crystal", "span_fraction"):
-            if not 0 < getattr(self, name) <= 1:
-                raise SpecError(f"analysis setting {name} must lie in (0, 1], "
-                                f"got {getattr(self, name)!r}")
+        try:
+            thresholds = tuple(float(v) for v in self.report_thresholds)
+        except (TypeError, ValueError):
+            thresholds = ()
+        if not thresholds or not all(math.isfinite(v) and 0 < v < 1 for v in thresholds):
+            raise SpecError("analysis setting report_thresholds must be numbers in (0, 1) "
+                            f"(fractions of mu_s sigma_n), got {self.report_thresholds!r}")
+        object.__setattr__(self, "report_thresholds", thresholds)
+        check_fields(self, "analysis setting ")
 
     def resolved(self, spec: RunSpec) -> AnalysisSettings:
         """These settings with the run's own values filled in where they defer to it."""
@@ -640,35 +713,20 @@ class AnalysisSettings:
 
     def with_assignments(self, items) -> AnalysisSettings:
         """These settings changed by ``NAME=VALUE`` strings (the CLI's ``--analysis``)."""
-        changes = {}
         names = {f.name: f for f in dataclasses.fields(self)}
+        changes = {}
         for item in items:
-            name, sep, text = str(item).partition("=")
-            name = name.strip().replace("-", "_")
-            if not sep or name not in names:
+            name, text = split_assignment(item, "--analysis")
+            if name not in names:
                 raise SpecError(f"--analysis {item!r}: give NAME=VALUE with NAME one of "
                                 f"{', '.join(sorted(names))}")
-            text = text.strip()
+            kind = str(names[name].type)
             try:
-                if text.lower() in ("none", "run", "") and name in ("slip_threshold", "transient",
-                                                                     "drop_x_min_over_threshold"):
-                    value = None
-                elif text == "":
-                    raise SpecError(f"--analysis {item!r}: give a value after '='")
-                elif name == "transient_rule":
-                    value = text
-                elif name == "n_blocks":
-                    value = int(text)
-                elif name == "report_thresholds":
-                    value = tuple(float(v) for v in text.strip("[]()").split(",") if v.strip())
-                else:
-                    value = float(text)
-            except ValueError:
-                raise SpecError(f"--analysis {item!r}: {text!r} is not a number") from None
-            changes[name] = value
-        try:
-            return dataclasses.replace(self, **changes)
-        except (TypeError, ValueError) as exc:
-            if isinstance(exc, SpecError):
-                raise
-            raise SpecError(f"--analysis: {exc}") from None
+                changes[name] = parse_typed(kind, text, f"--analysis {item!r}",
+                                            none_words=self.RUN_WORDS)
+            except SpecError as exc:
+                if "must be" not in str(exc):
+                    raise
+                raise SpecError(f"--analysis {item!r}: {text.strip()!r} is not a number") \
+                    from None
+        return dataclasses.replace(self, **changes)

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import read_tables
 
@@ -116,21 +117,17 @@ def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
 
 
 def parse_where(items) -> dict:
-    """``["t_end=16000", "start=random"]`` -> {column: value} (numbers where they parse)."""
+    """``["t_end=16000", "start=random"]`` -> {column: value} (numbers where they parse;
+    none for a parameter left unset, NaN in the tables): bkflow.params' NAME=VALUE parser."""
     out = {}
     for item in items or ():
-        key, sep, text = str(item).partition("=")
-        if not sep or not key.strip():
-            raise PlotError(f"--where {item!r}: give COLUMN=VALUE, e.g. t_end=16000")
-        low = text.strip().lower()
-        if low in ("none", "nan", ""):
-            value = None  # a parameter left unset (target_error): NaN in the tables
-        else:
-            try:
-                value = float(text)
-            except ValueError:
-                value = {"true": True, "false": False}.get(low, text.strip())
-        out[key.strip()] = value
+        try:
+            key, text = split_assignment(item, "--where")
+            value = None if not text.strip() else parse_typed(
+                "any", text, f"--where {item!r}", none_words=("none", "nan"))
+        except SpecError as exc:
+            raise PlotError(f"{exc}; e.g. --where t_end=16000") from None
+        out[key] = value
     return out
 
 
