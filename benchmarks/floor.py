@@ -47,7 +47,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bkflow.deck import FAST_SETTINGS, DeckFiles, data_text, setup_text  # noqa: E402
+from bkflow.deck import FAST_SETTINGS, DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.lattice import lattice_for  # noqa: E402
 from bkflow.params import RunSpec, parse_size  # noqa: E402
 from bkflow.rundir import DATA, STRESS  # noqa: E402
@@ -274,8 +274,9 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
                        seed=1)
         (work / DATA).write_text(data_text(spec))
         run_line = f"\nrun             {spec.n_steps}\n"
-        base = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path="general") + run_line
-        base_fused = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path="fused") + run_line
+        base = setup_text(spec, DeckOptions(data=DATA, stress=STRESS, path="general")) + run_line
+        base_fused = setup_text(spec, DeckOptions(data=DATA, stress=STRESS,
+                                                  path="fused")) + run_line
         lat = lattice_for(spec)
         times = {c: [] for c in codes}
         cpus = {c: [] for c in codes}

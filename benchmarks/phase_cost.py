@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bkflow.deck import SERIAL_COMM_CUTOFF, DeckFiles, data_text, setup_text
+from bkflow.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text
 from bkflow.params import RunSpec, parse_size
 from bkflow.plugin import open_lammps
 
@@ -29,7 +29,7 @@ def loop_time(spec: RunSpec, phase: bool, work: Path) -> float:
     lmp = open_lammps(log="none")
     try:
         lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
-        lmp.commands_string(setup_text(spec, DeckFiles(data=str(work / "data.bk"),
+        lmp.commands_string(setup_text(spec, DeckOptions(data=str(work / "data.bk"),
                                                        stress=str(work / "stress.csv"),
                                                        phase=str(work / "phase.csv")
                                                        if phase else None)))

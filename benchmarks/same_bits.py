@@ -70,13 +70,13 @@ if how == "engine":
     run(spec, out, progress=False, chunk_steps=997, path=path)
 elif how == "restart":
     import contextlib
-    from bkflow.deck import DeckFiles, continue_text, data_text, setup_text
+    from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
     from bkflow.plugin import open_lammps
     out.mkdir(parents=True)
     with contextlib.chdir(out):
         Path("data.bk").write_text(data_text(spec))
         lmp = open_lammps(log="log.1")
-        lmp.commands_string(setup_text(spec, DeckFiles(stress="stress.1.csv",
+        lmp.commands_string(setup_text(spec, DeckOptions(stress="stress.1.csv",
                                                        phase="phase.1.csv"), path=path))
         half = spec.n_steps // 2
         lmp.command(f"run {half}")
@@ -84,7 +84,7 @@ elif how == "restart":
         lmp.close()
         lmp = open_lammps(log="log.2")
         lmp.commands_string(continue_text(spec, "half.restart",
-                                          DeckFiles(data="", stress="stress.2.csv",
+                                          DeckOptions(data="", stress="stress.2.csv",
                                                     phase="phase.2.csv", snapshots="snap.2",
                                                     slips="slips.2", fronts="fronts.2"),
                                           path=path))
@@ -98,11 +98,11 @@ def run_case(case, plugin: Path, out: Path) -> None:
     name, fields, path, how = case
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(plugin), "LAMMPS_PLUGIN_PATH": str(plugin)}
     if how == "mpi":
-        from bkflow.deck import write_deck
+        from bkflow.deck import DeckOptions, write_deck
         from bkflow.params import RunSpec
 
         spec = RunSpec(Lx=12, Ly=4, seed=3, t_end=60.0, scene="full", **fields)
-        write_deck(spec, out, path=path)
+        write_deck(spec, out, DeckOptions(path=path))
         lmp = Path(sys.executable).parent / "lmp"
         mpirun = Path(sys.executable).parent / "mpirun"
         subprocess.run([str(mpirun), "-np", "2", str(lmp), "-in", "in.bk", "-log", "none",
@@ -130,14 +130,14 @@ def compare(a: Path, b: Path) -> tuple[int, list[str]]:
 def loop_time(plugin: Path, n_side: int, steps: int) -> float:
     code = (
         "import time\n"
-        "from bkflow.deck import SERIAL_COMM_CUTOFF, DeckFiles, data_text, setup_text\n"
+        "from bkflow.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text\n"
         "from bkflow.params import RunSpec\n"
         "from bkflow.plugin import open_lammps\n"
         f"spec = RunSpec(phi=100.0, Lx={2 * n_side}, Ly={n_side // 2}, scene='friction')\n"
         "open('data.bk', 'w').write(data_text(spec))\n"
         "lmp = open_lammps(log='none')\n"
         "lmp.command(f'variable comm_cutoff index {SERIAL_COMM_CUTOFF}')\n"
-        "lmp.commands_string(setup_text(spec, DeckFiles(stress=None, phase=None)))\n"
+        "lmp.commands_string(setup_text(spec, DeckOptions(stress=None, phase=None)))\n"
         "lmp.command('run 100 post no')\n"
         "t = time.perf_counter()\n"
         f"lmp.command('run {steps} pre no post no')\n"

@@ -57,7 +57,7 @@ sys.path.insert(0, str(HERE.parent))
 
 from floor import CPU_USE, LOOP, Floor, build, check  # noqa: E402
 
-from bkflow.deck import DeckFiles, data_text, setup_text  # noqa: E402
+from bkflow.deck import DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.lattice import lattice_for  # noqa: E402
 from bkflow.params import RunSpec, parse_size  # noqa: E402
 from bkflow.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
@@ -93,9 +93,9 @@ def loop_time(deck: str, work: Path, ranks: int = 1, cutoff: float = NEW_CUTOFF)
 def decks(spec: RunSpec) -> dict[str, tuple[str, float]]:
     """{code: (deck, comm cutoff)} of the LAMMPS codes."""
     run = f"\nrun             {spec.n_steps}\n"
-    files = DeckFiles(data=DATA, stress=STRESS)
-    return {"new": (setup_text(spec, files, path="auto") + run, NEW_CUTOFF),
-            "old": (setup_text(spec, files, path="general") + run, OLD_CUTOFF)}
+    files = DeckOptions(data=DATA, stress=STRESS)
+    return {"new": (setup_text(spec, files.replace(path="auto")) + run, NEW_CUTOFF),
+            "old": (setup_text(spec, files.replace(path="general")) + run, OLD_CUTOFF)}
 
 
 def codes_table(a) -> None:
@@ -188,7 +188,7 @@ def scaling(a) -> None:
         rates = {k: [] for k in cases}
         for _ in range(a.rounds):
             for k, (path, ranks, cutoff) in cases.items():
-                deck = setup_text(spec, DeckFiles(data=DATA, stress=STRESS), path=path) + \
+                deck = setup_text(spec, DeckOptions(data=DATA, stress=STRESS, path=path)) + \
                     f"\nrun             {spec.n_steps}\n"
                 wall, _, steps, atoms, log = loop_time(deck, work, ranks, cutoff)
                 want = "fused" if k.startswith("fused") else "general"
@@ -245,10 +245,10 @@ def compare_output(a) -> None:
         stress = str(work / STRESS)
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
-        base = setup_text(spec, DeckFiles(data=data, stress=None), thermo_every=10**7)
+        base = setup_text(spec, DeckOptions(data=data, stress=None, thermo_every=10**7))
         m = alternated({"none": base,
-                        "bk/stress": setup_text(spec, DeckFiles(data=data, stress=stress),
-                                                thermo_every=10**7),
+                        "bk/stress": setup_text(spec, DeckOptions(data=data, stress=stress,
+                                                                  thermo_every=10**7)),
                         "print": base + "\n" + old}, steps, a.rounds, work)
         print(f"| {spec.N} | {m['none']:.3e} | {m['bk/stress']:.3e} | {m['print']:.3e} | "
               f"{m['none'] / m['bk/stress']:.3f} | {m['none'] / m['print']:.3f} |", flush=True)
@@ -266,10 +266,11 @@ def compare_schemes(a) -> None:
             old = new.replace(contact_rule="reset/step", damping="half")
             data = _write_data(work, new)
             steps = max(200, int((a.atom_steps or 2e7) / new.N))
-            m = alternated({"new": setup_text(new, DeckFiles(data=data, stress=None),
-                                              thermo_every=10**7),
-                            "old": setup_text(old, DeckFiles(data=data, stress=None),
-                                              thermo_every=10**7)}, steps, a.rounds, work)
+            m = alternated({"new": setup_text(new, DeckOptions(data=data, stress=None,
+                                                               thermo_every=10**7)),
+                            "old": setup_text(old, DeckOptions(data=data, stress=None,
+                                                               thermo_every=10**7))},
+                            steps, a.rounds, work)
             print(f"| {new.N} | {phi:g} | {m['new']:.3e} | {m['old']:.3e} | "
                   f"{m['new'] / m['old']:.3f} |", flush=True)
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkflow.deck import SLOTS, SUBSTRATE_FIX, DeckFiles, data_text, setup_text
+from bkflow.deck import SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 
@@ -76,9 +76,10 @@ def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(Tr
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                   thermo_every=10**6, drive=parts[0], contact=parts[1],
-                                   damp=parts[2], path="general"))
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                     thermo_every=10**6, drive=parts[0],
+                                                     contact=parts[1], damp=parts[2],
+                                                     path="general")))
     if preload:
         # anchors were taken at fix creation: moving the atoms back pre-loads the drive
         lmp.command(f"displace_atoms all move {-preload!r} 0 0")

@@ -15,7 +15,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckFiles, continue_text, data_text, setup_text
+from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
 from bkflow.lattice import Lattice, contact_start
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
@@ -32,9 +32,10 @@ def lammps_fused(spec, lattice, velocities, workdir, preload=0.0, fast=False,
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                   thermo_every=10**6, drive=parts[0], contact=parts[1],
-                                   damp=parts[2], path="fused", fast=fast))
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                     thermo_every=10**6, drive=parts[0],
+                                                     contact=parts[1], damp=parts[2], path="fused",
+                                                     fast=fast)))
     if preload:
         lmp.command(f"displace_atoms all move {-preload!r} 0 0")
     return lmp
@@ -193,8 +194,10 @@ def test_restart_continues_bit_for_bit(workdir, start):
     lmp.command(f"write_restart {workdir / 'half.restart'}")
     lmp.close()
     lmp = open_lammps()
-    lmp.commands_string(continue_text(spec, str(workdir / "half.restart"),
-                                      thermo_every=10**6, path="fused", fast=True))
+    lmp.commands_string(continue_text(spec, str(workdir / "half.restart"), DeckOptions(
+                                                                                       thermo_every=10**6,
+                                                                                       path="fused",
+                                                                                       fast=True)))
     resumed = finish(lmp, STEPS // 2)
     assert resumed["breaks"] == whole["breaks"] > 0
     for key in ("x", "v", "state"):
@@ -214,8 +217,9 @@ def test_restart_files_cross_between_paths(workdir, first, then):
     lmp.command(f"run {STEPS // 2}")
     lmp.command(f"write_restart {workdir / 'half.restart'}")
     lmp.close()
-    deck = continue_text(spec, str(workdir / "half.restart"), thermo_every=10**6,
-                         path="fused" if then == "fused" else "general")
+    path = "fused" if then == "fused" else "general"
+    deck = continue_text(spec, str(workdir / "half.restart"),
+                         DeckOptions(thermo_every=10**6, path=path))
     lmp = open_lammps()
     lmp.commands_string(deck)
     resumed = finish(lmp, STEPS // 2)
@@ -249,8 +253,9 @@ def test_every_kernel_build_gives_the_same_bits(workdir, monkeypatch):
         data.write_text(data_text(spec, lattice, v0))
         log = workdir / f"log.{isa}"
         lmp = open_lammps(log=log)
-        lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                       thermo_every=10**6, path="fused", fast=True))
+        lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                         thermo_every=10**6, path="fused",
+                                                         fast=True)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         runs[isa] = finish(lmp)
         logs[isa] = log.read_text()
@@ -266,9 +271,9 @@ def test_every_kernel_build_gives_the_same_bits(workdir, monkeypatch):
 
 
 def _scene_deck(spec, workdir, fast_path):
-    deck = setup_text(spec, DeckFiles(data="data.bk", stress="stress.csv",
-                                      snapshots="snap.lammpstrj", slips="slips.lammpstrj"),
-                      path="fused" if fast_path else "general")
+    deck = setup_text(spec, DeckOptions(data="data.bk", stress="stress.csv",
+                                        snapshots="snap.lammpstrj", slips="slips.lammpstrj",
+                                        path="fused" if fast_path else "general"))
     (workdir / "data.bk").write_text(data_text(spec))
     return deck + f"\nrun {spec.n_steps}\n"
 
@@ -330,7 +335,7 @@ def test_per_atom_output_is_current_when_dumped(workdir):
 def test_more_than_one_rank_is_refused(workdir):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
-    (workdir / "in.bk").write_text(setup_text(spec, DeckFiles(stress=None), path="fused")
+    (workdir / "in.bk").write_text(setup_text(spec, DeckOptions(stress=None, path="fused"))
                                    + "run 10\n")
     proc = subprocess.run([tool("mpirun"), "-np", "2", tool("lmp"), "-in", "in.bk"],
                           cwd=workdir, capture_output=True, text=True, timeout=300)
@@ -352,8 +357,7 @@ def _refusal(workdir, spec, deck, lattice=None):
 
 def test_what_the_fused_path_cannot_do_is_refused(workdir):
     spec = RunSpec(phi=10.0, Lx=6, Ly=4, seed=1)
-    base = setup_text(spec, DeckFiles(data=str(workdir / "data.bk"), stress=None),
-                      path="general")
+    base = setup_text(spec, DeckOptions(data=str(workdir / "data.bk"), stress=None, path="general"))
     with_nve = "\n".join(ln + " fused" if " bk/substrate " in ln else ln
                           for ln in base.splitlines()) + "\n"
     assert "remove fix nve (nve)" in _refusal(workdir, spec, with_nve)
@@ -361,7 +365,7 @@ def test_what_the_fused_path_cannot_do_is_refused(workdir):
 
     lat = lattice_for(spec)
     only_x = Lattice(lat.Lx, lat.Ly, lat.positions, lat.bonds[0::2], lat.k_d)
-    fused_base = setup_text(spec, DeckFiles(data=str(workdir / "data.bk"), stress=None),
-                            path="fused")
+    fused_base = setup_text(spec, DeckOptions(data=str(workdir / "data.bk"), stress=None,
+                                              path="fused"))
     assert "not a periodic square lattice" in _refusal(workdir, spec, fused_base,
                                                         lattice=only_x)

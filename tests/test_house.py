@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: the engine's adaptive stop rule can use them.
 ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "stress",
          "order", "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
-         "flowcompat", "project", "cluster", "tables", "sweep", "plot", "api", "cli")
+         "flowcompat", "project", "cluster", "tables", "sweep", "plot", "fronts", "api", "cli")
 
 
 def _bkflow_imports(path: Path) -> set[str]:

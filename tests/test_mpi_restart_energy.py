@@ -5,7 +5,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckFiles, continue_text, data_text, setup_text
+from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
 from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
@@ -32,7 +32,7 @@ def test_two_ranks_follow_the_one_rank_trajectory(workdir, start):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start=start)
     lattice, _, v0 = lively_start(spec)
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
-    deck = setup_text(spec, DeckFiles(stress=None), thermo_every=500, path="general")
+    deck = setup_text(spec, DeckOptions(stress=None, thermo_every=500, path="general"))
     deck += (f"displace_atoms all move -1.2 0 0\nrun {STEPS}\n"
              "write_dump all custom final.txt id xu yu vx vy ix f_bk[3] f_bk[4] "
              "modify sort id format float %.17g\n")
@@ -64,8 +64,9 @@ def test_restart_continues_the_uninterrupted_run(workdir, start):
     lmp.command(f"write_restart {workdir / 'half.restart'}")
     lmp.close()
     lmp = open_lammps()
-    lmp.commands_string(continue_text(spec, str(workdir / "half.restart"), thermo_every=10**6,
-                                      path="general"))
+    lmp.commands_string(continue_text(spec, str(workdir / "half.restart"), DeckOptions(
+                                                                                       thermo_every=10**6,
+                                                                                       path="general")))
     resumed = _state_after(lmp, STEPS // 2)
 
     assert whole["breaks"] > 0
@@ -93,9 +94,9 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lat))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                   thermo_every=10**6, drive=False, contact=False, damp=False,
-                                   path="general"))
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                     thermo_every=10**6, drive=False, contact=False,
+                                                     damp=False, path="general")))
     lmp.commands_string("fix_modify bk energy yes\ncompute ke all ke\n"
                         f"fix e all ave/time {every} 1 {every} c_ke f_bk file energy.txt "
                         "format ' %.17g'\n")

@@ -14,7 +14,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckFiles, data_text, deck_text, setup_text
+from bkflow.deck import DeckOptions, data_text, deck_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
@@ -31,8 +31,8 @@ def _run(spec, workdir, path, fast=None, lattice=None, velocities=None, steps=ST
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
     try:
-        lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None),
-                                       thermo_every=10**6, path=path, fast=fast))
+        lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                         thermo_every=10**6, path=path, fast=fast)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         lmp.command(f"run {steps} post no")
         out = unwrapped_state(lmp)
@@ -94,11 +94,11 @@ def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(workdir):
             "write_dump all custom final.txt id xu yu vx vy f_bk[3] f_bk[4] "
             "modify sort id format float %.17g\n"
             'print "PATH $(f_bk[6])"\n')
-    files = DeckFiles(stress=None)
+    files = DeckOptions(stress=None)
     runs = {}
     for name, path, fast, ranks in (("auto2", "auto", False, 2), ("general2", "general", False, 2),
                                     ("auto1", "auto", None, 1)):
-        deck = setup_text(spec, files, thermo_every=500, path=path, fast=fast) + "\n" + tail
+        deck = setup_text(spec, files.replace(thermo_every=500, path=path, fast=fast)) + "\n" + tail
         runs[name] = _standalone(workdir, deck, ranks, name)
     assert "PATH 0" in runs["auto2"][1] and "on 2 procs" in runs["auto2"][1]
     assert any(f"PATH {k}" in runs["auto1"][1] for k in (1, 2, 3))
@@ -111,10 +111,10 @@ def test_the_default_deck_integrates_by_itself():
     deck = deck_text(spec)
     assert " integrate" in deck and "fix             nve" not in deck
     assert "enforce2d" not in deck
-    general = deck_text(spec, path="general")
+    general = deck_text(spec, DeckOptions(path="general"))
     assert "integrate" not in general and "fix             nve all nve" in general
     with pytest.raises(ValueError, match="path must be one of"):
-        deck_text(spec, path="fast")
+        deck_text(spec, DeckOptions(path="fast"))
 
 
 def _engine_run(tmp_path, name, path, **kw):

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.deck import DeckFiles, continue_text, data_text, setup_text
+from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
 from bkflow.lattice import contact_start
 from bkflow.params import STARTS, RunSpec
 from bkflow.plugin import open_lammps
@@ -34,9 +34,9 @@ def _plugin_phases(spec, workdir, path, lattice, v0, steps=STEPS):
     data.write_text(data_text(spec, lattice, v0))
     lmp = open_lammps()
     try:
-        lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None,
-                                                       phase="phase.csv"),
-                                       thermo_every=10**6, path=path))
+        lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                         phase="phase.csv", thermo_every=10**6,
+                                                         path=path)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         lmp.command(f"run {steps}")
     finally:
@@ -127,8 +127,8 @@ def test_two_ranks_record_the_phases_of_one_rank(start, workdir):
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     runs = {}
     for ranks in (1, 2):
-        deck = setup_text(spec, DeckFiles(stress=None, phase=f"phase.{ranks}.csv"),
-                          thermo_every=10**6, path="auto")
+        deck = setup_text(spec, DeckOptions(stress=None, phase=f"phase.{ranks}.csv",
+                                            thermo_every=10**6, path="auto"))
         deck += f"displace_atoms all move {-PRELOAD!r} 0 0\nrun {STEPS}\n"
         runs[ranks] = _standalone(workdir, deck, ranks, str(ranks))
         assert f"on {ranks} procs" in (workdir / f"log.{ranks}").read_text()
@@ -146,17 +146,17 @@ def test_a_restart_continues_the_phase_series(path, workdir):
     whole = _plugin_phases(spec, workdir, path, lattice, v0)
 
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckFiles(data=str(data), stress=None,
-                                                   phase="first.csv"),
-                                   thermo_every=10**6, path=path))
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                     phase="first.csv", thermo_every=10**6,
+                                                     path=path)))
     lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
     lmp.command(f"run {STEPS // 2}")
     lmp.command("write_restart half.restart")
     lmp.close()
     lmp = open_lammps()
-    lmp.commands_string(continue_text(spec, "half.restart", DeckFiles(data="", stress=None,
-                                                                      phase="second.csv"),
-                                      thermo_every=10**6, path=path))
+    lmp.commands_string(continue_text(spec, "half.restart",
+                                      DeckOptions(data="", stress=None, phase="second.csv",
+                                                  thermo_every=10**6, path=path)))
     lmp.command(f"run {STEPS // 2}")
     lmp.close()
     first, second = pd.read_csv("first.csv"), pd.read_csv("second.csv")

@@ -195,11 +195,11 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks):
     """Run the deck of ``spec`` standalone (``ranks`` MPI ranks) with a dump of every
     particle's v_x at every stress sample beside fix bk/fronts; (fronts, {step: v_x by id},
     stress series)."""
-    from bkflow.deck import DeckFiles, data_text, setup_text
+    from bkflow.deck import DeckOptions, data_text, setup_text
     from bkflow.io import read_fronts
 
     (workdir / "data.bk").write_text(data_text(spec))
-    deck = setup_text(spec, DeckFiles(), thermo_every=10**6)
+    deck = setup_text(spec, DeckOptions(thermo_every=10**6))
     deck += (f"\ndump v all custom {spec.stress_nevery} v.dump id vx\n"
              "dump_modify v sort id format float %.17g\n"
              f"run {spec.n_steps}\n")

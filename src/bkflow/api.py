@@ -23,8 +23,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from .fronts import front_figure, front_movie
 from .params import AnalysisSettings, RunSpec
-from .plot import FIGURES, Figures, PlotError, SweepData, figure, front_figure, front_movie, style
+from .plot import FIGURES, Figures, PlotError, SweepData, figure, style
 from .rundir import AnalysisError, RunDir, sweep_run_dir
 
 

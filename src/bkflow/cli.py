@@ -366,7 +366,7 @@ def _print_summary(s: dict) -> None:
 def _sweep(a) -> int:
     from .grid import parse_aspect, parse_sizes, phi_values, sweep_specs
     from .sweep import available_cores, fmt_duration, sweep
-    from .tables import RESULTS_FILE, RUNS_FILE
+    from .tables import RESULTS_FILE, RUNS_FILE, rows_of
 
     phis = phi_values(a.phi, a.points_per_decade)
     sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
@@ -385,14 +385,9 @@ def _sweep(a) -> int:
 
     check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
-        from .project import finished, open_project, set_settings
-        from .rundir import RunDir
+        from .project import init_jobs
 
-        with RunDir(a.out).lock():
-            project = open_project(a.out)
-            if settings is not None:
-                set_settings(project, settings)
-            done = sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
+        done = init_jobs(specs, a.out, settings)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
               f"(cd {a.out} && python -m bkflow.cluster run|submit ...)")
         return 0
@@ -410,7 +405,7 @@ def _sweep(a) -> int:
           + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
     res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
-        res = _rows_of(res, specs)
+        res = rows_of(res, specs)
         _print_results(res, list(axes))
     if len(res):
         print(states_line(res))
@@ -422,26 +417,6 @@ def _sweep(a) -> int:
               "same command retries them", file=sys.stderr)
         return EXIT_RUN_FAILED
     return 0
-
-
-def _key(value):
-    """A parameter as a comparable key: NaN and None alike, numbers as floats."""
-    if value is None or (isinstance(value, float) and value != value):
-        return None
-    if isinstance(value, (bool, str)):
-        return value
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return str(value)
-
-
-def _rows_of(res, specs):
-    """The rows of results.csv that are these specs' (every parameter but the seed)."""
-    names = [f for f in RunSpec.__dataclass_fields__ if f != "seed" and f in res.columns]
-    keep = {tuple(_key(getattr(s, f)) for f in names) for s in specs}
-    mask = [tuple(_key(r[f]) for f in names) in keep for r in res.to_dict("records")]
-    return res[mask]
 
 
 def states_line(res) -> str:
@@ -503,7 +478,7 @@ def _collect(a) -> int:
     print(f"{a.dir}: {c.jobs} jobs, {c.finished} finished, {len(c.failed)} failed, "
           f"{c.jobs - c.finished - len(c.failed)} not run; {len(c.reanalysed)} re-analysed")
     if len(c.results):
-        from .plot import varied_parameters
+        from .tables import varied_parameters
 
         _print_results(c.results, varied_parameters(c.results))
         print(states_line(c.results))
@@ -585,12 +560,8 @@ def _run_locked(a, argv, spec) -> int:
     from .engine import run
     from .rundir import RunDir
 
-    target = RunDir(a.out)
-    meta = target.meta() if target.is_complete() else None
-    if (meta is not None and not a.overwrite and meta.get("requested") == spec.to_dict()
-            and target.problem() is None and target.analysis_problem() is not None
-            and not a.no_analyze):
-        # the same command again after its analysis was cut short: only the analysis is left
+    if not a.overwrite and not a.no_analyze and RunDir(a.out).only_analysis_left(spec):
+        # the same command again after its analysis was cut short
         from .analysis import analyze
 
         print(f"{a.out}: this run finished earlier; analysing it")
@@ -639,7 +610,7 @@ def _analyze(a) -> int:
 
 
 def _deck(a) -> int:
-    from .deck import write_deck
+    from .deck import DeckOptions, write_deck
     from .rundir import RunDir
 
     spec = _spec(a, deck=True)
@@ -655,7 +626,7 @@ def _deck(a) -> int:
     why = d.foreign()
     if why is not None and not why.startswith("holds a deck"):
         raise SpecError(f"{a.out} {why}: choose another --out")
-    paths = write_deck(spec, a.out, path=a.path)
+    paths = write_deck(spec, a.out, DeckOptions(path=a.path))
     print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
     return 0
 

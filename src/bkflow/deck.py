@@ -17,6 +17,7 @@ drive stiffness k_d^i is the custom property ``d_kd``, read from the data file s
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from . import __version__
@@ -38,15 +39,34 @@ FRONTS_FIX = "fronts"
 
 
 @dataclass(frozen=True)
-class DeckFiles:
-    """Paths the deck refers to (relative for a standalone deck, absolute for the engine)."""
+class DeckOptions:
+    """How a deck is written, checked once and passed whole: the integration ``path`` (one of
+    :data:`bkflow.params.PATHS`), the LAMMPS settings that speed it up (``fast``: the
+    FAST_SETTINGS; None: with every path but ``general``), the files it names (relative for
+    a standalone deck; None: not written), the thermo interval (None: 1% of the run), and,
+    for tests, which parts of the model's forces it applies."""
 
+    path: str = "auto"
+    fast: bool | None = None
     data: str = DATA
     stress: str | None = STRESS
     phase: str | None = PHASE
     snapshots: str = SNAPSHOTS
     slips: str = SLIPS
     fronts: str = FRONTS
+    thermo_every: int | None = None
+    drive: bool = True
+    contact: bool = True
+    damp: bool = True
+
+    def __post_init__(self):
+        if self.path not in PATHS:
+            raise ValueError(f"path must be one of {', '.join(PATHS)}, got {self.path!r}")
+        if self.fast is None:
+            object.__setattr__(self, "fast", self.path != "general")
+
+    def replace(self, **changes) -> DeckOptions:
+        return dataclasses.replace(self, **changes)
 
 
 def _f(x: float) -> str:
@@ -147,7 +167,7 @@ FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check
                  "newton          off off")
 
 
-def _system(spec: RunSpec, files: DeckFiles, fast: bool = False) -> list[str]:
+def _system(spec: RunSpec, files: DeckOptions, fast: bool = False) -> list[str]:
     return [
         "units           lj",
         "dimension       2",
@@ -191,7 +211,7 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str =
     return lines
 
 
-def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None,
+def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
              contact: bool = True) -> list[str]:
     """The outputs of the run's scene, and nothing else.
 
@@ -252,48 +272,36 @@ def _outputs(spec: RunSpec, files: DeckFiles, thermo_every: int | None,
     return lines
 
 
-def _path(path: str, fast: bool | None) -> bool:
-    if path not in PATHS:
-        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
-    return path != "general" if fast is None else fast
-
-
-def setup_text(spec: RunSpec, files: DeckFiles = DeckFiles(), thermo_every: int | None = None,
-               drive: bool = True, contact: bool = True, damp: bool = True,
-               path: str = "auto", fast: bool | None = None) -> str:
-    """Everything of the deck before ``run``: system, forces, integrator, outputs.
-
-    ``path``: one of :data:`PATHS`; ``fast``: the FAST_SETTINGS (default: with every path
-    but ``general``). Neither changes a number beyond rounding (the fused path sums in
+def setup_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
+    """Everything of the deck before ``run``: system, forces, integrator, outputs. Neither
+    the path nor the fast settings change a number beyond rounding (the fused path sums in
     another order; tests/test_fused.py)."""
-    fast = _path(path, fast)
-    lines = (_header(spec, path) + _system(spec, files, fast)
-             + _dynamics(spec, drive, contact, damp, path, fast)
-             + _outputs(spec, files, thermo_every, contact))
+    o = options
+    lines = (_header(spec, o.path) + _system(spec, o, o.fast)
+             + _dynamics(spec, o.drive, o.contact, o.damp, o.path, o.fast)
+             + _outputs(spec, o, o.thermo_every, o.contact))
     return "\n".join(lines)
 
 
-def continue_text(spec: RunSpec, restart: str, files: DeckFiles = DeckFiles(data=""),
-                  thermo_every: int | None = None, path: str = "auto",
-                  fast: bool | None = None) -> str:
+def continue_text(spec: RunSpec, restart: str,
+                  options: DeckOptions = DeckOptions(data="")) -> str:
     """Deck lines that continue a run from a LAMMPS restart file (``write_restart``).
 
     The substrate fix is re-specified with the same ID, so its contact history, anchors and
-    clock come back from the restart file (on any path: ``path`` as in :func:`setup_text`);
-    k_d^i come back with ``fix kd``.
+    clock come back from the restart file (on any path); k_d^i come back with ``fix kd``.
     """
-    fast = _path(path, fast)
+    o = options
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
-    lines = (_header(spec, path) + [f"read_restart    {restart}"] + props
-             + _dynamics(spec, True, True, True, path, fast)
-             + _outputs(spec, files, thermo_every))
+    lines = (_header(spec, o.path) + [f"read_restart    {restart}"] + props
+             + _dynamics(spec, True, True, True, o.path, o.fast)
+             + _outputs(spec, o, o.thermo_every))
     return "\n".join(lines)
 
 
-def deck_text(spec: RunSpec, files: DeckFiles = DeckFiles(), path: str = "auto") -> str:
+def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
     """The complete standalone deck: :func:`setup_text` plus the run."""
-    return setup_text(spec, files, path=path) + f"run             {spec.n_steps}\n"
+    return setup_text(spec, options.replace()) + f"run             {spec.n_steps}\n"
 
 
 #: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.deck lammps_inputs)
@@ -313,8 +321,8 @@ def write_standard_decks(root) -> list[str]:
     return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
 
 
-def write_deck(spec: RunSpec, directory, path: str = "auto") -> dict[str, str]:
-    """Write ``in.bk`` (integration ``path``), ``data.bk`` and ``params.json`` into
+def write_deck(spec: RunSpec, directory, options: DeckOptions = DeckOptions()) -> dict[str, str]:
+    """Write ``in.bk`` (with ``options``), ``data.bk`` and ``params.json`` into
     ``directory``; return {name: path}."""
     import json
     from pathlib import Path
@@ -322,7 +330,7 @@ def write_deck(spec: RunSpec, directory, path: str = "auto") -> dict[str, str]:
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     (d / DATA).write_text(data_text(spec))
-    (d / DECK).write_text(deck_text(spec, path=path))
+    (d / DECK).write_text(deck_text(spec, options.replace()))
     (d / PARAMS).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
     return {"deck": str(d / DECK), "data": str(d / DATA), "params": str(d / PARAMS)}
 

@@ -30,7 +30,7 @@ from .deck import (
     SLIPS_FIX,
     SLOTS,
     SUBSTRATE_FIX,
-    DeckFiles,
+    DeckOptions,
     data_text,
     deck_text,
     setup_text,
@@ -39,7 +39,6 @@ from .limits import check_cost
 from .params import (
     ADAPTIVE_CHUNK_T,
     ADAPTIVE_T_MIN,
-    PATHS,
     STEADY_AGREEMENT,
     STEADY_DRIFT_BOUND,
     STEADY_T_MIN,
@@ -291,9 +290,9 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
     rd.mark()
 
 
-def _write_inputs(spec: RunSpec, rd: RunDir, path: str) -> None:
+def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions) -> None:
     rd.file(DATA).write_text(data_text(spec))
-    rd.file(DECK).write_text(deck_text(spec, path=path))
+    rd.file(DECK).write_text(deck_text(spec, options))
 
 
 #: wall time one piece of a run should take: LAMMPS returns to Python (where Ctrl-C is
@@ -310,8 +309,8 @@ class _Leg:
     the leg's directory and names its files relative to it, so that no path (with spaces,
     quotes, $, # or any other character) is parsed as input."""
 
-    def __init__(self, spec: RunSpec, rd: RunDir, path: str):
-        self.spec, self.rd, self.path = spec, rd, path
+    def __init__(self, spec: RunSpec, rd: RunDir, options: DeckOptions):
+        self.spec, self.rd, self.options = spec, rd, options
         self.lmp = None
         self.adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
 
@@ -321,7 +320,7 @@ class _Leg:
             # one rank: every bond partner is local, ghosts beyond that are pure overhead
             self.lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
             try:
-                self.lmp.commands_string(setup_text(self.spec, DeckFiles(), path=self.path))
+                self.lmp.commands_string(setup_text(self.spec, self.options))
             except Exception as exc:
                 raise _lammps_error(self.spec, exc, 0, 0, self.rd.file(LOG)) from None
 
@@ -343,7 +342,7 @@ class _Leg:
                 "fronts": {k: int(_fix_vector(lmp, FRONTS_FIX, i))
                            for i, k in enumerate(("events", "written"))}
                 if spec.writes_fronts else None,
-                "engine": _path_record(lmp, self.path)}
+                "engine": _path_record(lmp, self.options.path)}
 
     def close(self) -> None:
         if self.lmp is not None:
@@ -425,25 +424,24 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
     steps between checks and progress updates (default: 1% of the run, at least 1000 steps).
     ``force``: run even when the cost estimate (:func:`bkflow.limits.check_cost`) is above
-    the limits. ``path``: the integration path (:data:`bkflow.deck.PATHS`): ``auto`` (the
+    the limits. ``path``: the integration path (:data:`bkflow.params.PATHS`): ``auto`` (the
     fused path when it can run, as it always can for bkflow's lattices on the engine's one
     rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d, bkflow before the fused
     path) or ``fused``; meta.json says which ran (``engine``).
     """
-    if path not in PATHS:
-        raise ValueError(f"path must be one of {', '.join(PATHS)}, got {path!r}")
-    check_cost(spec, out, force)  # before anything is created
+    options = DeckOptions(path=path)  # checks the path, before anything is created
+    check_cost(spec, out, force)
     rd = RunDir(Path(out).absolute())
     with rd.lock():
         _claim(rd, overwrite)
-        legs = [_Leg(spec, rd, path)]
+        legs = [_Leg(spec, rd, options)]
         if spec.companion is not None:
             comp = rd.companion()
             comp.path.mkdir()
             comp.mark()
-            legs.append(_Leg(spec.companion_spec, comp, path))
+            legs.append(_Leg(spec.companion_spec, comp, options))
         for leg in legs:
-            _write_inputs(leg.spec, leg.rd, path)
+            _write_inputs(leg.spec, leg.rd, options)
         started = time.time()
         bar = _Progress(spec.label, spec.n_steps, progress)
         try:

@@ -22,6 +22,7 @@ from flow import FlowProject
 from . import job as one
 from .grid import run_cost
 from .params import AnalysisSettings, RunSpec
+from .rundir import RunDir
 
 #: the operations, in the order a run needs them
 SIMULATE, ANALYZE = "simulate", "analyze"
@@ -168,3 +169,13 @@ class ClusterProject(SweepProject):
         # flow looks for templates in <sweep dir>/templates; ours ships with the package so
         # that every sweep directory uses it without a copy
         set_template_dir(self, TEMPLATE_DIR)
+
+
+def init_jobs(specs, root, settings: AnalysisSettings | None = None) -> int:
+    """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
+    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished."""
+    with RunDir(root).lock():
+        project = open_project(root)
+        if settings is not None:
+            set_settings(project, settings)
+        return sum(finished(project.open_job(s.to_dict()).init()) for s in specs)

@@ -387,6 +387,14 @@ class RunDir:
                 return f"{name} is missing"
         return None
 
+    def only_analysis_left(self, spec: RunSpec) -> bool:
+        """Whether this directory holds the finished, intact run of ``spec`` (as requested)
+        whose analysis is missing or stale: the same command again after its analysis was
+        cut short has only that left to do."""
+        meta = self.meta() if self.is_complete() else None
+        return (meta is not None and meta.get("requested") == spec.to_dict()
+                and self.problem() is None and self.analysis_problem() is not None)
+
     def write_analysis(self, summary: dict, tables: dict) -> dict:
         """Write the analysis's tables, then summary.json (last: it lists the tables)."""
         self.file(SUMMARY).unlink(missing_ok=True)

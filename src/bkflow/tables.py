@@ -110,6 +110,40 @@ def point_state(states) -> str:
     return "metastable" if "metastable" in states else "drifting"
 
 
+def _key(value):
+    """A parameter as a comparable key: NaN and None alike, numbers as floats."""
+    if value is None or (isinstance(value, float) and value != value):
+        return None
+    if isinstance(value, (bool, str)):
+        return value
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def rows_of(results: pd.DataFrame, specs) -> pd.DataFrame:
+    """The rows of a results table that are these specs' points (every parameter but the
+    seed): a directory may hold other sweeps too."""
+    names = [f for f in RunSpec.__dataclass_fields__ if f not in _NOT_GROUPED
+             and f in results.columns]
+    keep = {tuple(_key(getattr(s, f)) for f in names) for s in specs}
+    mask = [tuple(_key(r[f]) for f in names) in keep for r in results.to_dict("records")]
+    return results[mask]
+
+
+#: the axes every figure and printed table draws itself (phi along x, one series per size;
+#: seeds averaged)
+DRAWN_AXES = ("phi", "Lx", "Ly", "seed")
+
+
+def varied_parameters(results: pd.DataFrame) -> list[str]:
+    """The parameters besides phi, size and seed that take several values in a sweep's
+    results (its --vary axes, or several sweeps in one directory)."""
+    return [f for f in RunSpec.__dataclass_fields__ if f not in DRAWN_AXES and f in results
+            and results[f].astype(str).nunique(dropna=False) > 1]
+
+
 def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Write runs.csv, results.csv and the settings they were made under into ``root``."""
     runs = runs_table(finished_runs)
