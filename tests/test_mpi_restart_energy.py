@@ -10,7 +10,7 @@ from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
 from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
 
-pytestmark = pytest.mark.lammps
+pytestmark = pytest.mark.usefixtures("lammps")
 
 STEPS = 2000
 

@@ -18,9 +18,7 @@ from bkflow.deck import DeckOptions, data_text, deck_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
-from tests.support import global_vector, lively_start, tool, unwrapped_state
-
-pytestmark = pytest.mark.lammps
+from tests.support import RULE_COVER, global_vector, lively_start, tool, unwrapped_state
 
 STEPS = 1500
 PRELOAD = 1.2
@@ -50,7 +48,7 @@ def _same(a, b):
 
 
 @pytest.mark.parametrize("start", ["synchronized", "random"])
-def test_integrate_takes_the_fused_path_on_one_rank(start, workdir):
+def test_integrate_takes_the_fused_path_on_one_rank(lammps, start, workdir):
     spec = RunSpec(phi=100.0, Lx=8, Ly=4, seed=4, start=start)
     lattice, _, v0 = lively_start(spec)
     auto = _run(spec, workdir, "auto", lattice=lattice, velocities=v0)
@@ -59,10 +57,9 @@ def test_integrate_takes_the_fused_path_on_one_rank(start, workdir):
     _same(auto, fused)
 
 
-@pytest.mark.parametrize("mode, damping", [("reset", "implicit"), ("coulomb", "half"),
-                                           ("reset/step", "implicit")])
-def test_integrate_on_a_lattice_the_fused_path_cannot_take_is_the_general_path(mode, damping,
-                                                                               workdir):
+@pytest.mark.parametrize("mode, damping", RULE_COVER)
+def test_integrate_on_a_lattice_the_fused_path_cannot_take_is_the_general_path(
+        lammps, mode, damping, workdir):
     """Bonds along x only: not bkflow's square lattice, so ``integrate`` falls back to the
     general path, which integrates exactly as fix nve + fix enforce2d (the same bits)."""
     spec = RunSpec(phi=10.0, Lx=6, Ly=4, seed=1, contact_rule=mode, damping=damping)
@@ -84,7 +81,7 @@ def _standalone(workdir, deck: str, ranks: int, tag: str):
     return np.loadtxt(workdir / "final.txt", skiprows=9), (workdir / f"log.{tag}").read_text()
 
 
-def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(workdir):
+def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(lammps, workdir):
     """mpirun -np 2 of the default deck: the general path, the very bits of the fix nve deck
     with the same LAMMPS settings; and it follows one rank's fused path to rounding."""
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start="random")
@@ -125,7 +122,7 @@ def _engine_run(tmp_path, name, path, **kw):
     return res.meta, np.loadtxt(tmp_path / name / "stress.csv", delimiter=",", skiprows=1)
 
 
-def test_engine_records_the_path_and_both_paths_agree(tmp_path):
+def test_engine_records_the_path_and_both_paths_agree(lammps, tmp_path):
     auto_meta, auto = _engine_run(tmp_path, "auto", "auto")
     gen_meta, gen = _engine_run(tmp_path, "general", "general")
     assert auto_meta["engine"]["path"] == "fused"
@@ -143,7 +140,7 @@ def test_engine_records_the_path_and_both_paths_agree(tmp_path):
     assert meta["engine"] == auto_meta["engine"]
 
 
-def test_meta_records_provenance(tmp_path):
+def test_meta_records_provenance(lammps, tmp_path):
     """The git commit and dirty flag of the checkout bkflow runs from (None from a wheel),
     Python's and the libraries' versions."""
     import platform
@@ -174,7 +171,7 @@ def test_meta_records_provenance(tmp_path):
         assert prov["git_commit"] is None
 
 
-def test_a_short_run_is_one_run_command(tmp_path):
+def test_a_short_run_is_one_run_command(lammps, tmp_path):
     """A fixed-length run shorter than a piece (PIECE_WALL_S) pays for no chunking: one
     ``run`` command; an adaptive run stops at fixed steps whatever the pieces."""
     _engine_run(tmp_path, "short", "auto")
@@ -182,7 +179,7 @@ def test_a_short_run_is_one_run_command(tmp_path):
     assert sum(1 for ln in log.splitlines() if ln.startswith("run ")) == 1
 
 
-def test_the_fused_engine_path_can_be_forced_and_refuses_nothing_it_can_do(tmp_path):
+def test_the_fused_engine_path_can_be_forced_and_refuses_nothing_it_can_do(lammps, tmp_path):
     meta, _ = _engine_run(tmp_path, "fused", "fused", start="random")
     assert meta["engine"]["path"] == "fused"
     with pytest.raises(ValueError, match="path must be one of"):

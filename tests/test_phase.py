@@ -12,12 +12,10 @@ import pytest
 
 from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
 from bkflow.lattice import contact_start
-from bkflow.params import STARTS, RunSpec
+from bkflow.params import CONTACT_RULES, STARTS, RunSpec
 from bkflow.plugin import open_lammps
 from tests.reference import Reference, phase_statistics
-from tests.support import lively_start, tool
-
-pytestmark = pytest.mark.lammps
+from tests.support import INTEGRATION_PATHS, lively_start, tool
 
 STEPS, EVERY, PRELOAD = 2000, 10, 1.2
 COLUMNS = ["R", "Z_re", "Z_im", "R2", "u_mean", "u_std"]
@@ -58,10 +56,10 @@ def _reference_phases(spec, lattice, x0, v0, steps=STEPS):
     return pd.DataFrame(rows), s.breaks
 
 
-@pytest.mark.parametrize("path", ["general", "fused"])
+@pytest.mark.parametrize("path", INTEGRATION_PATHS)
 @pytest.mark.parametrize("start", STARTS)
-@pytest.mark.parametrize("phi, mode", [(0.1, "reset"), (1000.0, "coulomb"), (10.0, "reset")])
-def test_phases_match_the_reference_integrator(path, start, phi, mode, workdir):
+@pytest.mark.parametrize("phi, mode", list(zip([0.1, 1000.0, 10.0], CONTACT_RULES)))
+def test_phases_match_the_reference_integrator(lammps, path, start, phi, mode, workdir):
     spec = _spec(phi=phi, start=start, contact_rule=mode)
     assert spec.phase_nevery == EVERY
     lattice, x0, v0 = lively_start(spec)
@@ -119,7 +117,7 @@ def _standalone(workdir, deck, ranks, tag):
 
 
 @pytest.mark.parametrize("start", ["synchronized", "stratified"])
-def test_two_ranks_record_the_phases_of_one_rank(start, workdir):
+def test_two_ranks_record_the_phases_of_one_rank(lammps, start, workdir):
     """The general path on 2 ranks (each sums its own contacts, then the sums are reduced)
     against the fused path on one rank: the same phases to the rounding of the sums' order."""
     spec = _spec(phi=10.0, Lx=12, Ly=3, seed=5, start=start)
@@ -137,8 +135,8 @@ def test_two_ranks_record_the_phases_of_one_rank(start, workdir):
         np.testing.assert_allclose(runs[2][col], runs[1][col], rtol=0, atol=1e-10, err_msg=col)
 
 
-@pytest.mark.parametrize("path", ["general", "fused"])
-def test_a_restart_continues_the_phase_series(path, workdir):
+@pytest.mark.parametrize("path", INTEGRATION_PATHS)
+def test_a_restart_continues_the_phase_series(lammps, path, workdir):
     spec = _spec(phi=100.0, Lx=6, Ly=6, seed=2, start="random")
     lattice, _, v0 = lively_start(spec)
     data = workdir / "data.bk"

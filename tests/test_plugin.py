@@ -11,10 +11,8 @@ import pytest
 from bkflow.plugin import PLUGIN_FILE, PluginError, build_info, check_plugin, open_lammps
 from tests.support import ROOT, tool
 
-pytestmark = pytest.mark.lammps
 
-
-def test_installed_plugin_matches_installed_lammps():
+def test_installed_plugin_matches_installed_lammps(lammps):
     assert check_plugin().name == PLUGIN_FILE
     assert build_info()["lammps_git"].startswith("stable_")
 
@@ -54,7 +52,7 @@ def test_python_side_refuses_mismatched_plugin(mismatched_plugin, monkeypatch, t
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
-def test_plugin_itself_refuses_another_lammps(mismatched_plugin, tmp_path):
+def test_plugin_itself_refuses_another_lammps(lammps, mismatched_plugin, tmp_path):
     """Loaded by hand into LAMMPS (which only warns), the fix refuses to run, loudly."""
     deck = tmp_path / "in.t"
     deck.write_text(f"plugin load {mismatched_plugin / PLUGIN_FILE}\n"
@@ -78,7 +76,7 @@ def test_plugin_itself_refuses_another_lammps(mismatched_plugin, tmp_path):
     ("wobble 3", "Unknown fix bk/substrate keyword wobble"),
     ("bonds 1.0", "bonds needs: bonds k_b r0"),
 ])
-def test_bad_fix_arguments_are_clear_lammps_errors(args, needle):
+def test_bad_fix_arguments_are_clear_lammps_errors(lammps, args, needle):
     lmp = open_lammps()
     lmp.commands_string("units lj\ndimension 2\natom_style bond\n"
                         "region b block 0 4 0 4 -0.5 0.5\ncreate_box 1 b\n")
@@ -94,7 +92,8 @@ def test_bad_fix_arguments_are_clear_lammps_errors(args, needle):
     ("fix sub all nve\nfix r all {reader}", "fix sub is nve, not bk/substrate"),
     ("fix r all {reader}\nfix sub all bk/substrate damp 0.2", "must be defined after fix sub"),
 ])
-def test_stress_and_slips_fixes_check_the_substrate_they_read(reader, deck, needle, tmp_path):
+def test_stress_and_slips_fixes_check_the_substrate_they_read(
+        lammps, reader, deck, needle, tmp_path):
     lmp = open_lammps()
     lmp.commands_string("units lj\ndimension 2\natom_style bond\n"
                         "region b block 0 4 0 4 -0.5 0.5\ncreate_box 1 b\nmass 1 1.0\n"

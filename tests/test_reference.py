@@ -12,9 +12,9 @@ import pytest
 
 from bkflow.params import RunSpec
 from tests.reference import Reference
-from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
+from tests.support import RULE_COVER, global_vector, lammps_with, lively_start, unwrapped_state
 
-pytestmark = pytest.mark.lammps
+pytestmark = pytest.mark.usefixtures("lammps")
 
 STEPS = 2000
 PRELOAD = 1.2
@@ -26,8 +26,7 @@ def reference_for(spec, lattice):
                      gamma=spec.gamma, mass=spec.mass, damping=spec.damping)
 
 
-@pytest.mark.parametrize("mode, damping", [("reset", "implicit"), ("coulomb", "implicit"),
-                                           ("reset/step", "half"), ("reset", "half")])
+@pytest.mark.parametrize("mode, damping", RULE_COVER)
 @pytest.mark.parametrize("phi", [0.1, 10.0, 1000.0])
 @pytest.mark.parametrize("size", [(8, 3), (6, 6)])
 def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):

@@ -17,8 +17,6 @@ from bkflow.rundir import RunDir
 from bkflow.stress import slip_events
 from tests.support import tool
 
-pytestmark = pytest.mark.lammps
-
 REQUIRED = ("mu_bar", "mu_bar_err", "n_slips", "mean_stress_ratio", "mu_bar_by_threshold",
             "psi_inf", "lx_mean_over_Lx", "ly_mean_over_Ly", "lx_over_ly", "regime",
             "drop_exponent", "slip_threshold_stress", "drop_x_min")
@@ -35,7 +33,7 @@ def _files(d):
     return {p.name for p in d.iterdir()}
 
 
-def test_friction_scene_writes_no_per_atom_output(tmp_path):
+def test_friction_scene_writes_no_per_atom_output(lammps, tmp_path):
     spec = RunSpec(phi=30.0, t_end=200, scene="friction")
     run(spec, tmp_path, progress=False)
     deck = (tmp_path / "in.bk").read_text()
@@ -46,7 +44,7 @@ def test_friction_scene_writes_no_per_atom_output(tmp_path):
     assert not (tmp_path / "psi.csv").exists() and not (tmp_path / "clusters.csv").exists()
 
 
-def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(tmp_path):
+def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(lammps, tmp_path):
     """With snapshots at every stress sample (never done in practice), the frames fix bk/slips
     keeps must be exactly the snapshots at the steps of each event's maximum and minimum, and
     its events must be those slip_events finds in stress.csv after the transient."""
@@ -70,7 +68,7 @@ def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(tmp_pa
     assert (clusters["n_c"] >= 2).all() and (clusters["n_c"] <= spec.N).all()
 
 
-def test_order_scene_writes_sparse_snapshots_and_psi(tmp_path):
+def test_order_scene_writes_sparse_snapshots_and_psi(lammps, tmp_path):
     spec = RunSpec(phi=1000.0, t_end=100, scene="order", snapshot_every=10)
     run(spec, tmp_path, progress=False)
     assert "slips.lammpstrj" not in _files(tmp_path)
@@ -84,7 +82,7 @@ def test_order_scene_writes_sparse_snapshots_and_psi(tmp_path):
     assert s["regime"] is None and not (tmp_path / "clusters.csv").exists()
 
 
-def test_run_analyses_unless_told_not_to(tmp_path, capsys):
+def test_run_analyses_unless_told_not_to(lammps, tmp_path, capsys):
     out = tmp_path / "r"
     args = ["run", "--phi", "30", "--t-end", "150", "--out", str(out), "--quiet"]
     assert main(args + ["--no-analyze"]) == 0
@@ -112,7 +110,7 @@ def test_analyze_refuses_a_directory_without_a_finished_run(tmp_path, capsys):
     assert main(["analyze", str(tmp_path / "nowhere")]) == 2
 
 
-def test_truncated_slip_file_is_reported(tmp_path, capsys):
+def test_truncated_slip_file_is_reported(lammps, tmp_path, capsys):
     spec = RunSpec(phi=30.0, t_end=200, scene="clusters")
     run(spec, tmp_path, progress=False)
     text = (tmp_path / "slips.lammpstrj").read_text()
@@ -122,7 +120,7 @@ def test_truncated_slip_file_is_reported(tmp_path, capsys):
     assert "truncated" in capsys.readouterr().err
 
 
-def test_slip_frames_are_the_same_on_two_ranks(tmp_path):
+def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="clusters", seed=3)
     write_deck(spec, tmp_path)
     got = {}
@@ -143,7 +141,7 @@ def test_slip_frames_are_the_same_on_two_ranks(tmp_path):
 
 
 @pytest.mark.slow
-def test_full_scene_of_the_largest_paper_lattice_stays_small(tmp_path):
+def test_full_scene_of_the_largest_paper_lattice_stays_small(lammps, tmp_path):
     """60x15 to t_end = 4000 with every observable: under 50 MB on disk."""
     spec = RunSpec(phi=10.0, Lx=60, Ly=15, scene="full")
     res = run(spec, tmp_path, progress=False)
@@ -151,7 +149,7 @@ def test_full_scene_of_the_largest_paper_lattice_stays_small(tmp_path):
     assert res.meta["slip_snapshots"]["written"] > 50
 
 
-def test_the_fast_dump_reader_agrees_with_mdanalysis(tmp_path):
+def test_the_fast_dump_reader_agrees_with_mdanalysis(lammps, tmp_path):
     """bkflow.io.read_regular_frames (bkflow's own reader, for speed) gives the frames
     MDAnalysis gives, to MDAnalysis's single precision; a file it does not recognise in full
     (cut, frames of another size, columns missing) is left to MDAnalysis (None)."""
@@ -219,7 +217,7 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks):
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
-def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(tmp_path, ranks):
+def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tmp_path, ranks):
     """fix bk/fronts (scene fronts): one record per slip after the transient, the very slips
     of stress.csv (the zigzag rule), sampled at every stress sample from the slip's maximum to
     its minimum, holding every particle's v_x (float32) at those steps; on the fused path (one
@@ -247,7 +245,7 @@ def deck_line(spec):
     return deck_text(spec)
 
 
-def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(tmp_path, capsys):
+def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_path, capsys):
     from PIL import Image
 
     from bkflow.params import FRONTS_IN_FULL
@@ -283,7 +281,8 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(tmp_path, cap
         RunDir(tmp_path / "r").read_fronts()
 
 
-def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(tmp_path, capsys):
+def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(
+        lammps, tmp_path, capsys):
     import bkflow
     from bkflow.params import SpecError
 

@@ -15,11 +15,11 @@ from bkflow.project import finished, open_project
 from bkflow.rundir import META, STRESS
 from tests.slurm_local import jobs, local_slurm, squeue, why_not
 
-pytestmark = [pytest.mark.lammps, pytest.mark.slurm]
+pytestmark = pytest.mark.slurm
 
 
 @pytest.fixture(scope="module")
-def slurm(tmp_path_factory):
+def slurm(lammps, tmp_path_factory):
     why = why_not()
     if why is not None:
         pytest.skip(why)

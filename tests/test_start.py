@@ -11,7 +11,7 @@ from scipy import stats
 
 from bkflow.deck import data_text, deck_text
 from bkflow.lattice import contact_start, lattice_for
-from bkflow.params import RunSpec, SpecError
+from bkflow.params import CONTACT_RULES, RunSpec, SpecError
 from tests.reference import Reference
 from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 
@@ -60,8 +60,7 @@ def test_an_unknown_start_is_refused():
         RunSpec(phi=1.0, start="hot")
 
 
-@pytest.mark.lammps
-def test_the_plugin_starts_from_the_contact_state_of_the_data_file(workdir):
+def test_the_plugin_starts_from_the_contact_state_of_the_data_file(lammps, workdir):
     spec = RunSpec(phi=10.0, Lx=8, Ly=3, start="random", seed=6)
     lattice, _, v0 = lively_start(spec)
     lmp = lammps_with(spec, lattice, v0 * 0, workdir)
@@ -72,10 +71,9 @@ def test_the_plugin_starts_from_the_contact_state_of_the_data_file(workdir):
     np.testing.assert_array_equal(state[:, 3], 0.0)
 
 
-@pytest.mark.lammps
-@pytest.mark.parametrize("mode", ["reset", "coulomb", "reset/step"])
+@pytest.mark.parametrize("mode", CONTACT_RULES)
 @pytest.mark.parametrize("phi", [0.1, 1000.0])
-def test_plugin_matches_reference_integrator_from_the_random_start(phi, mode, workdir):
+def test_plugin_matches_reference_integrator_from_the_random_start(lammps, phi, mode, workdir):
     spec = RunSpec(phi=phi, Lx=8, Ly=3, seed=3, contact_rule=mode, start="random")
     lattice, x0, v0 = lively_start(spec)
     preload, steps = 1.2, 2000

@@ -23,8 +23,6 @@ from bkflow.params import (
 from bkflow.rundir import COMPANION, PHASE, STRESS, RunDir
 from tests.support import tool
 
-pytestmark = pytest.mark.lammps
-
 
 def _steady(**kw) -> RunSpec:
     fields = protocol_fields("steady")
@@ -32,7 +30,7 @@ def _steady(**kw) -> RunSpec:
     return RunSpec(**{"phi": 10.0, "Lx": 12, "Ly": 3, "scene": "friction", **fields, **kw})
 
 
-def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(tmp_path):
+def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(lammps, tmp_path):
     spec = _steady()
     assert (spec.start, spec.companion, spec.until_steady) == (STEADY_START, STEADY_COMPANION,
                                                                True)
@@ -62,13 +60,15 @@ def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(tmp_path):
     assert f["state_evidence"] == "single run"
 
 
-def test_a_steady_run_that_hits_its_cap_says_why(tmp_path):
+def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
     """The synchronized start of a stiff layer stays on its metastable plateau past a short
-    cap: the run says so, in meta.json and in its summary, and names the cause."""
-    spec = _steady(phi=1000.0, start="synchronized", t_end=1500.0)
+    cap: the run says so, in meta.json and in its summary, and names every cause with the
+    value the last check found (here also an unreachable mu_bar error)."""
+    spec = _steady(phi=1000.0, start="synchronized", t_end=1500.0, target_error=1e-7)
     ad = run(spec, tmp_path, progress=False).meta["adaptive"]
     assert not ad["reached"] and ad["t_run"] == 1500.0
     assert "cap t_end = 1500 came first" in ad["stopped_because"]
+    assert f"mu_bar error {ad['mu_bar_err_at_stop']:.2g} > 1e-07" in ad["stopped_because"]
     assert ad["state_at_stop"] == "metastable"
     assert "metastable: the contacts still move together" in ad["stopped_because"]
     s = analyze(tmp_path)
@@ -76,7 +76,7 @@ def test_a_steady_run_that_hits_its_cap_says_why(tmp_path):
     assert s["phase_fluctuation"] > 3
 
 
-def test_every_summary_carries_its_state_and_reads_large_drops(tmp_path):
+def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path):
     run(RunSpec(phi=1000.0, t_end=1500.0, scene="clusters"), tmp_path, progress=False)
     s = analyze(tmp_path)
     for key in ("state", "state_evidence", "phase_coherence", "phase_fluctuation",
@@ -96,7 +96,7 @@ def test_every_summary_carries_its_state_and_reads_large_drops(tmp_path):
     assert s["mu_bar_large"] > s["mu_bar"]
 
 
-def test_the_default_protocol_from_the_cli_and_the_sweep(tmp_path):
+def test_the_default_protocol_from_the_cli_and_the_sweep(lammps, tmp_path):
     out = tmp_path / "r"
     proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--size", "12x3",
                            "--scene", "friction", "--out", str(out)],
@@ -121,7 +121,7 @@ def test_the_default_protocol_from_the_cli_and_the_sweep(tmp_path):
     assert set(runs.companion) == {STEADY_COMPANION}
 
 
-def test_the_papers_protocol_is_a_fixed_run_from_the_synchronized_start(tmp_path):
+def test_the_papers_protocol_is_a_fixed_run_from_the_synchronized_start(lammps, tmp_path):
     out = tmp_path / "p"
     proc = subprocess.run([tool("bkflow"), "run", "--phi", "1000", "--size", "12x3",
                            "--protocol", "paper", "--t-end", "1500", "--scene", "friction",

@@ -31,8 +31,6 @@ from bkflow.sweep import sweep
 from bkflow.tables import results_table
 from tests.support import ROOT, tool
 
-pytestmark = pytest.mark.lammps
-
 
 def is_complete(d):
     return RunDir(d).is_complete()
@@ -72,7 +70,7 @@ def done_counts(stdout: str) -> tuple[int, int]:
 
 
 @pytest.fixture(scope="module")
-def tiny_sweep(tmp_path_factory):
+def tiny_sweep(lammps, tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep") / "tiny"
     proc = bkflow("sweep", *TINY, "--out", out)
     assert proc.returncode == 0, proc.stderr
@@ -180,7 +178,7 @@ def test_plot_of_a_directory_without_a_sweep_exits_2(tmp_path):
     assert proc.returncode == 2 and "no runs.csv" in proc.stderr
 
 
-def test_plot_skips_what_a_scene_did_not_record(tmp_path):
+def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     specs = sweep_specs([10.0], [(20, 5)], 1, t_end=200.0, scene="friction")
     rep = sweep(specs, tmp_path / "s", jobs=1, progress=False)
     assert len(rep.finished) == 1
@@ -193,7 +191,7 @@ def test_plot_skips_what_a_scene_did_not_record(tmp_path):
     assert all("friction" in why for why in skipped.values())
 
 
-def test_corrupt_or_half_written_runs_are_detected_and_redone(tiny_sweep, tmp_path):
+def test_corrupt_or_half_written_runs_are_detected_and_redone(lammps, tiny_sweep, tmp_path):
     src, _ = tiny_sweep
     out = tmp_path / "copy"
     shutil.copytree(src, out)
@@ -217,7 +215,7 @@ def test_corrupt_or_half_written_runs_are_detected_and_redone(tiny_sweep, tmp_pa
     assert (b / "meta.json").stat().st_mtime_ns == b_meta       # only analysed again
 
 
-def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(tmp_path):
+def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(lammps, tmp_path):
     out = tmp_path / "s"
     args = ["sweep", "--phi", "3,10,30", "--seeds", "2", "--t-end", "4000", "--jobs", "2",
             "--scene", "friction", "--out", str(out)]
@@ -257,7 +255,7 @@ def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(tmp_path
             assert (Path(j.path) / "meta.json").read_text() == done[j.id]
 
 
-def test_a_run_locked_by_another_process_is_not_touched(tmp_path):
+def test_a_run_locked_by_another_process_is_not_touched(lammps, tmp_path):
     spec = sweep_specs([10.0], [(20, 5)], 1, t_end=50.0)[0]
     with _job_lock(tmp_path):
         with pytest.raises(RunBusyError, match="another bkflow process"):
@@ -301,7 +299,7 @@ def _fake_scheduler(tmp_path, scripts: dict) -> dict:
             "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
 
 
-def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(tmp_path):
+def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(lammps, tmp_path):
     out = tmp_path / "grid"
     assert main(["sweep", "--phi", "1,10", "--seeds", "2", "--t-end", "100", "--init",
                  "--out", str(out)]) == 0
@@ -334,7 +332,7 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
     assert len(pd.read_csv(out / "runs.csv")) == 1
 
 
-def test_a_failed_run_is_reported_and_the_others_finish(tmp_path):
+def test_a_failed_run_is_reported_and_the_others_finish(lammps, tmp_path):
     good = sweep_specs([10.0], [(20, 5)], 1, t_end=100.0)[0]
     torn = good.replace(phi=0.1, t_end=400.0, bond_limit=1.5)  # tears apart (test_cli)
     rep = sweep([torn, good], tmp_path / "s", jobs=1, progress=False)
@@ -354,7 +352,7 @@ def test_plot_refuses_an_unknown_format(tiny_sweep, tmp_path):
     assert proc.returncode == 2 and "jpgx" in proc.stderr and not any(tmp_path.iterdir())
 
 
-def test_a_sweeps_workers_run_many_runs_each(tmp_path):
+def test_a_sweeps_workers_run_many_runs_each(lammps, tmp_path):
     """Sweeps pay Python's imports (and the plugin check, and loading LAMMPS) once per worker,
     not once per run: 6 runs on 2 workers are run by at most 2 processes, each of which goes
     on after its first run (meta.json "process")."""
@@ -372,7 +370,7 @@ def test_a_sweeps_workers_run_many_runs_each(tmp_path):
             range(sum(p["pid"] == pid for p in procs)))
 
 
-def test_any_parameter_is_set_or_swept_from_the_cli(tmp_path):
+def test_any_parameter_is_set_or_swept_from_the_cli(lammps, tmp_path):
     """--vary adds an axis (any RunSpec field), --set fixes a parameter: 2 phi x 2 gamma = 4
     points, each a row of results.csv with its gamma; figures per gamma."""
     out = tmp_path / "vary"
@@ -457,7 +455,7 @@ def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):
         bkflow.load_run(tmp_path)
 
 
-def test_the_example_notebook_runs(tmp_path):
+def test_the_example_notebook_runs(lammps, tmp_path):
     """docs/example.ipynb, executed as a user would (a kernel of this environment, in an
     empty directory): no cell fails and the figure cells show images."""
     nbformat = pytest.importorskip("nbformat")
@@ -473,7 +471,7 @@ def test_the_example_notebook_runs(tmp_path):
     assert (tmp_path / "nb_sweep" / "results.csv").exists()
 
 
-def test_vary_takes_parameters_that_have_options_of_their_own(tmp_path):
+def test_vary_takes_parameters_that_have_options_of_their_own(lammps, tmp_path):
     """--vary start=... and --vary t_end=... override what --start and the preset give."""
     out = tmp_path / "v"
     proc = bkflow("sweep", "--phi", "1", "--vary", "start=random,synchronized", "--vary",
@@ -491,7 +489,7 @@ def test_the_cluster_command_outside_a_sweep_is_one_line_and_exit_2(tmp_path):
     assert "is not a sweep directory" in proc.stderr and len(proc.stderr.splitlines()) == 1
 
 
-def test_plot_of_runs_without_stress_drops_and_of_unset_or_slashed_values(tmp_path):
+def test_plot_of_runs_without_stress_drops_and_of_unset_or_slashed_values(lammps, tmp_path):
     """Runs too short for two stress drops: fig_drops is skipped, not a traceback; a varied
     parameter left unset in some runs (target_error=none) and a value with '/' (reset/step)
     each get their own figure directory."""

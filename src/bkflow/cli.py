@@ -11,6 +11,7 @@ left looking complete: a run directory counts as finished only once its meta.jso
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shlex
 import sys
@@ -28,6 +29,7 @@ from .params import (  # noqa: E402
     ACCURACY,
     ADAPTIVE_CHUNK_T,
     ADAPTIVE_T_MIN,
+    CONTACT_RULE_HELP,
     CONTACT_RULES,
     PAPER_SIZES,
     PATHS,
@@ -100,9 +102,8 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
 
 def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--contact-rule", choices=CONTACT_RULES, default=RunSpec.contact_rule,
-                   help="contact rule at |k_e dr| > mu_s sigma_n A: reset (the paper's, break "
-                        "located inside the step; default), reset/step (dr = 0 at the step's "
-                        "end), coulomb")
+                   help="contact rule at |k_e dr| > mu_s sigma_n A: " + ", ".join(
+                       f"{rule} ({what})" for rule, what in CONTACT_RULE_HELP.items()))
 
 
 def _analysis_arg(p: argparse.ArgumentParser) -> None:
@@ -378,11 +379,13 @@ def _sweep(a) -> int:
     both = set(axes) & set(RunSpec.assignments(a.set))
     if both:
         raise SpecError(f"--vary and --set both give {', '.join(sorted(both))}: choose one")
+    from .limits import check_run_count, check_sweep
+
+    check_run_count(math.prod([len(phis), len(sizes), a.seeds, *map(len, axes.values())]),
+                    a.force)
     specs = sweep_specs(phis, sizes, a.seeds, axes=axes, **common)
     settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
-    from .limits import check_sweep
-
     check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         from .project import init_jobs

@@ -28,6 +28,10 @@ def _sig(x: float) -> float:
     return float(f"{x:.6g}")
 
 
+#: the most phi values a range expands to (a guard against a typo's endless list)
+MAX_PHI_VALUES = 100_000
+
+
 def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[float]:
     """``"A:B"`` -> log-spaced phi from A to B, ``points_per_decade`` per decade, both ends
     included when B/A is a whole number of steps; ``"a,b,c"`` -> that list. Values are
@@ -56,6 +60,10 @@ def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[fl
                             f"--phi {parts[1]}:{parts[0]}")
         decades = math.log10(b / a)
         n = int(math.floor(decades * points_per_decade + 1e-9))
+        if n > MAX_PHI_VALUES:
+            raise SpecError(f"--phi {text} with {points_per_decade} points per decade is "
+                            f"{n + 1} values (at most {MAX_PHI_VALUES}): lower "
+                            "--points-per-decade")
         vals = [a * 10 ** (k / points_per_decade) for k in range(n + 1)]
         if b / vals[-1] > 1 + 1e-9:
             vals.append(b)  # the end of the range is always swept

@@ -115,15 +115,21 @@ def check_cost(spec: RunSpec, out, force: bool = False) -> Cost:
     return c
 
 
+def check_run_count(n: int, force: bool = False) -> None:
+    """A sweep of ``n`` runs, refused above MAX_RUNS unless ``force`` (counted before a run's
+    parameters are built, so an absurd grid is refused at once)."""
+    if n > MAX_RUNS and not force:
+        raise CostError(f"this sweep has {n} runs (limit {MAX_RUNS}): fewer phi "
+                        "(--points-per-decade), sizes or seeds; pass --force to run it anyway")
+
+
 def check_sweep(specs, out, jobs: int, cores: int, force: bool = False) -> Cost:
     """The cost of a sweep: the number of runs, the processes, every run's own limits and
     the disk of all of them together."""
     specs = list(specs)
     if force:
         return sum((cost(s) for s in specs), Cost(0, 0, 0))
-    if len(specs) > MAX_RUNS:
-        raise CostError(f"this sweep has {len(specs)} runs (limit {MAX_RUNS}): fewer phi "
-                        "(--points-per-decade), sizes or seeds; pass --force to run it anyway")
+    check_run_count(len(specs))
     if jobs > MAX_JOBS_PER_CORE * cores:
         raise CostError(f"--jobs {jobs} starts more than {MAX_JOBS_PER_CORE} processes per core "
                         f"on this {cores}-core machine; pass --force to run it anyway")

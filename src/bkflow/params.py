@@ -28,11 +28,17 @@ PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
 #: C ~ 0.5 <sigma_x> moves by percents (benchmarks/RESULTS.md); the presets stay at <= 0.4.
 DT_FACTOR_MAX = 1.9
 
-#: contact rules at |k_e dr| > mu_s sigma_n A. reset: docs/model.md's rule with the break located
-#: inside the time step (the contact re-forms where |k_e dr| crosses the threshold and keeps the
-#: rest of the step's motion); reset/step: dr = 0 at the end of the step (first order in dt,
-#: kept for comparison); coulomb: sliding
-CONTACT_RULES = ("reset", "reset/step", "coulomb")
+#: contact rules at |k_e dr| > mu_s sigma_n A, each with what it does (the CLI's help). reset:
+#: docs/model.md's rule with the break located inside the time step (the contact re-forms where
+#: |k_e dr| crosses the threshold and keeps the rest of the step's motion); reset/step: dr = 0 at
+#: the end of the step (first order in dt, kept for comparison); coulomb: sliding, dr rescaled
+#: onto the threshold. The plugin's side is plugins/bk_model.h (bk_contact_rule).
+CONTACT_RULE_HELP = {
+    "reset": "the paper's, break located inside the step; default",
+    "reset/step": "dr = 0 at the step's end",
+    "coulomb": "sliding",
+}
+CONTACT_RULES = tuple(CONTACT_RULE_HELP)
 
 #: integration paths of a deck (bkflow.deck.setup_text): auto lets fix bk/substrate choose
 #: (keyword ``integrate``: the fused path on one rank and bkflow's lattice, else the general

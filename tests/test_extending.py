@@ -1,0 +1,84 @@
+"""Adding to the model: the diff of docs/develop.md adds a contact rule in at most four places
+outside the tests and docs, and the scratch copy it makes passes its own reference tests on
+the new rule, on both integration paths."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from tests.support import ROOT
+
+#: the places (diff hunks) and files a new contact rule may touch outside tests/ and docs/
+MAX_PLACES, MAX_FILES = 4, 2
+
+
+def _rule_diff() -> str:
+    text = (ROOT / "docs" / "develop.md").read_text()
+    blocks = re.findall(r"```diff\n(.*?)```", text, flags=re.S)
+    assert len(blocks) == 1, "docs/develop.md holds one diff"
+    return blocks[0]
+
+
+def _hunks_by_file(diff: str) -> dict[str, int]:
+    files: dict[str, int] = {}
+    name = None
+    for line in diff.splitlines():
+        if line.startswith("+++ b/"):
+            name = line[len("+++ b/"):]
+            files[name] = 0
+        elif line.startswith("@@") and name is not None:
+            files[name] += 1
+    return files
+
+
+def test_a_new_contact_rule_touches_at_most_four_places():
+    hunks = _hunks_by_file(_rule_diff())
+    outside = {f: n for f, n in hunks.items() if not f.startswith(("tests/", "docs/"))}
+    assert set(outside) == {"plugins/bk_model.h", "src/bkflow/params.py"}
+    assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
+    assert "tests/reference.py" in hunks  # the independent check learns the rule too
+
+
+@pytest.mark.slow
+def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammps, tmp_path):
+    """The documented diff, applied to a scratch copy (git apply --check first: the diff is
+    current), built and tested by the copy's own tests, selected by the new rule's name."""
+    scratch = tmp_path / "repo"
+    files = subprocess.run(["git", "ls-files", "plugins", "src", "tests", "pyproject.toml"],
+                           cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
+    if not files:
+        pytest.fail("not a git checkout: the scratch copy takes the tracked files")
+    for f in files:
+        (scratch / f).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / f, scratch / f)
+    patch = tmp_path / "rule.diff"
+    patch.write_text(_rule_diff())
+    for check in (["--check"], []):
+        proc = subprocess.run(["git", "apply", *check, str(patch)], cwd=scratch,
+                              capture_output=True, text=True)
+        assert proc.returncode == 0, "docs/develop.md's diff no longer applies: " + proc.stderr
+    build = tmp_path / "build"
+    for cmd in (["cmake", "-S", str(scratch / "plugins"), "-B", str(build), "-G", "Ninja",
+                 "-DCMAKE_BUILD_TYPE=Release"], ["cmake", "--build", str(build)]):
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+        assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    # the scratch package first: the editable install's finder steps aside
+    boot = ("import sys; sys.meta_path[:] = [f for f in sys.meta_path "
+            "if not type(f).__module__.startswith('_editable_')]; "
+            f"sys.path.insert(0, {str(scratch / 'src')!r}); sys.path.insert(0, {str(scratch)!r});"
+            " import bkflow.params as p; assert 'halve' in p.CONTACT_RULES, p.__file__; "
+            "import pytest; sys.exit(pytest.main(sys.argv[1:]))")
+    env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(build)}
+    proc = subprocess.run(
+        [sys.executable, "-c", boot, "-q", "-p", "no:cacheprovider", "-k", "halve",
+         "tests/test_reference.py", "tests/test_fused.py", "tests/test_start.py"],
+        cwd=scratch, env=env, capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+    ran = re.search(r"(\d+) passed", proc.stdout)
+    assert ran and int(ran.group(1)) >= 10, proc.stdout[-2000:]
