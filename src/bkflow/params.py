@@ -64,7 +64,7 @@ class Preset(NamedTuple):
 
 
 #: accuracy presets, chosen from the work-precision benchmarks of the steady state
-#: (benchmarks/steady_presets.py: C = 0.2 is 0.8% low at phi = 0.1, C = 0.1 within 0.1%
+#: (benchmarks/steady_presets.py: C = 0.2 is 0.8% low at phi = 0.1, C = 0.1 within 0.3%
 #: everywhere; errors and costs in benchmarks/RESULTS.md)
 ACCURACY = {"fast": Preset(0.2, 2000.0, 16000.0, 5e-4),
             "default": Preset(0.1, 8000.0, 64000.0, 2e-4),
