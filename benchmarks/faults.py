@@ -140,7 +140,7 @@ class Fuzz:
             if out.exists():
                 self.results[-1].verdict = "created the output directory"
         out = self.scratch() / "o"
-        self.check("deck: --until-stationary", bk("deck", "--phi", "1", "--until-stationary",
+        self.check("deck: --until-steady", bk("deck", "--phi", "1", "--until-steady",
                                                   "--out", out), {2})
         bad_sweep = {
             "phi 1e3:1e-1": ["--phi", "1e3:1e-1"], "phi 0:1": ["--phi", "0:1"],

@@ -24,6 +24,7 @@ import argparse
 import filecmp
 import itertools
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -77,7 +78,7 @@ elif how == "restart":
         Path("data.bk").write_text(data_text(spec))
         lmp = open_lammps(log="log.1")
         lmp.commands_string(setup_text(spec, DeckOptions(stress="stress.1.csv",
-                                                       phase="phase.1.csv"), path=path))
+                                                       phase="phase.1.csv", path=path)))
         half = spec.n_steps // 2
         lmp.command(f"run {half}")
         lmp.command("write_restart half.restart")
@@ -86,8 +87,8 @@ elif how == "restart":
         lmp.commands_string(continue_text(spec, "half.restart",
                                           DeckOptions(data="", stress="stress.2.csv",
                                                     phase="phase.2.csv", snapshots="snap.2",
-                                                    slips="slips.2", fronts="fronts.2"),
-                                          path=path))
+                                                    slips="slips.2", fronts="fronts.2",
+                                                    path=path)))
         lmp.command(f"run {spec.n_steps - half}")
         lmp.close()
         Path("half.restart").unlink()  # holds the LAMMPS version string and a date
@@ -128,7 +129,18 @@ def compare(a: Path, b: Path) -> tuple[int, list[str]]:
 
 
 def loop_time(plugin: Path, n_side: int, steps: int) -> float:
-    code = (
+    code = _loop_code(n_side, steps, True)
+    env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(plugin)}
+    work = Path(f"/tmp/same_bits_speed_{os.getpid()}")
+    work.mkdir(exist_ok=True)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=work, check=True,
+                         capture_output=True, text=True, timeout=600).stdout
+    shutil.rmtree(work)
+    return float(out.strip().splitlines()[-1])
+
+
+def _loop_code(n_side: int, steps: int, timed: bool) -> str:
+    return (
         "import time\n"
         "from bkflow.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text\n"
         "from bkflow.params import RunSpec\n"
@@ -141,14 +153,24 @@ def loop_time(plugin: Path, n_side: int, steps: int) -> float:
         "lmp.command('run 100 post no')\n"
         "t = time.perf_counter()\n"
         f"lmp.command('run {steps} pre no post no')\n"
-        "print(time.perf_counter() - t)\n")
+        + ("print(time.perf_counter() - t)\n" if timed else ""))
+
+
+def instructions(plugin: Path, n_side: int, steps: int) -> float:
+    """Instructions of ``steps`` steps of the loop: callgrind's total for a run of that
+    length less that of a run of none (the start-up is the same in both)."""
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(plugin)}
-    work = Path(f"/tmp/same_bits_speed_{os.getpid()}")
-    work.mkdir(exist_ok=True)
-    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=work, check=True,
-                         capture_output=True, text=True, timeout=600).stdout
-    shutil.rmtree(work)
-    return float(out.strip().splitlines()[-1])
+    work = Path(f"/tmp/same_bits_ir_{os.getpid()}")
+    total = []
+    for n in (0, steps):
+        work.mkdir(exist_ok=True)
+        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
+                              sys.executable, "-c", _loop_code(n_side, n, False)], env=env,
+                             cwd=work, check=True, capture_output=True, text=True,
+                             timeout=3600).stderr
+        total.append(float(re.findall(r"Collected\s*:\s*(\d+)", out)[-1]))
+        shutil.rmtree(work)
+    return total[1] - total[0]
 
 
 def main(argv=None) -> int:
@@ -159,6 +181,10 @@ def main(argv=None) -> int:
     ap.add_argument("--speed-n", type=int, default=900, help="atoms of the speed comparison "
                     "(a 2n x n/2 lattice for n = sqrt(N))")
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=20000, help="steps of each timed loop")
+    ap.add_argument("--instructions", type=int, default=0, metavar="STEPS",
+                    help="also count the loop's instructions under valgrind (callgrind) for "
+                         "this many steps: noise-free, about 50x slower")
     a = ap.parse_args(argv)
     for d in (a.a, a.b):
         if not (d / "bkflowplugin.so").is_file():
@@ -178,14 +204,23 @@ def main(argv=None) -> int:
         print(f"| {case[0]} | {n} | {'yes' if not differ else 'NO: ' + ', '.join(differ)} |",
               flush=True)
     side = int(round(np.sqrt(a.speed_n / 1.0)))
+    n_atoms = 2 * side * (side // 2)
     times = {"a": [], "b": []}
     for _ in range(a.rounds):  # alternated, so that the machine's drift hits both alike
         for tag, plugin in (("a", a.a), ("b", a.b)):
-            times[tag].append(loop_time(plugin.resolve(), side, 20000))
-    ta, tb = np.median(times["a"]), np.median(times["b"])
-    n_atoms = 2 * side * (side // 2)
-    print(f"\nfused kernel, N = {n_atoms}, phi = 100, 20000 steps, median of {a.rounds} "
-          f"alternated rounds: A {ta:.3f} s, B {tb:.3f} s, B / A = {tb / ta:.3f}")
+            times[tag].append(loop_time(plugin.resolve(), side, a.steps))
+    ratios = np.array(times["b"]) / np.array(times["a"])
+    q1, q3 = np.percentile(ratios, [25, 75])
+    print(f"\nfused kernel, N = {n_atoms}, phi = 100, {a.steps} steps, {a.rounds} alternated "
+          f"rounds: A {np.median(times['a']):.3f} s, B {np.median(times['b']):.3f} s "
+          f"(medians); B / A per round: median {np.median(ratios):.3f}, quartiles "
+          f"{q1:.3f}-{q3:.3f}")
+    if a.instructions:
+        ir = {tag: instructions(plugin.resolve(), side, a.instructions)
+              for tag, plugin in (("a", a.a), ("b", a.b))}
+        print(f"instructions of the loop ({a.instructions} steps, callgrind, the difference of "
+              f"two run lengths): A {ir['a']:.4g}, B {ir['b']:.4g}, B / A = "
+              f"{ir['b'] / ir['a']:.4f}")
     print(f"\n{'every output identical' if not failed else f'{failed} case(s) differ'}")
     return 1 if failed else 0
 

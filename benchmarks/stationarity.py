@@ -120,21 +120,21 @@ def _relaxation_figure(df: pd.DataFrame, curves: dict) -> None:
 
 # --------------------------------------------------------------------------- cost
 def cost(steady: str, sync: str, phis: str, seeds: int, jobs: int) -> pd.DataFrame:
-    """Until stationary at N = 100 from each start: the random start as reproduce.py's
-    "steady" protocol runs it (cap 32000), the synchronized one as its "sync_steady" (cap
-    64000); pointed at those directories, nothing is run again."""
+    """Until steady (single runs, no companion) at N = 100 from the random start (cap 32000)
+    and the synchronized one (cap 64000). Superseded by benchmarks/steady.py's time to
+    steady per start, kept for the history of benchmarks/RESULTS.md."""
     for start, out, cap in (("random", steady, 32000.0), ("synchronized", sync, 64000.0)):
         sweep(sweep_specs(phi_values(phis), [(20, 5)], seeds, t_end=cap, start=start,
-                          until_stationary=True), out, jobs=jobs, progress=False)
+                          until_steady=True, companion=None), out, jobs=jobs, progress=False)
     frames = []
     for out in (steady, sync):
         runs, _ = read_tables(out)
-        frames.append(runs[(runs.Lx == 20) & (runs.Ly == 5) & runs.until_stationary.astype(bool)
+        frames.append(runs[(runs.Lx == 20) & (runs.Ly == 5) & runs.until_steady.astype(bool)
                            & runs.phi.isin(phi_values(phis))])
     runs = pd.concat(frames)
     return (runs.groupby(["phi", "start"])
             .agg(seeds=("seed", "count"), t_run=("t_run", "mean"), t_run_max=("t_run", "max"),
-                 wall_s=("wall_time_s", "mean"), stationary=("stationary", "mean"),
+                 wall_s=("wall_time_s", "mean"), steady=("state", lambda x: (x == "steady").mean()),
                  mu_bar=("mu_bar", "mean"), mu_bar_large=("mu_bar_large", "mean"),
                  mean_stress_ratio=("mean_stress_ratio", "mean"))
             .reset_index())
