@@ -55,10 +55,10 @@ def test_adaptive_sweep_is_not_redone(lammps, tmp_path):
 
 
 @pytest.mark.parametrize("preset", sorted(ACCURACY))
-def test_accuracy_presets_set_the_time_step_and_length(lammps, preset, tmp_path):
+def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
     """A deck runs the preset's fixed length (a deck cannot stop by itself); a run of the
     steady protocol is capped at the preset's t_cap."""
-    c, t, cap = ACCURACY[preset]
+    c, t, cap, target = ACCURACY[preset]
     proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", preset, "--out",
                            str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
@@ -66,9 +66,10 @@ def test_accuracy_presets_set_the_time_step_and_length(lammps, preset, tmp_path)
     assert (p["dt_factor"], p["t_end"], p["until_steady"]) == (c, t, False)
     steady = protocol_fields("steady", preset)
     assert (steady["dt_factor"], steady["t_end"], steady["until_steady"]) == (c, cap, True)
+    assert steady["target_error"] == target
 
 
-def test_explicit_options_override_the_preset(lammps, tmp_path):
+def test_explicit_options_override_the_preset(tmp_path):
     proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", "fast",
                            "--dt-factor", "0.07", "--out", str(tmp_path)],
                           capture_output=True, text=True)

@@ -186,7 +186,7 @@ def _spec(a, deck: bool = False) -> RunSpec:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
     fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a)}
     if deck and a.protocol == "steady" and not a.until_steady:
-        fields.update(until_steady=False, companion=None,
+        fields.update(until_steady=False, companion=None, target_error=a.target_error,
                       t_end=ACCURACY[a.accuracy].t_end if a.t_end is None else a.t_end)
     fields.update(RunSpec.assignments(a.set))
     return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
