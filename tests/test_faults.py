@@ -231,3 +231,42 @@ def test_cluster_file_systems_without_flock_fsync_and_unique_temporaries(tmp_pat
     io.write_json_atomic(tmp_path / "x.json", {"a": 2})
     assert len(synced) == 2 and len(set(seen)) == 2  # flushed to disk; a fresh name each time
     assert json.loads((tmp_path / "x.json").read_text()) == {"a": 2}
+
+
+# --------------------------------------------------------------------------- lost workers
+def _children(pid: int) -> list[int]:
+    try:
+        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    except OSError:
+        return []
+    return [int(c) for c in text.split()]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, sig, tmp_path):
+    """A worker killed mid-run (SIGKILL, the out-of-memory killer; SIGTERM): the sweep exits
+    within 30 s with one line naming the runs under way, and the same command finishes."""
+    out = tmp_path / "s"
+    cmd = [tool("bkflow"), "sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "300",
+           "--dt-factor", "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2",
+           "--quiet", "--out", str(out)]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((out / "workspace").glob("*/stress.csv")):
+        time.sleep(0.1)
+    workers = _children(p.pid)
+    assert workers, "no worker process found"
+    time.sleep(0.5)
+    os.kill(workers[0], sig)
+    t_kill = time.time()
+    stdout, stderr = p.communicate(timeout=60)
+    assert time.time() - t_kill < 30
+    assert p.returncode == EXIT_RUN_FAILED, stderr
+    one_line(subprocess.CompletedProcess(cmd, p.returncode, stdout, stderr),
+             "a worker process of the sweep died")
+    assert "phi=" in stderr and "the same command resumes" in stderr
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert "0 failed" in again.stdout
+    assert len(list((out / "workspace").glob("*/meta.json"))) == 4

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from . import flowcompat
-from .engine import in_notebook
+from .engine import RunError, in_notebook
 from .grid import run_cost
 from .params import AnalysisSettings, RunSpec, SpecError
 from .project import (
@@ -108,14 +108,71 @@ class _SweepBar:
             self.bar.close()
 
 
-def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
-    order = None
-    if cost is not None:
-        def order(op):  # flow sorts by this key: the most expensive run first
-            op_jobs = flowcompat.operation_jobs(op)
-            return -cost.get(op_jobs[0].id, 0.0) if op_jobs else 0.0
+class WorkerDied(RunError):
+    """A worker process of a local sweep died (killed, out of memory) in the middle of a run;
+    the sweep stopped its other runs (they resume with the same command)."""
+
+
+#: the jobs each worker has started: (job id, pid), put by the worker, read by the sweep
+_STARTED = None
+#: the worker's own project, opened once per worker process
+_WORKER_PROJECT = {}
+
+
+def _work(path: str, job_id: str, names: list) -> None:
+    """A worker's task: the job's pending operations, by flow, in this process (flow runs the
+    same operations on a cluster)."""
+    _STARTED.put((job_id, os.getpid()))
+    project = _WORKER_PROJECT.get(path)
+    if project is None:
+        project = _WORKER_PROJECT[path] = open_project(path, create=False)
     with flowcompat.quiet_flow_bars():
-        project.run(jobs=jobs, names=names, np=np_ if np_ > 1 else None, order=order)
+        project.run(jobs=[project.open_job(id=job_id)], names=names)
+
+
+def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
+    """The pending operations of ``jobs``, most expensive run first: in this process when
+    ``np_`` is 1, else in ``np_`` worker processes, each running many runs. A worker that
+    dies (SIGKILL, the out-of-memory killer) stops the sweep within a second: the others are
+    terminated and :class:`WorkerDied` names the runs that were under way. (flow's own pool,
+    multiprocessing.Pool, would wait for the dead worker's result for ever.)"""
+    jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
+    if np_ <= 1:
+        with flowcompat.quiet_flow_bars():
+            project.run(jobs=jobs, names=names)
+        return
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    global _STARTED
+    ctx = multiprocessing.get_context("fork")  # workers inherit the imports and the queue
+    _STARTED = ctx.SimpleQueue()
+    started, done = {}, set()
+    pool = ProcessPoolExecutor(max_workers=np_, mp_context=ctx)
+    try:
+        pending = {pool.submit(_work, str(project.path), j.id, list(names)): j for j in jobs}
+        while pending:
+            finished_now, _ = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            while not _STARTED.empty():
+                job_id, pid = _STARTED.get()
+                started[job_id] = pid
+            for fut in finished_now:
+                job = pending.pop(fut)
+                done.add(job.id)
+                fut.result()  # BrokenProcessPool, or what the task raised (an interrupt)
+    except BrokenProcessPool:
+        while not _STARTED.empty():
+            job_id, pid = _STARTED.get()
+            started[job_id] = pid
+        under_way = [j for j in jobs if j.id in started and j.id not in done
+                     and not finished(j) and "error" not in j.document]
+        labels = ", ".join(spec_of(j).label for j in under_way) or "none started"
+        raise WorkerDied(f"a worker process of the sweep died (killed, or out of memory) "
+                         f"while running: {labels}; the sweep stopped its other runs; the same "
+                         "command resumes them") from None
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
