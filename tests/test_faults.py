@@ -167,6 +167,9 @@ def test_damaged_inputs_are_one_line(lammps, tmp_path, finished):
      "runs (limit"),
     (["sweep", "--phi", "1:1e300", "--points-per-decade", "1000000000", "--init"],
      "at most 100000"),
+    (["sweep", "--phi", "1e-300:1e300", "--init"], "runs (limit"),  # B/A overflows a float
+    (["sweep", "--phi", "1e-300:1e300", "--points-per-decade", "1", "--init"],
+     "more than LAMMPS counts"),
     (["sweep", "--phi", "1,2", "--jobs", "1000"], "processes per core"),
 ])
 def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, needle):

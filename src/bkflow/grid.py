@@ -58,13 +58,13 @@ def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[fl
         if not b > a:
             raise SpecError(f"--phi {text}: the range must increase (A < B), e.g. "
                             f"--phi {parts[1]}:{parts[0]}")
-        decades = math.log10(b / a)
+        decades = math.log10(b) - math.log10(a)  # b / a may overflow
         n = int(math.floor(decades * points_per_decade + 1e-9))
         if n > MAX_PHI_VALUES:
             raise SpecError(f"--phi {text} with {points_per_decade} points per decade is "
                             f"{n + 1} values (at most {MAX_PHI_VALUES}): lower "
                             "--points-per-decade")
-        vals = [a * 10 ** (k / points_per_decade) for k in range(n + 1)]
+        vals = [10 ** (math.log10(a) + k / points_per_decade) for k in range(n + 1)]
         if b / vals[-1] > 1 + 1e-9:
             vals.append(b)  # the end of the range is always swept
         return sorted({_sig(v) for v in vals})
