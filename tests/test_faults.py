@@ -273,3 +273,111 @@ def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, sig, tmp_
     assert again.returncode == 0, again.stderr
     assert "0 failed" in again.stdout
     assert len(list((out / "workspace").glob("*/meta.json"))) == 4
+
+
+def test_a_sweep_never_writes_over_the_users_files(tmp_path):
+    """`bkflow sweep --out DIR` writes runs.csv, results.csv, analysis.json and a workspace:
+    it refuses a directory of the user's own files, a run directory and a signac project that
+    is not a sweep, before it writes anything, and goes on in its own sweeps, old or new."""
+    cases = {
+        "tables": {"results.csv": "mine\n", "runs.csv": "mine\n", "analysis.json": "{}\n"},
+        "notes": {"notes.txt": "mine\n"},
+        "run": {".bkflow-run": "", "stress.csv": "t,sigma_x\n"},
+        "finished run": {"meta.json": "{}\n"},
+        "signac": {".signac/config": "schema_version = 2\n",
+                   "signac_project_document.json": '{"mine": 1}'},
+    }
+    for name, files in cases.items():
+        d = tmp_path / name
+        for rel, text in files.items():
+            (d / rel).parent.mkdir(parents=True, exist_ok=True)
+            (d / rel).write_text(text)
+        before = {p: p.read_bytes() for p in d.rglob("*") if p.is_file()}
+        for extra in ([], ["--init"]):
+            p = bk("sweep", "--phi", "1,2", "--t-end", "100", "--out", d, *extra)
+            assert p.returncode == EXIT_BAD_INPUT, (name, p.stderr)
+            one_line(p, "choose another --out")
+        assert {p: p.read_bytes() for p in d.rglob("*") if p.is_file()} == before, name
+    # a file is not a directory
+    (tmp_path / "file").write_text("mine\n")
+    one_line(bk("sweep", "--phi", "1", "--out", tmp_path / "file"), "is a file")
+    # its own sweep, and one made before sweeps were marked, are bkflow's
+    own = tmp_path / "own"
+    assert bk("sweep", "--phi", "1,2", "--t-end", "100", "--out", own, "--init").returncode == 0
+    doc = own / "signac_project_document.json"
+    assert "bkflow_sweep" in json.loads(doc.read_text())
+    doc.write_text("{}")
+    (own / "notes.txt").write_text("the user's notes in their own sweep\n")
+    p = bk("sweep", "--phi", "1,2", "--t-end", "100", "--out", own, "--init")
+    assert p.returncode == 0, p.stderr
+    assert (own / "notes.txt").read_text().startswith("the user's")
+
+
+def test_a_deck_replaces_only_a_deck_bkflow_wrote(tmp_path):
+    """`bkflow deck` signs what it writes; a hand-written or hand-edited in.bk, data.bk or
+    params.json is the user's and is never replaced."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "in.bk").write_text("# my own deck\nunits lj\n")
+    p = bk("deck", "--phi", "10", "--out", mine)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "was not written by bkflow deck")
+    assert (mine / "in.bk").read_text() == "# my own deck\nunits lj\n"
+    assert sorted(os.listdir(mine)) == ["in.bk"]
+    own = tmp_path / "own"
+    assert bk("deck", "--phi", "10", "--out", own).returncode == 0
+    assert bk("deck", "--phi", "20", "--out", own).returncode == 0  # its own: replaced
+    assert "phi = 20" in (own / "in.bk").read_text()
+    for name, edit in (("in.bk", lambda t: t.replace("run ", "run  ")),
+                       ("data.bk", lambda t: t.replace("200 bonds", "200 bonds ")),
+                       ("params.json", lambda t: t.replace("20.0", "20.5"))):
+        d = tmp_path / f"edited_{name}"
+        shutil.copytree(own, d)
+        (d / name).write_text(edit((d / name).read_text()))
+        before = digest(d)
+        p = bk("deck", "--phi", "30", "--out", d)
+        assert p.returncode == EXIT_BAD_INPUT, name
+        one_line(p, f"{name} was not written by bkflow deck, or was edited")
+        assert digest(d) == before
+
+
+@pytest.mark.parametrize("fault", [KeyboardInterrupt, SystemExit,
+                                   lambda: OSError(errno.ENOSPC, "No space left on device")],
+                         ids=["ctrl-c", "sigterm", "disk full"])
+def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, fault):
+    """SIGTERM, Ctrl-C or a full disk while a figure or a movie is written leaves the old
+    file as it was and no temporary behind."""
+    import matplotlib
+    import numpy as np
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from bkflow import plot
+    from bkflow.fronts import front_movie
+    from bkflow.io import Front
+
+    fig = Figure()
+    fig.add_subplot().plot([0, 1], [1, 0])
+    plot._save(fig, tmp_path, "fig", ["png", "pdf"])
+    front = Front(10, 20, np.arange(10, 20), np.random.default_rng(1).normal(size=(10, 12)),
+                  False)
+    gif = tmp_path / "slip.gif"
+    assert front_movie(front, 4, 3, 0.01, gif) == 10
+    old = digest(tmp_path)
+
+    def failing(*args, **kw):  # write half, then the fault
+        raise fault()
+
+    # the fault strikes inside the writers (matplotlib's and Pillow's), after they began
+    from PIL import Image
+    monkeypatch.setattr(Figure, "savefig", lambda self, f, **kw: (f.write(b"half"), failing()))
+    monkeypatch.setattr(Image.Image, "save", lambda self, f, **kw: (f.write(b"GIF8"),
+                                                                  failing()))
+    raised = (KeyboardInterrupt, SystemExit, OSError)
+    for call in (lambda: plot._save(fig, tmp_path, "fig", ["png", "pdf"]),
+                 lambda: front_movie(front, 4, 3, 0.01, gif)):
+        with pytest.raises(raised):
+            call()
+    assert digest(tmp_path) == old
+    assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]

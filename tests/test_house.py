@@ -82,6 +82,78 @@ def test_no_run_file_name_is_written_outside_rundir():
                 assert not hits, f"{path.name}:{node.lineno} names {hits}: use bkflow.rundir"
 
 
+#: calls that create or fill a file
+WRITERS = {"write_text", "write_bytes", "savefig", "save", "to_csv", "to_json", "to_parquet",
+           "savetxt", "savez", "dump", "touch", "write", "writelines", "mkstemp", "copy",
+           "copyfile", "copy2", "move", "rename", "replace"}
+#: the writes outside io.py that do not go through the atomic writer, and why that is right
+ALLOWED = {
+    ("rundir.py", "touch"): "the empty marker that claims a new run directory",
+    ("plot.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
+    ("rundir.py", "open"): "the lock file: created empty, locked (flock), never written",
+    ("cli.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone",
+}
+
+
+def _writes(tree):
+    """(call, inside `with atomic_file(...)`) for every writer call and every open() of a
+    file for writing in a module."""
+    out = []
+
+    def visit(node, guarded):
+        if isinstance(node, ast.With) and any(
+                isinstance(i.context_expr, ast.Call)
+                and getattr(i.context_expr.func, "id", getattr(i.context_expr.func, "attr", ""))
+                == "atomic_file" for i in node.items):
+            guarded = True
+        if isinstance(node, ast.Call):
+            f = node.func
+            name = getattr(f, "attr", getattr(f, "id", ""))
+            mode = [a.value for a in node.args[1:2] + [k.value for k in node.keywords
+                                                         if k.arg == "mode"]
+                    if isinstance(a, ast.Constant) and isinstance(a.value, str)]
+            flags = ast.unparse(node) if name == "open" and isinstance(f, ast.Attribute) else ""
+            if (name in WRITERS or (name == "open" and any(set(m) & set("wax+") for m in mode))
+                    or "O_CREAT" in flags or "O_WRONLY" in flags):
+                out.append((node, name, guarded))
+        for child in ast.iter_child_nodes(node):
+            visit(child, guarded)
+
+    visit(tree, False)
+    return out
+
+
+def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
+    """A figure, a movie, a deck, a table: every file bkflow writes goes through
+    io.atomic_file (a temporary file renamed over the old one), so that SIGTERM, Ctrl-C or a
+    full disk leaves the old file or the new one, never half of one. The only exceptions are
+    named above with their reason, and LAMMPS's own outputs of a run under way (not Python's)."""
+    bad = []
+    for path in sorted(SRC.glob("*.py")):
+        if path.name == "io.py":
+            continue
+        for node, name, guarded in _writes(ast.parse(path.read_text())):
+            if guarded or (path.name, name) in ALLOWED:
+                continue
+            if name in ("write", "dump") and "file=" not in ast.unparse(node) and \
+                    isinstance(node.func, ast.Attribute) and \
+                    ast.unparse(node.func.value) in ("f", "fh", "sys.stdout", "sys.stderr"):
+                continue  # writing to a handle atomic_file gave, or to a stream
+            if name == "replace" and "os.replace" != ast.unparse(node.func) and \
+                    "rename" not in ast.unparse(node.func):
+                continue  # str.replace, dataclasses.replace, RunSpec.replace
+            if name in ("copy", "move") and not ast.unparse(node.func).startswith("shutil"):
+                continue  # dict.copy, array.copy
+            if name == "dump" and ast.unparse(node.func) != "json.dump":
+                continue
+            bad.append(f"{path.name}:{node.lineno}: {ast.unparse(node)[:80]}")
+    assert not bad, "writes that bypass io.atomic_file:\n" + "\n".join(bad)
+    # and the check sees what it must: a bare write is caught
+    probe = ast.parse("def f(fig, p):\n    fig.savefig(p)\n    open(p, 'w')\n"
+                      "    with atomic_file(p, binary=True) as fh:\n        fig.savefig(fh)\n")
+    assert [g for _, _, g in _writes(probe)] == [False, False, True]
+
+
 def test_flow_internals_we_use_still_exist(tmp_path):
     from bkflow.flowcompat import check
     from bkflow.project import TEMPLATE_DIR, ClusterProject, open_project

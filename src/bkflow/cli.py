@@ -386,6 +386,9 @@ def _sweep(a) -> int:
     specs = sweep_specs(phis, sizes, a.seeds, axes=axes, **common)
     settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
+    from .project import check_sweep_dir
+
+    check_sweep_dir(a.out)
     check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         from .project import init_jobs
@@ -538,7 +541,10 @@ def _movie(a) -> int:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
-    fig.savefig(maps, dpi=STYLE["savefig.dpi"], bbox_inches="tight")
+    from .io import atomic_file
+
+    with atomic_file(maps, binary=True) as fh:
+        fig.savefig(fh, format=maps.suffix[1:], dpi=STYLE["savefig.dpi"], bbox_inches="tight")
     f = fronts[a.slip]
     print(f"wrote {path} ({len(f.steps)} frames, t = {f.step_max * run.spec.dt:g} to "
           f"{f.step_min * run.spec.dt:g}) and {maps}")
@@ -613,7 +619,7 @@ def _analyze(a) -> int:
 
 
 def _deck(a) -> int:
-    from .deck import DeckOptions, write_deck
+    from .deck import DeckOptions, write_deck, written_by_bkflow
     from .rundir import RunDir
 
     spec = _spec(a, deck=True)
@@ -629,6 +635,11 @@ def _deck(a) -> int:
     why = d.foreign()
     if why is not None and not why.startswith("holds a deck"):
         raise SpecError(f"{a.out} {why}: choose another --out")
+    for name in (rd.DECK, rd.DATA, rd.PARAMS):  # replace only what bkflow deck wrote
+        if d.file(name).exists() and not written_by_bkflow(d.file(name)):
+            raise SpecError(f"{d.file(name)} was not written by bkflow deck, or was edited "
+                            "since (its signature does not match): bkflow replaces only its "
+                            "own decks; choose another --out")
     paths = write_deck(spec, a.out, DeckOptions(path=a.path))
     print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
     return 0

@@ -321,17 +321,75 @@ def write_standard_decks(root) -> list[str]:
     return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
 
 
+#: the signature bkflow deck puts on the files it writes, so that it replaces only its own:
+#: in.bk ends with this line, data.bk's title line ends with it, over a SHA-256 of the rest
+SIGNATURE = "bkflow-sha256:"
+
+
+def _digest(text: str) -> str:
+    import hashlib
+
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _signed(name: str, text: str, params: str = "") -> str:
+    if name == DECK:  # and params.json, which cannot carry a comment
+        return text + f"# {SIGNATURE}{_digest(text)} {PARAMS}:{_digest(params)}\n"
+    title, rest = text.split("\n", 1)
+    return f"{title} {SIGNATURE}{_digest(rest)}\n{rest}"
+
+
+def _params_text(spec: RunSpec) -> str:
+    import json
+
+    return json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n"
+
+
+def written_by_bkflow(path) -> bool:
+    """Whether ``path`` (an in.bk, data.bk or params.json) is exactly as bkflow deck wrote it:
+    its signature matches its text (params.json: it is a RunSpec written the canonical way).
+    A hand-written or hand-edited file is the user's, and bkflow deck does not replace it."""
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError):
+        return False
+    if path.name == PARAMS:  # its digest is on in.bk's signature line
+        deck = path.with_name(DECK)
+        if deck.exists():
+            return (written_by_bkflow(deck) and deck.read_text().rstrip("\n").endswith(
+                f" {PARAMS}:{_digest(text)}"))
+        import json
+
+        try:  # without its deck: at least written the way bkflow writes it
+            return _params_text(RunSpec.from_dict(json.loads(text))) == text
+        except Exception:  # anything unreadable is not provably ours
+            return False
+    if path.name == DECK:
+        body, sep, last = text.rstrip("\n").rpartition("\n")
+        return bool(sep) and last.startswith(f"# {SIGNATURE}{_digest(body + chr(10))} ")
+    if path.name == DATA:
+        title, sep, rest = text.partition("\n")
+        return bool(sep) and title.endswith(f" {SIGNATURE}{_digest(rest)}")
+    return False
+
+
 def write_deck(spec: RunSpec, directory, options: DeckOptions = DeckOptions()) -> dict[str, str]:
     """Write ``in.bk`` (with ``options``), ``data.bk`` and ``params.json`` into
-    ``directory``; return {name: path}."""
-    import json
+    ``directory``, each atomically and signed (:func:`written_by_bkflow`); return
+    {name: path}."""
     from pathlib import Path
+
+    from .io import write_text_atomic
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    (d / DATA).write_text(data_text(spec))
-    (d / DECK).write_text(deck_text(spec, options.replace()))
-    (d / PARAMS).write_text(json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n")
+    params = _params_text(spec)
+    write_text_atomic(d / DATA, _signed(DATA, data_text(spec)))
+    write_text_atomic(d / PARAMS, params)
+    write_text_atomic(d / DECK, _signed(DECK, deck_text(spec, options.replace()), params))
     return {"deck": str(d / DECK), "data": str(d / DATA), "params": str(d / PARAMS)}
 
 

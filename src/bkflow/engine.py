@@ -35,6 +35,7 @@ from .deck import (
     deck_text,
     setup_text,
 )
+from .io import write_text_atomic
 from .limits import check_cost
 from .params import (
     ADAPTIVE_CHUNK_T,
@@ -291,8 +292,8 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
 
 
 def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions) -> None:
-    rd.file(DATA).write_text(data_text(spec))
-    rd.file(DECK).write_text(deck_text(spec, options))
+    write_text_atomic(rd.file(DATA), data_text(spec))
+    write_text_atomic(rd.file(DECK), deck_text(spec, options))
 
 
 #: wall time one piece of a run should take: LAMMPS returns to Python (where Ctrl-C is

@@ -12,6 +12,7 @@ t = 8000), far below S_x = 0.01 l and the Psi resolution that matters.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -217,20 +218,36 @@ def json_ready(obj):
     return obj
 
 
-def _replace_atomically(path: Path, write) -> None:
-    """Write through a uniquely named temporary file beside ``path``, flushed to disk, then
-    renamed over it: a reader sees the old file or the whole new one, never half."""
+@contextlib.contextmanager
+def atomic_file(path, binary: bool = False):
+    """Open a uniquely named temporary file beside ``path`` for writing; when the block ends
+    without an exception, flush it to disk and rename it over ``path``. A reader (and a user
+    after Ctrl-C, SIGTERM or a full disk) sees the old file or the whole new one, never half.
+    Every file bkflow writes outside a run under way goes through here (tests/test_house.py
+    checks the source for other writers)."""
+    path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.fchmod(fd, 0o666 & ~_UMASK)  # mkstemp makes 0600: readable as any file the user writes
     try:
-        with os.fdopen(fd, "w", newline="") as f:
-            write(f)
+        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"newline": ""})) as f:
+            yield f
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         _unlink_quietly(tmp)
         raise
+
+
+def _replace_atomically(path: Path, write) -> None:
+    with atomic_file(path) as f:
+        write(f)
+
+
+def write_text_atomic(path, text: str) -> None:
+    """Write a text file atomically (:func:`atomic_file`)."""
+    with atomic_file(path) as f:
+        f.write(text)
 
 
 def _unlink_quietly(path) -> None:

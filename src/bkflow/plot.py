@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .io import atomic_file
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import read_tables, varied_parameters
@@ -193,8 +194,10 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
     paths = []
     for fmt in formats:
         p = out / f"{name}.{fmt}"
-        fig.savefig(p, metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None,
-                    dpi=STYLE["savefig.dpi"], bbox_inches="tight")
+        with atomic_file(p, binary=True) as f:  # SIGTERM or a full disk leaves the old figure
+            fig.savefig(f, format=fmt,
+                        metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None,
+                        dpi=STYLE["savefig.dpi"], bbox_inches="tight")
         paths.append(p)
     return paths
 

@@ -141,8 +141,78 @@ def analyze(job):
         del job.document["error"]
 
 
+#: project-document key that marks a signac project as a bkflow sweep (its version)
+SWEEP_MARK = "bkflow_sweep"
+#: what bkflow itself writes at the top of a sweep directory
+SWEEP_FILES = (".signac", "workspace", "signac_project_document.json", "runs.csv",
+               "results.csv", "analysis.json", "figures")
+
+
+def _project_document(path: Path) -> dict:
+    import json
+
+    try:
+        doc = json.loads((path / "signac_project_document.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _jobs_are_runs(path: Path) -> bool:
+    """Whether the workspace's jobs are bkflow runs (a sweep made before the mark)."""
+    import json
+
+    found = list((path / "workspace").glob("*/signac_statepoint.json"))[:3]
+    for sp in found:
+        try:
+            if not {"phi", "Lx", "Ly", "seed"} <= set(json.loads(sp.read_text())):
+                return False
+        except (OSError, ValueError, TypeError):
+            return False
+    return bool(found)
+
+
+def sweep_dir_problem(path) -> str | None:
+    """What makes ``path`` not bkflow's to write a sweep into (None: it does not exist, is
+    empty, or is a bkflow sweep). A sweep writes runs.csv, results.csv, analysis.json and a
+    workspace: into a directory of the user's own files, or into a run directory, it would
+    overwrite or bury them."""
+    from .rundir import LOCK, MARK, META
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        return "is a file, not a directory"
+    try:
+        names = {p.name for p in path.iterdir()}
+    except FileNotFoundError:
+        return None
+    names = {n for n in names if n != LOCK and not (n.startswith(".") and n.endswith(".tmp"))}
+    if not names:
+        return None
+    if MARK in names or META in names:
+        return "is a bkflow run directory, not a sweep's"
+    if ".signac" not in names:
+        shown = sorted(names)
+        return ("holds files that are not a bkflow sweep (" + ", ".join(shown[:3])
+                + (f" and {len(shown) - 3} more" if len(shown) > 3 else "") + ")")
+    if SWEEP_MARK in _project_document(path) or _jobs_are_runs(path):
+        return None
+    return "is a signac project that is not a bkflow sweep"
+
+
+def check_sweep_dir(path) -> None:
+    """Refuse, before anything is written, a sweep into a directory that is not bkflow's."""
+    from .params import SpecError
+
+    why = sweep_dir_problem(path)
+    if why is not None:
+        raise SpecError(f"--out {path} {why}: a sweep writes only into a new or empty "
+                        "directory or a sweep's own; choose another --out")
+
+
 def open_project(path, create: bool = True) -> SweepProject:
-    """The sweep project at ``path`` (created when ``create`` and it does not exist)."""
+    """The sweep project at ``path`` (created when ``create`` and it does not exist; a
+    directory that is not bkflow's is refused, :func:`check_sweep_dir`)."""
     import signac
 
     path = Path(path)
@@ -150,9 +220,17 @@ def open_project(path, create: bool = True) -> SweepProject:
         if not create:
             raise FileNotFoundError(f"{path} is not a bkflow sweep directory (no .signac/); "
                                     "run bkflow sweep --out DIR first")
+        check_sweep_dir(path)
         path.mkdir(parents=True, exist_ok=True)
         signac.init_project(str(path))
-    return SweepProject.get_project(str(path), search=False)
+    elif create:
+        check_sweep_dir(path)
+    project = SweepProject.get_project(str(path), search=False)
+    if create and SWEEP_MARK not in project.document:
+        from . import __version__
+
+        project.document[SWEEP_MARK] = __version__
+    return project
 
 
 #: the cluster job-script template shipped with the package (flow's SLURM template extended)
@@ -174,6 +252,7 @@ class ClusterProject(SweepProject):
 def init_jobs(specs, root, settings: AnalysisSettings | None = None) -> int:
     """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
     a cluster: ``python -m bkflow.cluster run|submit``); the number already finished."""
+    check_sweep_dir(root)  # before the lock file is made
     with RunDir(root).lock():
         project = open_project(root)
         if settings is not None:

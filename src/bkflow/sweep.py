@@ -27,6 +27,7 @@ from .project import (
     ANALYZE,
     SIMULATE,
     analysed,
+    check_sweep_dir,
     finished,
     open_project,
     set_settings,
@@ -188,6 +189,7 @@ def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
     jobs = jobs or available_cores()
     if jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {jobs}")
+    check_sweep_dir(out)  # before the lock file is made in it
     with RunDir(out).lock():  # one sweep at a time writes a sweep directory
         return _sweep(specs, out, jobs, progress, settings)
 
