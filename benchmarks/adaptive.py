@@ -23,7 +23,7 @@ from bkflow.params import ACCURACY, RunSpec
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--phi", type=float, nargs="+", default=[0.1, 10.0, 1000.0])
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--preset", default="default", choices=sorted(ACCURACY))

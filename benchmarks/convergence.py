@@ -68,7 +68,7 @@ def slope(cs, errs):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--phi", type=float, nargs="+", default=[10.0])
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--levels", type=int, default=6)

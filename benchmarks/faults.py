@@ -359,7 +359,7 @@ class Fuzz:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--keep", default=None, help="scratch directory to keep (default: a temp)")
     a = ap.parse_args(argv)
     root = Path(a.keep or tempfile.mkdtemp(prefix="bkflow-faults-"))

@@ -304,7 +304,7 @@ def timing(dll, sizes, rounds, t_end, codes, dev_dir):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--check-only", action="store_true")
     ap.add_argument("--no-check", action="store_true")
     ap.add_argument("--sizes", nargs="+", default=["20x5", "60x15"])

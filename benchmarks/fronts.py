@@ -21,7 +21,7 @@ SCENES = ("friction", "fronts", "full")
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--size", default="60x15")
     ap.add_argument("--phi", type=float, default=100.0)
     ap.add_argument("--t-end", type=float, default=8000.0)

@@ -21,7 +21,7 @@ import pandas as pd
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("a")
     ap.add_argument("b")
     a = ap.parse_args(argv)

@@ -42,7 +42,7 @@ def loop_time(spec: RunSpec, phase: bool, work: Path) -> float:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--phi", type=float, nargs="+", default=[10.0, 1000.0])
     ap.add_argument("--sizes", nargs="+", default=["20x5", "60x15"])
     ap.add_argument("--every", type=float, nargs="+", default=[0.1, RunSpec.phase_every, 5.0])

@@ -174,7 +174,7 @@ def instructions(plugin: Path, n_side: int, steps: int) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--a", required=True, type=Path, help="plugin directory A (before)")
     ap.add_argument("--b", required=True, type=Path, help="plugin directory B (after)")
     ap.add_argument("--out", type=Path, default=Path("runs/bench/same_bits"))

@@ -35,7 +35,7 @@ def _fmt(v, f):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--phi", type=float, nargs="+", default=[1.0, 30.0, 1000.0])
     ap.add_argument("--sizes", nargs="+", default=["20x5"])
     ap.add_argument("--t-end", type=float, default=RunSpec.t_end,

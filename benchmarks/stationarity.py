@@ -204,7 +204,7 @@ def _md(df: pd.DataFrame, index: bool = True) -> str:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("what", choices=("relaxation", "cost", "calibration", "all"))
     ap.add_argument("--out", default=None, help="sweep directory (default per study)")
     ap.add_argument("--sizes", default="20x5,40x10")

@@ -296,7 +296,7 @@ def report(runs: list[dict]) -> None:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("what", choices=("groundtruth", "report"))
     ap.add_argument("dirs", nargs="*", help="sweep directories of the ground truth")
     ap.add_argument("--out", default="runs/groundtruth")

@@ -152,7 +152,7 @@ def report(out: Path, refs: pd.DataFrame, sizes) -> None:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--out", type=Path, default=Path("runs/bench/steady"))
     ap.add_argument("--groundtruth", nargs="+", default=["runs/groundtruth/*"],
                     help="the sweep directories of benchmarks/steady.py groundtruth")

@@ -276,7 +276,7 @@ def compare_schemes(a) -> None:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--sizes", nargs="+", default=None,
                     help="lattices LXxLY (default 20x5 60x15 120x30 240x60; --whole 20x5 60x15; "
                          "--scaling 60x15 120x30 240x60 480x120)")

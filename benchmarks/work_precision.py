@@ -122,7 +122,7 @@ def plot(tables: dict, path: Path, n_atoms: int = RunSpec.Lx * RunSpec.Ly) -> No
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--phi", type=float, nargs="+", default=[0.1, 10.0, 1000.0])
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--seeds", type=int, default=3)

@@ -180,14 +180,23 @@ def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, 
     assert not out.exists()
 
 
-def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(lammps, tmp_path):
-    p = started("--phi", "1000", "--n", "900", "--t-end", "20000", "--out", tmp_path / "r")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP],
+                         ids=["ctrl-c", "sigterm", "sighup"])
+def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(lammps, tmp_path,
+                                                                          sig):
+    """Ctrl-C, SIGTERM and SIGHUP (a closed terminal) stop a run within a second, after MPI
+    and LAMMPS are loaded, and the same command resumes."""
+    args = ("--phi", "1000", "--n", "900", "--t-end", "20000", "--out", tmp_path / "r")
+    p = started(*args)
     time.sleep(1.0)
     t0 = time.time()
-    p.send_signal(signal.SIGINT)
+    p.send_signal(sig)
     _, err = p.communicate(timeout=60)
-    assert time.time() - t0 < 1.0 and p.returncode == EXIT_INTERRUPTED
+    assert time.time() - t0 < 1.0 and p.returncode == EXIT_INTERRUPTED, err
     assert "run the same command again" in err and not RunDir(tmp_path / "r").is_complete()
+    assert len(err.strip().splitlines()) == 1
+    if sig != signal.SIGINT:
+        return
     # a layer too soft for its drive tears at any time step: the message says so
     tear = bk("run", "--phi", "0.01", "--t-end", "2000", "--scene", "friction", "--quiet",
               "--out", tmp_path / "t")
@@ -246,10 +255,13 @@ def _children(pid: int) -> list[int]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
-def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, sig, tmp_path):
+@pytest.mark.parametrize("target, sig", [("worker", signal.SIGKILL), ("worker", signal.SIGTERM),
+                                         ("sweep", signal.SIGTERM), ("sweep", signal.SIGHUP)])
+def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, target, sig, tmp_path):
     """A worker killed mid-run (SIGKILL, the out-of-memory killer; SIGTERM): the sweep exits
-    within 30 s with one line naming the runs under way, and the same command finishes."""
+    within 30 s with one line naming the runs under way. SIGTERM or SIGHUP to the sweep
+    itself: it stops at once, its workers with it, as after Ctrl-C. The same command
+    finishes."""
     out = tmp_path / "s"
     cmd = [tool("bkflow"), "sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "300",
            "--dt-factor", "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2",
@@ -261,18 +273,33 @@ def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, sig, tmp_
     workers = _children(p.pid)
     assert workers, "no worker process found"
     time.sleep(0.5)
-    os.kill(workers[0], sig)
+    os.kill(workers[0] if target == "worker" else p.pid, sig)
     t_kill = time.time()
     stdout, stderr = p.communicate(timeout=60)
-    assert time.time() - t_kill < 30
-    assert p.returncode == EXIT_RUN_FAILED, stderr
-    one_line(subprocess.CompletedProcess(cmd, p.returncode, stdout, stderr),
-             "a worker process of the sweep died")
-    assert "phi=" in stderr and "the same command resumes" in stderr
+    done = subprocess.CompletedProcess(cmd, p.returncode, stdout, stderr)
+    if target == "worker":
+        assert time.time() - t_kill < 30
+        assert p.returncode == EXIT_RUN_FAILED, stderr
+        one_line(done, "a worker process of the sweep died")
+        assert "phi=" in stderr and "the same command resumes" in stderr
+    else:
+        assert time.time() - t_kill < 5
+        assert p.returncode == EXIT_INTERRUPTED, stderr
+        one_line(done, "run the same command again to resume")
+        time.sleep(0.5)
+        assert not [w for w in workers if _alive(w)], "a worker outlived its sweep"
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0, again.stderr
     assert "0 failed" in again.stdout
     assert len(list((out / "workspace").glob("*/meta.json"))) == 4
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False
 
 
 def test_a_sweep_never_writes_over_the_users_files(tmp_path):

@@ -71,6 +71,10 @@ EXIT_CODES = {
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs):  # no abbreviations: --over is not --overwrite
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
     def error(self, message):  # one line, exit 2 (argparse prints the usage too)
         self.exit(EXIT_BAD_INPUT, f"bkflow: error: {message}\n")
 
@@ -651,7 +655,15 @@ def _fs_message(exc: OSError) -> str:
 
 
 def main(argv=None) -> int:
-    """The command line; returns the exit code (:data:`EXIT_CODES`)."""
+    """The command line; returns the exit code (:data:`EXIT_CODES`). SIGTERM and SIGHUP
+    (a closed terminal) are taken as Ctrl-C: the command stops within a second, keeps what is
+    finished, and the same command resumes."""
+    import signal
+
+    from . import plugin
+
+    plugin.INTERRUPT_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+    plugin.restore_signals()
     try:
         return _main(argv)
     except KeyboardInterrupt:  # before a command started (while Python imports)

@@ -126,6 +126,27 @@ def lammps_version() -> dict:
             "lammps_git": lammps_git_descriptor()}
 
 
+#: signals a command-line process treats as Ctrl-C (set by bkflow.cli): stop within a
+#: second, keep what is finished, and let the same command resume
+INTERRUPT_SIGNALS: tuple = ()
+
+
+def _interrupt(signum, frame):
+    import signal
+
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def restore_signals() -> None:
+    """(Re)install the handlers of :data:`INTERRUPT_SIGNALS` (in the main thread only)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        for sig in INTERRUPT_SIGNALS:
+            signal.signal(sig, _interrupt)
+
+
 def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     """A LAMMPS instance with fix bk/substrate available.
 
@@ -146,6 +167,7 @@ def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     if not screen:
         args += ["-screen", "none"]
     lmp = lammps(cmdargs=args)
+    restore_signals()  # MPI's start installs handlers of its own (it swallowed SIGHUP)
     if not lmp.has_style("fix", FIX_STYLE):
         # LAMMPS only warns when a plugin fails to load; the missing style is our signal
         lmp.command(f'plugin load """{path}"""')

@@ -131,6 +131,19 @@ def _work(path: str, job_id: str, names: list) -> None:
         project.run(jobs=[project.open_job(id=job_id)], names=names)
 
 
+def _worker_signals() -> None:
+    """A worker dies of SIGTERM and SIGHUP as any process does (the sweep sees it die and
+    stops; its own handlers, inherited by fork, would turn them into an interrupt of one run
+    only); Ctrl-C, sent to the whole process group, still interrupts it."""
+    import signal
+
+    from . import plugin
+
+    plugin.INTERRUPT_SIGNALS = ()
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
     """The pending operations of ``jobs``, most expensive run first: in this process when
     ``np_`` is 1, else in ``np_`` worker processes, each running many runs. A worker that
@@ -150,7 +163,7 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     ctx = multiprocessing.get_context("fork")  # workers inherit the imports and the queue
     _STARTED = ctx.SimpleQueue()
     started, done = {}, set()
-    pool = ProcessPoolExecutor(max_workers=np_, mp_context=ctx)
+    pool = ProcessPoolExecutor(max_workers=np_, mp_context=ctx, initializer=_worker_signals)
     try:
         pending = {pool.submit(_work, str(project.path), j.id, list(names)): j for j in jobs}
         while pending:
@@ -172,6 +185,11 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
         raise WorkerDied(f"a worker process of the sweep died (killed, or out of memory) "
                          f"while running: {labels}; the sweep stopped its other runs; the same "
                          "command resumes them") from None
+    except BaseException:  # Ctrl-C, SIGTERM or SIGHUP to the sweep: its runs stop now too
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            with contextlib.suppress(OSError):
+                proc.terminate()
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 

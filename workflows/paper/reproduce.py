@@ -455,7 +455,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--out", default="runs/paper", help="where the runs go (default runs/paper)")
     p.add_argument("--jobs", type=int, default=available_cores())
     p.add_argument("--seeds", type=int, default=3)
