@@ -121,6 +121,21 @@ def test_extreme_but_valid_inputs_run_and_stay_finite(lammps, changes, tmp_path)
     ({"Lx": 4, "Ly": 1}, "Ly must be an integer >= 3"),
     ({"Lx": 2, "Ly": 2}, "Lx must be an integer >= 3"),
     ({"dk_d": 1.5}, "dk_d must lie in (0, k_d]"),
+    # each parameter's physical domain, not just finiteness (docs/model.md)
+    ({"V_d": -0.02}, "V_d must be > 0 (the plate moves along +x"),
+    ({"V_d": 0.0}, "V_d must be > 0"),
+    ({"V_d": 1.0}, "moves the plate 0.0139 lattice units per time step"),
+    ({"gamma": -0.2}, "gamma must be >= 0"),
+    ({"mass": 0.0}, "mass must be > 0"),
+    ({"k_e": 0.0}, "k_e must be > 0"),
+    ({"mu_s": -0.2}, "mu_s must be > 0"),
+    ({"sigma_n": 0.0}, "sigma_n must be > 0"),
+    ({"area": -1.0}, "area must be > 0"),
+    ({"bond_limit": 0.5}, "bond_limit must be > 1 (lattice units"),
+    ({"slip_threshold": 1.5}, "slip_threshold must be < 1"),
+    ({"transient": 1.0}, "transient must lie in [0, 1)"),
+    ({"phase_every": 0.0}, "phase_every must be > 0"),
+    ({"seed": -1}, "seed must be a non-negative integer"),
 ])
 def test_degenerate_inputs_are_refused_with_the_reason(changes, needle):
     with pytest.raises(SpecError) as exc:

