@@ -11,6 +11,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -408,3 +409,85 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
             call()
     assert digest(tmp_path) == old
     assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]
+
+
+@pytest.mark.parametrize("env, needle", [
+    ({"OMP_NUM_THREADS": "4,2"}, None),  # a valid OpenMP value: works (numexpr read it badly)
+    ({"MPLBACKEND": "garbage"}, None),  # the command line writes files: Agg
+    ({"SIGNAC_FLOW_ENVIRONMENT": "garbage"}, None),  # a local command submits nothing
+    ({"OMP_NUM_THREADS": "abc"}, "OMP_NUM_THREADS='abc' is not an OpenMP thread count"),
+    ({"OMP_NUM_THREADS": "1.5"}, "OMP_NUM_THREADS='1.5'"),
+    ({"NUMEXPR_NUM_THREADS": "x"}, "NUMEXPR_NUM_THREADS='x' is not a number of threads"),
+    ({"NUMEXPR_MAX_THREADS": "-3"}, "NUMEXPR_MAX_THREADS"),
+    ({"TQDM_MININTERVAL": "abc"}, "TQDM_MININTERVAL: tqdm (the progress bars) cannot read it"),
+], ids=lambda v: "-".join(f"{k}={x}" for k, x in v.items()) if isinstance(v, dict) else "")
+def test_the_environment_is_named_never_blamed_on_the_run(tmp_path, finished, env, needle):
+    """A bad environment variable of a library under bkflow is named in one line (exit 2);
+    a run is damaged only when its files are."""
+    d = tmp_path / "run"
+    shutil.copytree(finished, d)
+    before = digest(d)
+    p = subprocess.run([tool("bkflow"), "analyze", str(d)], capture_output=True, text=True,
+                       env={**os.environ, **env}, timeout=300)
+    if needle is None:
+        assert p.returncode == 0, p.stderr
+        assert "mu_bar" in p.stdout
+    else:
+        assert p.returncode == EXIT_BAD_INPUT
+        one_line(p, needle)
+        assert "damaged" not in p.stderr
+        assert digest(d) == before
+
+
+def test_odd_process_states_are_one_line(lammps, tmp_path):
+    """stderr closed, the current directory deleted, a name that is not UTF-8, a memory
+    limit, and a bug of bkflow's own: one line each, a documented exit code, no traceback."""
+    from bkflow.cli import EXIT_INTERNAL, EXIT_RESOURCES
+
+    short = ["--phi", "1", "--t-end", "20", "--scene", "friction", "--quiet"]
+    # stderr closed: the run runs (it has nowhere to complain)
+    p = subprocess.run(f"'{tool('bkflow')}' run {' '.join(short)} --out '{tmp_path}/se' 2>&-",
+                       shell=True, capture_output=True, text=True)
+    assert p.returncode == 0 and RunDir(tmp_path / "se").is_complete()
+    # the current directory deleted: absolute paths work, a relative one is named
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    for out, rc in ((tmp_path / "abs", 0), ("rel", EXIT_FILE_SYSTEM)):
+        p = subprocess.run(f"cd '{gone}' && rmdir '{gone}' && '{tool('bkflow')}' run "
+                           f"{' '.join(short)} --out '{out}'", shell=True, capture_output=True,
+                           text=True)
+        gone.mkdir(exist_ok=True)
+        assert p.returncode == rc, p.stderr
+        if rc:
+            one_line(p, "the current directory no longer exists")
+    # a name that is not UTF-8 (signac and the tables need one)
+    bad = os.fsdecode(os.fsencode(str(tmp_path)) + b"/bad\xff")
+    for cmd in (["sweep", "--phi", "1", "--seeds", "1", *short[2:]], ["collect"]):
+        p = subprocess.run([tool("bkflow"), *cmd, bad] if cmd == ["collect"]
+                           else [tool("bkflow"), *cmd, "--out", bad], capture_output=True)
+        assert p.returncode == EXIT_BAD_INPUT
+        assert len(p.stderr.splitlines()) == 1 and b"not a UTF-8 name" in p.stderr
+    assert not os.path.exists(os.fsencode(bad))
+    # a memory limit: named, not called damage
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (400 * 2**20, 400 * 2**20))
+
+    p = subprocess.run([tool("bkflow"), "run", *short, "--out", str(tmp_path / "mem")],
+                       capture_output=True, text=True, preexec_fn=limit, timeout=120)
+    assert p.returncode == EXIT_RESOURCES, p.stderr
+    one_line(p, "out of memory")
+    # a bug: one line, exit 70, the traceback kept in a file
+    from bkflow import cli
+
+    boom = subprocess.run(
+        [sys.executable, "-c", "import bkflow.cli as c, sys\n"
+         "c._analyze = lambda a: 1 / 0\n"
+         "sys.exit(c.main(['analyze', '/nonexistent']))"],
+        capture_output=True, text=True)
+    assert boom.returncode == EXIT_INTERNAL == cli.EXIT_INTERNAL
+    one_line(boom, "internal error (ZeroDivisionError: division by zero)")
+    saved = boom.stderr.split("the traceback is in ")[1].split(":")[0]
+    assert "ZeroDivisionError" in Path(saved).read_text()
+    os.unlink(saved)

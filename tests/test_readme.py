@@ -74,3 +74,13 @@ def test_the_readme_names_no_option_that_does_not_exist():
 def test_retired_options_are_gone_from_the_docs(flag):
     for doc in [README, *sorted((ROOT / "docs").glob("*.md"))]:
         assert flag not in doc.read_text(), f"{doc.name} still names {flag}"
+
+
+def test_the_exit_codes_are_the_clis():
+    """README's table of exit codes is bkflow.cli.EXIT_CODES, row for row."""
+    from bkflow.cli import EXIT_CODES
+
+    text = README.read_text()
+    table = text[text.index("| exit code | meaning |"):]
+    rows = table[:table.index("\n\n")].splitlines()[2:]
+    assert rows == [f"| {k} | {v.replace('|', chr(92) + '|')} |" for k, v in EXIT_CODES.items()]

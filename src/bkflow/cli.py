@@ -52,6 +52,8 @@ EXIT_RUN_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_BUSY = 3
 EXIT_FILE_SYSTEM = 4
+EXIT_RESOURCES = 5
+EXIT_INTERNAL = 70
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141
 #: what every exit code of bkflow means (README, "Exit codes")
@@ -65,7 +67,9 @@ EXIT_CODES = {
     EXIT_BUSY: "another bkflow process is writing the same run or sweep",
     EXIT_FILE_SYSTEM: "the file system refused (permissions, full disk, a file where a "
                       "directory should be, a name too long)",
-    EXIT_INTERRUPTED: "interrupted (Ctrl-C); the same command resumes",
+    EXIT_RESOURCES: "out of memory (the machine's, or a limit set on the process)",
+    EXIT_INTERNAL: "a bug in bkflow: one line, the traceback saved to a file it names",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C, SIGTERM, SIGHUP); the same command resumes",
     EXIT_BROKEN_PIPE: "the output's reader went away (e.g. | head)",
 }
 
@@ -664,6 +668,9 @@ def main(argv=None) -> int:
 
     plugin.INTERRUPT_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
     plugin.restore_signals()
+    for name in ("stdout", "stderr"):  # closed by the caller (2>&-): write into the void
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 (for the process' life)
     try:
         return _main(argv)
     except KeyboardInterrupt:  # before a command started (while Python imports)
@@ -673,11 +680,102 @@ def main(argv=None) -> int:
         # the reader of our output went away (| head): say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
+    except ImportError as exc:  # a library that cannot be mapped into memory is out of it
+        if "failed to map segment" not in str(exc) and "Cannot allocate" not in str(exc):
+            return _internal_error()
+        return _out_of_memory()
+    except MemoryError:
+        return _out_of_memory()
+    except Exception:  # a bug: one line, and the traceback where it can be reported from
+        return _internal_error()
+
+
+def _out_of_memory() -> int:
+    print("bkflow: out of memory: this machine (or its limit, ulimit -v or the job's) "
+          "cannot hold what the command needs; nothing finished was changed: free "
+          "memory, raise the limit, or ask for a smaller run", file=sys.stderr)
+    return EXIT_RESOURCES
+
+
+def _internal_error() -> int:
+    import tempfile
+    import traceback
+
+    text = traceback.format_exc()
+    try:
+        fd, path = tempfile.mkstemp(prefix="bkflow-error-", suffix=".txt")
+        with os.fdopen(fd, "w", errors="backslashreplace") as f:
+            f.write(f"bkflow {__version__}: {' '.join(sys.argv)}\n{text}")
+        where = f"the traceback is in {path}"
+    except OSError:
+        where = "the traceback could not be saved"
+    last = text.strip().splitlines()[-1]
+    print(f"bkflow: internal error ({last}); {where}: please report it with the command "
+          "that caused it; nothing finished was changed", file=sys.stderr)
+    return EXIT_INTERNAL
+
+
+def _thread_count(text: str) -> bool:
+    return text.strip().isdigit() and int(text) > 0
+
+
+def check_environment(env=os.environ) -> None:
+    """The environment variables the libraries under bkflow read, checked before any of them
+    is imported, so that a bad one is named (it was reported as a damaged stress.csv when
+    numexpr, under pandas, failed to read OMP_NUM_THREADS). Adjusts what the command line does
+    not need: figures are written to files (matplotlib's Agg backend, whatever MPLBACKEND
+    says), and a local run or sweep submits nothing (flow's SIGNAC_FLOW_ENVIRONMENT is for
+    python -m bkflow.cluster)."""
+    for var in ("NUMEXPR_MAX_THREADS", "NUMEXPR_NUM_THREADS"):
+        v = env.get(var, "")
+        if v and not _thread_count(v):
+            raise SpecError(f"environment variable {var}={v!r} is not a number of threads "
+                            "(numexpr, under pandas, reads it): unset it or give an integer")
+    omp = env.get("OMP_NUM_THREADS", "")
+    if omp:
+        if not all(_thread_count(n) for n in omp.split(",")):
+            raise SpecError(f"environment variable OMP_NUM_THREADS={omp!r} is not an OpenMP "
+                            "thread count (e.g. 4, or 4,2 for nested levels): unset it or fix it")
+        if "," in omp and not env.get("NUMEXPR_NUM_THREADS"):
+            env["NUMEXPR_NUM_THREADS"] = omp.split(",")[0].strip()  # numexpr reads one level
+    env["MPLBACKEND"] = "Agg"
+    env.pop("SIGNAC_FLOW_ENVIRONMENT", None)
+    bad = [k for k in env if k.startswith("TQDM_")]
+    if bad:
+        try:
+            from tqdm import tqdm
+
+            tqdm(total=1, disable=True).close()
+        except Exception as exc:
+            raise SpecError(f"environment variable {', '.join(sorted(bad))}: tqdm (the progress "
+                            f"bars) cannot read it ({exc}): unset it or fix it") from None
 
 
 def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     a = build_parser().parse_args(argv)
+    paths = [p for p in (getattr(a, "out", None), getattr(a, "dir", None)) if p]
+    for p in paths:
+        try:
+            str(p).encode("utf-8")
+        except UnicodeEncodeError:
+            print(f"bkflow: error: {os.fsencode(str(p))!r} is not a UTF-8 name: bkflow's "
+                  "tables and records (JSON, CSV) need one; choose another", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        if not paths or not all(os.path.isabs(str(p)) for p in paths):
+            print("bkflow: error: the current directory no longer exists (deleted while this "
+                  "shell stood in it): cd to an existing directory, or give absolute paths",
+                  file=sys.stderr)
+            return EXIT_FILE_SYSTEM
+        os.chdir("/")  # every path is absolute: the lost directory is not needed
+    try:
+        check_environment()
+    except SpecError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     from .engine import RunDiskError, RunError, RunExistsError
     from .plugin import PluginError
     from .rundir import AnalysisError, DamagedRunError, RunBusyError

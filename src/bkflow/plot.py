@@ -142,7 +142,7 @@ def _select(df: pd.DataFrame, where: dict) -> pd.DataFrame:
         elif isinstance(value, bool):
             df = df[col.astype(str).str.lower() == str(value).lower()]
         elif isinstance(value, float):
-            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), value)]
+            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), value, rtol=1e-9, atol=0)]
         else:
             df = df[col.astype(str) == value]
     return df
@@ -183,7 +183,7 @@ class SweepData:
     def runs_of(self, lx, ly, phi=None) -> pd.DataFrame:
         r = self.runs[(self.runs.Lx == lx) & (self.runs.Ly == ly)]
         if phi is not None:
-            r = r[np.isclose(r.phi, phi)]
+            r = r[np.isclose(r.phi, phi, rtol=1e-9, atol=0)]
         return r.sort_values("seed")
 
     def results_of(self, lx, ly) -> pd.DataFrame:

@@ -348,7 +348,7 @@ class RunDir:
     def _frames(self, name: str, n_atoms: int) -> io.Frames:
         try:
             return io.read_frames(self.file(name), n_atoms)
-        except FileNotFoundError:
+        except (FileNotFoundError, MemoryError):  # missing, or the machine's limit: named
             raise
         except Exception as exc:  # MDAnalysis reports a cut dump in many ways
             raise DamagedRunError(f"{self.file(name)} is cut or damaged "
