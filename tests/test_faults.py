@@ -27,6 +27,8 @@ from bkflow.cli import (
 from bkflow.rundir import META, SUMMARY, RunDir
 from tests.support import tool
 
+ROOT = Path(__file__).resolve().parents[1]
+
 SHORT = ["--t-end", "100", "--scene", "friction", "--quiet"]
 
 
@@ -491,3 +493,148 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
     saved = boom.stderr.split("the traceback is in ")[1].split(":")[0]
     assert "ZeroDivisionError" in Path(saved).read_text()
     os.unlink(saved)
+
+
+@pytest.fixture(scope="module")
+def small_sweep(lammps, tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("sweep") / "s"
+    p = bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "200", "--scene", "clusters",
+           "--protocol", "paper", "--jobs", "1", "--quiet", "--out", d)
+    assert p.returncode == 0, p.stderr
+    return d
+
+
+def _tree(d: Path) -> dict:
+    return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*"))
+            if p.is_file() and not p.name.endswith(".lock")}
+
+
+def _first_job(d: Path) -> Path:
+    return sorted((d / "workspace").iterdir())[0]
+
+
+@pytest.mark.parametrize("edit, needle", [
+    ("statepoint", "holds a state point whose hash is not its name"),
+    ("renamed", "holds a state point whose hash is not its name"),
+    ("empty job", "has no signac_statepoint.json"),
+    ("no statepoint", "has no signac_statepoint.json"),
+    ("cut statepoint", "has an unreadable signac_statepoint.json"),
+    ("cut job document", "has a cut signac_job_document.json"),
+    ("cut project document", "signac_project_document.json is cut or damaged"),
+    ("junk config", "is not a signac config"),
+])
+def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep, edit, needle):
+    """Every hand edit of signac's records is one line that says what and how to repair it;
+    nothing is changed, and once repaired as it says the sweep goes on."""
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    job = _first_job(d)
+    sp = job / "signac_statepoint.json"
+    if edit == "statepoint":
+        sp.write_text(sp.read_text().replace('"seed": 1', '"seed": 2'))
+    elif edit == "renamed":
+        job = job.rename(job.with_name("f" * 32))
+    elif edit == "empty job":
+        job = d / "workspace" / ("0" * 32)
+        job.mkdir()
+    elif edit == "no statepoint":
+        sp.unlink()
+    elif edit == "cut statepoint":
+        sp.write_text(sp.read_text()[:40])
+    elif edit == "cut job document":
+        (job / "signac_job_document.json").write_text('{"err')
+    elif edit == "cut project document":
+        (d / "signac_project_document.json").write_text('{"ana')
+    else:
+        (d / ".signac" / "config").write_text("junk!!\n[[[\n")
+    before = _tree(d)
+    for cmd in (["collect", d], ["sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "200",
+                                 "--scene", "clusters", "--protocol", "paper", "--out", d]):
+        p = bk(*cmd)
+        assert p.returncode == EXIT_BAD_INPUT, p.stderr
+        one_line(p, needle)
+    assert _tree(d) == before
+    # repaired as the message says: the sweep is whole again
+    msg = p.stderr
+    if "move it out of workspace/" in msg:
+        shutil.move(str(job), str(tmp_path / "aside"))
+    elif "delete that file" in msg or "delete it" in msg:
+        (job / "signac_job_document.json").unlink(missing_ok=True)
+        (d / "signac_project_document.json").unlink(missing_ok=True)
+    else:
+        (d / ".signac" / "config").write_text("schema_version = 2\n")
+    p = bk("collect", d)
+    assert p.returncode == 0, p.stderr
+
+
+def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
+    """An interrupted `collect --analysis` leaves some runs re-analysed and the tables old:
+    plot refuses, naming the cure; after it, plot draws. A second sweep that changes the
+    tables removes the figures of the old ones (and only those)."""
+    from bkflow.analysis import analyze
+    from bkflow.params import AnalysisSettings
+
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    assert bk("plot", d).returncode == 0
+    (d / "figures" / "mine.txt").write_text("the user's own\n")
+    analyze(_first_job(d), AnalysisSettings(slip_threshold=0.05))  # the collect cut short
+    before = _tree(d / "figures")
+    p = bk("plot", d)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, f"run bkflow collect {d} to bring them together")
+    assert _tree(d / "figures") == before
+    # the sweep's own settings changed, the tables not
+    doc = json.loads((d / "signac_project_document.json").read_text())
+    doc["analysis_settings"] = {"slip_threshold": 0.05}
+    (d / "signac_project_document.json").write_text(json.dumps(doc))
+    one_line(bk("plot", d), "the sweep's analysis settings are not those its tables")
+    p = bk("collect", d, "--analysis", "slip_threshold=0.05")
+    assert p.returncode == 0, p.stderr
+    assert "removed 12 figure file(s)" in p.stdout  # the tables changed
+    assert sorted(os.listdir(d / "figures")) == ["mine.txt"]
+    assert bk("plot", d).returncode == 0
+    assert (d / "figures" / "fig2a_friction.png").is_file()
+
+
+def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
+    """The README invites `lmp -in in.bk` in a finished run: it writes every file again bit
+    for bit (an adaptive run's deck runs the steps it ran), only log.lammps changes, and the
+    run stays finished and analysed."""
+    d = tmp_path / "r"
+    p = bk("run", "--phi", "10", "--size", "12x3", "--target-error", "2e-3", "--out", d,
+           "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert json.loads((d / META).read_text())["adaptive"]["reached"]
+    before = {k: v for k, v in _tree(d).items() if not k.endswith("log.lammps")}
+    for where in (d, d / "companion"):
+        lmp = subprocess.run([tool("lmp"), "-in", "in.bk"], cwd=where, capture_output=True,
+                             text=True, timeout=300)
+        assert lmp.returncode == 0, lmp.stdout[-2000:]
+    assert {k: v for k, v in _tree(d).items() if not k.endswith("log.lammps")} == before
+    assert RunDir(d).problem() is None
+    p = bk("analyze", d)
+    assert p.returncode == 0 and "re-analysed" not in p.stdout
+    # a file that did change is still damage
+    (d / "stress.csv").write_bytes((d / "stress.csv").read_bytes()[:-10])
+    one_line(bk("analyze", d), "stress.csv has")
+
+
+def test_the_documented_cluster_commands_run(lammps, tmp_path):
+    """Every `python -m bkflow.cluster run ...` that README, docs and cluster.py show is
+    accepted by flow and finishes the runs."""
+    import re
+
+    texts = [p.read_text() for p in (ROOT / "README.md", ROOT / "docs" / "cluster.md",
+                                     ROOT / "src" / "bkflow" / "cluster.py")]
+    cmds = sorted({m.strip() for t in texts
+                   for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
+    assert cmds, "no documented cluster run command found"
+    for i, args in enumerate(cmds):
+        d = tmp_path / f"c{i}"
+        assert bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene",
+                  "friction", "--protocol", "paper", "--out", d, "--init").returncode == 0
+        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "run", *args.split()],
+                           cwd=d, capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, (args, p.stderr[-2000:])
+        assert len(list((d / "workspace").glob("*/meta.json"))) == 2, args

@@ -416,7 +416,8 @@ def _sweep(a) -> int:
     print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
           f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
           + (f" ({len(rep.reanalysed)} of them only re-analysed)" if rep.reanalysed else "")
-          + (f", {len(rep.unfinished)} not finished" if rep.unfinished else ""))
+          + (f", {len(rep.unfinished)} not finished" if rep.unfinished else "")
+          + (f" ({len(rep.busy)} of them written by another process)" if rep.busy else ""))
     res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
         res = rows_of(res, specs)
@@ -424,6 +425,7 @@ def _sweep(a) -> int:
     if len(res):
         print(states_line(res))
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
+    _say_retired(a.out, rep.retired_figures)
     for job_id, msg in rep.failed.items():
         print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
     if rep.failed or rep.unfinished:
@@ -431,6 +433,12 @@ def _sweep(a) -> int:
               "same command retries them", file=sys.stderr)
         return EXIT_RUN_FAILED
     return 0
+
+
+def _say_retired(root, removed) -> None:
+    if removed:
+        print(f"removed {len(removed)} figure file(s) of {root}/figures drawn from the tables "
+              f"before (they no longer match them): bkflow plot {root} draws them again")
 
 
 def states_line(res) -> str:
@@ -498,6 +506,7 @@ def _collect(a) -> int:
         print(states_line(c.results))
     print(f"wrote {a.dir}/{RUNS_FILE} ({len(c.runs)} rows) and {a.dir}/{RESULTS_FILE} "
           f"({len(c.results)} rows)")
+    _say_retired(a.dir, c.retired_figures)
     for j in c.failed:
         print(f"  failed {j.id}: {j.document['error']}", file=sys.stderr)
     return 0
@@ -791,8 +800,8 @@ def _main(argv=None) -> int:
         print(f"bkflow: error: cannot analyse {a.dir if a.cmd == 'analyze' else a.out}: {exc}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (SpecError, RunExistsError, PluginError) as exc:
-        print(f"bkflow: error: {exc}", file=sys.stderr)
+    except (SpecError, RunExistsError, PluginError) as exc:  # one line, whatever it quotes
+        print(f"bkflow: error: {' '.join(str(exc).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except RunBusyError as exc:
         print(f"bkflow: busy: {exc}", file=sys.stderr)

@@ -12,7 +12,7 @@ wheel as from a checkout. The job scripts it submits call ``python -m bkflow.clu
     python -m bkflow.cluster status
     python -m bkflow.cluster submit --bundle 16 --parallel --pretend   # show the scripts
     python -m bkflow.cluster submit --bundle 16 --parallel             # sbatch
-    python -m bkflow.cluster run --np 2                                # or here, 2 at a time
+    python -m bkflow.cluster run -p 2                                # or here, 2 at a time
     bkflow collect .
 """
 

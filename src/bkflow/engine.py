@@ -291,9 +291,18 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
     rd.mark()
 
 
-def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions) -> None:
-    write_text_atomic(rd.file(DATA), data_text(spec))
-    write_text_atomic(rd.file(DECK), deck_text(spec, options))
+def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions,
+                  steps: int | None = None) -> None:
+    """The run's data file and deck; ``steps``: an adaptive run's deck rewritten at its end to
+    run the steps it ran, so that ``lmp -in in.bk`` in the finished directory redoes exactly
+    this run (the same files, bit for bit, on one rank)."""
+    if steps is None:
+        write_text_atomic(rd.file(DATA), data_text(spec))
+        write_text_atomic(rd.file(DECK), deck_text(spec, options))
+        return
+    write_text_atomic(rd.file(DECK), setup_text(spec, options.replace())
+                      + f"# adaptive: stopped at step {steps} (t = {steps * spec.dt:g}) of at "
+                        f"most {spec.n_steps}\nrun             {steps}\n")
 
 
 #: wall time one piece of a run should take: LAMMPS returns to Python (where Ctrl-C is
@@ -456,6 +465,9 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             bar.close()
             for leg in legs:
                 leg.close()
+        if step != spec.n_steps:  # an adaptive stop: the decks say what ran
+            for leg in legs:
+                _write_inputs(leg.spec, leg.rd, options, steps=step)
         if _RUNS_IN_PROCESS["pid"] != os.getpid():
             _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
         process = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}

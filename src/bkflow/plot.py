@@ -22,7 +22,9 @@ skipped with a note, never drawn empty.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import json
 import math
 from pathlib import Path
 
@@ -32,9 +34,8 @@ import pandas as pd
 from .io import atomic_file
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
-from .tables import read_tables, varied_parameters
+from .tables import FIGURES_DIR, read_tables, varied_parameters
 
-FIGURES_DIR = "figures"
 FORMATS = ("png", "pdf")
 MARKERS = ("o", "s", "D", "^", "v", "P")
 #: the regimes' colours in the cluster scatter (the paper's: black, red, green, blue)
@@ -168,8 +169,42 @@ class SweepData:
                                 + ", ".join(f"{k} = {v}" for k, v in where.items()))
         if self.runs.empty:
             raise PlotError(f"{self.root}: no finished runs to plot yet")
+        self._check_one_analysis()
         self.sizes = sorted({(int(a), int(b)) for a, b in zip(self.runs.Lx, self.runs.Ly)},
                             key=lambda s: s[0] * s[1])
+
+    def _check_one_analysis(self) -> None:
+        """Figures come from one analysis: the tables', the sweep's (its project document)
+        and every run's summary under the same settings, or none is drawn (an interrupted
+        ``bkflow collect --analysis ...`` leaves some runs re-analysed and the tables old)."""
+        import json
+
+        from .params import AnalysisSettings
+        from .tables import SETTINGS_FILE
+
+        advice = (f"(an interrupted bkflow collect?): run bkflow collect {self.root} to bring "
+                  "them together, then plot")
+        try:
+            tables = AnalysisSettings.from_dict(json.loads(
+                (self.root / SETTINGS_FILE).read_text()))
+        except FileNotFoundError:
+            tables = AnalysisSettings()
+        except (ValueError, TypeError, SpecError) as exc:
+            raise PlotError(f"{self.root / SETTINGS_FILE} is unreadable ({exc}) {advice}") \
+                from None
+        try:
+            doc = json.loads((self.root / "signac_project_document.json").read_text())
+            sweep = AnalysisSettings.from_dict(dict(doc.get("analysis_settings", {})))
+        except (OSError, ValueError, TypeError, AttributeError, SpecError):
+            sweep = tables
+        if sweep != tables:
+            raise PlotError(f"{self.root}: the sweep's analysis settings are not those its "
+                            f"tables were made under {advice}")
+        for job in self.runs["job"]:
+            rd = sweep_run_dir(self.root, job)
+            if rd.problem() is None and rd.analysis_problem(tables) is not None:
+                raise PlotError(f"{rd.path}: {rd.analysis_problem(tables)}, not the tables' "
+                                f"{advice}")
 
     def run_dir(self, row) -> RunDir:
         """The run directory of a runs.csv row, checked against its completion record (a
@@ -568,8 +603,23 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     """Write every figure that the sweep in ``root`` has data for into ``out`` (default
     ``root/figures``), of the runs matching ``where`` ({column: value}; all by default).
     A sweep that varies other parameters too (``bkflow sweep --vary``) gets one set of
-    figures per combination, in subdirectories ``NAME=VALUE[,NAME=VALUE]``.
+    figures per combination, in subdirectories ``NAME=VALUE[,NAME=VALUE]``. The figures are
+    recorded with the tables they were drawn from (``figures.json``): a sweep or collect that
+    changes the tables removes them (:func:`bkflow.tables.retire_figures`).
     Returns (paths written, {figure: why it was skipped})."""
+    out = Path(out) if out is not None else Path(root) / FIGURES_DIR
+    written, skipped = _plot(root, out, formats, where)
+    if written:
+        from .tables import FIGURES_RECORD, record_figures
+
+        with contextlib.suppress(ValueError, OSError):  # figures outside out: not recorded
+            old = json.loads((out / FIGURES_RECORD).read_text())["files"] \
+                if (out / FIGURES_RECORD).exists() else []
+            record_figures(root, out, sorted({*written, *(out / f for f in old)}))
+    return written, skipped
+
+
+def _plot(root, out: Path, formats, where) -> tuple[list[Path], dict]:
     data = SweepData(root, where)
     varied = varied_parameters(data.results)
     if varied:
@@ -579,7 +629,7 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
         for combo in combos:
             # one directory per combination (a '/' in a value, reset/step, would nest one)
             name = ",".join(f"{k}={v}" for k, v in combo.items()).replace("/", "-")
-            w, s = plot(root, out / name, formats, {**(where or {}), **parse_where(
+            w, s = _plot(root, out / name, formats, {**(where or {}), **parse_where(
                 [f"{k}={v}" for k, v in combo.items()])})
             written += w
             skipped.update({f"{name}/{k}": v for k, v in s.items()})

@@ -21,7 +21,7 @@ from flow import FlowProject
 
 from . import job as one
 from .grid import run_cost
-from .params import AnalysisSettings, RunSpec
+from .params import AnalysisSettings, RunSpec, SpecError
 from .rundir import RunDir
 
 #: the operations, in the order a run needs them
@@ -100,7 +100,9 @@ def _record_failure(job, exc: Exception) -> None:
     from .rundir import RunBusyError
 
     spec = spec_of(job)
-    if isinstance(exc, (RunError, RunBusyError)):
+    if isinstance(exc, RunBusyError):  # not a failure: another process (a cluster job) has it
+        job.document["busy"] = str(exc)
+    elif isinstance(exc, RunError):
         job.document["error"] = str(exc)
     else:  # one run's surprise must not take the sweep's other runs down
         job.document["error"] = (f"{type(exc).__name__}: {exc} ({spec.label}; see {job.path})")
@@ -121,8 +123,9 @@ def simulate(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    if "error" in job.document:
-        del job.document["error"]
+    for key in ("error", "busy"):
+        if key in job.document:
+            del job.document[key]
 
 
 @SweepProject.pre(simulated)
@@ -137,8 +140,9 @@ def analyze(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    if "error" in job.document:
-        del job.document["error"]
+    for key in ("error", "busy"):
+        if key in job.document:
+            del job.document[key]
 
 
 #: project-document key that marks a signac project as a bkflow sweep (its version)
@@ -202,12 +206,83 @@ def sweep_dir_problem(path) -> str | None:
 
 def check_sweep_dir(path) -> None:
     """Refuse, before anything is written, a sweep into a directory that is not bkflow's."""
-    from .params import SpecError
-
     why = sweep_dir_problem(path)
     if why is not None:
         raise SpecError(f"--out {path} {why}: a sweep writes only into a new or empty "
                         "directory or a sweep's own; choose another --out")
+
+
+class WorkspaceError(SpecError):
+    """A sweep directory whose signac records were edited or cut by hand; the message says
+    what and how to repair it (nothing was changed)."""
+
+
+def workspace_problem(path) -> str | None:
+    """What of a sweep directory's own records signac cannot read, and how to repair it; None
+    when they are whole. Checked before signac opens them (it raises on the first, from deep
+    inside): its config, its project document, and every job folder (a state point that
+    reads, whose hash is the folder's name, and a readable job document)."""
+    import json
+
+    from signac.job import calc_id
+
+    path = Path(path)
+    config = path / ".signac" / "config"
+    try:
+        from signac._config import _read_config_file
+
+        _read_config_file(str(config))
+    except FileNotFoundError:
+        pass
+    except Exception as exc:  # configobj's errors, an unreadable file
+        return (f"{config} is not a signac config ({' '.join(str(exc).split())}); restore "
+                "it: its whole content is "
+                "`schema_version = 2`")
+    doc = path / "signac_project_document.json"
+    if doc.exists():
+        try:
+            if not isinstance(json.loads(doc.read_text()), dict):
+                raise ValueError("not a JSON object")
+        except (ValueError, OSError) as exc:
+            return (f"{doc} is cut or damaged ({exc}); delete it: it holds the sweep's "
+                    "analysis settings, which bkflow collect --analysis NAME=VALUE sets again")
+    bad = []
+    workspace = path / "workspace"
+    for job in sorted(workspace.iterdir()) if workspace.is_dir() else []:
+        sp = job / "signac_statepoint.json"
+        try:
+            if not job.is_dir():
+                why = "is not a folder"
+            elif not sp.exists():
+                why = "has no signac_statepoint.json"
+            else:
+                point = json.loads(sp.read_text())
+                why = (None if calc_id(point) == job.name else
+                       "holds a state point whose hash is not its name (edited, or renamed)")
+                jd = job / "signac_job_document.json"
+                if why is None and jd.exists():
+                    try:
+                        json.loads(jd.read_text())
+                    except ValueError:
+                        why = "has a cut signac_job_document.json (delete that file: it holds " \
+                              "only the run's last error)"
+        except (ValueError, OSError) as exc:
+            why = f"has an unreadable signac_statepoint.json ({exc})"
+        if why is not None:
+            bad.append((job, why))
+    if bad:
+        job, why = bad[0]
+        more = f" (and {len(bad) - 1} more such folders)" if len(bad) > 1 else ""
+        fix = ("" if "delete that file" in why else
+               ": move it out of workspace/ (the sweep then redoes that run) or restore it")
+        return f"{job} {why}{more}{fix}"
+    return None
+
+
+def check_workspace(path) -> None:
+    why = workspace_problem(path)
+    if why is not None:
+        raise WorkspaceError(why)
 
 
 def open_project(path, create: bool = True) -> SweepProject:
@@ -225,6 +300,7 @@ def open_project(path, create: bool = True) -> SweepProject:
         signac.init_project(str(path))
     elif create:
         check_sweep_dir(path)
+    check_workspace(path)
     project = SweepProject.get_project(str(path), search=False)
     if create and SWEEP_MARK not in project.document:
         from . import __version__

@@ -55,6 +55,9 @@ MARK = ".bkflow-run"
 #: files signac keeps in a sweep's job directory
 SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 
+#: the files of a finished run that may change without damaging it: LAMMPS's log, which
+#: `lmp -in in.bk` in the finished directory rewrites (the rest it writes again bit for bit)
+MAY_CHANGE = (LOG,)
 #: what a run writes (the engine); a partial run's are removed before it is redone
 RUN_FILES = (DECK, DATA, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
@@ -145,6 +148,8 @@ class RunDir:
         if not isinstance(meta, dict) or meta.get("status") != "complete":
             return "meta.json does not say complete"
         for name, size in meta.get("file_bytes", {}).items():
+            if name in MAY_CHANGE:
+                continue
             try:
                 actual = self.file(name).stat().st_size
             except OSError:

@@ -36,7 +36,7 @@ from .project import (
     spec_of,
 )
 from .rundir import RunDir
-from .tables import write_tables
+from .tables import retire_figures, write_tables
 
 
 @dataclass
@@ -47,6 +47,8 @@ class SweepReport:
     failed: dict = field(default_factory=dict)       # job id -> message
     unfinished: list = field(default_factory=list)   # neither (interrupted)
     reanalysed: list = field(default_factory=list)   # of those, the ones only analysed again
+    busy: list = field(default_factory=list)         # of the unfinished, those another process had
+    retired_figures: list = field(default_factory=list)  # figures of the tables before
     wall_time_s: float = 0.0
     results: pd.DataFrame | None = None              # results.csv as written
 
@@ -77,12 +79,13 @@ class _SweepBar:
     def _check(self):
         still = []
         for job in self.pending:
-            if finished(job) or "error" in job.document:
+            if finished(job) or "error" in job.document or "busy" in job.document:
                 self.done += 1
                 if self.bar is not None:
                     self.bar.update(1)
                 elif not self.quiet:
-                    state = "failed" if "error" in job.document else "done"
+                    state = ("done" if finished(job) else "failed" if "error" in job.document
+                             else "busy: another process is writing it")
                     spec = spec_of(job)
                     extra = "".join(f", {k}={getattr(spec, k)}" for k in self.axes)
                     print(f"[{self.done}/{self.total}] {spec.label}{extra}: {state}",
@@ -218,8 +221,9 @@ def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
         set_settings(project, settings)
     selected = [project.open_job(s.to_dict()).init() for s in specs]
     for job in selected:  # a previous failure is retried
-        if "error" in job.document:
-            del job.document["error"]
+        for key in ("error", "busy"):
+            if key in job.document:
+                del job.document[key]
     todo = [j for j in selected if not finished(j)]
     stale = {j.id for j in todo if simulated(j)}
     report = SweepReport(total=len(selected), finished_before=len(selected) - len(todo))
@@ -239,9 +243,12 @@ def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
                 report.reanalysed.append(job.id)
         elif "error" in job.document:
             report.failed[job.id] = job.document["error"]
-        else:
+        else:  # interrupted, or busy in another process (e.g. a cluster job)
             report.unfinished.append(job.id)
-    report.results = collect(project, jobs=jobs).results
+            if "busy" in job.document:
+                report.busy.append(job.id)
+    done = collect(project, jobs=jobs)
+    report.results, report.retired_figures = done.results, done.retired_figures
     return report
 
 
@@ -255,6 +262,7 @@ class Collection:
     reanalysed: list
     runs: pd.DataFrame
     results: pd.DataFrame
+    retired_figures: list = field(default_factory=list)  # drawn from the tables before
 
 
 def collect(project, settings: AnalysisSettings | None = None,
@@ -279,8 +287,9 @@ def _collect(project, settings, jobs) -> Collection:
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
         settings.to_dict())
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
+    retired = retire_figures(project.path)
     return Collection(len(all_jobs), len(done), failed,
-                      [j.id for j in stale if finished(j)], runs, results)
+                      [j.id for j in stale if finished(j)], runs, results, retired)
 
 
 def available_cores() -> int:

@@ -18,6 +18,9 @@ RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"
+#: where bkflow plot puts a sweep's figures by default, and its record of what it drew there
+FIGURES_DIR = "figures"
+FIGURES_RECORD = "figures.json"
 #: summary fields averaged over seeds in results.csv (mean and standard error)
 RESULT_FIELDS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_over_ly",
                  "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent",
@@ -160,3 +163,47 @@ def read_tables(root) -> tuple[pd.DataFrame, pd.DataFrame]:
     pandas' EmptyDataError when empty)."""
     root = Path(root)
     return io.read_table(root / RUNS_FILE), io.read_table(root / RESULTS_FILE)
+
+
+def tables_digest(root) -> str:
+    """A digest of the sweep's tables (runs.csv and results.csv): what its figures drew."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for name in (RUNS_FILE, RESULTS_FILE):
+        with open(Path(root) / name, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()
+
+
+def record_figures(root, out, paths) -> None:
+    """Note in ``out`` which figures were drawn from which tables (:func:`retire_figures`)."""
+    out = Path(out)
+    io.write_json_atomic(out / FIGURES_RECORD, {
+        "tables_sha256": tables_digest(root),
+        "files": sorted(str(Path(p).relative_to(out)) for p in paths)})
+
+
+def retire_figures(root) -> list[str]:
+    """Remove the figures ``bkflow plot`` drew in ``root/figures`` from tables that have since
+    changed (a second sweep into the directory, a new analysis), so that no figure looks
+    current that is not; the user's own files there are left. Returns the files removed."""
+    import json
+
+    out = Path(root) / FIGURES_DIR
+    try:
+        record = json.loads((out / FIGURES_RECORD).read_text())
+        if record["tables_sha256"] == tables_digest(root):
+            return []
+        files = [str(f) for f in record["files"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    removed = []
+    for name in files:
+        p = out / name
+        if ".." in Path(name).parts or not p.is_file():
+            continue
+        p.unlink()
+        removed.append(name)
+    (out / FIGURES_RECORD).unlink(missing_ok=True)
+    return removed
