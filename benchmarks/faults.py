@@ -11,9 +11,14 @@ table: case, exit code, the first line of stderr, verdict. A case is CLEAN when
   byte of every file, and no directory the case wrote into looks finished unless it is.
 
 Some cases need root (a read-only and a full file system are tmpfs mounts); they are listed
-as SKIPPED where mounting is not allowed. The classes are those of the faults issue: paths,
+as SKIPPED where mounting is not allowed. The classes are those of the faults issues: paths,
 cut files, two writers, file-system errors, damaged inputs, absurd requests, wrong advice,
-and interrupts.
+and interrupts; then the second round, each case named by its class: [1] hangs (a dead
+worker), [2] work before the limits, [3] a sweep into the user's files, [4] a deck over the
+user's, [5] figures and movies written whole or not at all, [6] parameter domains, [7] the
+environment named, not blamed on the run, [8] one analysis per figure set, [9] lmp -in in a
+finished run, [10] options and counts, [11] a hand-edited workspace, [12] other tracebacks,
+[13] signals, [14] the documented commands.
 """
 
 from __future__ import annotations
@@ -351,11 +356,374 @@ class Fuzz:
                                                p.stdout, p.stderr)
             self.check(f"pipe: {case}", proc, {0})
 
+    # ------------------------------------------------------------------ round 2 (the classes
+    # of the second faults issue, several instances each; the case names say the class)
+    def _children(self, pid: int) -> list[int]:
+        out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True)
+        return [int(x) for x in out.stdout.split()]
+
+    def _sweep_args(self, out, *extra):
+        return ["sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "300", "--dt-factor",
+                "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2", "--quiet",
+                "--out", str(out), *extra]
+
+    def hangs(self):
+        for target, sig in (("worker", signal.SIGKILL), ("worker", signal.SIGTERM),
+                            ("sweep", signal.SIGTERM), ("sweep", signal.SIGHUP)):
+            d = self.scratch() / "s"
+            args = self._sweep_args(d)
+            p = subprocess.Popen([BKFLOW, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True)
+            deadline = time.time() + 120
+            while time.time() < deadline and not list((d / "workspace").glob("*/stress.csv")):
+                time.sleep(0.1)
+            time.sleep(0.5)
+            kids = self._children(p.pid)
+            os.kill(kids[0] if target == "worker" and kids else p.pid, sig)
+            t0 = time.time()
+            try:
+                out, err = p.communicate(timeout=60)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                out, err = p.communicate()
+            waited = time.time() - t0
+            name = signal.Signals(sig).name
+            self.check(f"[1] {name} to a {target} of a sweep (exited after {waited:.1f} s)",
+                       subprocess.CompletedProcess(p.args, p.returncode, out, err),
+                       {1} if target == "worker" else {130})
+            if waited > (30 if target == "worker" else 5):
+                self.results[-1].verdict = f"took {waited:.1f} s"
+            again = bk(*args, timeout=600)
+            self.check(f"[1] ... the same command after {name} finishes", again, {0})
+        for case, args in (("--seeds 100000000", ["--phi", "1", "--seeds", "100000000"]),
+                           ("--points-per-decade 100000000", ["--phi", "1:10",
+                                                              "--points-per-decade",
+                                                              "100000000"]),
+                           ("--phi 1e-200:1e200", ["--phi", "1e-200:1e200"]),
+                           ("--phi 1e-300:1e300 at 1 per decade",
+                            ["--phi", "1e-300:1e300", "--points-per-decade", "1"]),
+                           ("--vary gamma with 3000 values x 301 phi",
+                            ["--phi", "1:1000", "--points-per-decade", "100", "--vary",
+                             "gamma=" + ",".join(f"{0.1 + k * 1e-4:.4f}"
+                                                 for k in range(3000))])):
+            out = self.scratch() / "s"
+            t0 = time.time()
+            p = bk("sweep", *args, "--init", "--out", out)
+            waited = time.time() - t0
+            self.check(f"[2] {case} (refused in {waited:.1f} s)", p, {2}, [out])
+            if waited > 10 or out.exists():
+                self.results[-1].verdict = f"took {waited:.1f} s" if waited > 10 else \
+                    "created the sweep directory"
+
+    def users_files(self):
+        def sweep_into(d, label):
+            before = digest(d)
+            p = bk("sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--scene",
+                   "friction", "--out", d)
+            self.check(f"[3] sweep --out {label}", p, {2})
+            if digest(d) != before:
+                self.results[-1].verdict = "changed the user's files"
+
+        for label, files in (("a directory of the user's tables",
+                              {"results.csv": "mine", "runs.csv": "mine",
+                               "analysis.json": "{}"}),
+                             ("a directory of the user's notes", {"notes.txt": "mine"}),
+                             ("a foreign signac project",
+                              {".signac/config": "schema_version = 2\n",
+                               "signac_project_document.json": '{"mine": 1}'})):
+            d = self.scratch() / "u"
+            for rel, text in files.items():
+                (d / rel).parent.mkdir(parents=True, exist_ok=True)
+                (d / rel).write_text(text)
+            sweep_into(d, label)
+        self.check("[3] sweep --out a finished run", bk("sweep", "--phi", "1", "--out",
+                                                        self.base), {2})
+        for label, edit in (("a hand-written in.bk", None), ("an edited in.bk", "in.bk"),
+                            ("an edited data.bk", "data.bk"),
+                            ("an edited params.json", "params.json")):
+            d = self.scratch() / "deck"
+            if edit is None:
+                d.mkdir()
+                (d / "in.bk").write_text("units lj\n")
+            else:
+                bk("deck", "--phi", "10", "--out", d)
+                (d / edit).write_text((d / edit).read_text().replace("1", "2", 1))
+            before = digest(d)
+            self.check(f"[4] deck --out over {label}", bk("deck", "--phi", "3", "--out", d),
+                       {2})
+            if digest(d) != before:
+                self.results[-1].verdict = "replaced the user's deck"
+        # figures and movies: a signal or a full disk leaves the old file or the new one
+        figs = self.scratch() / "figs"
+        bk("plot", self.sweep, "--out", figs)
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGKILL):
+            for delay in (0.8, 1.6):
+                p = subprocess.Popen([BKFLOW, "plot", str(self.sweep), "--out", str(figs)],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                time.sleep(delay)
+                p.send_signal(sig)
+                out, err = p.communicate(timeout=60)
+                bad = [f.name for f in figs.iterdir() if f.suffix in (".png", ".pdf")
+                       and not _whole_figure(f)] + [f.name for f in figs.iterdir()
+                                                    if f.name.endswith(".tmp")]
+                self.check(f"[5] {signal.Signals(sig).name} during plot after {delay} s",
+                           subprocess.CompletedProcess(p.args, 0 if not bad else 1, out, err),
+                           {0})
+                if bad:
+                    self.results[-1].verdict = f"left {', '.join(bad[:3])}"
+        small = self.scratch() / "small"
+        small.mkdir()
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(small)],
+                          capture_output=True).returncode != 0:
+            self.skip("[5] full disk during movie", "mount not allowed here")
+            return
+        try:
+            for name in ("slip.gif", "other.gif"):
+                p = bk("movie", self.base, "--out", small / name)
+                self.check(f"[5] full disk during movie ({name})", p, {4})
+                left = [n for n in os.listdir(small) if n.endswith((".gif", ".tmp"))]
+                if left:
+                    self.results[-1].verdict = f"left {', '.join(left)}"
+        finally:
+            subprocess.run(["umount", str(small)])
+
+    def misread(self):
+        for case, args in (("--set V_d=-0.02", ["--set", "V_d=-0.02"]),
+                           ("--set V_d=0", ["--set", "V_d=0"]),
+                           ("--set V_d=1 (0.014 l per step)", ["--set", "V_d=1"]),
+                           ("--set gamma=-1", ["--set", "gamma=-1"]),
+                           ("--set mass=0", ["--set", "mass=0"]),
+                           ("--set bond_limit=0.5", ["--set", "bond_limit=0.5"]),
+                           ("--set k_e=-10", ["--set", "k_e=-10"]),
+                           ("--analysis alpha=2", ["--analysis", "alpha=2"]),
+                           ("--analysis n_blocks=1", ["--analysis", "n_blocks=1"]),
+                           ("--analysis span_fraction=0", ["--analysis", "span_fraction=0"])):
+            out = self.scratch() / "r"
+            cmd = "sweep" if args[0] == "--analysis" else "run"
+            self.check(f"[6] {cmd} {case}", bk(cmd, "--phi", "10", *SHORT, *args, "--out", out),
+                       {2}, [out])
+        for case, env, code in (("OMP_NUM_THREADS=4,2 (valid OpenMP)",
+                                 {"OMP_NUM_THREADS": "4,2"}, 0),
+                                ("OMP_NUM_THREADS=abc", {"OMP_NUM_THREADS": "abc"}, 2),
+                                ("OMP_NUM_THREADS=1.5", {"OMP_NUM_THREADS": "1.5"}, 2),
+                                ("NUMEXPR_NUM_THREADS=x", {"NUMEXPR_NUM_THREADS": "x"}, 2)):
+            d = self.scratch() / "run"
+            shutil.copytree(self.base, d)
+            p = bk("analyze", d, env={**os.environ, **env})
+            self.check(f"[7] analyze with {case}", p, {code})
+            if "damaged" in p.stderr:
+                self.results[-1].verdict = "called the run damaged"
+        import resource
+
+        for limit in (300, 450):
+            def cap(mb=limit):
+                resource.setrlimit(resource.RLIMIT_AS, (mb * 2**20, mb * 2**20))
+            d = self.scratch() / "run"
+            shutil.copytree(self.base, d)
+            p = bk("analyze", d, preexec_fn=cap)
+            self.check(f"[7] analyze under a {limit} MB memory limit", p, {0, 5})
+            if "damaged" in p.stderr:
+                self.results[-1].verdict = "called the run damaged"
+        # analysis settings mixed in one figure set
+        from bkflow.analysis import analyze
+        from bkflow.params import AnalysisSettings
+
+        for threshold in (0.05, 0.02):
+            d = self.scratch() / "s"
+            shutil.copytree(self.sweep, d)
+            job = sorted((d / "workspace").iterdir())[0]
+            analyze(job, AnalysisSettings(slip_threshold=threshold))
+            self.check(f"[8] plot after a collect --analysis slip_threshold={threshold} cut "
+                       "short", bk("plot", d), {2})
+        d = self.scratch() / "s"
+        shutil.copytree(self.sweep, d)
+        doc = d / "signac_project_document.json"
+        data = json.loads(doc.read_text()) if doc.exists() else {}
+        data["analysis_settings"] = {"s_x": 0.02}
+        doc.write_text(json.dumps(data))
+        self.check("[8] plot when the sweep's settings are not its tables'", bk("plot", d), {2})
+        # lmp -in inside a finished run
+        lmp_bin = str(Path(sys.executable).with_name("lmp"))
+        for case, extra in (("a fixed run", []), ("an adaptive pair", ["--size", "12x3",
+                                                                      "--target-error", "2e-3",
+                                                                      "--protocol", "steady"])):
+            d = self.scratch() / "r"
+            bk("run", "--phi", "10", "--t-end", "200", *extra, "--quiet", "--out", d)
+            for where in (d, d / "companion"):
+                if (where / "in.bk").exists():
+                    subprocess.run([lmp_bin, "-in", "in.bk", "-screen", "none"], cwd=where,
+                                   check=True)
+            p = bk("analyze", d)
+            self.check(f"[9] analyze after lmp -in in.bk inside {case}", p, {0})
+        d = self.scratch() / "s"
+        shutil.copytree(self.sweep, d)
+        job = sorted((d / "workspace").iterdir())[0]
+        subprocess.run([lmp_bin, "-in", "in.bk", "-screen", "none"], cwd=job, check=True)
+        p = bk("sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "100", "--scene",
+               "friction", "--jobs", "2", "--out", d, "--quiet")
+        self.check("[9] the sweep after lmp -in in one of its runs", p, {0})
+        if "0 run(s) done" not in p.stdout:
+            self.results[-1].verdict = "redid a run"
+
+    def options(self):
+        for case, args in (("run --over (not --overwrite)",
+                            ["run", "--phi", "10", "--t-end", "200", "--over", "--out",
+                             self.base]),
+                           ("run --overw", ["run", "--phi", "10", "--overw", "--out", self.base]),
+                           ("sweep --seed 3", ["sweep", "--phi", "1", "--seed", "3", "--out",
+                                               self.scratch() / "s"]),
+                           ("sweep --point 3", ["sweep", "--phi", "1:10", "--point", "3",
+                                                "--out", self.scratch() / "s"])):
+            self.check(f"[10] {case}", bk(*args), {2})
+        # a run that another process writes is busy, not failed
+        d = self.scratch() / "s"
+        args = ["sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "100", "--scene",
+                "friction", "--jobs", "1", "--quiet", "--out", str(d)]
+        bk(*args, "--init")
+        job = sorted((d / "workspace").iterdir())[0]
+        holder = subprocess.Popen([sys.executable, "-c", (
+            "import fcntl, os, sys, time\n"
+            f"fd = os.open({str(job / '.bkflow.lock')!r}, os.O_RDWR | os.O_CREAT)\n"
+            "fcntl.flock(fd, fcntl.LOCK_EX)\nprint('held', flush=True)\ntime.sleep(60)")],
+            stdout=subprocess.PIPE, text=True)
+        holder.stdout.readline()
+        p = bk(*args)
+        holder.kill()
+        self.check("[10] a sweep beside a run another process holds", p, {1})
+        if "failed" in p.stdout.replace("0 failed", "") or \
+                "written by another process" not in p.stdout:
+            self.results[-1].verdict = "said failed, or did not say busy"
+        p = bk(*args)
+        self.check("[10] ... the same command once it is free", p, {0})
+        # figures of old tables after a second sweep
+        d = self.scratch() / "s"
+        shutil.copytree(self.sweep, d)
+        bk("plot", d)
+        p = bk("sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "150", "--scene",
+               "friction", "--jobs", "2", "--out", d, "--quiet")
+        left = sorted((d / "figures").glob("*.png")) if (d / "figures").exists() else []
+        self.check("[10] figures after a second sweep with another t_end", p, {0})
+        if left:
+            self.results[-1].verdict = f"left {len(left)} figures of the old tables"
+
+    def workspace(self):
+        edits = {
+            "an edited state point": lambda d, j: (j / "signac_statepoint.json").write_text(
+                (j / "signac_statepoint.json").read_text().replace('"seed": 1', '"seed": 7')),
+            "a renamed job folder": lambda d, j: j.rename(j.with_name("f" * 32)),
+            "an empty job folder": lambda d, j: (d / "workspace" / ("0" * 32)).mkdir(),
+            "a missing signac_statepoint.json": lambda d, j: (
+                j / "signac_statepoint.json").unlink(),
+            "a cut job document": lambda d, j: (j / "signac_job_document.json").write_text(
+                '{"err'),
+            "a cut project document": lambda d, j: (
+                d / "signac_project_document.json").write_text('{"ana'),
+            "junk in .signac/config": lambda d, j: (d / ".signac" / "config").write_text(
+                "junk!!\n"),
+        }
+        for case, edit in edits.items():
+            d = self.scratch() / "s"
+            shutil.copytree(self.sweep, d)
+            edit(d, sorted((d / "workspace").iterdir())[0])
+            for cmd in (["collect", d], ["sweep", "--phi", "1,10", "--seeds", "1", "--t-end",
+                                         "100", "--scene", "friction", "--out", d]):
+                self.check(f"[11] {cmd[0]} with {case}", bk(*cmd), {2})
+
+    def tracebacks(self):
+        d = self.scratch() / "vg"
+        bk("sweep", "--phi", "1", "--seeds", "1", "--t-end", "100", "--scene", "friction",
+           "--protocol", "paper", "--vary", "gamma=1e-9,1e-10", "--out", d, "--quiet")
+        self.check("[12] plot --where gamma=1e-9 of gamma=1e-9,1e-10",
+                   bk("plot", d, "--where", "gamma=1e-9"), {0})
+        self.check("[12] plot of --vary gamma=1e-9,1e-10", bk("plot", d), {0})
+        bad = os.fsdecode(os.fsencode(str(self.scratch())) + b"/bad\xff")
+        for cmd in (["sweep", "--phi", "1", "--out", bad], ["collect", bad], ["plot", bad]):
+            p = subprocess.run([BKFLOW, *cmd], capture_output=True, text=True,
+                               errors="replace")
+            self.check(f"[12] {cmd[0]} into a non-UTF-8 name", p, {2})
+        for case, env, code in (("SIGNAC_FLOW_ENVIRONMENT=garbage",
+                                 {"SIGNAC_FLOW_ENVIRONMENT": "garbage"}, 0),
+                                ("MPLBACKEND=garbage", {"MPLBACKEND": "garbage"}, 0),
+                                ("TQDM_MININTERVAL=abc", {"TQDM_MININTERVAL": "abc"}, 2),
+                                ("TQDM_NCOLS=x", {"TQDM_NCOLS": "x"}, 2)):
+            out = self.scratch() / "s"
+            p = bk("sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--scene",
+                   "friction", "--out", out, "--quiet", env={**os.environ, **env})
+            self.check(f"[12] sweep with {case}", p, {code})
+        out = self.scratch() / "r"
+        p = subprocess.run(f"'{BKFLOW}' run --phi 10 {' '.join(SHORT)} --out '{out}' 2>&-",
+                           shell=True, capture_output=True, text=True)
+        self.check("[12] run with stderr closed", p, {0})
+        gone = self.scratch() / "gone"
+        for case, out, code in (("an absolute --out", self.scratch() / "r", 0),
+                                ("a relative --out", "r", 4)):
+            gone.mkdir(exist_ok=True)
+            p = subprocess.run(f"cd '{gone}' && rmdir '{gone}' && '{BKFLOW}' run --phi 10 "
+                               f"{' '.join(SHORT)} --out '{out}'", shell=True,
+                               capture_output=True, text=True)
+            self.check(f"[12] run in a deleted directory with {case}", p, {code})
+
+    def signals(self):
+        for sig in (signal.SIGHUP, signal.SIGTERM, signal.SIGINT):
+            d = self.scratch()
+            p = subprocess.Popen([BKFLOW, "run", "--phi", "1000", "--n", "900", "--t-end",
+                                  "20000", "--out", str(d / "r"), "--quiet"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            deadline = time.time() + 60
+            while not (d / "r" / "stress.csv").exists() and time.time() < deadline:
+                time.sleep(0.1)
+            time.sleep(1.0)
+            t0 = time.time()
+            p.send_signal(sig)
+            out, err = p.communicate(timeout=60)
+            waited = time.time() - t0
+            name = signal.Signals(sig).name
+            self.check(f"[13] {name} to a run after MPI loaded (exited after {waited:.2f} s)",
+                       subprocess.CompletedProcess(p.args, p.returncode, out, err), {130},
+                       [d / "r"])
+            if waited > 1.0:
+                self.results[-1].verdict = f"took {waited:.2f} s"
+
+    def docs(self):
+        import re
+
+        root = Path(__file__).resolve().parents[1]
+        texts = [(root / f).read_text() for f in ("README.md", "docs/cluster.md",
+                                                   "src/bkflow/cluster.py")]
+        cmds = sorted({m.strip() for t in texts
+                       for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
+        for args in cmds:
+            d = self.scratch() / "c"
+            bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene", "friction",
+               "--protocol", "paper", "--out", d, "--init")
+            p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "run", *args.split()],
+                               cwd=d, capture_output=True, text=True, timeout=600)
+            p = subprocess.CompletedProcess(p.args, p.returncode, p.stdout, "")  # flow's bars
+            self.check(f"[14] the documented `python -m bkflow.cluster run {args}`", p, {0})
+
     def run_all(self):
         for part in (self.arguments, self.paths, self.directories, self.damaged, self.writers,
-                     self.disk_full, self.interrupts, self.pipes):
+                     self.disk_full, self.interrupts, self.pipes, self.hangs, self.users_files,
+                     self.misread, self.options, self.workspace, self.tracebacks, self.signals,
+                     self.docs):
             part()
         return self.results
+
+
+def _whole_figure(path: Path) -> bool:
+    """A PNG that Pillow reads to its end, or a PDF that ends as a PDF does."""
+    data = path.read_bytes()
+    if path.suffix == ".pdf":
+        return data.startswith(b"%PDF") and b"%%EOF" in data[-64:]
+    from io import BytesIO
+
+    from PIL import Image
+
+    try:
+        Image.open(BytesIO(data)).load()
+        return True
+    except Exception:
+        return False
 
 
 def main(argv=None) -> int:
