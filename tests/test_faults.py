@@ -480,6 +480,14 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
                        capture_output=True, text=True, preexec_fn=limit, timeout=120)
     assert p.returncode == EXIT_RESOURCES, p.stderr
     one_line(p, "out of memory")
+    # memory that runs out later, in the middle of a command (pandas, MDAnalysis): exit 5
+    oom = subprocess.run(
+        [sys.executable, "-c", "import bkflow.cli as c, sys\n"
+         "def f(a):\n    raise MemoryError()\n"
+         "c._analyze = f\nsys.exit(c.main(['analyze', '/nonexistent']))"],
+        capture_output=True, text=True)
+    assert oom.returncode == EXIT_RESOURCES
+    one_line(oom, "out of memory")
     # a bug: one line, exit 70, the traceback kept in a file
     from bkflow import cli
 

@@ -573,7 +573,10 @@ def _run(a, argv) -> int:
     from .rundir import RunDir
 
     spec = _spec(a)
-    check_cost(spec, a.out, a.force)  # before anything is created
+    resumes_analysis = (not a.overwrite and not a.no_analyze
+                        and RunDir(a.out).only_analysis_left(spec))
+    if not resumes_analysis:  # (a finished run's analysis writes little: no estimate)
+        check_cost(spec, a.out, a.force)  # before anything is created
     why = RunDir(a.out).foreign()
     if why is not None:  # refused before a lock file is left in someone else's directory
         raise SpecError(f"{a.out} {why}: bkflow writes only into an empty directory or its "
@@ -677,6 +680,12 @@ def main(argv=None) -> int:
 
     plugin.INTERRUPT_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
     plugin.restore_signals()
+    if _address_space_mb() < MIN_ADDRESS_SPACE_MB:
+        print(f"bkflow: out of memory: this process may use at most "
+              f"{_address_space_mb():.0f} MB (ulimit -v, or the job's limit); bkflow needs at "
+              f"least {MIN_ADDRESS_SPACE_MB} MB to load its libraries: raise the limit",
+              file=sys.stderr)
+        return EXIT_RESOURCES
     for name in ("stdout", "stderr"):  # closed by the caller (2>&-): write into the void
         if getattr(sys, name) is None:
             setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 (for the process' life)
@@ -697,6 +706,18 @@ def main(argv=None) -> int:
         return _out_of_memory()
     except Exception:  # a bug: one line, and the traceback where it can be reported from
         return _internal_error()
+
+
+#: the address space below which bkflow does not start: under ~320 MB the BLAS under SciPy
+#: cannot allocate its buffers and ends the process from C (exit 1, no Python exception)
+MIN_ADDRESS_SPACE_MB = 512
+
+
+def _address_space_mb() -> float:
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    return math.inf if soft == resource.RLIM_INFINITY else soft / 2**20
 
 
 def _out_of_memory() -> int:

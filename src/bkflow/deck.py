@@ -336,7 +336,7 @@ def _signed(name: str, text: str, params: str = "") -> str:
     if name == DECK:  # and params.json, which cannot carry a comment
         return text + f"# {SIGNATURE}{_digest(text)} {PARAMS}:{_digest(params)}\n"
     title, rest = text.split("\n", 1)
-    return f"{title} {SIGNATURE}{_digest(rest)}\n{rest}"
+    return f"{title} {SIGNATURE}{_digest(text)}\n{rest}"
 
 
 def _params_text(spec: RunSpec) -> str:
@@ -370,9 +370,10 @@ def written_by_bkflow(path) -> bool:
     if path.name == DECK:
         body, sep, last = text.rstrip("\n").rpartition("\n")
         return bool(sep) and last.startswith(f"# {SIGNATURE}{_digest(body + chr(10))} ")
-    if path.name == DATA:
+    if path.name == DATA:  # the signature ends the title line, over the whole text
         title, sep, rest = text.partition("\n")
-        return bool(sep) and title.endswith(f" {SIGNATURE}{_digest(rest)}")
+        plain, mark, sig = title.rpartition(f" {SIGNATURE}")
+        return bool(sep and mark) and sig == _digest(f"{plain}\n{rest}")
     return False
 
 
