@@ -91,7 +91,9 @@ ALLOWED = {
     ("rundir.py", "touch"): "the empty marker that claims a new run directory",
     ("plot.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
     ("rundir.py", "open"): "the lock file: created empty, locked (flock), never written",
-    ("cli.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone",
+    ("cli.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
+                        "(and stdout or stderr when the caller closed them)",
+    ("cli.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
 }
 
 
