@@ -589,7 +589,7 @@ class Fuzz:
         holder.stdout.readline()
         p = bk(*args)
         holder.kill()
-        self.check("[10] a sweep beside a run another process holds", p, {1})
+        self.check("[10] a sweep beside a run another process holds", p, {3})
         if "failed" in p.stdout.replace("0 failed", "") or \
                 "written by another process" not in p.stdout:
             self.results[-1].verdict = "said failed, or did not say busy"

@@ -19,7 +19,16 @@ import numpy as np
 from . import __version__, clusters, order, phases, stationarity, stress
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
-from .rundir import CLUSTERS, EVENTS, PSI, AnalysisError, DamagedRunError, RunDir  # noqa: F401
+from .rundir import (  # noqa: F401
+    CLUSTERS,
+    DECK,
+    EVENTS,
+    PARAMS,
+    PSI,
+    AnalysisError,
+    DamagedRunError,
+    RunDir,
+)
 
 
 def _key(fraction: float) -> str:
@@ -400,11 +409,21 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
 
 
 def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
+    rd.check_record_readable()  # unreadable is the file system's refusal, not "not run"
     meta = rd.meta() if rd.is_complete() else None
     if meta is None:
         why = rd.finished_standalone()
         if why is not None:
             raise AnalysisError(why)
+        from .deck import SIGNATURE, written_by_bkflow
+
+        deck = rd.file(DECK)
+        if SIGNATURE in deck.read_text(errors="replace")[-400:] and \
+                not written_by_bkflow(rd.file(PARAMS)):
+            raise AnalysisError(f"{rd.file(PARAMS)} is not the one bkflow deck wrote "
+                                f"beside {deck.name} (its digest on the deck's last line does "
+                                "not match): the run was made with the deck's parameters; "
+                                f"restore {PARAMS}, or write the deck again")
         meta = {}
     else:
         why = rd.problem()  # every file as large as the run left it

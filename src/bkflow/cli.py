@@ -67,7 +67,8 @@ EXIT_CODES = {
     EXIT_BUSY: "another bkflow process is writing the same run or sweep",
     EXIT_FILE_SYSTEM: "the file system refused (permissions, full disk, a file where a "
                       "directory should be, a name too long)",
-    EXIT_RESOURCES: "out of memory (the machine's, or a limit set on the process)",
+    EXIT_RESOURCES: "out of memory, open files or file size (the machine's, or a limit set "
+                    "on the process: ulimit -v, -n, -f)",
     EXIT_INTERNAL: "a bug in bkflow: one line, the traceback saved to a file it names",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C, SIGTERM, SIGHUP); the same command resumes",
     EXIT_BROKEN_PIPE: "the output's reader went away (e.g. | head)",
@@ -428,6 +429,11 @@ def _sweep(a) -> int:
     _say_retired(a.out, rep.retired_figures)
     for job_id, msg in rep.failed.items():
         print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
+    if rep.busy and not rep.failed and len(rep.busy) == len(rep.unfinished):
+        print(f"bkflow: busy: {len(rep.busy)} run(s) are being written by another process "
+              "(e.g. python -m bkflow.cluster run); run the same command once it is done",
+              file=sys.stderr)
+        return EXIT_BUSY
     if rep.failed or rep.unfinished:
         print(f"bkflow: {len(rep.failed) + len(rep.unfinished)} run(s) did not finish; the "
               "same command retries them", file=sys.stderr)
@@ -551,17 +557,26 @@ def _movie(a) -> int:
     out = Path(a.out) if a.out else rd.RunDir(a.dir).movie_file(a.slip)
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
+    from .io import made_by_bkflow
+
+    maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
+    if not out.parent.is_dir():
+        raise SpecError(f"--out {out}: the directory {out.parent} does not exist")
+    for p in (out, maps):  # a user's file of the same name is never replaced
+        if os.path.lexists(p) and not made_by_bkflow(p):
+            raise SpecError(f"{p} exists and was not written by bkflow: it is not replaced; "
+                            "choose another --out, or move it")
     try:
         fig = run.front_figure(a.slip)
         path = run.movie(a.slip, out, a.fps)
     except PlotError as exc:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
-    from .io import atomic_file
+    from .io import MARK, atomic_file
 
     with atomic_file(maps, binary=True) as fh:
-        fig.savefig(fh, format=maps.suffix[1:], dpi=STYLE["savefig.dpi"], bbox_inches="tight")
+        fig.savefig(fh, format=maps.suffix[1:], dpi=STYLE["savefig.dpi"], bbox_inches="tight",
+                    metadata={"Creator": MARK})
     f = fronts[a.slip]
     print(f"wrote {path} ({len(f.steps)} frames, t = {f.step_max * run.spec.dt:g} to "
           f"{f.step_min * run.spec.dt:g}) and {maps}")
@@ -616,7 +631,7 @@ def _run_locked(a, argv, spec) -> int:
         try:
             summary = analyze(a.out)
         except KeyboardInterrupt:
-            print(f"\nbkflow: interrupted during the analysis; the run itself is finished: "
+            print(f"{_NL()}bkflow: interrupted during the analysis; the run itself is finished: "
                   f"bkflow analyze {shlex.quote(str(a.out))} (or the same command) analyses it",
                   file=sys.stderr)
             return EXIT_INTERRUPTED
@@ -686,13 +701,24 @@ def main(argv=None) -> int:
               f"least {MIN_ADDRESS_SPACE_MB} MB to load its libraries: raise the limit",
               file=sys.stderr)
         return EXIT_RESOURCES
+    files = _open_files_limit()
+    if files < MIN_OPEN_FILES:
+        print(f"bkflow: error: this process may open at most {files} files (ulimit -n); MPI "
+              f"and LAMMPS need at least {MIN_OPEN_FILES}: raise the limit", file=sys.stderr)
+        return EXIT_RESOURCES
+    size = _file_size_limit_mb()
+    if size < MIN_FILE_SIZE_MB:
+        print(f"bkflow: error: this process may write files of at most {size:.3g} MB "
+              f"(ulimit -f); MPI's shared memory needs {MIN_FILE_SIZE_MB} MB, and a run's "
+              "series more: raise the limit", file=sys.stderr)
+        return EXIT_RESOURCES
     for name in ("stdout", "stderr"):  # closed by the caller (2>&-): write into the void
         if getattr(sys, name) is None:
             setattr(sys, name, open(os.devnull, "w"))  # noqa: SIM115 (for the process' life)
     try:
         return _main(argv)
     except KeyboardInterrupt:  # before a command started (while Python imports)
-        print("\nbkflow: interrupted before anything was written", file=sys.stderr)
+        print(f"{_NL()}bkflow: interrupted before anything was written", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:
         # the reader of our output went away (| head): say nothing more
@@ -711,6 +737,28 @@ def main(argv=None) -> int:
 #: the address space below which bkflow does not start: under ~320 MB the BLAS under SciPy
 #: cannot allocate its buffers and ends the process from C (exit 1, no Python exception)
 MIN_ADDRESS_SPACE_MB = 512
+
+
+#: open files below which MPI's start aborts from C (UCX, MPICH: exit 134 or 143)
+MIN_OPEN_FILES = 64
+
+
+def _open_files_limit() -> float:
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    return math.inf if soft == resource.RLIM_INFINITY else soft
+
+
+#: the file size limit below which MPI's start fails (its shared-memory files)
+MIN_FILE_SIZE_MB = 64
+
+
+def _file_size_limit_mb() -> float:
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return math.inf if soft == resource.RLIM_INFINITY else soft / 2**20
 
 
 def _address_space_mb() -> float:
@@ -743,6 +791,14 @@ def _internal_error() -> int:
     print(f"bkflow: internal error ({last}); {where}: please report it with the command "
           "that caused it; nothing finished was changed", file=sys.stderr)
     return EXIT_INTERNAL
+
+
+def _NL() -> str:  # noqa: N802
+    """A newline to end a progress line on a terminal; nothing elsewhere (one line)."""
+    try:
+        return "\n" if sys.stderr.isatty() else ""
+    except (AttributeError, ValueError):
+        return ""
 
 
 def _thread_count(text: str) -> bool:
@@ -843,8 +899,10 @@ def _main(argv=None) -> int:
               file=sys.stderr)
         return EXIT_FILE_SYSTEM
     except KeyboardInterrupt:
-        print("\nbkflow: interrupted; finished runs are kept, an interrupted one is redone: "
-              "run the same command again to resume", file=sys.stderr)
+        what = ("finished runs are kept, an interrupted one is redone" if a.cmd in ("run",
+                "sweep") else "what was written is whole, the rest unchanged")
+        print(f"{_NL()}bkflow: interrupted; {what}: run the same command again to resume",
+              file=sys.stderr)
         return EXIT_INTERRUPTED
 
 

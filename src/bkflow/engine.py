@@ -263,10 +263,14 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
     tokens = {name for name, token in ERROR_TOKENS.items() if token in msg}
     for token in ERROR_TOKENS.values():
         msg = msg.replace(token + " ", "").replace(token, "")
-    if tokens & {"write_failed", "cannot_open"} or "No space left" in msg:
+    limits = ("Too many open files", "File too large", "Disk quota exceeded")
+    if tokens & {"write_failed", "cannot_open"} or "No space left" in msg or \
+            any(w in msg for w in ("Cannot open", "Error writing", *limits)):
         core = msg.split(": ", 1)[-1].split(" (/")[0]
-        return RunDiskError(f"{spec.label}, step {step}: {core}; free space (or choose "
-                            "another --out) and run the same command again")
+        hint = ("raise the limit (ulimit -n, ulimit -f, the quota)" if any(
+            w in msg for w in limits) else "free space (or choose another --out)")
+        return RunDiskError(f"{spec.label}, by step {step + chunk}: {core}; {hint} and run the "
+                            "same command again")
     if tokens & {"partner_missing", "atom_lost"}:
         # one rank holds every atom: a partner is "missing" (general path), or an atom is no
         # longer local (fused path), only when atoms flew off (NaN, or past the ghost cutoff)
@@ -279,7 +283,19 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
 
 def _claim(rd: RunDir, overwrite: bool) -> None:
     """Refuse a finished run (unless ``overwrite``) and anything that is not bkflow's run;
-    clear a partial one."""
+    clear a partial one. A run record that cannot be read, or a companion that is not a
+    directory of bkflow's, is refused before anything is removed."""
+    try:
+        rd.check_record_readable()
+    except OSError as exc:
+        raise RunDiskError(f"{exc.filename}: {exc.strerror}: bkflow cannot tell whether the "
+                           "run there is finished; nothing was changed: repair it (its "
+                           "permissions) or move it away") from None
+    comp = rd.companion().path
+    if os.path.lexists(comp) and (comp.is_symlink() or not comp.is_dir()):
+        raise RunExistsError(f"{comp} is not a companion run of bkflow's (a "
+                             f"{'symlink' if comp.is_symlink() else 'file'}); nothing was "
+                             "changed: move it away")
     if rd.is_complete() and not overwrite:
         raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
                              "another --out or pass --overwrite")

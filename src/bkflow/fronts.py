@@ -73,9 +73,9 @@ def front_movie(front, lx: int, ly: int, dt: float, path, fps: float = 15.0,
             (3, 2), f"{title}t - t_max = {(step - front.step_max) * dt:6.2f}   v_x: blue "
             f"{-vmax:.2g} .. red {vmax:.2g}", fill="black")
         frames.append(img.convert("P", palette=Image.Palette.ADAPTIVE, colors=64))
-    from .io import atomic_file
+    from .io import MARK, atomic_file
 
     with atomic_file(path, binary=True) as f:  # a full disk leaves no half GIF
         frames[0].save(f, format="GIF", save_all=True, append_images=frames[1:], loop=0,
-                       duration=max(20, int(1000 / fps)))
+                       duration=max(20, int(1000 / fps)), comment=MARK.encode())
     return len(frames)

@@ -239,6 +239,28 @@ def atomic_file(path, binary: bool = False):
         raise
 
 
+#: the mark bkflow leaves in the figures and movies it writes (PNG, PDF, SVG and PostScript
+#: metadata, a GIF comment): an existing file without it is the user's, never replaced
+MARK = "bkflow"
+
+
+def made_by_bkflow(path, recorded=()) -> bool:
+    """Whether the file at ``path`` is one bkflow wrote: it carries :data:`MARK` near its
+    start or end (where the formats keep their metadata), or its name is in ``recorded``
+    (figures.json, for formats without metadata)."""
+    path = Path(path)
+    if path.name in recorded:
+        return True
+    try:
+        with open(path, "rb") as f:
+            head = f.read(65536)
+            f.seek(max(0, f.seek(0, os.SEEK_END) - 65536))
+            tail = f.read()
+    except OSError:
+        return False
+    return MARK.encode() in head or MARK.encode() in tail
+
+
 def _replace_atomically(path: Path, write) -> None:
     with atomic_file(path) as f:
         write(f)

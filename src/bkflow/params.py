@@ -405,15 +405,16 @@ class RunSpec:
         if self.companion is not None and self.companion == self.start:
             raise SpecError(f"companion {self.companion!r} is the run's own start: a "
                             "companion runs from another start")
-        if self.V_d * self.dt > MAX_DRIVE_STEP:
-            raise SpecError(
-                f"V_d = {self.V_d:g} moves the plate {self.V_d * self.dt:.3g} lattice units "
-                f"per time step (more than {MAX_DRIVE_STEP:g}): the model's drive is slow "
-                "against the layer's own motion (docs/model.md); choose a smaller V_d")
         if self.dt_factor > DT_FACTOR_MAX:
             raise SpecError(
                 f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
                 f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
+        if self.V_d * self.dt > MAX_DRIVE_STEP:
+            raise SpecError(
+                f"V_d = {self.V_d:g} moves the plate {self.V_d * self.dt:.3g} lattice units "
+                f"per time step (more than {MAX_DRIVE_STEP:g}): the model's drive is slow "
+                "against the layer's own motion (docs/model.md); choose a smaller V_d or "
+                "--dt-factor")
 
     def _check_counts(self) -> None:
         """What LAMMPS has to count: steps, samples, atoms."""

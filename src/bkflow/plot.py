@@ -22,16 +22,16 @@ skipped with a note, never drawn empty.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from .io import atomic_file
+from .io import MARK, atomic_file, made_by_bkflow
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import FIGURES_DIR, read_tables, varied_parameters
@@ -226,13 +226,27 @@ class SweepData:
 
 
 def _save(fig, out: Path, name: str, formats) -> list[Path]:
+    from .tables import FIGURES_RECORD
+
+    try:
+        recorded = set(json.loads((out / FIGURES_RECORD).read_text())["files"])
+    except (OSError, ValueError, KeyError, TypeError):
+        recorded = set()
     paths = []
     for fmt in formats:
         p = out / f"{name}.{fmt}"
-        with atomic_file(p, binary=True) as f:  # SIGTERM or a full disk leaves the old figure
-            fig.savefig(f, format=fmt,
-                        metadata={"Creator": "bkflow"} if fmt in ("png", "pdf") else None,
-                        dpi=STYLE["savefig.dpi"], bbox_inches="tight")
+        if os.path.lexists(p) and not made_by_bkflow(p, recorded):
+            raise PlotError(f"{p} exists and was not written by bkflow: it is not replaced; "
+                            "choose another --out, or move it")
+        meta = {"Creator": MARK} if fmt in ("png", "pdf", "svg", "ps", "eps") else None
+        try:
+            with atomic_file(p, binary=True) as f:  # SIGTERM or a full disk: the old figure
+                fig.savefig(f, format=fmt, metadata=meta, dpi=STYLE["savefig.dpi"],
+                            bbox_inches="tight")
+        except (RuntimeError, ValueError) as exc:  # pgf without LaTeX, and the like
+            why = " ".join(str(exc).split())[:160]
+            raise PlotError(f"matplotlib cannot write {fmt} here ({why}); choose another "
+                            "--format") from None
         paths.append(p)
     return paths
 
@@ -607,16 +621,35 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     recorded with the tables they were drawn from (``figures.json``): a sweep or collect that
     changes the tables removes them (:func:`bkflow.tables.retire_figures`).
     Returns (paths written, {figure: why it was skipped})."""
-    out = Path(out) if out is not None else Path(root) / FIGURES_DIR
-    written, skipped = _plot(root, out, formats, where)
-    if written:
-        from .tables import FIGURES_RECORD, record_figures
+    from .tables import FIGURES_RECORD, record_figures, tables_digest
 
-        with contextlib.suppress(ValueError, OSError):  # figures outside out: not recorded
-            old = json.loads((out / FIGURES_RECORD).read_text())["files"] \
-                if (out / FIGURES_RECORD).exists() else []
-            record_figures(root, out, sorted({*written, *(out / f for f in old)}))
+    out = Path(out) if out is not None else Path(root) / FIGURES_DIR
+    SweepData(root, where)  # refuses before anything is written (no tables, mixed analyses)
+    _check_formats(formats)
+    try:
+        old = json.loads((out / FIGURES_RECORD).read_text())
+        same = (old.get("tables_sha256") == tables_digest(root)
+                and old.get("where") == (where or None))
+        kept = [out / f for f in old["files"]] if same else []
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        kept = []
+    targets = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
+    out.mkdir(parents=True, exist_ok=True)
+    # while figures are being written the record says so: an interrupted plot leaves
+    # complete = false, and a later change of the tables still retires what it wrote
+    record_figures(root, out, sorted({*kept, *targets}), where, complete=False)
+    written, skipped = _plot(root, out, formats, where)
+    record_figures(root, out, sorted({*kept, *written}), where, complete=True)
     return written, skipped
+
+
+def _check_formats(formats) -> None:
+    plt = _style()
+    supported = plt.figure().canvas.get_supported_filetypes()
+    bad = [f for f in formats if f not in supported]
+    if bad:
+        raise PlotError(f"format {', '.join(bad)} is not one matplotlib writes; choose from "
+                        f"{', '.join(sorted(supported))}")
 
 
 def _plot(root, out: Path, formats, where) -> tuple[list[Path], dict]:
@@ -634,12 +667,7 @@ def _plot(root, out: Path, formats, where) -> tuple[list[Path], dict]:
             written += w
             skipped.update({f"{name}/{k}": v for k, v in s.items()})
         return written, skipped
-    plt = _style()
-    supported = plt.figure().canvas.get_supported_filetypes()
-    bad = [f for f in formats if f not in supported]
-    if bad:
-        raise PlotError(f"format {', '.join(bad)} is not one matplotlib writes; choose from "
-                        f"{', '.join(sorted(supported))}")
+    _check_formats(formats)
     out = Path(out) if out is not None else data.root / FIGURES_DIR
     out.mkdir(parents=True, exist_ok=True)
     written, skipped = [], {}
@@ -648,6 +676,9 @@ def _plot(root, out: Path, formats, where) -> tuple[list[Path], dict]:
             fig = figure(data, name)
         except PlotError as exc:
             skipped[name] = str(exc)
+            continue
+        except ValueError as exc:  # e.g. --where leaves nothing positive for a log axis
+            skipped[name] = f"nothing to draw for these runs ({' '.join(str(exc).split())})"
             continue
         with style():
             written += _save(fig, out, name, formats)

@@ -128,6 +128,16 @@ class RunDir:
         """meta.json, or None when there is none or it is unreadable."""
         return self._record(META)
 
+    def check_record_readable(self) -> None:
+        """Raise the OSError of a meta.json that is there but cannot be read (permissions, a
+        directory, a symlink loop): bkflow cannot tell whether the run is finished, so it
+        neither redoes nor analyses it (exit 4), where a missing one means an interrupted run."""
+        for d in (self, self.companion()):
+            meta = d.file(META)
+            if os.path.lexists(meta):
+                with open(meta, "rb"):
+                    pass
+
     def is_complete(self) -> bool:
         """meta.json says the run finished (sizes not checked: see :meth:`problem`)."""
         meta = self.meta()
@@ -353,7 +363,7 @@ class RunDir:
     def _frames(self, name: str, n_atoms: int) -> io.Frames:
         try:
             return io.read_frames(self.file(name), n_atoms)
-        except (FileNotFoundError, MemoryError):  # missing, or the machine's limit: named
+        except (OSError, MemoryError):  # missing, unreadable, the machine's limit: named
             raise
         except Exception as exc:  # MDAnalysis reports a cut dump in many ways
             raise DamagedRunError(f"{self.file(name)} is cut or damaged "

@@ -176,11 +176,12 @@ def tables_digest(root) -> str:
     return h.hexdigest()
 
 
-def record_figures(root, out, paths) -> None:
-    """Note in ``out`` which figures were drawn from which tables (:func:`retire_figures`)."""
+def record_figures(root, out, paths, where=None, complete: bool = True) -> None:
+    """Note in ``out`` which figures were drawn from which tables, of which runs (``where``),
+    and whether the plot finished (:func:`retire_figures`)."""
     out = Path(out)
     io.write_json_atomic(out / FIGURES_RECORD, {
-        "tables_sha256": tables_digest(root),
+        "tables_sha256": tables_digest(root), "where": where or None, "complete": complete,
         "files": sorted(str(Path(p).relative_to(out)) for p in paths)})
 
 
