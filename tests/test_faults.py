@@ -646,3 +646,79 @@ def test_the_documented_cluster_commands_run(lammps, tmp_path):
                            cwd=d, capture_output=True, text=True, timeout=600)
         assert p.returncode == 0, (args, p.stderr[-2000:])
         assert len(list((d / "workspace").glob("*/meta.json"))) == 2, args
+
+
+@pytest.mark.parametrize("how", ["a directory", "a symlink loop", "a dangling symlink"])
+def test_an_unreadable_run_record_is_never_redone(lammps, tmp_path, finished, how):
+    """A meta.json that is there but cannot be read: bkflow cannot tell whether the run is
+    finished, so it neither redoes nor analyses it (exit 4), with or without --overwrite."""
+    d = tmp_path / "r"
+    shutil.copytree(finished, d)
+    meta = d / META
+    meta.unlink()
+    if how == "a directory":
+        meta.mkdir()
+    elif how == "a symlink loop":
+        meta.symlink_to(META)
+    else:
+        meta.symlink_to(tmp_path / "nowhere.json")
+    before = digest(d)
+    for args in (["run", "--phi", "3", *SHORT, "--out", d],
+                 ["run", "--phi", "3", *SHORT, "--overwrite", "--out", d], ["analyze", d]):
+        p = bk(*args)
+        if how == "a dangling symlink" and args[0] == "analyze":
+            assert p.returncode in (EXIT_BAD_INPUT, EXIT_FILE_SYSTEM)
+        else:
+            assert p.returncode == EXIT_FILE_SYSTEM, (args, p.stderr)
+        assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+        assert digest(d) == before, args
+
+
+def test_plot_and_movie_never_replace_a_users_file(lammps, tmp_path, small_sweep, finished):
+    out = tmp_path / "figs"
+    out.mkdir()
+    (out / "fig2a_friction.png").write_text("my figure\n")
+    p = bk("plot", small_sweep, "--out", out)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "exists and was not written by bkflow")
+    assert (out / "fig2a_friction.png").read_text() == "my figure\n"
+    mine = tmp_path / "precious.gif"
+    mine.write_text("my movie\n")
+    p = bk("movie", finished, "--out", mine)
+    assert p.returncode == EXIT_BAD_INPUT and mine.read_text() == "my movie\n"
+    one_line(p, "exists and was not written by bkflow")
+    (tmp_path / "fronts_slip0.png").write_text("my maps\n")
+    p = bk("movie", finished, "--out", tmp_path / "new.gif")
+    assert p.returncode == EXIT_BAD_INPUT and not (tmp_path / "new.gif").exists()
+    ok = tmp_path / "ok"
+    ok.mkdir()
+    for _ in range(2):  # its own movie is replaced
+        assert bk("movie", finished, "--out", ok / "m.gif").returncode == 0
+    p = bk("movie", finished, "--out", tmp_path / "no" / "m.gif")
+    one_line(p, "does not exist")
+    # what matplotlib cannot write here, or a selection with nothing to draw: one line, or a
+    # note per figure
+    p = bk("plot", small_sweep, "--out", tmp_path / "pgf", "--format", "pgf")
+    if p.returncode != 0:
+        assert p.returncode == EXIT_BAD_INPUT
+        one_line(p, "matplotlib cannot write pgf here")
+    p = bk("plot", small_sweep, "--out", tmp_path / "w", "--where", "state=steady")
+    assert p.returncode in (0, EXIT_BAD_INPUT) and "Traceback" not in p.stderr
+    record = json.loads((out.parent / "w" / "figures.json").read_text()) \
+        if (tmp_path / "w" / "figures.json").exists() else {"complete": True}
+    assert record["complete"]
+
+
+@pytest.mark.parametrize("limit, needle", [("ulimit -n 20", "at most 20 files"),
+                                           ("ulimit -f 200", "files of at most"),
+                                           ("ulimit -v 300000", "out of memory")])
+def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
+    """Below what MPI needs, its start aborts from C (exit 134 or 143, a stack of lines):
+    bkflow names the limit first (exit 5)."""
+    from bkflow.cli import EXIT_RESOURCES
+
+    p = subprocess.run(f"{limit}; '{tool('bkflow')}' run --phi 10 {' '.join(SHORT)} "
+                       f"--out '{tmp_path}/r'", shell=True, capture_output=True, text=True)
+    assert p.returncode == EXIT_RESOURCES, p.stderr
+    one_line(p, needle)
+    assert not (tmp_path / "r").exists()

@@ -628,12 +628,17 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     _check_formats(formats)
     try:
         old = json.loads((out / FIGURES_RECORD).read_text())
+        recorded = {str(f) for f in old["files"]}
         same = (old.get("tables_sha256") == tables_digest(root)
                 and old.get("where") == (where or None))
-        kept = [out / f for f in old["files"]] if same else []
+        kept = [out / f for f in recorded] if same else []
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        kept = []
+        kept, recorded = [], set()
     targets = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
+    for p in targets:  # a user's file of the same name is never replaced
+        if os.path.lexists(p) and not made_by_bkflow(p, recorded):
+            raise PlotError(f"{p} exists and was not written by bkflow: it is not replaced; "
+                            "choose another --out, or move it")
     out.mkdir(parents=True, exist_ok=True)
     # while figures are being written the record says so: an interrupted plot leaves
     # complete = false, and a later change of the tables still retires what it wrote
