@@ -701,11 +701,23 @@ class Fuzz:
             p = subprocess.CompletedProcess(p.args, p.returncode, p.stdout, "")  # flow's bars
             self.check(f"[14] the documented `python -m bkflow.cluster run {args}`", p, {0})
 
+    def cluster(self):
+        for args in (["status", "-j", "nosuchjob"], ["run", "-j", "deadbeef"],
+                     ["exec", "simulate", "nosuchjob"], ["submit", "--bundle", "-1",
+                                                         "--pretend"]):
+            d = self.scratch() / "s"
+            shutil.copytree(self.sweep, d)
+            p = subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=d,
+                               capture_output=True, text=True, timeout=120,
+                               env={**os.environ,
+                                    "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
+            self.check(f"[14] python -m bkflow.cluster {' '.join(args)}", p, {2})
+
     def run_all(self):
         for part in (self.arguments, self.paths, self.directories, self.damaged, self.writers,
                      self.disk_full, self.interrupts, self.pipes, self.hangs, self.users_files,
                      self.misread, self.options, self.workspace, self.tracebacks, self.signals,
-                     self.docs):
+                     self.docs, self.cluster):
             part()
         return self.results
 

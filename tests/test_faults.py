@@ -722,3 +722,18 @@ def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
     assert p.returncode == EXIT_RESOURCES, p.stderr
     one_line(p, needle)
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("args", [["status", "-j", "nosuchjob"], ["run", "-j", "deadbeef"],
+                                  ["exec", "simulate", "nosuchjob"],
+                                  ["submit", "--bundle", "-1", "--pretend"]])
+def test_cluster_bad_input_is_exit_2(tmp_path, small_sweep, args):
+    """python -m bkflow.cluster: a job that does not exist or a bad option value is bad input
+    (exit 2, one line), not "a run failed" (exit 1) with a scheduler hint."""
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    p = subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=d,
+                       capture_output=True, text=True, timeout=120,
+                       env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
+    assert p.returncode == EXIT_BAD_INPUT, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr

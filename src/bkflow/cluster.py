@@ -48,12 +48,25 @@ def main(argv=None) -> None:
               "project here): run it inside the --out directory of bkflow sweep ... --init",
               file=sys.stderr)
         sys.exit(2)  # bad input, as bkflow's own commands
+    from bkflow.params import SpecError
+    from bkflow.project import check_workspace
+
+    try:
+        check_workspace(p.path)  # a hand-edited workspace: named with its repair
+    except SpecError as exc:
+        print(f"bkflow.cluster: error: {exc}", file=sys.stderr)
+        sys.exit(2)
     # flow logs a scheduler's failure before raising it: the one line below says it instead
     logging.getLogger("flow").setLevel(logging.CRITICAL)
     try:
         p.main()
     except KeyboardInterrupt:
         sys.exit(130)
+    except (LookupError, ValueError, TypeError) as exc:  # no such job, a bad option value
+        first = " ".join((str(exc).strip().splitlines() or [type(exc).__name__])[0].split())
+        print(f"bkflow.cluster: error: {first}: check the job ids and options "
+              "(python -m bkflow.cluster COMMAND --help)", file=sys.stderr)
+        sys.exit(2)  # bad input, as bkflow's own commands
     except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         print(f"bkflow.cluster: error: {first} (if this machine has no working scheduler, "
