@@ -557,15 +557,15 @@ def _movie(a) -> int:
     out = Path(a.out) if a.out else rd.RunDir(a.dir).movie_file(a.slip)
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
-    from .io import made_by_bkflow
+    from .io import foreign_file
 
     maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
     if not out.parent.is_dir():
         raise SpecError(f"--out {out}: the directory {out.parent} does not exist")
     for p in (out, maps):  # a user's file of the same name is never replaced
-        if os.path.lexists(p) and not made_by_bkflow(p):
-            raise SpecError(f"{p} exists and was not written by bkflow: it is not replaced; "
-                            "choose another --out, or move it")
+        why = foreign_file(p)
+        if why is not None:
+            raise SpecError(why)
     try:
         fig = run.front_figure(a.slip)
         path = run.movie(a.slip, out, a.fps)
@@ -695,22 +695,9 @@ def main(argv=None) -> int:
 
     plugin.INTERRUPT_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
     plugin.restore_signals()
-    if _address_space_mb() < MIN_ADDRESS_SPACE_MB:
-        print(f"bkflow: out of memory: this process may use at most "
-              f"{_address_space_mb():.0f} MB (ulimit -v, or the job's limit); bkflow needs at "
-              f"least {MIN_ADDRESS_SPACE_MB} MB to load its libraries: raise the limit",
-              file=sys.stderr)
-        return EXIT_RESOURCES
-    files = _open_files_limit()
-    if files < MIN_OPEN_FILES:
-        print(f"bkflow: error: this process may open at most {files} files (ulimit -n); MPI "
-              f"and LAMMPS need at least {MIN_OPEN_FILES}: raise the limit", file=sys.stderr)
-        return EXIT_RESOURCES
-    size = _file_size_limit_mb()
-    if size < MIN_FILE_SIZE_MB:
-        print(f"bkflow: error: this process may write files of at most {size:.3g} MB "
-              f"(ulimit -f); MPI's shared memory needs {MIN_FILE_SIZE_MB} MB, and a run's "
-              "series more: raise the limit", file=sys.stderr)
+    short = _process_limit_short()
+    if short is not None:
+        print(f"bkflow: {short}: raise the limit", file=sys.stderr)
         return EXIT_RESOURCES
     for name in ("stdout", "stderr"):  # closed by the caller (2>&-): write into the void
         if getattr(sys, name) is None:
@@ -734,38 +721,28 @@ def main(argv=None) -> int:
         return _internal_error()
 
 
-#: the address space below which bkflow does not start: under ~320 MB the BLAS under SciPy
-#: cannot allocate its buffers and ends the process from C (exit 1, no Python exception)
-MIN_ADDRESS_SPACE_MB = 512
+#: the process limits below which MPI, LAMMPS or the libraries under bkflow end the process
+#: from C (UCX or MPICH aborts, exit 134 or 143; the BLAS under SciPy exits 1 when it cannot
+#: allocate its buffers under ~320 MB): resource, ulimit option, minimum, unit (bytes), what
+PROCESS_LIMITS = (
+    ("RLIMIT_AS", "-v", 512, 2**20, "out of memory: this process may use at most {have} MB "
+     "(ulimit -v, or the job's limit); bkflow needs at least {need} MB to load its libraries"),
+    ("RLIMIT_NOFILE", "-n", 64, 1, "error: this process may open at most {have} files "
+     "(ulimit -n); MPI and LAMMPS need at least {need}"),
+    ("RLIMIT_FSIZE", "-f", 64, 2**20, "error: this process may write files of at most {have} "
+     "MB (ulimit -f); MPI's shared memory needs {need} MB, and a run's series more"),
+)
 
 
-#: open files below which MPI's start aborts from C (UCX, MPICH: exit 134 or 143)
-MIN_OPEN_FILES = 64
-
-
-def _open_files_limit() -> float:
+def _process_limit_short() -> str | None:
+    """The first process limit (:data:`PROCESS_LIMITS`) below what bkflow needs, said."""
     import resource
 
-    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
-    return math.inf if soft == resource.RLIM_INFINITY else soft
-
-
-#: the file size limit below which MPI's start fails (its shared-memory files)
-MIN_FILE_SIZE_MB = 64
-
-
-def _file_size_limit_mb() -> float:
-    import resource
-
-    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
-    return math.inf if soft == resource.RLIM_INFINITY else soft / 2**20
-
-
-def _address_space_mb() -> float:
-    import resource
-
-    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    return math.inf if soft == resource.RLIM_INFINITY else soft / 2**20
+    for name, _, need, unit, said in PROCESS_LIMITS:
+        soft, _ = resource.getrlimit(getattr(resource, name))
+        if soft != resource.RLIM_INFINITY and soft / unit < need:
+            return said.format(have=f"{soft / unit:.3g}", need=need)
+    return None
 
 
 def _out_of_memory() -> int:

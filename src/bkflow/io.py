@@ -261,6 +261,15 @@ def made_by_bkflow(path, recorded=()) -> bool:
     return MARK.encode() in head or MARK.encode() in tail
 
 
+def foreign_file(path, recorded=()) -> str | None:
+    """Why bkflow must not replace the file at ``path`` (None: there is none, or it is one
+    bkflow wrote: :func:`made_by_bkflow`)."""
+    if os.path.lexists(path) and not made_by_bkflow(path, recorded):
+        return (f"{path} exists and was not written by bkflow: it is not replaced; choose "
+                "another --out, or move it")
+    return None
+
+
 def _replace_atomically(path: Path, write) -> None:
     with atomic_file(path) as f:
         write(f)

@@ -25,13 +25,12 @@ from __future__ import annotations
 import functools
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from .io import MARK, atomic_file, made_by_bkflow
+from .io import MARK, atomic_file, foreign_file
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import FIGURES_DIR, read_tables, varied_parameters
@@ -235,9 +234,9 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
     paths = []
     for fmt in formats:
         p = out / f"{name}.{fmt}"
-        if os.path.lexists(p) and not made_by_bkflow(p, recorded):
-            raise PlotError(f"{p} exists and was not written by bkflow: it is not replaced; "
-                            "choose another --out, or move it")
+        why = foreign_file(p, recorded)
+        if why is not None:
+            raise PlotError(why)
         meta = {"Creator": MARK} if fmt in ("png", "pdf", "svg", "ps", "eps") else None
         try:
             with atomic_file(p, binary=True) as f:  # SIGTERM or a full disk: the old figure
@@ -636,9 +635,9 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
         kept, recorded = [], set()
     targets = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
     for p in targets:  # a user's file of the same name is never replaced
-        if os.path.lexists(p) and not made_by_bkflow(p, recorded):
-            raise PlotError(f"{p} exists and was not written by bkflow: it is not replaced; "
-                            "choose another --out, or move it")
+        why = foreign_file(p, recorded)
+        if why is not None:
+            raise PlotError(why)
     out.mkdir(parents=True, exist_ok=True)
     # while figures are being written the record says so: an interrupted plot leaves
     # complete = false, and a later change of the tables still retires what it wrote

@@ -181,7 +181,7 @@ def sweep_dir_problem(path) -> str | None:
     empty, or is a bkflow sweep). A sweep writes runs.csv, results.csv, analysis.json and a
     workspace: into a directory of the user's own files, or into a run directory, it would
     overwrite or bury them."""
-    from .rundir import LOCK, MARK, META
+    from .rundir import MARK, META, bookkeeping, listing
 
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -190,15 +190,13 @@ def sweep_dir_problem(path) -> str | None:
         names = {p.name for p in path.iterdir()}
     except FileNotFoundError:
         return None
-    names = {n for n in names if n != LOCK and not (n.startswith(".") and n.endswith(".tmp"))}
+    names = {n for n in names if not bookkeeping(n)}
     if not names:
         return None
     if MARK in names or META in names:
         return "is a bkflow run directory, not a sweep's"
     if ".signac" not in names:
-        shown = sorted(names)
-        return ("holds files that are not a bkflow sweep (" + ", ".join(shown[:3])
-                + (f" and {len(shown) - 3} more" if len(shown) > 3 else "") + ")")
+        return f"holds files that are not a bkflow sweep ({listing(names)})"
     if SWEEP_MARK in _project_document(path) or _jobs_are_runs(path):
         return None
     return "is a signac project that is not a bkflow sweep"

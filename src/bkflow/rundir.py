@@ -55,6 +55,18 @@ MARK = ".bkflow-run"
 #: files signac keeps in a sweep's job directory
 SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
 
+def bookkeeping(name: str) -> bool:
+    """A name bkflow leaves in any directory it writes: its lock, an atomic writer's
+    temporary."""
+    return name == LOCK or (name.startswith(".") and name.endswith(".tmp"))
+
+
+def listing(names) -> str:
+    """A few of ``names`` for a message: "a, b, c and 4 more"."""
+    shown = sorted(names)
+    return ", ".join(shown[:3]) + (f" and {len(shown) - 3} more" if len(shown) > 3 else "")
+
+
 #: the files of a finished run that may change without damaging it: LAMMPS's log, which
 #: `lmp -in in.bk` in the finished directory rewrites (the rest it writes again bit for bit)
 MAY_CHANGE = (LOG,)
@@ -221,9 +233,7 @@ class RunDir:
             return None
         if MARK in names or META in names:
             return None
-        ours = {LOCK, *SIGNAC_FILES}
-        names = {n for n in names if n not in ours and not (n.startswith(".") and
-                                                             n.endswith(".tmp"))}
+        names = {n for n in names if n not in SIGNAC_FILES and not bookkeeping(n)}
         if not names:
             return None
         if {PARAMS, STRESS} <= names:
@@ -231,9 +241,7 @@ class RunDir:
         if PARAMS in names or DECK in names:
             deck = ", ".join(sorted(names & {DECK, DATA, PARAMS}))
             return f"holds a deck written by bkflow deck ({deck})"
-        shown = sorted(names)
-        return ("holds files that are not a bkflow run (" + ", ".join(shown[:3])
-                + (f" and {len(shown) - 3} more" if len(shown) > 3 else "") + ")")
+        return f"holds files that are not a bkflow run ({listing(names)})"
 
     @contextlib.contextmanager
     def lock(self):
