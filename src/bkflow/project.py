@@ -195,9 +195,11 @@ def sweep_dir_problem(path) -> str | None:
         return None
     if MARK in names or META in names:
         return "is a bkflow run directory, not a sweep's"
+    if SWEEP_MARK in _project_document(path):  # marked before signac's files are made
+        return None
     if ".signac" not in names:
         return f"holds files that are not a bkflow sweep ({listing(names)})"
-    if SWEEP_MARK in _project_document(path) or _jobs_are_runs(path):
+    if _jobs_are_runs(path):  # a sweep of bkflow before the mark
         return None
     return "is a signac project that is not a bkflow sweep"
 
@@ -295,6 +297,12 @@ def open_project(path, create: bool = True) -> SweepProject:
                                     "run bkflow sweep --out DIR first")
         check_sweep_dir(path)
         path.mkdir(parents=True, exist_ok=True)
+        doc = path / "signac_project_document.json"
+        if SWEEP_MARK not in _project_document(path):
+            # the mark first: a second sweep starting now sees a sweep of ours
+            from . import __version__, io
+
+            io.write_json_atomic(doc, {**_project_document(path), SWEEP_MARK: __version__})
         signac.init_project(str(path))
     elif create:
         check_sweep_dir(path)
