@@ -525,3 +525,33 @@ def test_the_cluster_command_says_in_one_line_when_the_scheduler_fails(tmp_path)
     help_ = subprocess.run([sys.executable, "-m", "bkflow.cluster", "--help"], cwd=tmp_path,
                            capture_output=True, text=True, timeout=120)
     assert help_.returncode == 0 and "python -m bkflow.cluster" in help_.stdout
+
+
+def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
+    """fig4a: clusters past 1.15 of the box (a soft layer's reach 1.2) are inside the axes;
+    a sparse set is drawn over a dense one; the key says phi = 2.15, not 2.15443."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bkflow.plot import _style, cluster_scatter
+
+    clusters = {0.1: pd.DataFrame({"l_x": [4.0] * 500 + [2.0], "l_y": [6.1] * 500 + [1.0]}),
+                2.15443: pd.DataFrame({"l_x": [20.0, 10.0], "l_y": [5.0, 2.0]})}
+
+    class Stub:
+        def runs_of(self, lx, ly, phi):
+            return pd.DataFrame({"phi": [phi], "seed": [1]})
+
+        def run_dir(self, row):
+            return type("R", (), {"read_clusters": lambda _: clusters[row["phi"]]})()
+
+    plt = _style()
+    fig = cluster_scatter(Stub(), plt, 20, 5, [2.15443, 0.1], "t")
+    ax = fig.axes[0]
+    assert ax.get_ylim()[1] >= 6.1 / 5 and ax.get_xlim()[0] < 0 < ax.get_ylim()[1]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == [r"$\phi$ = 2.15 (2 clusters)", r"$\phi$ = 0.1 (501 clusters)"]
+    lines = {ln.get_label(): ln.get_zorder() for ln in ax.get_lines() if "clusters" in
+             ln.get_label()}
+    assert lines[labels[0]] > lines[labels[1]]  # the sparse set on top
+    plt.close(fig)

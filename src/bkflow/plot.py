@@ -265,7 +265,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         t0 = t[-1] - window
         keep = t >= t0
         ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
-                label=f"phi = {phi:g}, {_size_label(lx, ly)}, seed {int(row.seed)}")
+                label=rf"$\phi$ = {phi:.3g}, {_size_label(lx, ly)}, seed {int(row.seed)}")
         k = ev.t_max >= t0
         ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour,
                 mfc="none" if marker == "o" else colour, ls="none",
@@ -338,7 +338,7 @@ def fig_contacts(data: SweepData, plt):
         for ax in (top, bottom):
             ax.axvspan(t0, t[-1], color="tab:green" if row.get("state") == "steady"
                        else "tab:orange", alpha=0.08, lw=0)
-        top.set_title(f"phi = {phi:g}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
+        top.set_title(rf"$\phi$ = {phi:.3g}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
                       f"{row.get('state', 'n/a')}", fontsize=7.5)
         bottom.set_ylim(0, 1.02)
         bottom.set_xlabel("t (time units)")
@@ -522,34 +522,39 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     fig = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(3.8, 4.0))
-    drawn = 0
+    sets = []
     for phi, m, colour in zip(phis, MARKERS, ("black", "tab:red", "tab:green", "tab:blue")):
         frames = [c for c in (data.run_dir(r).read_clusters()
                               for _, r in data.runs_of(lx, ly, phi).iterrows())
                   if c is not None]
-        if not frames:
-            continue
-        c = pd.concat(frames)
-        drawn += len(c)
-        ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3, mew=0.6,
-                alpha=0.5, label=f"phi = {phi:g} ({len(c)} clusters)")
-    if not drawn:
+        if frames:
+            sets.append((phi, m, colour, pd.concat(frames)))
+    if not sets:
         if fig is not None:
             plt.close(fig)
         return None
-    ax.plot([0, 1.1], [0, 1.1], color="grey", lw=0.6, ls="--")
+    # the largest set first and lowest: a sparse set is drawn over a dense one, not hidden
+    handles = {}
+    for z, (phi, m, colour, c) in enumerate(sorted(sets, key=lambda s: -len(s[3]))):
+        handles[phi], = ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3,
+                                mew=0.6, alpha=0.5, zorder=2 + z,
+                                label=rf"$\phi$ = {phi:.3g} ({len(c)} clusters)")
+    # every cluster inside the axes (a soft layer's clusters reach past 1 across the box)
+    top = max(1.15, 1.03 * max(float(max((c.l_x / lx).max(), (c.l_y / ly).max()))
+                               for *_, c in sets))
+    ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
     ax.axvline(0.9, color="grey", lw=0.6, ls=":")
     ax.axhline(0.9, color="grey", lw=0.6, ls=":")
     for txt, x, y in (("C", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
         ax.text(x, y, txt, fontsize=8, ha="center", va="center", color=REGIME_COLOURS[txt],
                 weight="bold", bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
-    ax.set_xlim(0, 1.15)
-    ax.set_ylim(0, 1.15)
+    ax.set_xlim(-0.03, top)  # a cluster one particle across sits at 0: drawn whole
+    ax.set_ylim(-0.03, top)
     ax.set_xlabel(r"$l_x / L_x$")
     ax.set_ylabel(r"$l_y / L_y$")
     ax.set_title(title, fontsize=9)
-    ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
-              ncol=2, markerscale=1.5)
+    ax.legend(handles=[handles[phi] for phi, *_ in sets], frameon=False, fontsize=6.5,
+              loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, markerscale=1.5)
     return fig if fig is not None else ax.figure
 
 
@@ -583,7 +588,7 @@ def fig_drops(data: SweepData, plt):
         alpha_err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
         x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean()
         nz = dens > 0
-        label = f"phi = {phi:g}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
+        label = rf"$\phi$ = {phi:.3g}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
                                       if math.isfinite(alpha) else "no fit")
         ax.plot(x[nz], dens[nz], m, color=colour, mfc="none", label=label)
         if math.isfinite(alpha) and math.isfinite(x_min):
