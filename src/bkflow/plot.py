@@ -101,6 +101,13 @@ def _style() -> Figures:
     return Figures()
 
 
+def _num(v: float) -> str:
+    """A parameter value for a key: three significant digits, never an exponent
+    (2.15443 -> 2.15, 1000 -> 1000)."""
+    text = f"{v:.3g}"
+    return f"{v:.0f}" if "e+" in text else text
+
+
 def _size_label(lx, ly) -> str:
     return f"N = {int(lx) * int(ly)} ({int(lx)}x{int(ly)})"
 
@@ -265,7 +272,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         t0 = t[-1] - window
         keep = t >= t0
         ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
-                label=rf"$\phi$ = {phi:.3g}, {_size_label(lx, ly)}, seed {int(row.seed)}")
+                label=rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
         k = ev.t_max >= t0
         ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour,
                 mfc="none" if marker == "o" else colour, ls="none",
@@ -273,11 +280,11 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         top = row.mu_s * row.sigma_n
         ax.axhline(top, color="tab:blue", ls="-.", lw=1,
                    label=r"Amontons-Coulomb $\mu_s\sigma_n$")
-        ax.set_ylabel(r"$\sigma_x$")
+        ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
         lo = sigma[keep].min()
         ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
         ax.legend(loc="upper center", ncol=3, frameon=False, fontsize=6.5)
-    axes[-1, 0].set_xlabel("t (time units)")
+    axes[-1, 0].set_xlabel(r"t ($\sqrt{m/k_d}$)")
     fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$", fontsize=9)
     return fig
 
@@ -338,10 +345,10 @@ def fig_contacts(data: SweepData, plt):
         for ax in (top, bottom):
             ax.axvspan(t0, t[-1], color="tab:green" if row.get("state") == "steady"
                        else "tab:orange", alpha=0.08, lw=0)
-        top.set_title(rf"$\phi$ = {phi:.3g}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
+        top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
                       f"{row.get('state', 'n/a')}", fontsize=7.5)
         bottom.set_ylim(0, 1.02)
-        bottom.set_xlabel("t (time units)")
+        bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
     axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$")
     axes[1, 0].set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
     if not drawn:
@@ -441,7 +448,7 @@ def fig2b_asymmetry(data: SweepData, plt):
     ax.text(0.98, 0.04, "dotted: Lx/Ly (whole-box clusters)", transform=ax.transAxes,
             ha="right", va="bottom", fontsize=6.5, color="grey")
     ax.set_xscale("log")
-    ax.set_xlabel(r"$\phi$")
+    ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
     ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
     state_key(ax, data, loc="center right")
@@ -457,7 +464,7 @@ def fig3_order(data: SweepData, plt):
         g = data.results_of(lx, ly)
         _series(ax, g, "psi_inf", m, _size_label(lx, ly))
     ax.set_xscale("log")
-    ax.set_xlabel(r"$\phi$")
+    ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\Psi(\infty)$")
     ax.set_ylim(0.4, 1.05)
     state_key(ax, data, loc="lower right")
@@ -477,7 +484,7 @@ def fig3_order(data: SweepData, plt):
         if p is None:
             continue
         ins.plot(p.t, p.psi, color=colour, lw=0.8, label=f"{phi:g}")
-    ins.set_xlabel("t", fontsize=6.5, labelpad=0)
+    ins.set_xlabel(r"t ($\sqrt{m/k_d}$)", fontsize=6.5, labelpad=0)
     ins.set_ylabel(r"$\Psi(t)$", fontsize=6.5, labelpad=1)
     ins.tick_params(labelsize=6)
     ins.set_ylim(0.4, 1.02)
@@ -538,7 +545,7 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     for z, (phi, m, colour, c) in enumerate(sorted(sets, key=lambda s: -len(s[3]))):
         handles[phi], = ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3,
                                 mew=0.6, alpha=0.5, zorder=2 + z,
-                                label=rf"$\phi$ = {phi:.3g} ({len(c)} clusters)")
+                                label=rf"$\phi$ = {_num(phi)} ({len(c)} clusters)")
     # every cluster inside the axes (a soft layer's clusters reach past 1 across the box)
     top = max(1.15, 1.03 * max(float(max((c.l_x / lx).max(), (c.l_y / ly).max()))
                                for *_, c in sets))
@@ -588,7 +595,7 @@ def fig_drops(data: SweepData, plt):
         alpha_err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
         x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean()
         nz = dens > 0
-        label = rf"$\phi$ = {phi:.3g}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
+        label = rf"$\phi$ = {_num(phi)}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
                                       if math.isfinite(alpha) else "no fit")
         ax.plot(x[nz], dens[nz], m, color=colour, mfc="none", label=label)
         if math.isfinite(alpha) and math.isfinite(x_min):
@@ -599,7 +606,7 @@ def fig_drops(data: SweepData, plt):
                     color=colour, lw=0.8)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel(r"stress drop $\Delta\sigma_x$")
+    ax.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     ax.set_ylabel("probability density")
     if not drawn:  # no run had two stress drops after its transient
         return None
