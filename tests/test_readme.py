@@ -84,3 +84,19 @@ def test_the_exit_codes_are_the_clis():
     table = text[text.index("| exit code | meaning |"):]
     rows = table[:table.index("\n\n")].splitlines()[2:]
     assert rows == [f"| {k} | {v.replace('|', chr(92) + '|')} |" for k, v in EXIT_CODES.items()]
+
+
+def test_the_python_example_runs_as_written(lammps, tmp_path):
+    """README's Python block, run as written in a fresh directory: it runs, analyses, and
+    prints the state and mu_bar."""
+    import re
+    import subprocess
+    import sys
+
+    block = re.search(r"```python\n(.*?)```", README.read_text(), re.S).group(1)
+    p = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    state, mu_bar, breaks = p.stdout.split()
+    assert state in ("steady", "drifting", "metastable") and 0.1 < float(mu_bar) < 0.13
+    assert int(breaks) > 0

@@ -298,7 +298,8 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
                              "changed: move it away")
     if rd.is_complete() and not overwrite:
         raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
-                             "another --out or pass --overwrite")
+                             "another output directory, or replace it (--overwrite; "
+                             "overwrite=True from Python)")
     why = rd.foreign()
     if why is not None:
         raise RunExistsError(f"{rd.path} {why}: bkflow writes only into an empty directory or "
