@@ -82,6 +82,13 @@ class Fuzz:
         self.before = {d: digest(d) for d in (self.base, self.sweep)}
         self.n = 0
 
+    @staticmethod
+    def tmpfs(where: Path, options: str) -> bool:
+        """Mount a tmpfs at ``where`` (root only); False where mounting is not allowed."""
+        where.mkdir(parents=True, exist_ok=True)
+        return subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(where)],
+                              capture_output=True).returncode == 0
+
     def scratch(self) -> Path:
         self.n += 1
         d = self.root / f"case{self.n:03d}"
@@ -210,9 +217,7 @@ class Fuzz:
         self.check("deck into a finished run", bk("deck", "--phi", "10", "--out", self.base),
                    {2})
         ro = d / "ro"
-        ro.mkdir()
-        if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(ro)],
-                          capture_output=True).returncode == 0:
+        if self.tmpfs(ro, "ro,size=1m"):
             try:
                 self.check("read-only file system", bk("run", "--phi", "10", *SHORT, "--out",
                                                        ro / "r"), {4})
@@ -224,9 +229,7 @@ class Fuzz:
     def disk_full(self):
         d = self.scratch()
         small = d / "small"
-        small.mkdir()
-        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(small)],
-                          capture_output=True).returncode != 0:
+        if not self.tmpfs(small, "size=400k"):
             self.skip("full disk during the run", "mount not allowed here")
             return
         try:
@@ -475,9 +478,7 @@ class Fuzz:
                 if bad:
                     self.results[-1].verdict = f"left {', '.join(bad[:3])}"
         small = self.scratch() / "small"
-        small.mkdir()
-        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(small)],
-                          capture_output=True).returncode != 0:
+        if not self.tmpfs(small, "size=64k"):
             self.skip("[5] full disk during movie", "mount not allowed here")
             return
         try:

@@ -480,22 +480,21 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
                        capture_output=True, text=True, preexec_fn=limit, timeout=120)
     assert p.returncode == EXIT_RESOURCES, p.stderr
     one_line(p, "out of memory")
+    def analyze_raising(error: str):  # `bkflow analyze` whose command raises ``error``
+        return subprocess.run(
+            [sys.executable, "-c", "import bkflow.cli as c, sys\n"
+             f"def f(a):\n    raise {error}\n"
+             "c._analyze = f\nsys.exit(c.main(['analyze', '/nonexistent']))"],
+            capture_output=True, text=True)
+
     # memory that runs out later, in the middle of a command (pandas, MDAnalysis): exit 5
-    oom = subprocess.run(
-        [sys.executable, "-c", "import bkflow.cli as c, sys\n"
-         "def f(a):\n    raise MemoryError()\n"
-         "c._analyze = f\nsys.exit(c.main(['analyze', '/nonexistent']))"],
-        capture_output=True, text=True)
+    oom = analyze_raising("MemoryError()")
     assert oom.returncode == EXIT_RESOURCES
     one_line(oom, "out of memory")
     # a bug: one line, exit 70, the traceback kept in a file
     from bkflow import cli
 
-    boom = subprocess.run(
-        [sys.executable, "-c", "import bkflow.cli as c, sys\n"
-         "c._analyze = lambda a: 1 / 0\n"
-         "sys.exit(c.main(['analyze', '/nonexistent']))"],
-        capture_output=True, text=True)
+    boom = analyze_raising("ZeroDivisionError('division by zero')")
     assert boom.returncode == EXIT_INTERNAL == cli.EXIT_INTERNAL
     one_line(boom, "internal error (ZeroDivisionError: division by zero)")
     saved = boom.stderr.split("the traceback is in ")[1].split(":")[0]

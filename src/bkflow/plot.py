@@ -231,19 +231,22 @@ class SweepData:
         return self.results[(self.results.Lx == lx) & (self.results.Ly == ly)].sort_values("phi")
 
 
-def _save(fig, out: Path, name: str, formats) -> list[Path]:
-    from .tables import FIGURES_RECORD
-
-    try:
-        recorded = set(json.loads((out / FIGURES_RECORD).read_text())["files"])
-    except (OSError, ValueError, KeyError, TypeError):
-        recorded = set()
-    paths = []
-    for fmt in formats:
-        p = out / f"{name}.{fmt}"
+def _check_targets(out: Path, formats, recorded) -> list[Path]:
+    """The files a plot writes into ``out``; a user's file among them (not written by bkflow,
+    not in ``recorded``, the names figures.json lists) is never replaced: PlotError."""
+    targets = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
+    for p in targets:
         why = foreign_file(p, recorded)
         if why is not None:
             raise PlotError(why)
+    return targets
+
+
+def _save(fig, out: Path, name: str, formats) -> list[Path]:
+    """Write ``fig`` as ``out/name.FMT``, atomically and marked (targets checked before)."""
+    paths = []
+    for fmt in formats:
+        p = out / f"{name}.{fmt}"
         meta = {"Creator": MARK} if fmt in ("png", "pdf", "svg", "ps", "eps") else None
         try:
             with atomic_file(p, binary=True) as f:  # SIGTERM or a full disk: the old figure
@@ -635,7 +638,7 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     from .tables import FIGURES_RECORD, record_figures, tables_digest
 
     out = Path(out) if out is not None else Path(root) / FIGURES_DIR
-    SweepData(root, where)  # refuses before anything is written (no tables, mixed analyses)
+    data = SweepData(root, where)  # refuses before anything is written (mixed analyses...)
     _check_formats(formats)
     try:
         old = json.loads((out / FIGURES_RECORD).read_text())
@@ -645,16 +648,12 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
         kept = [out / f for f in recorded] if same else []
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         kept, recorded = [], set()
-    targets = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
-    for p in targets:  # a user's file of the same name is never replaced
-        why = foreign_file(p, recorded)
-        if why is not None:
-            raise PlotError(why)
+    targets = _check_targets(out, formats, recorded)
     out.mkdir(parents=True, exist_ok=True)
     # while figures are being written the record says so: an interrupted plot leaves
     # complete = false, and a later change of the tables still retires what it wrote
     record_figures(root, out, sorted({*kept, *targets}), where, complete=False)
-    written, skipped = _plot(root, out, formats, where)
+    written, skipped = _plot(data, out, formats, where, recorded)
     record_figures(root, out, sorted({*kept, *written}), where, complete=True)
     return written, skipped
 
@@ -668,23 +667,24 @@ def _check_formats(formats) -> None:
                         f"{', '.join(sorted(supported))}")
 
 
-def _plot(root, out: Path, formats, where) -> tuple[list[Path], dict]:
-    data = SweepData(root, where)
+def _plot(data: SweepData, out: Path, formats, where, recorded) -> tuple[list[Path], dict]:
+    """The figures of ``data`` into ``out`` (formats checked, the top directory's targets
+    too); a sweep that varies other parameters: one subdirectory per combination, whose
+    targets are checked here against ``recorded`` (relative to the top directory)."""
     varied = varied_parameters(data.results)
     if varied:
-        out = Path(out) if out is not None else data.root / FIGURES_DIR
         written, skipped = [], {}
         combos = data.results[varied].astype(str).drop_duplicates().to_dict("records")
         for combo in combos:
             # one directory per combination (a '/' in a value, reset/step, would nest one)
             name = ",".join(f"{k}={v}" for k, v in combo.items()).replace("/", "-")
-            w, s = _plot(root, out / name, formats, {**(where or {}), **parse_where(
-                [f"{k}={v}" for k, v in combo.items()])})
+            sub = {**(where or {}), **parse_where([f"{k}={v}" for k, v in combo.items()])}
+            inner = {f[len(name) + 1:] for f in recorded if f.startswith(name + "/")}
+            _check_targets(out / name, formats, inner)
+            w, s = _plot(SweepData(data.root, sub), out / name, formats, sub, inner)
             written += w
             skipped.update({f"{name}/{k}": v for k, v in s.items()})
         return written, skipped
-    _check_formats(formats)
-    out = Path(out) if out is not None else data.root / FIGURES_DIR
     out.mkdir(parents=True, exist_ok=True)
     written, skipped = [], {}
     for name in FIGURES:
