@@ -331,6 +331,46 @@ def test_power_law_fit_recovers_the_exponent(alpha):
     assert auto.x_min >= 0.5 * x_min
 
 
+def test_power_law_fit_is_the_powerlaw_packages_at_a_fixed_x_min():
+    """bkflow keeps its own closed-form fit (no optimiser, used inside the bootstrap); it
+    is the same maximum-likelihood estimate as the field's library."""
+    import powerlaw
+
+    rng = np.random.default_rng(11)
+    x = 0.01 * (1 - rng.random(3000)) ** (-1 / 0.75)
+    ours = stress.power_law_fit(x, x_min=0.01)
+    theirs = powerlaw.Fit(x, xmin=0.01, verbose=False).power_law.alpha
+    assert ours.alpha == pytest.approx(theirs, rel=1e-9)
+
+
+def test_the_goodness_of_fit_p_value_is_calibrated_on_true_power_laws():
+    """Drawn from the law it tests, p is uniform on [0, 1]: about 10% of true power laws fall
+    below P_REJECT (Clauset et al.'s false rejection rate), and the mean p is about 1/2."""
+    rng = np.random.default_rng(12)
+    ps = []
+    for _ in range(200):
+        x = 0.01 * (1 - rng.random(150)) ** (-1 / 0.9)
+        ps.append(stress.power_law_p(stress.power_law_fit(x, x_min=0.01), n_boot=200,
+                                     seed=int(rng.integers(1 << 30))))
+    ps = np.array(ps)
+    assert 0.04 <= np.mean(ps < stress.P_REJECT) <= 0.18
+    assert np.mean(ps) == pytest.approx(0.5, abs=0.08)
+
+
+@pytest.mark.parametrize("n", [300, 3000])
+def test_a_lognormal_is_not_taken_for_a_power_law(n):
+    """Lognormal 'drops' (the shape the stiff layers show): the bootstrap rejects the power
+    law and the likelihood ratio favours the lognormal; a true power law passes both."""
+    rng = np.random.default_rng(n)
+    ln = stress.power_law_test(np.exp(rng.normal(-3.5, 0.8, n)), x_min=0.01)
+    assert ln.verdict == "rejected" and ln.p == 0.0 and ln.preferred == "lognormal"
+    assert ln.describe() == "power law rejected (p < 0.001, lognormal favoured)"
+    pl = stress.power_law_test(0.01 * (1 - rng.random(n)) ** (-1 / 0.8), x_min=0.01)
+    assert pl.verdict == "plausible" and pl.preferred != "lognormal"
+    assert pl.describe().startswith("alpha = 1.")
+    assert stress.power_law_test([0.02] * 5, x_min=0.01).verdict == "no fit"
+
+
 def test_drop_distribution_is_a_normalised_density_in_log_bins():
     rng = np.random.default_rng(6)
     drops = 0.01 * (1 - rng.random(5000)) ** (-1 / 1.5)  # alpha = 2.5

@@ -412,6 +412,112 @@ def test_bad_set_or_vary_is_one_line_and_exit_2(args, needle, tmp_path):
     assert not (tmp_path / "s").exists()
 
 
+def _hidden_points(fig) -> list[str]:
+    """The data points of a figure that a reader cannot see: outside their axes, or under a
+    key (a legend of the axes or of the figure) or an inset."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import PathCollection
+    from matplotlib.legend import Legend
+
+    FigureCanvasAgg(fig).draw()
+    r = fig.canvas.get_renderer()
+    keys = [k.get_window_extent(r) for k in fig.legends]
+    keys += [c.get_window_extent(r) for ax in fig.axes for c in ax.get_children()
+             if isinstance(c, Legend)]
+    hidden = []
+    for i, ax in enumerate(fig.axes):
+        box = ax.get_window_extent(r).expanded(1.02, 1.02)
+        over = keys + [inset.get_window_extent(r) for inset in ax.child_axes]
+        sets = [(line.get_label(), ax.transData.transform(line.get_xydata()))
+                for line in ax.get_lines() if line.get_marker() not in (None, "", "None", "none")]
+        sets += [(c.get_label(), c.get_offset_transform().transform(c.get_offsets()))
+                 for c in ax.collections if isinstance(c, PathCollection)]
+        for label, pts in sets:
+            for x, y in pts[np.isfinite(pts).all(axis=1)]:
+                if not box.contains(x, y) or any(b.contains(x, y) for b in over):
+                    hidden.append(f"axes {i} ({ax.get_title() or ax.get_ylabel()}): {label} "
+                                  f"at ({x:.0f}, {y:.0f})")
+    return hidden
+
+
+def test_every_figure_shows_every_point_with_a_key_and_units(tiny_sweep):
+    """Each figure, as drawn: no data point outside its axes or under a key or an inset; a
+    key of the marker convention (fill = state) wherever points are drawn by state; every axis
+    labelled, with units unless the quantity is a pure number."""
+    import bkflow
+
+    out, _ = tiny_sweep
+    sweep = bkflow.load_sweep(out)
+    pure = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "probability", "R =", "1 -")
+    for name in sweep.figures:
+        fig = sweep.figure(name)
+        assert _hidden_points(fig) == [], name
+        for ax in fig.axes:
+            if not ax.get_visible() or not (ax.get_lines() or ax.collections):
+                continue
+            # a panel stacked on another with the same x axis shares that axis' label
+            xs = [a.get_xlabel() for a in ax.get_shared_x_axes().get_siblings(ax)]
+            ys = [a.get_ylabel() for a in ax.get_shared_y_axes().get_siblings(ax)]
+            for label in (max(xs, key=len), max(ys, key=len)):
+                assert label, f"{name}: an axis without a label"
+                assert "(" in label or any(w in label for w in pure), f"{name}: {label!r}"
+        texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        if name in ("fig2a_friction", "fig2b_asymmetry", "fig3_order", "fig_drops"):
+            assert any(t.startswith(("steady", "drifting", "metastable")) for t in texts), name
+
+
+def test_a_point_with_one_seed_has_the_runs_own_error_bar_in_every_panel(tiny_sweep):
+    """One seed: no spread over seeds, so each panel of fig2a falls back to the run's own
+    standard error (mu_bar_err, mu_bar_large_err, mean_stress_ratio_err), never no bar."""
+    from matplotlib.container import ErrorbarContainer
+
+    import bkflow
+
+    out, _ = tiny_sweep
+    sweep = bkflow.load_sweep(out)
+    assert (sweep.results.n_seeds == 1).all()
+    fig = sweep.figure("fig2a_friction")
+    for ax in fig.axes:
+        bars = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+        assert bars, ax.get_ylabel()
+        segments = np.concatenate([seg.get_segments() for b in bars for seg in b.lines[2]])
+        heights = np.abs(segments[:, 1, 1] - segments[:, 0, 1])
+        assert len(heights) == 2 and (heights > 0).all(), ax.get_ylabel()
+
+
+def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep, monkeypatch):
+    """fig_drops with the drops of phi = 1 a true power law and those of phi = 1000
+    lognormal: one fitted line (phi = 1's), the rejection written in phi = 1000's key, and the
+    stiff layer's two populations beside it adding up to all its drops."""
+    import bkflow
+    from bkflow import plot
+
+    out, _ = tiny_sweep
+    rng = np.random.default_rng(3)
+    samples = {1.0: 0.01 * (1 - rng.random(2000)) ** (-1 / 0.8),
+               1000.0: np.exp(rng.normal(-3.5, 0.8, 2000))}
+    samples[1000.0] = samples[1000.0][samples[1000.0] >= 0.01]
+    whole = {1.0: np.zeros(2000, bool), 1000.0: rng.random(len(samples[1000.0])) < 0.7}
+
+    def fake(data, runs, system_wide=False):
+        phi = float(runs.phi.iloc[0])
+        return (samples[phi], whole[phi]) if system_wide else samples[phi]
+
+    monkeypatch.setattr(plot, "_late_drops", fake)
+    fig = bkflow.load_sweep(out).figure("fig_drops")
+    left, right = fig.axes
+    fits = [ln for ln in left.get_lines() if ln.get_marker() in ("None", "", None)]
+    assert len(fits) == 1
+    keys = [t.get_text() for t in left.get_legend().get_texts()]
+    assert any(k.startswith(r"$\phi$ = 1: $\alpha$ = 1.") for k in keys), keys
+    assert r"$\phi$ = 1000: power law rejected (p < 0.001, lognormal favoured)" in keys
+    parts = [t.get_text() for t in right.get_legend().get_texts()]
+    n = len(samples[1000.0])
+    assert parts[0].startswith("system-wide") and parts[0].endswith(f"of {n}")
+    shares = [float(re.search(r"(\d+)% of", t).group(1)) for t in parts]
+    assert sum(shares) == pytest.approx(100, abs=1)
+
+
 def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_sweep):
     """bkflow.load_sweep / load_run: tables as DataFrames, figures as Figures, and making one
     neither switches the backend, nor changes rcParams, nor touches open figures."""

@@ -48,7 +48,9 @@ class FrictionResult:
         f = self.friction
         return {"mu_bar": f.mu_bar, "mu_bar_err": f.mu_bar_err,
                 "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
-                "mean_stress_ratio": f.mean_stress_ratio, "slip_threshold_stress": f.threshold,
+                "mean_stress_ratio": f.mean_stress_ratio,
+                "mean_stress_ratio_err": f.mean_stress_ratio_err,
+                "slip_threshold_stress": f.threshold,
                 "t_transient": f.t_transient,
                 "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
                 "mu_bar_err_by_threshold": {k: v.mu_bar_err
@@ -139,14 +141,21 @@ class StateResult:
 
 @dataclass(frozen=True)
 class DropResult:
-    """The power law of stress-drop sizes after the transient (Clauset et al. 2009)."""
+    """The power law of stress-drop sizes after the transient, and whether it is plausible at
+    all (Clauset et al. 2009: the fit, its bootstrap p-value, the test against a lognormal)."""
 
-    fit: stress.PowerLawFit
+    test: stress.PowerLawTest
+
+    @property
+    def fit(self) -> stress.PowerLawFit:
+        return self.test.fit
 
     def row(self) -> dict:
-        f = self.fit
+        f, t = self.fit, self.test
         return {"drop_exponent": f.alpha, "drop_exponent_err": f.alpha_err,
-                "drop_x_min": f.x_min, "drop_n_tail": f.n_tail, "drop_ks": f.ks}
+                "drop_x_min": f.x_min, "drop_n_tail": f.n_tail, "drop_ks": f.ks,
+                "drop_power_law": t.verdict, "drop_fit_p": t.p,
+                "drop_vs_lognormal": t.lognormal_R, "drop_vs_lognormal_p": t.lognormal_p}
 
 
 @dataclass(frozen=True)
@@ -312,7 +321,7 @@ def stationarity_result(settings: AnalysisSettings, t, sigma,
 def drop_result(settings: AnalysisSettings, late: stress.SlipEvents) -> DropResult:
     x_min = (None if settings.drop_x_min_over_threshold is None
              else settings.drop_x_min_over_threshold * late.threshold)
-    return DropResult(stress.power_law_fit(late.drop, x_min=x_min))
+    return DropResult(stress.power_law_test(late.drop, x_min=x_min))
 
 
 def order_result(spec: RunSpec, settings: AnalysisSettings, steps, positions) -> OrderResult:

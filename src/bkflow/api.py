@@ -25,7 +25,7 @@ import pandas as pd
 
 from .fronts import front_figure, front_movie
 from .params import AnalysisSettings, RunSpec
-from .plot import FIGURES, Figures, PlotError, SweepData, figure, style
+from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
 from .rundir import AnalysisError, RunDir, sweep_run_dir
 
 
@@ -156,18 +156,19 @@ class Run:
                         label=r"$\sigma_{\rm fail}$")
             ax.axhline(self.spec.friction_threshold / self.spec.area, color="grey", lw=0.6,
                        ls="--", label=r"$\mu_s\sigma_n$")
-            ax.set_ylabel(r"$\sigma_x$ (units of $k_d l / l^2$)")
-            ax.set_title(f"phi = {self.spec.phi:g}, {self.spec.Lx}x{self.spec.Ly}, "
+            ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
+            ax.set_title(rf"$\phi$ = {_num(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
                          f"seed {self.spec.seed}" + (f": {s['state']}" if s.get("state")
-                                                     else ""))
-            ax.legend(loc="lower right", fontsize=6)
+                                                     else ""), loc="left", fontsize=8)
+            # above the axes, beside the title: never over a marker
+            ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=6,
+                      frameon=False, borderaxespad=0.1, handletextpad=0.3, columnspacing=1.0)
             if phase is not None:
                 b = axes[1, 0]
                 b.plot(phase.t, phase.R, lw=0.5, color="indigo")
                 b.set_ylim(0, 1.02)
                 b.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
-            axes[-1, 0].set_xlabel("t (time units)")
-            fig.set_layout_engine("constrained")
+            axes[-1, 0].set_xlabel(r"t ($\sqrt{m/k_d}$)")
         return fig
 
 

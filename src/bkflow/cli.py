@@ -368,9 +368,20 @@ def _print_summary(s: dict) -> None:
               f"regime {s.get('regime') or 'n/a'}")
         print(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
               f"{g('lx_over_ly_large', '.3f')}, regime {s.get('regime_large') or 'n/a'}")
-    print(f"  stress drops: exponent {g('drop_exponent', '.2f')} +- "
-          f"{g('drop_exponent_err', '.2f')} above {g('drop_x_min', '.3g')} "
-          f"({s['drop_n_tail']} drops)")
+    drops = f"  stress drops ({s['drop_n_tail']} above {g('drop_x_min', '.3g')}): "
+    exponent = f"exponent {g('drop_exponent', '.2f')} +- {g('drop_exponent_err', '.2f')}"
+    p = s.get("drop_fit_p")
+    p = "n/a" if p is None or not math.isfinite(p) else f"{p:.3f}"
+    if s.get("drop_power_law") == "rejected":
+        R = s.get("drop_vs_lognormal")
+        vs = (f", against a lognormal R = {R:.1f}" if R is not None and math.isfinite(R)
+              else "")
+        print(f"{drops}power law rejected (p = {p}{vs}); the fitted {exponent} does not "
+              "describe them")
+    elif s.get("drop_power_law") == "plausible":
+        print(f"{drops}power law, {exponent} (p = {p})")
+    else:
+        print(f"{drops}no power-law fit")
 
 
 def _sweep(a) -> int:

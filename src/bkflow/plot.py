@@ -10,9 +10,10 @@ and what the analysis wrote: events.csv, psi.csv, clusters.csv), through
                        sigma_fail of every slip marked, the Amontons-Coulomb line
 ``fig2a_friction``     mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside
 ``fig2b_asymmetry``    <l_x>/<l_y>(phi) per size
-``fig3_order``         Psi(inf)(phi) per size; inset Psi(t) for phi in {1e3, 1e2, 10, 1}
+``fig3_order``         Psi(inf)(phi) per size; inset 1 - Psi(t) for phi in {1e3, 1e2, 10, 1}
 ``fig4a_clusters``     l_y/Ly vs l_x/Lx of every slip cluster for four phi
-``fig_drops``          stress-drop size distribution for four phi, with the fitted exponent
+``fig_drops``          stress-drop size distribution for four phi, the power law drawn only
+                       where plausible; the stiff layer's system-wide and partial slips
 =====================  ===============================================================
 
 Error bars are standard errors over seeds; with a single seed, the run's own standard error.
@@ -60,12 +61,14 @@ class Figures:
     neither switches the backend nor touches (or closes) a user's open figures. A notebook
     shows the Figure it is given; files are written with ``Figure.savefig``."""
 
-    def subplots(self, nrows=1, ncols=1, figsize=None, **kw):
-        fig = self.figure(figsize=figsize)
+    def subplots(self, nrows=1, ncols=1, figsize=None, layout="constrained", **kw):
+        fig = self.figure(figsize=figsize, layout=layout)
         return fig, fig.subplots(nrows, ncols, **kw)
 
-    def figure(self, figsize=None, **kw):
-        return _figure_class()(figsize=figsize, **kw)
+    def figure(self, figsize=None, layout="constrained", **kw):
+        """A Figure with a layout engine (constrained by default), so that it keeps its
+        labels inside however it is saved: a plain ``savefig()`` cuts nothing off."""
+        return _figure_class()(figsize=figsize, layout=layout, **kw)
 
     def close(self, fig=None):
         """Nothing to close: no figure is registered with pyplot."""
@@ -118,9 +121,12 @@ def _nearest(values, target) -> float:
 
 
 def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
+    """Standard errors over the seeds; where a point has one seed (no spread), the run's own
+    standard error when the runs record one (tables.WITHIN_RUN_ERRORS)."""
     sem = g[f"{field}_sem"].to_numpy(dtype=float)
-    if field == "mu_bar":  # one seed: the run's own standard error
-        sem = np.where(np.isfinite(sem), sem, g["mu_bar_err_within_run"].to_numpy(dtype=float))
+    own = f"{field}_err_within_run"
+    if own in g:
+        sem = np.where(np.isfinite(sem), sem, g[own].to_numpy(dtype=float))
     return np.where(np.isfinite(sem), sem, 0.0)
 
 
@@ -261,12 +267,14 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
 
 
 def fig1b_stress(data: SweepData, plt, window: float = 150.0):
-    """sigma_x(t) over the last ``window`` time units of two runs, slips' sigma_fail marked."""
+    """sigma_x(t) over the last ``window`` time units of two runs, slips' sigma_fail marked,
+    on one y range."""
     lx, ly = data.sizes[0]
     phis = sorted(set(data.runs_of(lx, ly).phi))
     chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
     fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 1.9 * len(chosen) + 0.4),
                              squeeze=False)
+    lows, tops = [], []
     for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
@@ -284,10 +292,14 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         ax.axhline(top, color="tab:blue", ls="-.", lw=1,
                    label=r"Amontons-Coulomb $\mu_s\sigma_n$")
         ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
-        lo = sigma[keep].min()
-        ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
+        ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")  # each panel: the two runs' times differ
+        lows.append(sigma[keep].min())
+        tops.append(top)
         ax.legend(loc="upper center", ncol=3, frameon=False, fontsize=6.5)
-    axes[-1, 0].set_xlabel(r"t ($\sqrt{m/k_d}$)")
+    # one y range for both panels, so that their stresses compare by eye
+    lo, top = min(lows), max(tops)
+    for ax in axes[:, 0]:
+        ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
     fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$", fontsize=9)
     return fig
 
@@ -352,14 +364,14 @@ def fig_contacts(data: SweepData, plt):
                       f"{row.get('state', 'n/a')}", fontsize=7.5)
         bottom.set_ylim(0, 1.02)
         bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
-    axes[0, 0].set_ylabel(r"$\sigma_x/\sigma_n$")
-    axes[1, 0].set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
+    for top, bottom in axes.T:  # every panel: the stresses' ranges differ
+        top.set_ylabel(r"$\sigma_x/\sigma_n$")
+        bottom.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
     if not drawn:
         return None
     fig.suptitle("The start's memory: the stress (mean over 1% of the run) and the contacts' "
                  "phase coherence R (light: every sample; dark: mean over 1%); shaded: the "
                  "analysed window, green if steady", fontsize=7.5)
-    fig.tight_layout()
     return fig
 
 
@@ -379,24 +391,24 @@ def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
     return line
 
 
-def state_key(ax, data: SweepData, loc: str = "lower right") -> None:
-    """The key of the marker convention, on every figure that uses it: the states present
-    in the figure's points (grey markers)."""
+def state_key(fig, data: SweepData, ax=None) -> None:
+    """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
+    labelled handles, e.g. one per size) and the marker convention (:data:`STATE_FILL`) for
+    the states present in the figure's points (grey markers)."""
     from matplotlib.lines import Line2D
 
     present = set(_point_states(data.results))
     words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
              "metastable": "metastable (some seed)"}
-    handles = [Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
-                      mfc="grey" if fill != "none" else "white", mfcalt="white",
-                      label=words[name])
-               for name, fill in STATE_FILL.items() if name in present]
-    if handles and present != {"steady"} or len(handles) > 1:
-        ax.add_artist(ax.legend(handles=handles, loc=loc, frameon=False, fontsize=5.5,
-                                handletextpad=0.2, borderaxespad=0.2))
-    elif handles:
-        ax.text(0.99, 0.01, "filled: steady (every seed)", transform=ax.transAxes,
-                ha="right", va="bottom", fontsize=5.5, color="grey")
+    handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
+    for name, fill in STATE_FILL.items():
+        if name in present:
+            handles.append(Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
+                                  mfc="grey" if fill != "none" else "white", mfcalt="white"))
+            labels.append(words[name])
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncol=min(len(handles), 6),
+                   frameon=False, fontsize=6.5, handletextpad=0.3, columnspacing=1.2)
 
 
 def fig2a_friction(data: SweepData, plt):
@@ -415,13 +427,11 @@ def fig2a_friction(data: SweepData, plt):
     for ax in (a, c, b):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-        state_key(ax, data)
-    a.legend(frameon=False, loc="lower left")
+    state_key(fig, data, ax=a)
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
                 f"{data.sizes[0][1]})", fontsize=8)
     c.set_title("large drops only (drop > mean drop)", fontsize=8)
     b.set_title("time-averaged stress", fontsize=9)
-    fig.tight_layout()
     return fig
 
 
@@ -454,14 +464,13 @@ def fig2b_asymmetry(data: SweepData, plt):
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
     ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
-    state_key(ax, data, loc="center right")
-    ax.legend(frameon=False, fontsize=6.5)
-    fig.tight_layout()
+    state_key(fig, data, ax=ax)
     return fig
 
 
 def fig3_order(data: SweepData, plt):
-    """Psi(inf)(phi) per size; inset: Psi(t) of one seed for phi in INSET_PHI."""
+    """Psi(inf)(phi) per size; inset: 1 - Psi(t) of one seed for phi in INSET_PHI, on log
+    axes (Psi of the stiff layers all lie within 2% of 1)."""
     fig, ax = plt.subplots(figsize=(4.4, 3.2))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
@@ -470,8 +479,7 @@ def fig3_order(data: SweepData, plt):
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\Psi(\infty)$")
     ax.set_ylim(0.4, 1.05)
-    state_key(ax, data, loc="lower right")
-    ax.legend(frameon=False, loc="upper left")
+    state_key(fig, data, ax=ax)
     ax.set_title(r"Fig. 3: bond-orientational order $\Psi$", fontsize=9)
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
     runs = data.runs_of(*inset_size)
@@ -486,12 +494,17 @@ def fig3_order(data: SweepData, plt):
         p = data.run_dir(data.runs_of(*inset_size, phi).iloc[0]).read_psi()
         if p is None:
             continue
-        ins.plot(p.t, p.psi, color=colour, lw=0.8, label=f"{phi:g}")
+        # 1 - Psi on log axes: the stiff layers' Psi all sit near 1 and would overlap
+        t, dis = p.t.to_numpy(dtype=float), 1.0 - p.psi.to_numpy(dtype=float)
+        k = (t > 0) & (dis > 0)
+        ins.plot(t[k], dis[k], color=colour, lw=0.6, label=_num(phi))
+    ins.set_xscale("log")
+    ins.set_yscale("log")
     ins.set_xlabel(r"t ($\sqrt{m/k_d}$)", fontsize=6.5, labelpad=0)
-    ins.set_ylabel(r"$\Psi(t)$", fontsize=6.5, labelpad=1)
+    ins.set_ylabel(r"$1 - \Psi(t)$", fontsize=6.5, labelpad=1)
     ins.tick_params(labelsize=6)
-    ins.set_ylim(0.4, 1.02)
-    ins.set_title(f"N = {inset_size[0] * inset_size[1]}, phi =", fontsize=6, pad=12)
+    ins.set_title(rf"N = {inset_size[0] * inset_size[1]}, one seed, $\phi$ =", fontsize=6,
+                  pad=12)
     ins.legend(fontsize=5.5, frameon=False, loc="lower center", bbox_to_anchor=(0.5, 0.98),
                ncol=4, handlelength=1.2, columnspacing=0.8, borderaxespad=0)
     return fig
@@ -576,45 +589,110 @@ def _log_density(d, bins: int) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(edges[:-1] * edges[1:]), counts / (len(d) * np.diff(edges))
 
 
+def _late_drops(data: SweepData, runs: pd.DataFrame, system_wide: bool = False):
+    """The drops after the transient of ``runs`` (events.csv), pooled over the seeds; with
+    ``system_wide``, also whether each drop's slip moved every particle of the layer (its
+    largest cluster in clusters.csv holds all N; None when a run recorded no clusters)."""
+    drops, whole = [], []
+    for _, r in runs.iterrows():
+        rd = data.run_dir(r)
+        e = rd.read_events()
+        late = e["late"].astype(bool).to_numpy()
+        d = pd.to_numeric(e["drop"], errors="coerce").to_numpy(dtype=float)
+        drops.append(d[late])
+        if system_wide:
+            c = rd.read_clusters()
+            if c is None:
+                whole = None
+            elif whole is not None:
+                largest = c.groupby("event")["n_c"].max()
+                n_max = largest.reindex(np.arange(len(e))).to_numpy(dtype=float)
+                whole.append((n_max >= int(r.Lx) * int(r.Ly))[late])
+    d = np.concatenate(drops) if drops else np.empty(0)
+    keep = np.isfinite(d) & (d > 0)
+    if not system_wide:
+        return d[keep]
+    return d[keep], (np.concatenate(whole)[keep] if whole else None)
+
+
+def _drop_test(runs: pd.DataFrame, d: np.ndarray):
+    """The power-law test of the pooled drops above the runs' x_min (the slip threshold)."""
+    from .stress import power_law_test
+
+    x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean() \
+        if "drop_x_min" in runs else math.nan
+    return power_law_test(d, x_min=x_min if math.isfinite(x_min) else None)
+
+
 def fig_drops(data: SweepData, plt):
-    """Density of stress-drop sizes after the transient (all seeds, from events.csv) with
-    the power law the analysis fitted above the slip threshold (exponent averaged over the
-    seeds, runs.csv), for the four phi of the cluster figure."""
+    """(a) Density of stress-drop sizes after the transient (events.csv, the seeds pooled) for
+    the four phi of the cluster figure, with the maximum-likelihood power law drawn only where
+    Clauset et al.'s test finds it plausible (bootstrap p >= 0.1; :func:`bkflow.stress.
+    power_law_test`), else the rejection written in the key. (b) The stiffest of them split
+    into its two populations: slips that move every particle of the layer (system-wide) and
+    the rest, each density weighted by its share so that the two add up to (a)'s. Markers by
+    the point's state (:data:`STATE_FILL`)."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
-    fig, ax = plt.subplots(figsize=(3.8, 3.0))
-    drawn = 0
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    points = data.results_of(lx, ly)
+    drawn, stiff = 0, None
     for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
                               ("black", "tab:red", "tab:green", "tab:blue")):
         runs = data.runs_of(lx, ly, phi)
-        events = [data.run_dir(r).read_events() for _, r in runs.iterrows()]
-        d = np.concatenate([pd.to_numeric(e["drop"], errors="coerce").to_numpy(dtype=float)[
-            e["late"].astype(bool).to_numpy()] for e in events]) if events else np.empty(0)
-        d = d[np.isfinite(d) & (d > 0)]
+        d, whole = _late_drops(data, runs, system_wide=True)
         if len(d) < 2:
             continue
         drawn += 1
+        test = _drop_test(runs, d)
+        state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
+        fill = STATE_FILL.get(state[0] if len(state) else "drifting", "none")
         x, dens = _log_density(d, 15)
-        alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
-        alpha_err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
-        x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean()
         nz = dens > 0
-        label = rf"$\phi$ = {_num(phi)}: " + (rf"$\alpha$ = {alpha:.2f} $\pm$ {alpha_err:.2f}"
-                                      if math.isfinite(alpha) else "no fit")
-        ax.plot(x[nz], dens[nz], m, color=colour, mfc="none", label=label)
-        if math.isfinite(alpha) and math.isfinite(x_min):
+        ax.plot(x[nz], dens[nz], m, color=colour, fillstyle=fill,
+                mfc=colour if fill != "none" else "white", mfcalt="white",
+                label=rf"$\phi$ = {_num(phi)}: " + test.describe().replace("alpha",
+                                                                            r"$\alpha$"))
+        f = test.fit
+        if test.verdict == "plausible":
             # the fitted density over the tail, scaled by the tail's share of all drops
-            xs = np.geomspace(x_min, d.max(), 50)
-            share = np.mean(d >= x_min)
-            ax.plot(xs, share * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
+            xs = np.geomspace(f.x_min, d.max(), 50)
+            share = np.mean(d >= f.x_min)
+            ax.plot(xs, share * (f.alpha - 1) / f.x_min * (xs / f.x_min) ** -f.alpha,
                     color=colour, lw=0.8)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
-    ax.set_ylabel("probability density")
+        if whole is not None and (stiff is None or phi > stiff[0]):
+            stiff = (phi, d, whole, colour, fill)
     if not drawn:  # no run had two stress drops after its transient
         return None
-    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}", fontsize=9)
-    ax.legend(frameon=False, fontsize=6)
+    for a in (ax, bx):
+        a.set_xscale("log")
+        a.set_yscale("log")
+        a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
+    ax.set_ylabel("probability density")
+    bx.set_ylabel("probability density (of all drops)")
+    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}; lines: power laws that pass "
+                 "Clauset et al.'s test (p >= 0.1)", fontsize=6.5)
+    state_key(fig, data)
+    # below the axes: a rejection's words never cover a point
+    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    if stiff is None:
+        bx.text(0.5, 0.5, "no cluster data\n(scene without slip frames)",
+                transform=bx.transAxes, ha="center", va="center", fontsize=7)
+        return fig
+    phi, d, whole, colour, fill = stiff
+    edges = np.geomspace(d.min(), max(d.max(), d.min() * 1.0001), 16)
+    x = np.sqrt(edges[:-1] * edges[1:])
+    for part, label, m, ls in ((whole, "system-wide (every particle slips)", "^", "-"),
+                               (~whole, "partial", "v", "--")):
+        # the same bins for both, each normalised by all drops: the two add up to (a)'s
+        counts, _ = np.histogram(d[part], edges)
+        dens = counts / (len(d) * np.diff(edges))
+        nz = dens > 0
+        if nz.any():
+            bx.plot(x[nz], dens[nz], marker=m, ls=ls, color=colour, lw=0.8, fillstyle=fill,
+                    mfc=colour if fill != "none" else "white", mfcalt="white",
+                    label=f"{label}: {np.mean(part):.0%} of {len(d)}")
+    bx.set_title(rf"two populations at $\phi$ = {_num(phi)}", fontsize=8)
+    bx.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
     return fig
 
 

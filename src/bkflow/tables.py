@@ -26,6 +26,9 @@ RESULT_FIELDS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_o
                  "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent",
                  "n_slips", "n_slips_large", "drift", "t_equil", "t_run", "phase_coherence",
                  "phase_fluctuation")
+#: result fields whose runs carry their own standard error (``<field>_err``): results.csv gives
+#: the mean of those as ``<field>_err_within_run``, the error bar of a point with one seed
+WITHIN_RUN_ERRORS = ("mu_bar", "mu_bar_large", "mean_stress_ratio")
 #: state-point keys that are not physics: averaged over
 _NOT_GROUPED = ("seed",)
 #: summary entries that are not results (nested parameters and settings, bookkeeping)
@@ -62,7 +65,8 @@ def runs_table(finished_runs) -> pd.DataFrame:
 def results_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (phi, size, and every other parameter but the seed): the mean over seeds and its
     standard error (sample standard deviation / sqrt(n); NaN for one seed) of
-    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run error of mu_bar, the regime
+    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run errors
+    (:data:`WITHIN_RUN_ERRORS`), the regime
     most seeds report, and the states of the seeds' runs (docs/model.md "Steady state"):
     ``n_steady``, ``n_drifting``, ``n_metastable``, and the point's ``state``: steady when
     every seed's run is, else metastable when any is, else drifting (:func:`point_state`);
@@ -83,9 +87,11 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
             v = v[np.isfinite(v)]
             row[f] = v.mean() if len(v) else math.nan
             row[f"{f}_sem"] = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else math.nan
-        err = pd.to_numeric(g["mu_bar_err"], errors="coerce").to_numpy(dtype=float)
-        row["mu_bar_err_within_run"] = float(np.nanmean(err)) if np.isfinite(err).any() \
-            else math.nan
+        for f in WITHIN_RUN_ERRORS:
+            err = pd.to_numeric(g[f"{f}_err"], errors="coerce").to_numpy(dtype=float) \
+                if f"{f}_err" in g else np.full(1, math.nan)
+            row[f"{f}_err_within_run"] = float(np.nanmean(err)) if np.isfinite(err).any() \
+                else math.nan
         regimes = g["regime"].dropna()
         row["regime"] = regimes.mode().iloc[0] if len(regimes) else None
         stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
