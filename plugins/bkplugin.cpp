@@ -5,6 +5,7 @@
 
 #include "bkplugin.h"
 
+#include "comm.h"
 #include "domain.h"
 #include "fix_bk_fused.h"
 #include "fix_bk_fronts.h"
@@ -70,8 +71,12 @@ static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
     if (strcmp(argv[i], "fused") == 0) return new FixBKFused(lmp, argc, argv);
     if (strcmp(argv[i], "integrate") == 0) integrate = true;
   }
-  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp) > 0)
+  std::string why = " needs the box (create it before the fix)";
+  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp, &why) > 0)
     return new FixBKFused(lmp, argc, argv);
+  if (integrate && lmp->comm->me == 0)  // the log says which path runs, and why this one
+    utils::logmesg(lmp, "fix {} bk/substrate integrate: the general path on {} rank(s) (the "
+                   "fused path{})\n", argc > 0 ? argv[0] : "", lmp->comm->nprocs, why);
   return new FixBKSubstrate(lmp, argc, argv);
 }
 

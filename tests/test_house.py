@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import json
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -18,7 +19,7 @@ SRC = Path(bkflow.__file__).parent
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the data flow of the package, bottom to top: a module imports only modules before it
-#: (README, "Layout"). The pure analysis functions sit low, beside the parameters, so that
+#: (docs/develop.md, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
 ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "stress",
          "order", "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
@@ -44,7 +45,7 @@ def _bkflow_imports(path: Path) -> set[str]:
 
 def test_every_module_is_placed_in_the_data_flow():
     modules = {p.stem for p in SRC.glob("*.py")} - {"__init__", "__main__"}
-    assert modules == set(ORDER), (f"place these in ORDER (and in README's layout): "
+    assert modules == set(ORDER), (f"place these in ORDER (and in docs/develop.md's layout): "
                                    f"{sorted(modules ^ set(ORDER))}")
 
 
@@ -315,6 +316,38 @@ def test_the_docs_site_builds_strictly(tmp_path):
         assert (tmp_path / "site" / page).is_file(), page
     cli = (tmp_path / "site" / "cli" / "index.html").read_text()
     assert "--vary" in cli and "bkflow sweep" in cli
+    unrendered = {}
+    for page in sorted((tmp_path / "site").rglob("*.html")):
+        found = unrendered_markup(page.read_text())
+        if found:
+            unrendered[str(page.relative_to(tmp_path / "site"))] = found[:3]
+    assert not unrendered, unrendered
+
+
+#: markup that shows literally on a page when a docstring or a page is not the Markdown that
+#: mkdocs and mkdocstrings render: reST roles and literal-block markers, reST tables, a
+#: double backtick left over, a Markdown table or emphasis that did not become HTML
+UNRENDERED = [r":(?:py:)?(?:class|func|mod|data|attr|meth|exc|obj|ref|doc|math):",
+              r"(?<![.:])::(?![:\w])", r"^\s*\.\. \w+::", r"={5,}", r"``", r"\|\s*---",
+              r"(?<![\w*])\*\*\w[^*<]*\*\*"]
+
+
+def unrendered_markup(html: str) -> list[str]:
+    """What of ``html``'s text (code and scripts left out) is markup that was not rendered."""
+    text = re.sub(r"<(pre|code|script|style)\b.*?</\1>", " ", html, flags=re.S)
+    text = re.sub(r"<[^>]+>", " ", text)
+    return [text[max(0, m.start() - 40):m.end() + 20].strip() for pat in UNRENDERED
+            for m in re.finditer(pat, text, flags=re.M)]
+
+
+def test_the_unrendered_markup_check_finds_what_it_looks_for():
+    for raw in ("see :class:<code>RunSpec</code>", "<p>an example::</p>", "<p>``x``</p>",
+                "<p>==========  =====</p>", "<p>| a | b |\n|---|---|</p>", "<p>**bold**</p>",
+                "<p>.. note:: this</p>"):
+        assert unrendered_markup(raw), raw
+    for fine in ("<p>a <code>:class:</code> and <code>a::b</code></p>", "<p>1 .. 3</p>",
+                 "<pre>==========</pre>", "<p>std::vector</p>", "<p>t = 0 ... 1</p>"):
+        assert not unrendered_markup(fine), fine
 
 
 def test_nothing_refers_outside_the_repository():

@@ -1,9 +1,11 @@
-"""The README is true to the digit: every synopsis is argparse's own, and the quick start's
-output is what the command prints today (but for the wall time, the throughput and the
-kernel's name, which depend on the machine; the trajectory does not)."""
+"""The README is true to the digit: every synopsis (README and docs) is argparse's own, the
+quick start's output and size are what the command prints and writes today (but for the wall
+time, the throughput and the kernel's name, which depend on the machine; the trajectory does
+not), and every measured number in it is the record of benchmarks/readme_numbers.py."""
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shlex
 import subprocess
@@ -14,21 +16,53 @@ from bkflow.cli import subcommands, synopsis
 from tests.support import ROOT, tool
 
 README = ROOT / "README.md"
+DOCS = sorted((ROOT / "docs").glob("*.md"))
+RUNNING = ROOT / "docs" / "running.md"
 
 
-def _blocks(kind: str) -> dict[str, str]:
+def _numbers():
+    spec = importlib.util.spec_from_file_location("readme_numbers",
+                                                  ROOT / "benchmarks" / "readme_numbers.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _blocks(kind: str, *pages) -> dict[str, str]:
     """{argument: the fenced block after each ``<!-- kind: argument -->`` marker}."""
-    text = README.read_text()
-    found = re.findall(rf"<!-- {kind}: (.*?) -->\n```\n(.*?)```", text, flags=re.S)
-    return {arg: block.rstrip("\n") for arg, block in found}
+    found = {}
+    for page in pages or (README,):
+        for arg, block in re.findall(rf"<!-- {kind}: (.*?) -->\n```\n(.*?)```",
+                                     page.read_text(), flags=re.S):
+            found.setdefault(arg, []).append(block.rstrip("\n"))
+    return found
 
 
 def test_every_command_has_its_synopsis_and_each_is_argparses():
-    blocks = _blocks("synopsis")
-    assert set(blocks) == set(subcommands()), "a synopsis per command: " + ", ".join(
-        sorted(set(subcommands()) ^ set(blocks)))
-    for cmd, block in blocks.items():
-        assert block == synopsis(cmd), f"README's synopsis of bkflow {cmd} is out of date"
+    """The README shows the main commands' synopses (sweep, run), the docs every command's;
+    each is argparse's own, so ``bkflow CMD --help`` and the page list the same options."""
+    readme = _blocks("synopsis")
+    assert {"sweep", "run"} <= set(readme)
+    every = _blocks("synopsis", README, *DOCS)
+    assert set(every) == set(subcommands()), "a synopsis per command: " + ", ".join(
+        sorted(set(subcommands()) ^ set(every)))
+    for cmd, shown in every.items():
+        for block in shown:
+            assert block == synopsis(cmd), f"the synopsis of bkflow {cmd} is out of date"
+
+
+def test_the_readmes_measured_numbers_are_the_record():
+    """The sweep's time, size and printed table, the quick start's size and the suite's
+    count and time: README.md says what benchmarks/readme_numbers.py measured
+    (readme_numbers.json), and the record holds a measurement of each."""
+    numbers = _numbers()
+    record = numbers.load()
+    assert {"sweep", "run", "tests"} <= set(record)
+    text = README.read_text()
+    assert numbers.render(text, record) == text, \
+        "README.md differs from the record: python benchmarks/readme_numbers.py --write-readme"
+    assert record["sweep"]["command"] in text and record["run"]["command"] in text
+    assert record["tests"]["passed"]
 
 
 #: what depends on the machine in a run's first line: the wall time, the throughput, the kernel
@@ -51,12 +85,29 @@ def test_the_quick_starts_output_is_todays(lammps, tmp_path):
     proc = subprocess.run([tool("bkflow"), *args[1:]], cwd=tmp_path, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    assert _normal(proc.stdout, out) == _normal(shown, out)
+    assert _normal(proc.stdout, out) == _normal(shown[0], out)
+    # the size the README states, to its two digits (file systems round blocks differently)
+    numbers = _numbers()
+    stated = re.search(r"<!-- size: runs/phi10 -->(.*?)<!-- end -->", README.read_text()).group(1)
+    assert numbers.human(numbers.disk_bytes(tmp_path / out)) == stated
+    # every file the run wrote is in docs/running.md's table, and every table there names the
+    # columns of its file
+    table = RUNNING.read_text()
+    table = table[table.index("| file | content |"):]
+    table = table[:table.index("\n\n")]
+    listed = set(re.findall(r"^\| `([^`]+)`(?:, `([^`]+)`)?", table, flags=re.M))
+    listed = {n for pair in listed for n in pair if n}
+    written = {p.name + ("/" if p.is_dir() else "") for p in (tmp_path / out).iterdir()}
+    assert written <= listed, f"files docs/running.md does not list: {written - listed}"
+    for name, columns in re.findall(r"^\| `(\w+\.csv)` \| `([\w,]+)`", table, flags=re.M):
+        header = (tmp_path / out / name).read_text().splitlines()[0]
+        assert header == columns, f"{name}: the table says {columns}, the file has {header}"
 
 
 def test_the_readme_names_no_option_that_does_not_exist():
-    """Every --option the README writes after ``bkflow CMD`` is one of that command's."""
-    text = README.read_text()
+    """Every --option the README and the docs write after ``bkflow CMD`` is one of that
+    command's."""
+    text = "\n".join(p.read_text() for p in (README, *DOCS))
     options = {cmd: {o for a in p._actions for o in a.option_strings}
                for cmd, p in subcommands().items()}
     bad = []
@@ -77,10 +128,10 @@ def test_retired_options_are_gone_from_the_docs(flag):
 
 
 def test_the_exit_codes_are_the_clis():
-    """README's table of exit codes is bkflow.cli.EXIT_CODES, row for row."""
+    """docs/running.md's table of exit codes is bkflow.cli.EXIT_CODES, row for row."""
     from bkflow.cli import EXIT_CODES
 
-    text = README.read_text()
+    text = RUNNING.read_text()
     table = text[text.index("| exit code | meaning |"):]
     rows = table[:table.index("\n\n")].splitlines()[2:]
     assert rows == [f"| {k} | {v.replace('|', chr(92) + '|')} |" for k, v in EXIT_CODES.items()]

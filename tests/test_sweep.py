@@ -486,36 +486,44 @@ def test_a_point_with_one_seed_has_the_runs_own_error_bar_in_every_panel(tiny_sw
 
 
 def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep, monkeypatch):
-    """fig_drops with the drops of phi = 1 a true power law and those of phi = 1000
-    lognormal: one fitted line (phi = 1's), the rejection written in phi = 1000's key, and the
-    stiff layer's two populations beside it adding up to all its drops."""
-    import bkflow
+    """fig_drops with the analysis finding a power law plausible at phi = 1 and rejecting it
+    at phi = 1000 (lognormal favoured): one fitted line (phi = 1's), the rejection written in
+    phi = 1000's key, and the stiff layer's two populations beside it adding up to all its
+    drops."""
     from bkflow import plot
 
     out, _ = tiny_sweep
+    data = plot.SweepData(out)
+    one = np.isclose(data.runs.phi, 1.0)
+    data.runs["drop_power_law"] = np.where(one, "plausible", "rejected")
+    data.runs["drop_fit_p"] = np.where(one, 0.43, 0.0)
+    data.runs["drop_exponent"] = np.where(one, 1.8, 1.6)
+    data.runs["drop_exponent_err"] = 0.05
+    data.runs["drop_vs_lognormal"] = np.where(one, 0.5, -10.0)
+    data.runs["drop_vs_lognormal_p"] = np.where(one, 0.6, 1e-6)
     rng = np.random.default_rng(3)
-    samples = {1.0: 0.01 * (1 - rng.random(2000)) ** (-1 / 0.8),
-               1000.0: np.exp(rng.normal(-3.5, 0.8, 2000))}
-    samples[1000.0] = samples[1000.0][samples[1000.0] >= 0.01]
-    whole = {1.0: np.zeros(2000, bool), 1000.0: rng.random(len(samples[1000.0])) < 0.7}
+    drops = {1.0: 0.01 * (1 - rng.random(2000)) ** (-1 / 0.8),
+             1000.0: 0.01 + np.exp(rng.normal(-3.5, 0.8, 2000))}
+    whole = {1.0: np.zeros(2000, bool), 1000.0: rng.random(2000) < 0.7}
 
     def fake(data, runs, system_wide=False):
         phi = float(runs.phi.iloc[0])
-        return (samples[phi], whole[phi]) if system_wide else samples[phi]
+        return (drops[phi], whole[phi]) if system_wide else drops[phi]
 
     monkeypatch.setattr(plot, "_late_drops", fake)
-    fig = bkflow.load_sweep(out).figure("fig_drops")
+    with plot.style():
+        fig = plot.fig_drops(data, plot.Figures())
     left, right = fig.axes
     fits = [ln for ln in left.get_lines() if ln.get_marker() in ("None", "", None)]
     assert len(fits) == 1
     keys = [t.get_text() for t in left.get_legend().get_texts()]
-    assert any(k.startswith(r"$\phi$ = 1: $\alpha$ = 1.") for k in keys), keys
-    assert r"$\phi$ = 1000: power law rejected (p < 0.001, lognormal favoured)" in keys
+    assert r"$\phi$ = 1: $\alpha$ = 1.80 $\pm$ 0.05 (p >= 0.43)" in keys, keys
+    assert r"$\phi$ = 1000: power law rejected (p < 0.001, lognormal favoured)" in keys, keys
     parts = [t.get_text() for t in right.get_legend().get_texts()]
-    n = len(samples[1000.0])
-    assert parts[0].startswith("system-wide") and parts[0].endswith(f"of {n}")
+    assert parts[0].startswith("system-wide") and parts[0].endswith("of 2000")
     shares = [float(re.search(r"(\d+)% of", t).group(1)) for t in parts]
     assert sum(shares) == pytest.approx(100, abs=1)
+    assert _hidden_points(fig) == []
 
 
 def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_sweep):

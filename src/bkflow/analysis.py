@@ -1,11 +1,11 @@
 """One run's outputs turned into its summary: mu_bar, stress drops, Psi(inf), cluster shapes.
 
-:func:`summarize` is pure: arrays in, a :class:`RunAnalysis` out, made of one frozen result
-per observable (:class:`FrictionResult`, :class:`DropResult`, :class:`OrderResult`,
-:class:`ClusterResult`) and the tables the figures read (events, Psi(t), clusters).
-:func:`analyze` reads a run directory through :mod:`bkflow.rundir` and writes the summary and
+``summarize`` is pure: arrays in, a ``RunAnalysis`` out, made of one frozen result
+per observable (``FrictionResult``, ``DropResult``, ``OrderResult``,
+``ClusterResult``) and the tables the figures read (events, Psi(t), clusters).
+``analyze`` reads a run directory through ``bkflow.rundir`` and writes the summary and
 the tables back there. The observables are those of docs/model.md ("Observables"); the choices it
-leaves open are one :class:`~bkflow.params.AnalysisSettings`, recorded (resolved for the run)
+leaves open are one ``bkflow.params.AnalysisSettings``, recorded (resolved for the run)
 in every summary, so that a summary made under other settings is known to be stale.
 """
 
@@ -111,7 +111,7 @@ class CompanionResult:
 class StateResult:
     """The state of the run over its analysed window (docs/model.md "Steady state"): steady,
     drifting or metastable, from the stress's trend test and the contacts' phases
-    (:mod:`bkflow.phases`; ``contacts`` None for a run made before bkflow recorded them),
+    (``bkflow.phases``; ``contacts`` None for a run made before bkflow recorded them),
     and with a companion run, from the pair: the run is steady only when the companion is
     too and their mean stresses agree (a flat stress that disagrees with the other side's
     still remembers its start: metastable)."""
@@ -205,7 +205,7 @@ _NOT_MEASURED = {"psi_inf": math.nan, "lx_mean_over_Lx": math.nan, "ly_mean_over
 
 @dataclass(frozen=True)
 class RunAnalysis:
-    """What :func:`summarize` returns: one result per observable (None: not recorded by the
+    """What ``summarize`` returns: one result per observable (None: not recorded by the
     run's scene), the resolved settings, and the run they belong to."""
 
     spec: RunSpec
@@ -376,7 +376,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     """The analysis of one run.
 
     ``t``, ``sigma``: the stress series (stress.csv). ``phase``: the contacts' phase series
-    (phase.csv, columns of :data:`bkflow.rundir.PHASE_COLUMNS`), or None for a run made
+    (phase.csv, columns of ``bkflow.rundir.PHASE_COLUMNS``), or None for a run made
     before bkflow recorded it. ``companion``: (t, sigma, phase) of the companion run
     (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of

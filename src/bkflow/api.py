@@ -1,7 +1,5 @@
 """Runs and sweeps as Python objects, for notebooks: ``bkflow.load_run(dir)`` and
-``bkflow.load_sweep(dir)``.
-
-::
+``bkflow.load_sweep(dir)``:
 
     sweep = bkflow.load_sweep("runs/sweep")
     sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "state"]]
@@ -12,7 +10,7 @@
 Tables are pandas DataFrames read from the files bkflow wrote (nothing is recomputed);
 figures are ``matplotlib.figure.Figure`` objects made without pyplot: building one neither
 switches the backend, nor changes rcParams, nor touches the figures a user has open
-(:class:`bkflow.plot.Figures`). A notebook displays the Figure it is given; in a script, save
+(``bkflow.plot.Figures``). A notebook displays the Figure it is given; in a script, save
 it (``fig.savefig("f.png")``): it belongs to no pyplot window.
 """
 
@@ -57,7 +55,7 @@ class Run:
 
     @property
     def summary(self) -> dict | None:
-        """summary.json (None before the analysis); :meth:`analyze` makes it."""
+        """summary.json (None before the analysis); ``analyze`` makes it."""
         return self._rd.summary()
 
     def analyze(self, **settings) -> dict:
@@ -100,7 +98,7 @@ class Run:
     @functools.cached_property
     def fronts(self):
         """The rupture fronts the run recorded (scenes fronts, full): a list of
-        :class:`bkflow.io.Front`, one per slip, in the order of the slips (read once: the
+        ``bkflow.io.Front``, one per slip, in the order of the slips (read once: the
         file of a long run holds hundreds of megabytes)."""
         return self._rd.read_fronts()
 
@@ -195,15 +193,15 @@ class Sweep:
         """results.csv: means over seeds with standard errors, one row per point."""
         return self._data.results
 
-    #: the figures :meth:`figure` draws (short names work too: fig2a, drops)
+    #: the figures ``figure`` draws (short names work too: fig2a, drops)
     figures = tuple(FIGURES)
 
     def figure(self, name: str):
-        """The paper's figure ``name`` (see :attr:`figures`) of this sweep, as a Figure."""
+        """The paper's figure ``name`` (see ``figures``) of this sweep, as a Figure."""
         return figure(self._data, name)
 
     def run(self, which) -> Run:
-        """A run of the sweep: an index into :attr:`runs` (negative from the end) or a job
+        """A run of the sweep: an index into ``runs`` (negative from the end) or a job
         id."""
         if isinstance(which, int):
             if not -len(self.runs) <= which < len(self.runs):
@@ -218,10 +216,10 @@ class Sweep:
 
 
 def load_run(path) -> Run:
-    """The finished run in directory ``path`` (:class:`Run`)."""
+    """The finished run in directory ``path`` (``Run``)."""
     return Run(path)
 
 
 def load_sweep(path, where: dict | None = None) -> Sweep:
-    """The sweep in directory ``path`` (:class:`Sweep`)."""
+    """The sweep in directory ``path`` (``Sweep``)."""
     return Sweep(path, where)

@@ -3,7 +3,7 @@
 The commands: ``bkflow run``, ``sweep``, ``plot``, ``analyze``, ``collect``, ``deck`` and
 ``movie``.
 
-Every expected failure is one line on stderr and an exit code of :data:`EXIT_CODES`: bad
+Every expected failure is one line on stderr and an exit code of ``EXIT_CODES``: bad
 input 2, a failed run 1, another process busy 3, the file system 4. Nothing half-written is
 left looking complete: a run directory counts as finished only once its meta.json says so.
 """
@@ -697,7 +697,7 @@ def _fs_message(exc: OSError) -> str:
 
 
 def main(argv=None) -> int:
-    """The command line; returns the exit code (:data:`EXIT_CODES`). SIGTERM and SIGHUP
+    """The command line; returns the exit code (``EXIT_CODES``). SIGTERM and SIGHUP
     (a closed terminal) are taken as Ctrl-C: the command stops within a second, keeps what is
     finished, and the same command resumes."""
     import signal
@@ -746,7 +746,7 @@ PROCESS_LIMITS = (
 
 
 def _process_limit_short() -> str | None:
-    """The first process limit (:data:`PROCESS_LIMITS`) below what bkflow needs, said."""
+    """The first process limit (``PROCESS_LIMITS``) below what bkflow needs, said."""
     import resource
 
     for name, _, need, unit, said in PROCESS_LIMITS:

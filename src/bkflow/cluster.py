@@ -1,11 +1,11 @@
 """A sweep on a cluster: ``python -m bkflow.cluster status|run|submit|exec ...``, run inside a
 sweep directory (``bkflow sweep ... --out DIR --init`` creates one without running it).
 
-This is signac-flow's command line for :class:`bkflow.project.ClusterProject`, whose
+This is signac-flow's command line for ``bkflow.project.ClusterProject``, whose
 operations ``simulate`` and ``analyze`` are the ones ``bkflow sweep`` runs locally, and whose
 job-script template ships with the package (``bkflow/templates/script.sh``): it works from a
 wheel as from a checkout. The job scripts it submits call ``python -m bkflow.cluster`` again
-(the python that submitted, whose environment holds bkflow)::
+(the python that submitted, whose environment holds bkflow):
 
     bkflow sweep --phi 1e-1:1e3 --sizes 100,400,900 --seeds 3 --out grid --init
     cd grid

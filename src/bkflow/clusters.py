@@ -178,7 +178,7 @@ def cluster_shape(l_x, l_y, box, psi_inf: float = math.nan,
                   span: float = DEFAULT_SPAN_FRACTION,
                   psi_crystal: float = DEFAULT_PSI_CRYSTAL) -> ClusterShape:
     """Averages over all clusters of a run (each cluster counts once), and its regime: every
-    cluster is classified by :func:`regime` and the run takes the most frequent label (ties
+    cluster is classified by ``regime`` and the run takes the most frequent label (ties
     go to the label of larger phi, in the order C, LC, DP, DT)."""
     l_x = np.asarray(l_x, dtype=float)
     l_y = np.asarray(l_y, dtype=float)

@@ -1,7 +1,7 @@
 """LAMMPS data file and input deck of one run, as pure text (docs/model.md, "Forces on particle i").
 
-Nothing here runs LAMMPS or touches the disk: :func:`data_text` and :func:`deck_text` return
-strings that :func:`write_deck` saves, that the engine feeds to the LAMMPS Python API, and
+Nothing here runs LAMMPS or touches the disk: ``data_text`` and ``deck_text`` return
+strings that ``write_deck`` saves, that the engine feeds to the LAMMPS Python API, and
 that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the bkflow plugin
 through the ``lammps.plugins`` entry point).
 
@@ -41,7 +41,7 @@ FRONTS_FIX = "fronts"
 @dataclass(frozen=True)
 class DeckOptions:
     """How a deck is written, checked once and passed whole: the integration ``path`` (one of
-    :data:`bkflow.params.PATHS`), the LAMMPS settings that speed it up (``fast``: the
+    ``bkflow.params.PATHS``), the LAMMPS settings that speed it up (``fast``: the
     FAST_SETTINGS; None: with every path but ``general``), the files it names (relative for
     a standalone deck; None: not written), the thermo interval (None: 1% of the run), and,
     for tests, which parts of the model's forces it applies."""
@@ -119,7 +119,7 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
 def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
                   damp: bool = True, path: str = "general") -> str:
     """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for; with path
-    ``auto`` or ``fused`` the fix integrates by itself (:data:`PATHS`, plugins/README.md)."""
+    ``auto`` or ``fused`` the fix integrates by itself (``PATHS``, plugins/README.md)."""
     parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
@@ -300,7 +300,7 @@ def continue_text(spec: RunSpec, restart: str,
 
 
 def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
-    """The complete standalone deck: :func:`setup_text` plus the run."""
+    """The complete standalone deck: ``setup_text`` plus the run."""
     return setup_text(spec, options.replace()) + f"run             {spec.n_steps}\n"
 
 
@@ -315,7 +315,7 @@ STANDARD_DECKS = {
 
 
 def write_standard_decks(root) -> list[str]:
-    """Write every deck of :data:`STANDARD_DECKS` into ``root/NAME/``."""
+    """Write every deck of ``STANDARD_DECKS`` into ``root/NAME/``."""
     from pathlib import Path
 
     return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
@@ -379,7 +379,7 @@ def written_by_bkflow(path) -> bool:
 
 def write_deck(spec: RunSpec, directory, options: DeckOptions = DeckOptions()) -> dict[str, str]:
     """Write ``in.bk`` (with ``options``), ``data.bk`` and ``params.json`` into
-    ``directory``, each atomically and signed (:func:`written_by_bkflow`); return
+    ``directory``, each atomically and signed (``written_by_bkflow``); return
     {name: path}."""
     from pathlib import Path
 

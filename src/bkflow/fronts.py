@@ -1,8 +1,8 @@
 """Rupture fronts as pictures: the x-t and y-t maps of one slip's slip rate, and an animated GIF
 of the layer through the slip (``bkflow movie``, ``Run.front_figure``, ``Run.movie``).
 
-From the fronts a run recorded (fix bk/fronts, :func:`bkflow.rundir.RunDir.read_fronts`), never
-re-computed; figures are made without pyplot (:class:`bkflow.plot.Figures`), the GIF with
+From the fronts a run recorded (fix bk/fronts, ``bkflow.rundir.RunDir.read_fronts``), never
+re-computed; figures are made without pyplot (``bkflow.plot.Figures``), the GIF with
 Pillow from NumPy-coloured frames.
 """
 

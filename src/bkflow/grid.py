@@ -35,7 +35,7 @@ MAX_PHI_VALUES = 100_000
 def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[float]:
     """``"A:B"`` -> log-spaced phi from A to B, ``points_per_decade`` per decade, both ends
     included when B/A is a whole number of steps; ``"a,b,c"`` -> that list. Values are
-    rounded to 6 significant digits. Raises :class:`SpecError` naming what is wrong."""
+    rounded to 6 significant digits. Raises ``SpecError`` naming what is wrong."""
     text = str(text).strip()
     if not isinstance(points_per_decade, int) or points_per_decade < 1:
         raise SpecError(f"--points-per-decade must be a whole number >= 1, "

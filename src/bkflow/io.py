@@ -1,8 +1,8 @@
 """File formats at the edge of bkflow: LAMMPS dumps, CSV tables and JSON, read and written.
 
-Which file of a run directory holds what is :mod:`bkflow.rundir`'s business; this module only
+Which file of a run directory holds what is ``bkflow.rundir``'s business; this module only
 knows formats. Tables are read and written with pandas; LAMMPS dumps are read by
-:func:`read_regular_frames`, a vectorised reader of the regular dumps bkflow writes (kept for
+``read_regular_frames``, a vectorised reader of the regular dumps bkflow writes (kept for
 speed: MDAnalysis's reader, used for any other dump, parses line by line and made reading a
 full-scene run cost as much as running it; the two are checked against each other in
 tests/test_scenes.py), unwrapped with the image flags. Positions come back to the 9
@@ -64,7 +64,7 @@ def read_frames(path, n_atoms: int | None = None) -> Frames:
 
     An empty file (a scene that recorded no event) gives zero frames of ``n_atoms`` atoms.
     bkflow's own dumps (every frame the same atoms, the same columns) are read by
-    :func:`read_regular_frames`; anything else, a cut file included, by MDAnalysis.
+    ``read_regular_frames``; anything else, a cut file included, by MDAnalysis.
     """
     path = Path(path)
     if path.stat().st_size == 0:
@@ -245,7 +245,7 @@ MARK = "bkflow"
 
 
 def made_by_bkflow(path, recorded=()) -> bool:
-    """Whether the file at ``path`` is one bkflow wrote: it carries :data:`MARK` near its
+    """Whether the file at ``path`` is one bkflow wrote: it carries ``MARK`` near its
     start or end (where the formats keep their metadata), or its name is in ``recorded``
     (figures.json, for formats without metadata)."""
     path = Path(path)
@@ -263,7 +263,7 @@ def made_by_bkflow(path, recorded=()) -> bool:
 
 def foreign_file(path, recorded=()) -> str | None:
     """Why bkflow must not replace the file at ``path`` (None: there is none, or it is one
-    bkflow wrote: :func:`made_by_bkflow`)."""
+    bkflow wrote: ``made_by_bkflow``)."""
     if os.path.lexists(path) and not made_by_bkflow(path, recorded):
         return (f"{path} exists and was not written by bkflow: it is not replaced; choose "
                 "another --out, or move it")
@@ -276,7 +276,7 @@ def _replace_atomically(path: Path, write) -> None:
 
 
 def write_text_atomic(path, text: str) -> None:
-    """Write a text file atomically (:func:`atomic_file`)."""
+    """Write a text file atomically (``atomic_file``)."""
     with atomic_file(path) as f:
         f.write(text)
 
@@ -296,7 +296,7 @@ def write_json_atomic(path, obj) -> None:
 
 def write_table(path, table) -> None:
     """Write a CSV of named columns (a dict of arrays or a DataFrame) atomically, floats in
-    :data:`FLOAT_FORMAT`."""
+    ``FLOAT_FORMAT``."""
     import pandas as pd
 
     df = table if isinstance(table, pd.DataFrame) else pd.DataFrame(table)

@@ -2,8 +2,8 @@
 
 Both steps depend on their inputs alone, hold the run directory's lock, and skip what is
 already there and intact, so that a sweep (locally or on a cluster) can call them again and
-again: :func:`simulate` runs LAMMPS only when the directory holds no intact finished run of
-the spec; :func:`analyze` only rewrites a summary that is missing or stale.
+again: ``simulate`` runs LAMMPS only when the directory holds no intact finished run of
+the spec; ``analyze`` only rewrites a summary that is missing or stale.
 """
 
 from __future__ import annotations
@@ -52,6 +52,6 @@ def analyze(spec: RunSpec, out, settings: AnalysisSettings) -> dict:
 
 
 def run_one(spec: RunSpec, out, settings: AnalysisSettings = AnalysisSettings()) -> dict:
-    """:func:`simulate` then :func:`analyze`: the summary of ``spec``'s run in ``out``."""
+    """``simulate`` then ``analyze``: the summary of ``spec``'s run in ``out``."""
     simulate(spec, out)
     return analyze(spec, out, settings)

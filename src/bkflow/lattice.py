@@ -36,7 +36,7 @@ class Lattice:
 
 
 def square_lattice(Lx: int, Ly: int) -> Lattice:
-    """Lattice geometry (l = 1) with every k_d^i = 1 (use :func:`lattice_for` for a run's
+    """Lattice geometry (l = 1) with every k_d^i = 1 (use ``lattice_for`` for a run's
     k_d^i)."""
     ix, iy = np.meshgrid(np.arange(Lx), np.arange(Ly), indexing="xy")
     ix, iy = ix.ravel(), iy.ravel()

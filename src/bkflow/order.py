@@ -10,7 +10,7 @@ the box. A soft layer (phi = 0.1 on 20x5) stretches bonds past 2.5 l, where the
 minimum image jumps to another partner image. So for runs the bond vector keeps the lattice
 image, exactly as fix bk/substrate does: with unwrapped positions R (image flags applied) and
 the per-bond box shift s_b taken once from the reference lattice,
-d_b = R_j - R_i + s_b. :func:`bond_vectors` also offers the minimum image (``box=...``) for
+d_b = R_j - R_i + s_b. ``bond_vectors`` also offers the minimum image (``box=...``) for
 configurations that are not runs (and to compare with freud, which uses it).
 
 Everything is vectorised over bonds and over frames; no Python loop over atoms.
@@ -48,7 +48,7 @@ def lattice_shifts(reference, bonds, box) -> np.ndarray:
 def bond_vectors(positions, bonds, box=None, shifts=None) -> np.ndarray:
     """Bond vectors R_j - R_i of every bond (i, j), for one frame (N, 2) or many (F, N, 2).
 
-    ``shifts`` (Nb, 2): the fixed lattice images of :func:`lattice_shifts`, for unwrapped
+    ``shifts`` (Nb, 2): the fixed lattice images of ``lattice_shifts``, for unwrapped
     positions of a run. ``box`` (Lx, Ly): minimum image instead. Exactly one must be given.
     """
     if (box is None) == (shifts is None):

@@ -1,6 +1,6 @@
 """Model parameters of docs/model.md ("Units and defaults"), the single source of defaults.
 
-Every other module takes a :class:`RunSpec` and derives what it needs from it; nothing else
+Every other module takes a ``RunSpec`` and derives what it needs from it; nothing else
 hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
 
 >>> spec = RunSpec(phi=10.0, Lx=20, Ly=5)
@@ -240,7 +240,7 @@ def boolean(name, v):
 
 
 def checked(default=dataclasses.MISSING, check=None, **kw):
-    """A dataclass field with its check (see :func:`check_fields`)."""
+    """A dataclass field with its check (see ``check_fields``)."""
     return dataclasses.field(default=default, metadata={"check": check}, **kw)
 
 
@@ -305,7 +305,7 @@ def parse_typed(kind: str, text: str, what: str, none_words=("none",)):
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    """``"20x5"`` -> ``(20, 5)``; a clear :class:`SpecError` for anything else."""
+    """``"20x5"`` -> ``(20, 5)``; a clear ``SpecError`` for anything else."""
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", str(text))
     if not m:
         raise SpecError(f"size {text!r} is not of the form LXxLY (e.g. 20x5)")
@@ -531,7 +531,7 @@ class RunSpec:
 
     @property
     def transient_step(self) -> int:
-        """First step after the transient (:func:`transient_step` of the whole run)."""
+        """First step after the transient (``transient_step`` of the whole run)."""
         return transient_step(self.transient, self.n_steps)
 
     @property
@@ -560,7 +560,7 @@ class RunSpec:
 
     @property
     def protocol(self) -> str:
-        """Which protocol the run follows (:data:`PROTOCOLS`): steady (run until steady),
+        """Which protocol the run follows (``PROTOCOLS``): steady (run until steady),
         paper (the synchronized start, a fixed length), or custom (anything else)."""
         if self.until_steady:
             return "steady"
@@ -620,7 +620,7 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
                     dt_factor: float | None = None, until_steady: bool = False,
                     target_error: float | None = None, companion: str | None = "") -> dict:
     """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, dt_factor,
-    target_error) from an accuracy preset (:data:`ACCURACY`) and what is given explicitly
+    target_error) from an accuracy preset (``ACCURACY``) and what is given explicitly
     (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
     none). ``steady``: from STEADY_START with a companion from STEADY_COMPANION (or, when
     ``start`` is that, STEADY_START) until the pair is steady and mu_bar's error is below the
@@ -661,7 +661,7 @@ ANALYSIS_REVISION = 5
 
 @dataclass(frozen=True)
 class AnalysisSettings:
-    """Every choice the analysis makes that docs/model.md leaves open, beside :class:`RunSpec`.
+    """Every choice the analysis makes that docs/model.md leaves open, beside ``RunSpec``.
 
     A summary records the settings it was made under (resolved for its run); one made under
     other settings is stale and is redone from the run's files, never by running LAMMPS

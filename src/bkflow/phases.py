@@ -1,7 +1,7 @@
 """The contacts' load phases over a window: how coherent they are, and whether that coherence
 is the start's (docs/model.md, "Contact phase" and "Steady state").
 
-Pure functions on arrays, like :mod:`bkflow.stress`. The plugin records (phase.csv, fix
+Pure functions on arrays, like ``bkflow.stress``. The plugin records (phase.csv, fix
 bk/phase) the complex order parameter Z(t) = (1/N) sum_i exp(2 pi i u_i) of the phases
 u_i = k_e |dr_i| / (mu_s sigma_n A) in [0, 1), its second harmonic and the spread of u.
 
@@ -73,7 +73,7 @@ class Coherence:
     @property
     def coherent(self) -> bool:
         """The contacts still move together (the start's memory): chi above
-        :data:`COHERENT_FLUCTUATION`, or not measurable."""
+        ``COHERENT_FLUCTUATION``, or not measurable."""
         return not (self.fluctuation <= COHERENT_FLUCTUATION)
 
 

@@ -2,19 +2,18 @@
 
 Reads tables only: ``runs.csv``, ``results.csv`` and the tables of each run (stress.csv,
 and what the analysis wrote: events.csv, psi.csv, clusters.csv), through
-:mod:`bkflow.tables` and :mod:`bkflow.rundir`; it never analyses. Writes PNG and PDF into
+``bkflow.tables`` and ``bkflow.rundir``; it never analyses. Writes PNG and PDF into
 ``DIR/figures``:
 
-=====================  ===============================================================
-``fig1b_stress``       sigma_x(t) of two runs (smallest and largest phi near 1 and 1e3),
-                       sigma_fail of every slip marked, the Amontons-Coulomb line
-``fig2a_friction``     mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside
-``fig2b_asymmetry``    <l_x>/<l_y>(phi) per size
-``fig3_order``         Psi(inf)(phi) per size; inset 1 - Psi(t) for phi in {1e3, 1e2, 10, 1}
-``fig4a_clusters``     l_y/Ly vs l_x/Lx of every slip cluster for four phi
-``fig_drops``          stress-drop size distribution for four phi, the power law drawn only
-                       where plausible; the stiff layer's system-wide and partial slips
-=====================  ===============================================================
+| file | what |
+|---|---|
+| ``fig1b_stress`` | sigma_x(t) of two runs (phi near 1e3 and 1), sigma_fail marked |
+| ``fig2a_friction`` | mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside |
+| ``fig2b_asymmetry`` | <l_x>/<l_y>(phi) per size |
+| ``fig3_order`` | Psi(inf)(phi) per size; inset 1 - Psi(t) for phi in {1e3, 1e2, 10, 1} |
+| ``fig4a_clusters`` | l_y/Ly vs l_x/Lx of every slip cluster for four phi |
+| ``fig_drops`` | stress-drop sizes for four phi, a power law where plausible |
+| ``fig_contacts`` | sigma_x(t) and the contacts' phase coherence R(t) of three runs |
 
 Error bars are standard errors over seeds; with a single seed, the run's own standard error.
 A figure whose data the sweep did not record (e.g. scene ``friction``: no clusters) is
@@ -94,7 +93,7 @@ def _figure_class():
 
 
 def style():
-    """The context in which bkflow builds (and saves) its figures: :data:`STYLE`."""
+    """The context in which bkflow builds (and saves) its figures: ``STYLE``."""
     import matplotlib
 
     return matplotlib.rc_context(STYLE)
@@ -377,7 +376,7 @@ def fig_contacts(data: SweepData, plt):
 
 def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
     """One curve against phi with error bars, each point's marker drawn by its state
-    (:data:`STATE_FILL`)."""
+    (``STATE_FILL``)."""
     line = ax.errorbar(g.phi, g[field], yerr=_errors(g, field), marker="none", capsize=2,
                        lw=0.8, label=label)
     colour = line[0].get_color()
@@ -393,7 +392,7 @@ def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
 
 def state_key(fig, data: SweepData, ax=None) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
-    labelled handles, e.g. one per size) and the marker convention (:data:`STATE_FILL`) for
+    labelled handles, e.g. one per size) and the marker convention (``STATE_FILL``) for
     the states present in the figure's points (grey markers)."""
     from matplotlib.lines import Line2D
 
@@ -413,7 +412,7 @@ def state_key(fig, data: SweepData, ax=None) -> None:
 
 def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
-    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (:data:`STATE_FILL`)."""
+    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``STATE_FILL``)."""
     fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 2.9))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
@@ -541,7 +540,7 @@ def fig4a_clusters(data: SweepData, plt):
 
 def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     """l_y/Ly against l_x/Lx of every cluster of the runs at (lx, ly) and each phi; the
-    regime boundaries of :func:`bkflow.clusters.regime` drawn in. None when no clusters."""
+    regime boundaries of ``bkflow.clusters.regime`` drawn in. None when no clusters."""
     fig = None
     if ax is None:
         fig, ax = plt.subplots(figsize=(3.8, 4.0))
@@ -615,23 +614,42 @@ def _late_drops(data: SweepData, runs: pd.DataFrame, system_wide: bool = False):
     return d[keep], (np.concatenate(whole)[keep] if whole else None)
 
 
-def _drop_test(runs: pd.DataFrame, d: np.ndarray):
-    """The power-law test of the pooled drops above the runs' x_min (the slip threshold)."""
-    from .stress import power_law_test
+def _drop_verdict(runs: pd.DataFrame) -> tuple[bool, str]:
+    """Whether the seeds' stress drops follow a power law, from their analyses (runs.csv:
+    ``drop_power_law``, ``drop_fit_p``, ``drop_vs_lognormal[_p]``; ``bkflow.stress.
+    power_law_test``): plausible only when it is in every seed; and the key's words."""
+    verdicts = runs["drop_power_law"].astype(str).tolist() if "drop_power_law" in runs \
+        else ["no fit"] * len(runs)
+    def column(name):
+        return pd.to_numeric(runs[name], errors="coerce") if name in runs \
+            else pd.Series(np.nan, index=runs.index)
 
-    x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean() \
-        if "drop_x_min" in runs else math.nan
-    return power_law_test(d, x_min=x_min if math.isfinite(x_min) else None)
+    p = column("drop_fit_p")
+    n = len(verdicts)
+    if n and all(v == "plausible" for v in verdicts):
+        alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
+        err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
+        return True, (rf"$\alpha$ = {alpha:.2f} $\pm$ {err:.2f} (p >= {p.min():.2f}"
+                      + (f" in all {n} seeds)" if n > 1 else ")"))
+    rejected = sum(v == "rejected" for v in verdicts)
+    if not rejected:
+        return False, "no fit"
+    R, Rp = column("drop_vs_lognormal"), column("drop_vs_lognormal_p")
+    lognormal = bool(((R < 0) & (Rp < 0.1)).sum() == rejected)
+    worst = p[runs["drop_power_law"].astype(str) == "rejected"].max()
+    shown = "p < 0.001" if worst < 0.001 else f"p <= {worst:.2f}"
+    return False, ("power law rejected" + (f" in {rejected} of {n} seeds" if n > 1 else "")
+                   + f" ({shown}" + (", lognormal favoured)" if lognormal else ")"))
 
 
 def fig_drops(data: SweepData, plt):
     """(a) Density of stress-drop sizes after the transient (events.csv, the seeds pooled) for
     the four phi of the cluster figure, with the maximum-likelihood power law drawn only where
-    Clauset et al.'s test finds it plausible (bootstrap p >= 0.1; :func:`bkflow.stress.
-    power_law_test`), else the rejection written in the key. (b) The stiffest of them split
+    the analysis found it plausible in every seed (Clauset et al.'s bootstrap, p >= 0.1;
+    runs.csv ``drop_power_law``), else the rejection written in the key. (b) The stiffest of them split
     into its two populations: slips that move every particle of the layer (system-wide) and
     the rest, each density weighted by its share so that the two add up to (a)'s. Markers by
-    the point's state (:data:`STATE_FILL`)."""
+    the point's state (``STATE_FILL``)."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
@@ -643,21 +661,22 @@ def fig_drops(data: SweepData, plt):
         if len(d) < 2:
             continue
         drawn += 1
-        test = _drop_test(runs, d)
+        plausible, words = _drop_verdict(runs)
         state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
         fill = STATE_FILL.get(state[0] if len(state) else "drifting", "none")
         x, dens = _log_density(d, 15)
         nz = dens > 0
         ax.plot(x[nz], dens[nz], m, color=colour, fillstyle=fill,
                 mfc=colour if fill != "none" else "white", mfcalt="white",
-                label=rf"$\phi$ = {_num(phi)}: " + test.describe().replace("alpha",
-                                                                            r"$\alpha$"))
-        f = test.fit
-        if test.verdict == "plausible":
-            # the fitted density over the tail, scaled by the tail's share of all drops
-            xs = np.geomspace(f.x_min, d.max(), 50)
-            share = np.mean(d >= f.x_min)
-            ax.plot(xs, share * (f.alpha - 1) / f.x_min * (xs / f.x_min) ** -f.alpha,
+                label=rf"$\phi$ = {_num(phi)}: {words}")
+        if plausible:
+            # the fitted density over the tail (the seeds' mean exponent above their x_min),
+            # scaled by the tail's share of all drops
+            alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
+            x_min = pd.to_numeric(runs.drop_x_min, errors="coerce").mean()
+            xs = np.geomspace(x_min, d.max(), 50)
+            share = np.mean(d >= x_min)
+            ax.plot(xs, share * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
                     color=colour, lw=0.8)
         if whole is not None and (stiff is None or phi > stiff[0]):
             stiff = (phi, d, whole, colour, fill)
@@ -711,7 +730,7 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     A sweep that varies other parameters too (``bkflow sweep --vary``) gets one set of
     figures per combination, in subdirectories ``NAME=VALUE[,NAME=VALUE]``. The figures are
     recorded with the tables they were drawn from (``figures.json``): a sweep or collect that
-    changes the tables removes them (:func:`bkflow.tables.retire_figures`).
+    changes the tables removes them (``bkflow.tables.retire_figures``).
     Returns (paths written, {figure: why it was skipped})."""
     from .tables import FIGURES_RECORD, record_figures, tables_digest
 
@@ -780,7 +799,7 @@ def _plot(data: SweepData, out: Path, formats, where, recorded) -> tuple[list[Pa
 
 
 def figure(data: SweepData, name: str):
-    """The Figure ``name`` of :data:`FIGURES` (or its short name: ``fig2a``, ``drops``) of a
+    """The Figure ``name`` of ``FIGURES`` (or its short name: ``fig2a``, ``drops``) of a
     sweep's data, a ``matplotlib.figure.Figure`` made without pyplot; a PlotError saying why
     when the sweep did not record what it needs."""
     full = _figure_name(name)

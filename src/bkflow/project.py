@@ -1,12 +1,12 @@
 """A sweep directory as a signac-flow project: one job per run, two operations.
 
-Every run is a signac job whose state point is the full :class:`~bkflow.params.RunSpec` (the
+Every run is a signac job whose state point is the full ``bkflow.params.RunSpec`` (the
 job id is a hash of every parameter) and whose folder is the run directory
-(``workspace/<id>/``). Operation :func:`simulate` runs LAMMPS (post-condition: an intact
-finished run); operation :func:`analyze` (pre-condition: simulated) writes the summary under
+(``workspace/<id>/``). Operation ``simulate`` runs LAMMPS (post-condition: an intact
+finished run); operation ``analyze`` (pre-condition: simulated) writes the summary under
 the sweep's analysis settings, kept in the project document (post-condition: the summary is
 current for them). So a re-run, locally with ``bkflow sweep`` or on a cluster with
-``workflows/project.py`` (:class:`ClusterProject`), skips finished work; a changed analysis
+``workflows/project.py`` (``ClusterProject``), skips finished work; a changed analysis
 setting re-analyses every run and runs no LAMMPS.
 """
 
@@ -52,12 +52,12 @@ def set_settings(project, settings: AnalysisSettings) -> None:
 
 
 def simulated(job) -> bool:
-    """Post-condition of :func:`simulate`: the run's files are intact."""
+    """Post-condition of ``simulate``: the run's files are intact."""
     return one.simulated(job.path, spec_of(job))
 
 
 def analysed(job) -> bool:
-    """Post-condition of :func:`analyze`: the run is intact and its summary is current for
+    """Post-condition of ``analyze``: the run is intact and its summary is current for
     the sweep's settings."""
     return one.analysed(job.path, spec_of(job), settings_of(job.project))
 
@@ -111,8 +111,8 @@ def _record_failure(job, exc: Exception) -> None:
 @SweepProject.post(simulated)
 @SweepProject.operation(directives={"np": 1, "walltime": _walltime_hours})
 def simulate(job):
-    """Run the job's RunSpec (:func:`bkflow.job.simulate`) and, while its files are hot,
-    analyse it as :func:`analyze` would, so that one pass finishes a run. A failure
+    """Run the job's RunSpec (``bkflow.job.simulate``) and, while its files are hot,
+    analyse it as ``analyze`` would, so that one pass finishes a run. A failure
     (blow-up, LAMMPS error) is recorded in the job document under ``error`` and does not stop
     the other runs; the post-condition stays false, so the next sweep tries it again."""
     _die_with_parent()
@@ -132,7 +132,7 @@ def simulate(job):
 @SweepProject.post(analysed)
 @SweepProject.operation(directives={"np": 1})
 def analyze(job):
-    """Analyse the job's run under the sweep's settings (:func:`bkflow.job.analyze`); an
+    """Analyse the job's run under the sweep's settings (``bkflow.job.analyze``); an
     analysis that fails (damaged files) is recorded like a failed run."""
     _die_with_parent()
     try:
@@ -287,7 +287,7 @@ def check_workspace(path) -> None:
 
 def open_project(path, create: bool = True) -> SweepProject:
     """The sweep project at ``path`` (created when ``create`` and it does not exist; a
-    directory that is not bkflow's is refused, :func:`check_sweep_dir`)."""
+    directory that is not bkflow's is refused, ``check_sweep_dir``)."""
     import signac
 
     path = Path(path)

@@ -65,7 +65,7 @@ def installed_versions() -> dict[str, str]:
 
 @functools.cache
 def libraries() -> dict:
-    """{name: version} of :data:`LIBRARIES` (None when one is not installed)."""
+    """{name: version} of ``LIBRARIES`` (None when one is not installed)."""
     found = installed_versions()
     out = {}
     for name in LIBRARIES:

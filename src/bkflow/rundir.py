@@ -6,21 +6,24 @@ the data file and LAMMPS's outputs here and commits the run by writing ``meta.js
 run's tables and writes its own; sweeps and figures ask the checks below. Nothing else names
 a file of a run.
 
-==========================  ===============================================================
-``in.bk``, ``data.bk``      the LAMMPS deck and data file (``lmp -in in.bk`` runs it again)
-``params.json``             the RunSpec of a deck written by ``bkflow deck``
-``stress.csv``              ``t,sigma_x``: the shear stress every stress_nevery steps
-``phase.csv``               ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the contacts' load phases
-``snapshots.lammpstrj``     positions every snapshot_nevery steps (scenes order, full)
-``slips.lammpstrj``         positions at every slip's maximum and minimum (clusters, full)
-``log.lammps``              LAMMPS's log
-``meta.json``               the completion record: parameters, versions, counters, sizes
-``summary.json``            the analysis: every observable, the settings it was made under
-``events.csv``              one row per slip: onset and end time, sigma_fail, drop, late
-``psi.csv``                 ``t,psi``: Psi(t) (scenes order, full)
-``clusters.csv``            one row per slip cluster (scenes clusters, full)
-``companion/``              the companion run (RunSpec.companion), a run directory itself
-==========================  ===============================================================
+| file | what |
+|---|---|
+| ``in.bk``, ``data.bk`` | the LAMMPS deck and data file (``lmp -in in.bk`` runs it again) |
+| ``params.json`` | the RunSpec of a deck written by ``bkflow deck`` |
+| ``stress.csv`` | ``t,sigma_x``: the shear stress every stress_nevery steps |
+| ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the contacts' load phases |
+| ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scenes order, full) |
+| ``slips.lammpstrj`` | positions at every slip's maximum and minimum (clusters, full) |
+| ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
+| ``log.lammps`` | LAMMPS's log |
+| ``meta.json`` | the completion record: parameters, versions, counters, sizes |
+| ``summary.json`` | the analysis: every observable, the settings it was made under |
+| ``events.csv`` | one row per slip: onset and end time, sigma_fail, drop, late, large |
+| ``psi.csv`` | ``t,psi``: Psi(t) (scenes order, full) |
+| ``clusters.csv`` | one row per slip cluster (scenes clusters, full) |
+| ``companion/`` | the companion run (RunSpec.companion), a run directory itself |
+| ``.bkflow-run`` | the mark that bkflow made the directory (written first) |
+| ``.bkflow.lock`` | the lock a process holds while it writes the run |
 """
 
 from __future__ import annotations
@@ -151,7 +154,7 @@ class RunDir:
                     pass
 
     def is_complete(self) -> bool:
-        """meta.json says the run finished (sizes not checked: see :meth:`problem`)."""
+        """meta.json says the run finished (sizes not checked: see ``problem``)."""
         meta = self.meta()
         return meta is not None and meta.get("status") == "complete"
 
@@ -246,7 +249,7 @@ class RunDir:
     @contextlib.contextmanager
     def lock(self):
         """Hold an exclusive lock on the directory (released when the process dies); a
-        second writer gets :class:`RunBusyError` at once. Re-entrant within a process (the
+        second writer gets ``RunBusyError`` at once. Re-entrant within a process (the
         sweep's job holds it around the engine's run and the analysis)."""
         import fcntl
 
@@ -345,7 +348,7 @@ class RunDir:
 
     def phase_reader(self) -> CsvTail:
         """An incremental reader of the phase series of a run in progress
-        (:data:`PHASE_COLUMNS`)."""
+        (``PHASE_COLUMNS``)."""
         return CsvTail(self.file(PHASE), len(PHASE_COLUMNS))
 
     def read_snapshots(self, n_atoms: int) -> io.Frames:
@@ -353,7 +356,7 @@ class RunDir:
 
     def read_fronts(self) -> list[io.Front]:
         """The rupture fronts of the run (fix bk/fronts, scenes fronts and full): one
-        :class:`bkflow.io.Front` per recorded slip; [] when the scene recorded none."""
+        ``bkflow.io.Front`` per recorded slip; [] when the scene recorded none."""
         if not self.file(FRONTS).exists():
             meta = self.meta() or {}
             if (meta.get("fronts") or {}).get("written"):
@@ -430,7 +433,7 @@ class RunDir:
         return io.json_ready(summary)
 
     def read_events(self):
-        """events.csv as a DataFrame (columns :data:`EVENT_COLUMNS`)."""
+        """events.csv as a DataFrame (columns ``EVENT_COLUMNS``)."""
         return io.read_table(self.file(EVENTS))
 
     def read_psi(self):
@@ -445,7 +448,7 @@ class RunDir:
 class CsvTail:
     """Reads the lines a running LAMMPS appended to one of its CSV series (stress.csv,
     phase.csv) since the last call (whole lines only), so that a check during a run costs
-    what the new samples cost: :meth:`new` returns an array (rows, columns) of floats."""
+    what the new samples cost: ``new`` returns an array (rows, columns) of floats."""
 
     def __init__(self, path, n_columns: int):
         self.path = Path(path)

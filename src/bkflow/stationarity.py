@@ -1,7 +1,7 @@
 """Is a stress series stationary? Block means, a trend test, the transient, and the error of
 a correlated mean (docs/model.md, "Steady state").
 
-Pure functions on arrays, like :mod:`bkflow.stress`.
+Pure functions on arrays, like ``bkflow.stress``.
 
 Trend test. The analysed window [t0, t_end] is cut into ``n_blocks`` equal blocks in time;
 their means (batch means: Fishman, *Principles of Discrete Event Simulation*, Wiley 1978;
@@ -13,7 +13,7 @@ its standard error from the scatter of the block means about the line, and ``dri
 ratio. The window is ``stationary`` when the two-sided t-test of the slope (n_blocks - 2
 degrees of freedom) does not reject "no trend" at level ``alpha`` (5%): |drift_z| < 2.31 with
 10 blocks. A run that is too short for its noise passes such a test for lack of power, so
-:func:`stationarity` also reports how large a drift it could have missed
+``stationarity`` also reports how large a drift it could have missed
 (``drift_bound``: |drift| + 2 standard errors), which the run-until-stationary rule bounds.
 
 Transient. Beside the fixed fraction, the start of the stationary part can be detected by
@@ -21,7 +21,7 @@ the method of Chodera, J. Chem. Theory Comput. 12, 1799 (2016) (``pymbar.timeser
 detect_equilibration``): the start t that maximises the number of effectively independent
 samples after it.
 
-Error of a mean. :func:`mean_error` uses the statistical inefficiency g of Chodera et al.,
+Error of a mean. ``mean_error`` uses the statistical inefficiency g of Chodera et al.,
 J. Chem. Theory Comput. 3, 26 (2007) (``pymbar.timeseries.statistical_inefficiency``, summed
 while the autocorrelation stays positive), with the sample variance corrected for the
 correlation: error^2 = s^2 g / (n - g) with s^2 the biased sample variance, since
@@ -69,7 +69,7 @@ class MeanEstimate:
     """Mean of a correlated series with its standard error.
 
     ``g``: statistical inefficiency (1 for independent samples); ``n_effective`` = n / g;
-    ``reliable``: at least :data:`MIN_EFFECTIVE` effectively independent samples."""
+    ``reliable``: at least ``MIN_EFFECTIVE`` effectively independent samples."""
 
     mean: float
     error: float

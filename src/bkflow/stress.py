@@ -1,6 +1,6 @@
 """Slips and friction from the shear-stress series sigma_x(t) (docs/model.md, "Observables").
 
-Pure functions on numpy arrays: no file I/O (readers live in :mod:`bkflow.io`). Stress is in
+Pure functions on numpy arrays: no file I/O (readers live in ``bkflow.io``). Stress is in
 the model's units (k_d l / l^2), so mu_s sigma_n = 1 with docs/model.md's defaults.
 
 Slip events
@@ -11,7 +11,7 @@ Slip events
     sample before the series rises again by more than the threshold. So a wiggle smaller than
     the threshold neither makes an event nor splits one; on a clean sawtooth the events are
     exactly its teeth. ``fix bk/slips`` (plugins/README.md) runs the same rule inside LAMMPS
-    on the same samples, so the snapshots it writes line up with :func:`slip_events`.
+    on the same samples, so the snapshots it writes line up with ``slip_events``.
 
 >>> t = np.arange(12.0)
 >>> s = np.array([0, .5, 1, .2, .4, .8, .9, .1, .3, .31, .6, .7])
@@ -61,9 +61,9 @@ class SlipEvents:
 
 class Zigzag:
     """The zigzag rule as a state machine fed with samples in order (see module doc), so a
-    running series (an adaptive run) is scanned once: :meth:`feed` returns the index pairs
+    running series (an adaptive run) is scanned once: ``feed`` returns the index pairs
     (i_max, i_min) of the drops confirmed by the new samples, indices counted from the
-    first sample ever fed. :func:`zigzag_extrema` is one call of it on a whole series.
+    first sample ever fed. ``zigzag_extrema`` is one call of it on a whole series.
     """
 
     def __init__(self, threshold: float):
@@ -135,7 +135,7 @@ class MacroscopicFriction:
 
     ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
     standard error over successive (correlated) slips
-    (:func:`bkflow.stationarity.mean_error`, ``g`` the statistical inefficiency);
+    (``bkflow.stationarity.mean_error``, ``g`` the statistical inefficiency);
     ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
     threshold involved), ``mean_stress_ratio_err`` its standard error over the correlated
     samples (the same estimator). ``events``: every slip of the series, transient included.
@@ -206,9 +206,9 @@ class Growing:
 
 class RunningFriction:
     """mu_bar's standard error of a series that grows (a run in progress), for the stop rule
-    of an adaptive run: samples are fed in order (:meth:`feed`), slips found once by the
-    :class:`Zigzag` rule, and :meth:`error` is the error of sigma_fail / sigma_n over the
-    slips after the transient of the series so far, exactly what :func:`macroscopic_friction`
+    of an adaptive run: samples are fed in order (``feed``), slips found once by the
+    ``Zigzag`` rule, and ``error`` is the error of sigma_fail / sigma_n over the
+    slips after the transient of the series so far, exactly what ``macroscopic_friction``
     gives on the whole series at that point. The series itself is kept (``t``, ``sigma``,
     arrays) for the trend test of a run until steady."""
 
@@ -397,8 +397,8 @@ def lognormal_comparison(x, x_min: float) -> tuple[float, float]:
 
 def power_law_test(x, x_min: float | None = None, min_tail: int = 10,
                    n_boot: int = N_BOOT) -> PowerLawTest:
-    """:func:`power_law_fit`, its goodness of fit (:func:`power_law_p`) and the comparison with a
-    lognormal (:func:`lognormal_comparison`) in one :class:`PowerLawTest`."""
+    """``power_law_fit``, its goodness of fit (``power_law_p``) and the comparison with a
+    lognormal (``lognormal_comparison``) in one ``PowerLawTest``."""
     fit = power_law_fit(x, x_min=x_min, min_tail=min_tail)
     if not math.isfinite(fit.alpha):
         return PowerLawTest(fit, math.nan, n_boot, math.nan, math.nan)

@@ -1,9 +1,9 @@
 """Local sweeps: every run of a grid not yet finished, several at a time, then the tables.
 
-:func:`sweep` opens (or creates) the sweep directory's signac-flow project
-(:mod:`bkflow.project`), creates one job per RunSpec, and runs the pending operations with a
-process pool, most expensive run first, with one progress line; :func:`collect` re-analyses
-what is stale and writes runs.csv and results.csv (:mod:`bkflow.tables`).
+``sweep`` opens (or creates) the sweep directory's signac-flow project
+(``bkflow.project``), creates one job per RunSpec, and runs the pending operations with a
+process pool, most expensive run first, with one progress line; ``collect`` re-analyses
+what is stale and writes runs.csv and results.csv (``bkflow.tables``).
 """
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     """The pending operations of ``jobs``, most expensive run first: in this process when
     ``np_`` is 1, else in ``np_`` worker processes, each running many runs. A worker that
     dies (SIGKILL, the out-of-memory killer) stops the sweep within a second: the others are
-    terminated and :class:`WorkerDied` names the runs that were under way. (flow's own pool,
+    terminated and ``WorkerDied`` names the runs that were under way. (flow's own pool,
     multiprocessing.Pool, would wait for the dead worker's result for ever.)"""
     jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
     if np_ <= 1:
@@ -254,7 +254,7 @@ def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
 
 @dataclass
 class Collection:
-    """What :func:`collect` did: the jobs it re-analysed and the tables it wrote."""
+    """What ``collect`` did: the jobs it re-analysed and the tables it wrote."""
 
     jobs: int
     finished: int

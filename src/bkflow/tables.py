@@ -1,6 +1,6 @@
 """The tables of a sweep: ``runs.csv`` (one row per finished run) and ``results.csv`` (one
 row per point of the grid, mean and standard error over seeds), written through one writer
-with one float format (:func:`bkflow.io.write_table`)."""
+with one float format (``bkflow.io.write_table``)."""
 
 from __future__ import annotations
 
@@ -65,11 +65,11 @@ def runs_table(finished_runs) -> pd.DataFrame:
 def results_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Per (phi, size, and every other parameter but the seed): the mean over seeds and its
     standard error (sample standard deviation / sqrt(n); NaN for one seed) of
-    :data:`RESULT_FIELDS`, the seeds' count, the mean within-run errors
-    (:data:`WITHIN_RUN_ERRORS`), the regime
+    ``RESULT_FIELDS``, the seeds' count, the mean within-run errors
+    (``WITHIN_RUN_ERRORS``), the regime
     most seeds report, and the states of the seeds' runs (docs/model.md "Steady state"):
     ``n_steady``, ``n_drifting``, ``n_metastable``, and the point's ``state``: steady when
-    every seed's run is, else metastable when any is, else drifting (:func:`point_state`);
+    every seed's run is, else metastable when any is, else drifting (``point_state``);
     ``n_stationary`` counts the runs whose stress alone is trend-free."""
     if runs.empty:
         return pd.DataFrame()
@@ -184,7 +184,7 @@ def tables_digest(root) -> str:
 
 def record_figures(root, out, paths, where=None, complete: bool = True) -> None:
     """Note in ``out`` which figures were drawn from which tables, of which runs (``where``),
-    and whether the plot finished (:func:`retire_figures`)."""
+    and whether the plot finished (``retire_figures``)."""
     out = Path(out)
     io.write_json_atomic(out / FIGURES_RECORD, {
         "tables_sha256": tables_digest(root), "where": where or None, "complete": complete,

@@ -1,0 +1,193 @@
+"""The README's numbers, measured: the main command's wall time, disk use and printed table, the
+quick start's output and size, and the test suite's size and time, written to
+benchmarks/readme_numbers.json and from there into README.md's generated blocks.
+
+    python benchmarks/readme_numbers.py [--sweep] [--run] [--tests] [--write-readme]
+
+--sweep         run ``bkflow sweep --phi 1e-1:1e3`` into a fresh directory (about 10 minutes on
+                2 cores), timing it and measuring what it wrote
+--run           run the quick start's ``bkflow run`` into a fresh directory
+--tests         run ``pytest`` once, timing it, and count the tests and the fast subset
+--write-readme  (re)write README.md's generated blocks from the record (and the synopses
+                from the program's own parser)
+
+Without options it changes nothing and checks: exit 1 when README.md differs from what
+the record and the parser give. ``tests/test_readme.py`` makes the same check, so the README
+cannot drift from the measurements, and runs the quick start itself to compare its output.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+RECORD = Path(__file__).with_name("readme_numbers.json")
+SWEEP = "bkflow sweep --phi 1e-1:1e3 --out runs/sweep"
+RUN = "bkflow run --phi 10 --n 100 --seed 1 --out runs/phi10"
+
+
+def _tool(name: str) -> str:
+    return str(Path(sys.executable).with_name(name))
+
+
+def disk_bytes(path: Path) -> int:
+    """Bytes a directory takes on disk (``du``'s allocated blocks, as a user sees it)."""
+    out = subprocess.run(["du", "-s", "--block-size=1", str(path)], capture_output=True,
+                         text=True, check=True).stdout
+    return int(out.split()[0])
+
+
+def human(n: float) -> str:
+    """1.8 GB, 12 MB: two significant digits, decimal units (as ``du -h --si``)."""
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 999.5 or unit == "TB":
+            return f"{n:.2g} {unit}" if n < 100 else f"{n:.0f} {unit}"
+        n /= 1000
+    raise AssertionError
+
+
+def duration(s: float) -> str:
+    m, sec = divmod(round(s), 60)
+    return f"{m} min {sec} s" if m else f"{sec} s"
+
+
+def _run(cmd: str, cwd: Path) -> tuple[str, float]:
+    args = shlex.split(cmd)
+    t0 = time.perf_counter()
+    p = subprocess.run([_tool(args[0]), *args[1:]], cwd=cwd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"{cmd} failed (exit {p.returncode}): {p.stderr.strip()[-500:]}")
+    return p.stdout, wall
+
+
+def measure_sweep() -> dict:
+    with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
+        out, wall = _run(SWEEP, Path(d))
+        size = disk_bytes(Path(d) / "runs" / "sweep")
+    runs = int(re.search(r"= (\d+) runs into", out).group(1))
+    jobs = int(re.search(r", (\d+) at a time", out).group(1))
+    return {"command": SWEEP, "wall_s": wall, "bytes": size, "runs": runs, "jobs": jobs,
+            "cores": os.cpu_count(), "output": out.rstrip("\n")}
+
+
+def measure_run() -> dict:
+    with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
+        out, wall = _run(RUN, Path(d))
+        size = disk_bytes(Path(d) / "runs" / "phi10")
+    return {"command": RUN, "wall_s": wall, "bytes": size, "output": out.rstrip("\n")}
+
+
+def measure_tests() -> dict:
+    def count(*marks: str) -> int:
+        p = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", *marks],
+                           cwd=ROOT, capture_output=True, text=True)
+        return int(re.search(r"(\d+)(?:/\d+)? tests? collected", p.stdout).group(1))
+
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"],
+                       cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    q = subprocess.run([sys.executable, "-m", "pytest", "-q", "-m", "not slow", "-p",
+                        "no:cacheprovider"], cwd=ROOT, capture_output=True, text=True)
+    fast = time.perf_counter() - t1
+    return {"all": count(), "fast": count("-m", "not slow"), "wall_s": wall, "fast_wall_s": fast,
+            "passed": p.returncode == 0 and q.returncode == 0, "cores": os.cpu_count()}
+
+
+# --------------------------------------------------------------------------- the README
+def blocks(record: dict) -> dict[str, str]:
+    """{generated block name: its text} from the record."""
+    out = {}
+    s = record.get("sweep")
+    if s:
+        out["sweep-cost"] = (
+            f"The sweep runs 13 phi from 0.1 to 1000 x 3 seeds on the paper's 20x5 lattice, each "
+            f"run beside\na companion from another start until both are steady and agree: "
+            f"{s['runs']} pairs of runs in\n{duration(s['wall_s'])} on a {s['cores']}-core "
+            f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
+            "(`benchmarks/readme_numbers.py` measured it; `--scene friction` writes only the "
+            "stress).")
+        out["sweep-output"] = "```\n" + s["output"] + "\n```"
+    t = record.get("tests")
+    if t:
+        out["tests"] = (f"Measured on a {t['cores']}-core machine: {t['all']} tests in "
+                        f"{duration(t['wall_s'])}; `-m \"not slow\"` runs {t['fast']} of them "
+                        f"in {duration(t['fast_wall_s'])}.")
+    return out
+
+
+def _synopses() -> dict[str, str]:
+    sys.path.insert(0, str(ROOT / "src"))
+    from bkflow.cli import subcommands, synopsis
+
+    return {cmd: synopsis(cmd) for cmd in subcommands()}
+
+
+def render(text: str, record: dict, synopses: dict[str, str] | None = None) -> str:
+    """``text`` (README.md) with its generated blocks, sizes and synopses filled in."""
+    for name, body in blocks(record).items():
+        text = re.sub(rf"(<!-- generated: {name} -->\n).*?\n?(<!-- end -->)",
+                      lambda m, body=body: m.group(1) + body + "\n" + m.group(2), text,
+                      flags=re.S)
+    r = record.get("run")
+    if r:
+        text = re.sub(r"(<!-- size: runs/phi10 -->).*?(<!-- end -->)",
+                      lambda m: m.group(1) + human(r["bytes"]) + m.group(2), text)
+        text = re.sub(rf"(<!-- output: {re.escape(RUN)} -->\n```\n).*?(```)",
+                      lambda m: m.group(1) + r["output"] + "\n" + m.group(2), text, flags=re.S)
+    for cmd, syn in (synopses or {}).items():
+        text = re.sub(rf"(<!-- synopsis: {cmd} -->\n```\n).*?(```)",
+                      lambda m, syn=syn: m.group(1) + syn + "\n" + m.group(2), text, flags=re.S)
+    return text
+
+
+def load() -> dict:
+    return json.loads(RECORD.read_text()) if RECORD.exists() else {}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    p.add_argument("--sweep", action="store_true")
+    p.add_argument("--run", action="store_true")
+    p.add_argument("--tests", action="store_true")
+    p.add_argument("--write-readme", action="store_true")
+    a = p.parse_args(argv)
+    record = load()
+    machine = {"machine": platform.machine(), "python": platform.python_version(),
+               "date": time.strftime("%Y-%m-%d")}
+    for flag, key, fn in ((a.run, "run", measure_run), (a.sweep, "sweep", measure_sweep),
+                          (a.tests, "tests", measure_tests)):
+        if flag:
+            print(f"measuring {key} ...", flush=True)
+            record[key] = {**fn(), **machine}
+            RECORD.write_text(json.dumps(record, indent=1) + "\n")
+            print(f"  {key}: {duration(record[key]['wall_s'])}", flush=True)
+    text = README.read_text()
+    new = render(text, record, _synopses())
+    if a.write_readme:
+        if new != text:
+            README.write_text(new)
+            print(f"rewrote {README}")
+        return 0
+    if new != text:
+        print("README.md differs from the record: run with --write-readme", file=sys.stderr)
+        return 1
+    print("README.md agrees with the record")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
