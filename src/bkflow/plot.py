@@ -643,13 +643,13 @@ def _drop_verdict(runs: pd.DataFrame) -> tuple[bool, str]:
 
 
 def fig_drops(data: SweepData, plt):
-    """(a) Density of stress-drop sizes after the transient (events.csv, the seeds pooled) for
-    the four phi of the cluster figure, with the maximum-likelihood power law drawn only where
-    the analysis found it plausible in every seed (Clauset et al.'s bootstrap, p >= 0.1;
-    runs.csv ``drop_power_law``), else the rejection written in the key. (b) The stiffest of
-    them split into its two populations: slips that move every particle of the layer
-    (system-wide) and the rest, each density weighted by its share so that the two add up to (a)'s. Markers by
-    the point's state (``STATE_FILL``)."""
+    """(a) Density of stress-drop sizes after the transient (events.csv, the seeds pooled)
+    for the four phi of the cluster figure, with the maximum-likelihood power law drawn only
+    where the analysis found it plausible in every seed (Clauset et al.'s bootstrap,
+    p >= 0.1; runs.csv ``drop_power_law``), else the rejection written in the key.
+    (b) The stiffest of them split into its two populations: slips that move every particle
+    of the layer (system-wide) and the rest, each density weighted by its share so that the
+    two add up to (a)'s. Markers by the point's state (``STATE_FILL``)."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
