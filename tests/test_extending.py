@@ -65,7 +65,8 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
         assert proc.returncode == 0, "docs/develop.md's diff no longer applies: " + proc.stderr
     build = tmp_path / "build"
     for cmd in (["cmake", "-S", str(scratch / "plugins"), "-B", str(build), "-G", "Ninja",
-                 "-DCMAKE_BUILD_TYPE=Release"], ["cmake", "--build", str(build)]):
+                 "-DCMAKE_BUILD_TYPE=Release", f"-DPython_EXECUTABLE={sys.executable}"],
+                ["cmake", "--build", str(build)]):
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
         assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     # the scratch package first: the editable install's finder steps aside

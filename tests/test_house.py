@@ -340,6 +340,17 @@ def unrendered_markup(html: str) -> list[str]:
             for m in re.finditer(pat, text, flags=re.M)]
 
 
+def test_the_docs_show_an_image_of_every_figure():
+    """docs/sweeps.md shows each figure ``bkflow plot`` draws, and the image is there."""
+    from bkflow.plot import FIGURES
+
+    text = (ROOT / "docs" / "sweeps.md").read_text()
+    for name in FIGURES:
+        m = re.search(rf"!\[{name}\]\(([^)]+)\)", text)
+        assert m, f"docs/sweeps.md shows no image of {name}"
+        assert (ROOT / m.group(1)).is_file(), m.group(1)
+
+
 def test_the_unrendered_markup_check_finds_what_it_looks_for():
     for raw in ("see :class:<code>RunSpec</code>", "<p>an example::</p>", "<p>``x``</p>",
                 "<p>==========  =====</p>", "<p>| a | b |\n|---|---|</p>", "<p>**bold**</p>",

@@ -126,9 +126,9 @@ CURVES = {
     "steady protocol, N = 3600": ("steady_3600", {}),
     "synchronized start until steady": ("sync_steady", {}),
 }
-OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)"),
-               ("mu_bar_large", "mu_bar (large drops: drop > mean drop)"),
-               ("mean_stress_ratio", "<sigma_x>/sigma_n"))
+OBSERVABLES = (("mu_bar", r"$\overline{\mu}$ (slips above 1% of $\mu_s\sigma_n$)"),
+               ("mu_bar_large", r"$\overline{\mu}$ (large drops: drop > mean drop)"),
+               ("mean_stress_ratio", r"$\langle\sigma_x\rangle/\sigma_n$"))
 
 
 def _tables(out: Path, name: str, where: dict | None = None):
@@ -168,6 +168,9 @@ def minimum(g: pd.DataFrame, field: str) -> dict:
             "depth": max(y[0], y[-1]) - y[i]}
 
 
+NOTHING = "nothing new to run or analyse"
+
+
 def numbers(out: Path, wall: dict) -> str:
     """The tables REPRODUCTION.md cites, as markdown."""
     cs = curves(out)
@@ -177,8 +180,9 @@ def numbers(out: Path, wall: dict) -> str:
              "stress that still remembers its start, or a pair whose two starts disagree), "
              "drifting otherwise (docs/model.md \"Steady state\"); the counts are "
              "steady/drifting/metastable runs.",
-             f"This invocation: {', '.join(f'{k} {v}' for k, v in wall.items()) or 'no runs'} "
-             "wall (runs finished earlier are not redone).", "",
+             f"This invocation: {', '.join(f'{k} {v}' for k, v in wall.items()) or NOTHING} "
+             "wall (runs finished earlier are not redone; REPRODUCTION.md gives each "
+             "protocol's time from scratch).", "",
              "## The runs", "",
              "| curve | runs | steady | drifting | metastable | t_run (min - max) | "
              "LAMMPS core-seconds |",
@@ -364,11 +368,18 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
             if row == 0:
                 ax.set_title(f"N = {n}", fontsize=9)
             if row == len(OBSERVABLES) - 1:
-                ax.set_xlabel(r"$\phi$")
-    axes[0, 0].legend(frameon=False, fontsize=6, loc="best")
-    fig.text(0.99, 0.005, "markers: filled, every seed steady; half-filled, some metastable; "
-             "open, some drifting", ha="right", fontsize=6.5, color="grey")
-    fig.tight_layout()
+                ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
+    # one key below the panels (the curves, then the marker convention): it covers no point
+    from matplotlib.lines import Line2D
+
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
+             "metastable": "metastable (some seed)"}
+    for name, fill in STATE_FILL.items():
+        handles.append(Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
+                              mfc="grey" if fill != "none" else "white", mfcalt="white"))
+        labels.append(words[name])
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False, fontsize=7)
     return _write(fig, figs / "fig2a_protocols.png")
 
 
@@ -404,7 +415,6 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     ax.set_ylabel(r"$t_{\rm equil}$ of $\sigma_x$ (median over seeds)")
     ax.set_title("how long the start is remembered", fontsize=9)
     ax.legend(frameon=False, fontsize=6)
-    fig.tight_layout()
     return _write(fig, figs / "relaxation.png")
 
 
@@ -436,7 +446,6 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
                         ax=ax)
         ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
                   ncol=1, markerscale=1.5)
-    fig.tight_layout()
     return [_write(fig, out / "aspect_clusters.png"), aspect_share_figure(aspect_dir, out)]
 
 
@@ -490,7 +499,9 @@ def main(argv=None) -> int:
     for name in chosen:
         t0 = time.perf_counter()
         rep = run_sweep(name, every[name], a.jobs, out / name)
-        wall[name] = fmt_duration(time.perf_counter() - t0) + f" ({len(rep.finished)} runs)"
+        if rep.finished:  # what this invocation ran or re-analysed, and how long it took
+            wall[name] = (fmt_duration(time.perf_counter() - t0)
+                          + f" ({len(rep.finished)} runs run or re-analysed)")
         failed |= bool(rep.failed)
     written = figures(out, figs)
     for pth in written:
