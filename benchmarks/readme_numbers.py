@@ -95,16 +95,19 @@ def measure_tests() -> dict:
                            cwd=ROOT, capture_output=True, text=True)
         return int(re.search(r"(\d+)(?:/\d+)? tests? collected", p.stdout).group(1))
 
+    # the one test that checks README against this record cannot pass before it is written
+    this = ["--deselect", "tests/test_readme.py::test_the_readmes_measured_numbers_are_the_record"]
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"],
+    p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *this],
                        cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     t1 = time.perf_counter()
     q = subprocess.run([sys.executable, "-m", "pytest", "-q", "-m", "not slow", "-p",
-                        "no:cacheprovider"], cwd=ROOT, capture_output=True, text=True)
+                        "no:cacheprovider", *this], cwd=ROOT, capture_output=True, text=True)
     fast = time.perf_counter() - t1
     return {"all": count(), "fast": count("-m", "not slow"), "wall_s": wall, "fast_wall_s": fast,
-            "passed": p.returncode == 0 and q.returncode == 0, "cores": os.cpu_count()}
+            "passed": p.returncode == 0 and q.returncode == 0, "cores": os.cpu_count(),
+            "summary": p.stdout.strip().splitlines()[-1] if p.stdout.strip() else p.stderr[-300:]}
 
 
 # --------------------------------------------------------------------------- the README

@@ -317,6 +317,7 @@ def test_mean_error_accounts_for_correlation():
 
 
 @pytest.mark.parametrize("alpha", [1.8, 2.5])
+@pytest.mark.slow
 def test_power_law_fit_recovers_the_exponent(alpha):
     rng = np.random.default_rng(int(alpha * 10))
     x_min = 0.01

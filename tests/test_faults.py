@@ -68,6 +68,7 @@ def finished(lammps, tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize("name", ["with space", "hash#", "dollar$HOME", "quote'\"", "ünï ß"])
+@pytest.mark.slow
 def test_paths_of_any_characters_work(lammps, tmp_path, name):
     d = tmp_path / name
     d.mkdir()
@@ -96,6 +97,7 @@ def test_a_cut_file_is_refused_not_analysed(tmp_path, finished):
     one_line(p, "slips.lammpstrj has")
 
 
+@pytest.mark.slow
 def test_two_writers_one_directory(lammps, tmp_path, finished):
     before = digest(finished)
     first = started("--phi", "1000", "--n", "400", "--t-end", "1000", "--out", tmp_path / "r")
@@ -185,6 +187,7 @@ def test_absurd_requests_are_refused_before_anything_is_created(tmp_path, args, 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP],
                          ids=["ctrl-c", "sigterm", "sighup"])
+@pytest.mark.slow
 def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(lammps, tmp_path,
                                                                           sig):
     """Ctrl-C, SIGTERM and SIGHUP (a closed terminal) stop a run within a second, after MPI
@@ -207,6 +210,7 @@ def test_interrupts_are_honoured_within_a_second_and_the_advice_is_right(lammps,
     one_line(tear, "whatever the time step")
 
 
+@pytest.mark.slow
 def test_the_same_command_after_an_interrupted_analysis_only_analyses(lammps, tmp_path):
     out = tmp_path / "r"
     args = ["run", "--phi", "10", "--t-end", "300", "--scene", "friction", "--quiet"]
@@ -305,6 +309,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_a_sweep_never_writes_over_the_users_files(tmp_path):
     """`bkflow sweep --out DIR` writes runs.csv, results.csv, analysis.json and a workspace:
     it refuses a directory of the user's own files, a run directory and a signac project that
@@ -441,6 +446,7 @@ def test_the_environment_is_named_never_blamed_on_the_run(tmp_path, finished, en
         assert digest(d) == before
 
 
+@pytest.mark.slow
 def test_odd_process_states_are_one_line(lammps, tmp_path):
     """stderr closed, the current directory deleted, a name that is not UTF-8, a memory
     limit, and a bug of bkflow's own: one line each, a documented exit code, no traceback."""
@@ -530,6 +536,7 @@ def _first_job(d: Path) -> Path:
     ("cut project document", "signac_project_document.json is cut or damaged"),
     ("junk config", "is not a signac config"),
 ])
+@pytest.mark.slow
 def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep, edit, needle):
     """Every hand edit of signac's records is one line that says what and how to repair it;
     nothing is changed, and once repaired as it says the sweep goes on."""
@@ -574,6 +581,7 @@ def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep,
     assert p.returncode == 0, p.stderr
 
 
+@pytest.mark.slow
 def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
     """An interrupted `collect --analysis` leaves some runs re-analysed and the tables old:
     plot refuses, naming the cure; after it, plot draws. A second sweep that changes the
@@ -604,6 +612,7 @@ def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
     assert (d / "figures" / "fig2a_friction.png").is_file()
 
 
+@pytest.mark.slow
 def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
     """The README invites `lmp -in in.bk` in a finished run: it writes every file again bit
     for bit (an adaptive run's deck runs the steps it ran), only log.lammps changes, and the
@@ -627,6 +636,7 @@ def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
     one_line(bk("analyze", d), "stress.csv has")
 
 
+@pytest.mark.slow
 def test_the_documented_cluster_commands_run(lammps, tmp_path):
     """Every `python -m bkflow.cluster run ...` that README, docs and cluster.py show is
     accepted by flow and finishes the runs."""
@@ -673,6 +683,7 @@ def test_an_unreadable_run_record_is_never_redone(lammps, tmp_path, finished, ho
         assert digest(d) == before, args
 
 
+@pytest.mark.slow
 def test_plot_and_movie_never_replace_a_users_file(lammps, tmp_path, small_sweep, finished):
     out = tmp_path / "figs"
     out.mkdir()

@@ -384,6 +384,7 @@ def test_nothing_refers_outside_the_repository():
     assert not hits, hits
 
 
+@pytest.mark.slow
 def test_the_plugin_compiles_without_a_warning():
     """Every C++ source of plugins/ under -Wall -Wextra -Werror (syntax and semantic checks,
     no code generated), against the LAMMPS and MPI headers the install builds with."""

@@ -41,6 +41,7 @@ def mismatched_plugin(tmp_path_factory):
     return build
 
 
+@pytest.mark.slow
 def test_python_side_refuses_mismatched_plugin(mismatched_plugin, monkeypatch, tmp_path):
     assert json.loads((mismatched_plugin / "build_info.json").read_text())["lammps_git"] == \
         "stable_2Aug2023_update9"

@@ -78,6 +78,7 @@ def _normal(text: str, out: str) -> str:
     return "\n".join(lines)
 
 
+@pytest.mark.slow
 def test_the_quick_starts_output_is_todays(lammps, tmp_path):
     (cmd, shown), = [(c, b) for c, b in _blocks("output").items() if c.startswith("bkflow run")]
     args = shlex.split(cmd)
@@ -137,6 +138,7 @@ def test_the_exit_codes_are_the_clis():
     assert rows == [f"| {k} | {v.replace('|', chr(92) + '|')} |" for k, v in EXIT_CODES.items()]
 
 
+@pytest.mark.slow
 def test_the_python_example_runs_as_written(lammps, tmp_path):
     """README's Python block, run as written in a fresh directory: it runs, analyses, and
     prints the state and mu_bar."""

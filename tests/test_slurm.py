@@ -56,6 +56,7 @@ def _grid(out, *args):
     return open_project(out, create=False)
 
 
+@pytest.mark.slow
 def test_a_sweep_runs_on_slurm_and_a_resubmission_queues_nothing(slurm, tmp_path):
     out = tmp_path / "grid"
     project = _grid(out, "--phi", "1,10", "--seeds", "2", "--t-end", "100")
@@ -68,6 +69,7 @@ def test_a_sweep_runs_on_slurm_and_a_resubmission_queues_nothing(slurm, tmp_path
     assert not squeue(slurm)
 
 
+@pytest.mark.slow
 def test_a_job_cancelled_mid_run_is_redone(slurm, tmp_path):
     out = tmp_path / "grid"
     project = _grid(out, "--phi", "100", "--sizes", "60x15", "--seeds", "1", "--t-end", "6000",

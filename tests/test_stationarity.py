@@ -69,6 +69,7 @@ def test_a_stationary_series_is_stationary(seed):
     assert s.drift_bound == pytest.approx(abs(s.drift) + 2 * s.drift_err)
 
 
+@pytest.mark.slow
 def test_stationary_series_are_called_non_stationary_at_the_tests_level():
     """Over 300 stationary series the test rejects about alpha = 5% of them (a test, not a
     guarantee: a sweep of 39 stationary runs shows about two flagged by chance)."""

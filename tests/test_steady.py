@@ -98,6 +98,7 @@ def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path)
     assert s["mu_bar_large"] > s["mu_bar"]
 
 
+@pytest.mark.slow
 def test_the_default_protocol_from_the_cli_and_the_sweep(lammps, tmp_path):
     out = tmp_path / "r"
     proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--size", "12x3",

@@ -134,6 +134,7 @@ def test_other_aspect_accepted_when_asked(tmp_path, capsys):
 
 
 # --------------------------------------------------------------------------- end to end
+@pytest.mark.slow
 def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
     out, proc = tiny_sweep
     assert done_counts(proc.stdout) == (2, 0)
@@ -161,6 +162,7 @@ def test_rerunning_a_finished_sweep_recomputes_nothing(tiny_sweep):
     assert stamps == {d: (d / "meta.json").stat().st_mtime_ns for d in job_dirs(out)}
 
 
+@pytest.mark.slow
 def test_plot_writes_every_figure(tiny_sweep, tmp_path):
     out, _ = tiny_sweep
     figs = tmp_path / "figs"
@@ -192,6 +194,7 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     assert all("friction" in why for why in skipped.values())
 
 
+@pytest.mark.slow
 def test_corrupt_or_half_written_runs_are_detected_and_redone(lammps, tiny_sweep, tmp_path):
     src, _ = tiny_sweep
     out = tmp_path / "copy"
@@ -216,6 +219,7 @@ def test_corrupt_or_half_written_runs_are_detected_and_redone(lammps, tiny_sweep
     assert (b / "meta.json").stat().st_mtime_ns == b_meta       # only analysed again
 
 
+@pytest.mark.slow
 def test_sweep_killed_mid_way_resumes_without_recomputing_finished_runs(lammps, tmp_path):
     out = tmp_path / "s"
     args = ["sweep", "--phi", "3,10,30", "--seeds", "2", "--t-end", "4000", "--jobs", "2",
@@ -300,6 +304,7 @@ def _fake_scheduler(tmp_path, scripts: dict) -> dict:
             "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
 
 
+@pytest.mark.slow
 def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(lammps, tmp_path):
     out = tmp_path / "grid"
     assert main(["sweep", "--phi", "1,10", "--seeds", "2", "--t-end", "100", "--init",
@@ -371,6 +376,7 @@ def test_a_sweeps_workers_run_many_runs_each(lammps, tmp_path):
             range(sum(p["pid"] == pid for p in procs)))
 
 
+@pytest.mark.slow
 def test_any_parameter_is_set_or_swept_from_the_cli(lammps, tmp_path):
     """--vary adds an axis (any RunSpec field), --set fixes a parameter: 2 phi x 2 gamma = 4
     points, each a row of results.csv with its gamma; figures per gamma."""
@@ -570,6 +576,7 @@ def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):
         bkflow.load_run(tmp_path)
 
 
+@pytest.mark.slow
 def test_the_example_notebook_runs(lammps, tmp_path):
     """docs/example.ipynb, executed as a user would (a kernel of this environment, in an
     empty directory): no cell fails and the figure cells show images."""
@@ -604,6 +611,7 @@ def test_the_cluster_command_outside_a_sweep_is_one_line_and_exit_2(tmp_path):
     assert "is not a sweep directory" in proc.stderr and len(proc.stderr.splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_plot_of_runs_without_stress_drops_and_of_unset_or_slashed_values(lammps, tmp_path):
     """Runs too short for two stress drops: fig_drops is skipped, not a traceback; a varied
     parameter left unset in some runs (target_error=none) and a value with '/' (reset/step)
