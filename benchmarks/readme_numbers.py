@@ -107,7 +107,9 @@ def measure_tests() -> dict:
     fast = time.perf_counter() - t1
     return {"all": count(), "fast": count("-m", "not slow"), "wall_s": wall, "fast_wall_s": fast,
             "passed": p.returncode == 0 and q.returncode == 0, "cores": os.cpu_count(),
-            "summary": p.stdout.strip().splitlines()[-1] if p.stdout.strip() else p.stderr[-300:]}
+            "summary": p.stdout.strip().splitlines()[-1] if p.stdout.strip() else p.stderr[-300:],
+            "failed": [ln for out in (p.stdout, q.stdout) for ln in out.splitlines()
+                       if ln.startswith(("FAILED", "ERROR"))]}
 
 
 # --------------------------------------------------------------------------- the README
