@@ -124,7 +124,7 @@ def blocks(record: dict) -> dict[str, str]:
             f"{s['runs']} pairs of runs in\n{duration(s['wall_s'])} on a {s['cores']}-core "
             f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
             "(`benchmarks/readme_numbers.py` measured it; `--scene friction` writes only the "
-            "stress).")
+            "stress and phase series).")
         out["sweep-output"] = "```\n" + s["output"] + "\n```"
     t = record.get("tests")
     if t:
