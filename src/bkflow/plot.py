@@ -284,9 +284,11 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
                 label=rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
         k = ev.t_max >= t0
-        ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour,
-                mfc="none" if marker == "o" else colour, ls="none",
-                label=r"$\sigma_{\rm fail}$ (slip maxima)")
+        fill = STATE_FILL.get(str(row.get("state", "drifting")), "none")
+        ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour, fillstyle=fill,
+                mfc=colour if fill != "none" else "white", mfcalt="white", ls="none",
+                label=r"$\sigma_{\rm fail}$ (slip maxima; " + str(row.get("state", "n/a"))
+                + ")")
         top = row.mu_s * row.sigma_n
         ax.axhline(top, color="tab:blue", ls="-.", lw=1,
                    label=r"Amontons-Coulomb $\mu_s\sigma_n$")
@@ -304,9 +306,10 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
 
 
 #: how a point's state (results.csv ``state``, docs/model.md "Steady state") is drawn: its
-#: marker filled (every seed's run steady), open (some drifting) or half-filled (some
-#: metastable: a flat stress that still remembers its start)
-STATE_FILL = {"steady": "full", "drifting": "none", "metastable": "bottom"}
+#: marker filled (every seed's run steady), open (some drifting) or half-filled, left half (some
+#: metastable: a flat stress that still remembers its start; split vertically, so that the
+#: curve through the marker does not hide the split)
+STATE_FILL = {"steady": "full", "drifting": "none", "metastable": "left"}
 
 
 def _point_states(g: pd.DataFrame) -> np.ndarray:
@@ -384,7 +387,7 @@ def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
     for name, fill in STATE_FILL.items():
         k = states == name
         if k.any():
-            ax.plot(g.phi[k], g[field][k], marker, color=colour, ls="none",
+            ax.plot(g.phi[k], g[field][k], marker, color=colour, ls="none", ms=5,
                     fillstyle=fill, mfc=colour if fill != "none" else "white",
                     mfcalt="white")
     return line
@@ -457,8 +460,9 @@ def fig2b_asymmetry(data: SweepData, plt):
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)
-    ax.text(0.98, 0.04, "dotted: Lx/Ly (whole-box clusters)", transform=ax.transAxes,
-            ha="right", va="bottom", fontsize=6.5, color="grey")
+    ax.text(0.98, 0.04, "dotted: the box's Lx/Ly (clusters spanning the box reach a little\n"
+            "more: l = L N/(N-1) on a lattice of N sites, 4.17 on 20x5)", transform=ax.transAxes,
+            ha="right", va="bottom", fontsize=5.5, color="grey")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
@@ -567,15 +571,21 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
     ax.axvline(0.9, color="grey", lw=0.6, ls=":")
     ax.axhline(0.9, color="grey", lw=0.6, ls=":")
+    # the regions' names in grey: the colours belong to the phi of the key
     for txt, x, y in (("C", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
-        ax.text(x, y, txt, fontsize=8, ha="center", va="center", color=REGIME_COLOURS[txt],
+        ax.text(x, y, txt, fontsize=8, ha="center", va="center", color="dimgrey",
                 weight="bold", bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
     ax.set_xlim(-0.03, top)  # a cluster one particle across sits at 0: drawn whole
     ax.set_ylim(-0.03, top)
     ax.set_xlabel(r"$l_x / L_x$")
     ax.set_ylabel(r"$l_y / L_y$")
     ax.set_title(title, fontsize=9)
-    ax.legend(handles=[handles[phi] for phi, *_ in sets], frameon=False, fontsize=6.5,
+    from matplotlib.lines import Line2D
+
+    guides = [Line2D([], [], color="grey", lw=0.6, ls=":",
+                     label="0.9 of a side: spanning (the regimes' bounds)"),
+              Line2D([], [], color="grey", lw=0.6, ls="--", label=r"$l_x/L_x = l_y/L_y$")]
+    ax.legend(handles=[handles[phi] for phi, *_ in sets] + guides, frameon=False, fontsize=6.5,
               loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, markerscale=1.5)
     return fig if fig is not None else ax.figure
 
@@ -653,7 +663,7 @@ def fig_drops(data: SweepData, plt):
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
-    drawn, stiff = 0, None
+    drawn, stiff, lines = 0, None, 0
     for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
                               ("black", "tab:red", "tab:green", "tab:blue")):
         runs = data.runs_of(lx, ly, phi)
@@ -678,6 +688,7 @@ def fig_drops(data: SweepData, plt):
             share = np.mean(d >= x_min)
             ax.plot(xs, share * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
                     color=colour, lw=0.8)
+            lines += 1
         if whole is not None and (stiff is None or phi > stiff[0]):
             stiff = (phi, d, whole, colour, fill)
     if not drawn:  # no run had two stress drops after its transient
@@ -688,8 +699,9 @@ def fig_drops(data: SweepData, plt):
         a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     ax.set_ylabel("probability density")
     bx.set_ylabel("probability density (of all drops)")
-    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}; lines: power laws that pass "
-                 "Clauset et al.'s test (p >= 0.1)", fontsize=6.5)
+    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}; " + (
+        "lines: power laws that pass Clauset et al.'s test (p >= 0.1)" if lines else
+        "no power law passes Clauset et al.'s test (p >= 0.1)"), fontsize=6.5)
     state_key(fig, data)
     # below the axes: a rejection's words never cover a point
     ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
@@ -710,7 +722,8 @@ def fig_drops(data: SweepData, plt):
             bx.plot(x[nz], dens[nz], marker=m, ls=ls, color=colour, lw=0.8, fillstyle=fill,
                     mfc=colour if fill != "none" else "white", mfcalt="white",
                     label=f"{label}: {np.mean(part):.0%} of {len(d)}")
-    bx.set_title(rf"two populations at $\phi$ = {_num(phi)}", fontsize=8)
+    bx.set_title(rf"two populations at $\phi$ = {_num(phi)} (the stiffest of the four)",
+                 fontsize=8)
     bx.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
     return fig
 

@@ -126,9 +126,12 @@ CURVES = {
     "steady protocol, N = 3600": ("steady_3600", {}),
     "synchronized start until steady": ("sync_steady", {}),
 }
-OBSERVABLES = (("mu_bar", r"$\overline{\mu}$ (slips above 1% of $\mu_s\sigma_n$)"),
-               ("mu_bar_large", r"$\overline{\mu}$ (large drops: drop > mean drop)"),
-               ("mean_stress_ratio", r"$\langle\sigma_x\rangle/\sigma_n$"))
+#: (field, its name in numbers.md, its axis label in the figures)
+OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)",
+                r"$\overline{\mu}$ (slips above 1% of $\mu_s\sigma_n$)"),
+               ("mu_bar_large", "mu_bar (large drops: drop > mean drop)",
+                r"$\overline{\mu}$ (large drops: drop > mean drop)"),
+               ("mean_stress_ratio", "<sigma_x>/sigma_n", r"$\langle\sigma_x\rangle/\sigma_n$"))
 
 
 def _tables(out: Path, name: str, where: dict | None = None):
@@ -180,8 +183,9 @@ def numbers(out: Path, wall: dict) -> str:
              "stress that still remembers its start, or a pair whose two starts disagree), "
              "drifting otherwise (docs/model.md \"Steady state\"); the counts are "
              "steady/drifting/metastable runs.",
-             f"This invocation: {', '.join(f'{k} {v}' for k, v in wall.items()) or NOTHING} "
-             "wall (runs finished earlier are not redone; REPRODUCTION.md gives each "
+             "This invocation: " + (", ".join(f"{k} {v}" for k, v in wall.items()) + " wall"
+                                    if wall else NOTHING)
+             + " (runs finished earlier are not redone; REPRODUCTION.md gives each "
              "protocol's time from scratch).", "",
              "## The runs", "",
              "| curve | runs | steady | drifting | metastable | t_run (min - max) | "
@@ -194,7 +198,7 @@ def numbers(out: Path, wall: dict) -> str:
                      f"{runs.t_run.min():.0f} - {runs.t_run.max():.0f} | "
                      f"{runs.wall_time_s.sum():.0f} |")
 
-    for field, title in OBSERVABLES:
+    for field, title, _ in OBSERVABLES:
         lines += ["", f"## {title}: minimum against the ends", "",
                   "non-monotonic = the lowest point is interior and below both ends by more "
                   "than 2 combined standard errors (z_lo, z_hi).", "",
@@ -348,7 +352,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:cyan",
                                 "tab:green")))
     for col, n in enumerate(ns):
-        for row, (field, title) in enumerate(OBSERVABLES):
+        for row, (field, _, title) in enumerate(OBSERVABLES):
             ax = axes[row, col]
             for label, (_, res) in cs.items():
                 g = res[res.N == n].sort_values("phi")
@@ -360,7 +364,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                             capsize=1.5, marker="none", label=label)
                 for name, fill in STATE_FILL.items():
                     k = states == name
-                    ax.plot(g.phi[k], g[field][k], "o", color=c, ms=3.5, fillstyle=fill,
+                    ax.plot(g.phi[k], g[field][k], "o", color=c, ms=4.5, fillstyle=fill,
                             mfc=c if fill != "none" else "white", mfcalt="white")
             ax.set_xscale("log")
             if col == 0:
