@@ -29,6 +29,39 @@ class ReferenceState:
     t: float = 0.0       # time since the anchors were taken
     breaks: int = 0
     f: np.ndarray = field(default=None)
+    # the energy ledger (docs/model.md "Energy"), running sums since the start
+    work_plate: float = 0.0   # work of the plate on the drive springs' anchors
+    diss_break: float = 0.0   # contact energy lost at breaks (reset) or by sliding (coulomb)
+    diss_damp: float = 0.0    # dissipated by the damping force
+    f_damp: np.ndarray = field(default=None)  # the damping part of f
+
+
+@dataclass(frozen=True)
+class Ledger:
+    """The energy of a state and what crossed its boundary since the start (docs/model.md
+    "Energy"): elastic (bonds, drive springs, contacts), kinetic, the plate's work, and the
+    dissipation by contact breaks and by damping. ``residual`` = plate work - (elastic +
+    kinetic - their start) - dissipation: zero up to the integrator's error."""
+
+    bond: float
+    drive: float
+    contact: float
+    kinetic: float
+    work_plate: float
+    diss_break: float
+    diss_damp: float
+
+    @property
+    def elastic(self) -> float:
+        return self.bond + self.drive + self.contact
+
+    @property
+    def energy(self) -> float:
+        return self.elastic + self.kinetic
+
+    def residual(self, start: "Ledger") -> float:
+        return (self.work_plate - start.work_plate) - (self.energy - start.energy) \
+            - (self.diss_break - start.diss_break) - (self.diss_damp - start.diss_damp)
 
 
 class Reference:
@@ -88,6 +121,7 @@ class Reference:
                 s.dr = old + w
                 over = self.k_e * np.sqrt((s.dr ** 2).sum(axis=1)) > self.f_max
                 s.breaks += int(over.sum())
+                before = 0.5 * self.k_e * (s.dr[over] ** 2).sum()
                 if self.mode == "reset":
                     # |old + th w| = f_max / k_e: the positive root of a quadratic in th
                     o, ww = old[over], w[over]
@@ -101,16 +135,45 @@ class Reference:
                 else:
                     norm = np.sqrt((s.dr[over] ** 2).sum(axis=1))
                     s.dr[over] *= (self.f_max / (self.k_e * norm))[:, None]
+                # the energy a break takes out of the contact: reset, the contact's energy
+                # where it broke (f_max^2 / 2 k_e once located in the step; the whole of
+                # dr's at the end of the step for reset/step); coulomb, the energy above the
+                # threshold that the rescaling removes (the sliding work)
+                if self.mode == "reset":
+                    lost = 0.5 * self.k_e * ((o + th[:, None] * ww) ** 2).sum()
+                else:
+                    lost = before - 0.5 * self.k_e * (s.dr[over] ** 2).sum()
+                s.diss_break += float(lost)
             f -= self.k_e * s.dr
+        s.f_damp = np.zeros_like(s.x)
         if self.gamma:
             if self.damping == "implicit":
                 # -m gamma v(t+dt), with v(t+dt) = v + dt/(2m) (F_other - m gamma v(t+dt))
                 h = 0.5 * self.dt / self.mass
-                f -= self.mass * self.gamma * (v + h * (f + f_other)) / (1 + 0.5 * self.gamma
-                                                                         * self.dt)
+                s.f_damp = -self.mass * self.gamma * (v + h * (f + f_other)) \
+                    / (1 + 0.5 * self.gamma * self.dt)
             else:
-                f -= self.mass * self.gamma * v
+                s.f_damp = -self.mass * self.gamma * v
+            f += s.f_damp
         return f
+
+    # energy ---------------------------------------------------------------------------
+    def drive_force_x(self, s: ReferenceState) -> float:
+        """The drive springs' total x force on the particles, which the plate's anchors feel
+        with the opposite sign: the plate's power is V_d times it."""
+        if self.k_d is None:
+            return 0.0
+        return float((self.k_d * (s.anchor[:, 0] + self.V_d * s.t - s.x[:, 0])).sum())
+
+    def ledger(self, s: ReferenceState) -> Ledger:
+        drive = 0.0
+        if self.k_d is not None:
+            u = s.x - s.anchor - np.array([self.V_d * s.t, 0.0])
+            drive = 0.5 * float((self.k_d * (u * u).sum(axis=1)).sum())
+        contact = 0.0 if self.k_e is None else 0.5 * self.k_e * float((s.dr ** 2).sum())
+        return Ledger(bond=float(self.bond_energy(s.x)), drive=drive, contact=contact,
+                      kinetic=0.5 * self.mass * float((s.v ** 2).sum()),
+                      work_plate=s.work_plate, diss_break=s.diss_break, diss_damp=s.diss_damp)
 
     # integration ----------------------------------------------------------------------
     def start(self, x, v=None, anchor=None, dr=None) -> ReferenceState:
@@ -133,12 +196,18 @@ class Reference:
     def step(self, s: ReferenceState, n: int = 1) -> ReferenceState:
         h = 0.5 * self.dt / self.mass
         for _ in range(n):
+            # the ledger's step terms, by the trapezoid rule over the step: the plate's work
+            # V_d dt (F_n + F_{n+1})/2 and the damping's -dt (F_n + F_{n+1})/2 . (v_n +
+            # v_{n+1})/2, which is exactly what the two half kicks take from the kinetic energy
+            p0, v0, fd0 = self.drive_force_x(s), s.v, s.f_damp
             s.v = s.v + h * s.f
             s.x = s.x + self.dt * s.v
             s.t += self.dt
             fb = self.bond_forces(s.x)
             s.f = fb + self.substrate_forces(s, s.v, advance=True, f_other=fb)
             s.v = s.v + h * s.f
+            s.work_plate += 0.5 * self.dt * self.V_d * (p0 + self.drive_force_x(s))
+            s.diss_damp -= 0.25 * self.dt * float(((fd0 + s.f_damp) * (v0 + s.v)).sum())
         return s
 
 
