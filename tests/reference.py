@@ -59,7 +59,7 @@ class Ledger:
     def energy(self) -> float:
         return self.elastic + self.kinetic
 
-    def residual(self, start: "Ledger") -> float:
+    def residual(self, start: Ledger) -> float:
         return (self.work_plate - start.work_plate) - (self.energy - start.energy) \
             - (self.diss_break - start.diss_break) - (self.diss_damp - start.diss_damp)
 

@@ -114,6 +114,24 @@ def test_spec_validation_names_the_field():
         RunSpec(phi=1, dk_d=2.0)
 
 
+def test_the_decks_readme_table_is_the_decks():
+    """lammps_inputs/README.md's table says each deck's lattice, phi, C, t_end and steps as its
+    params.json and in.bk do (it went stale once, when the default time step changed)."""
+    import json
+    import re
+
+    text = (ROOT / "lammps_inputs" / "README.md").read_text()
+    rows = re.findall(r"^\| `(\w+)/` \| (\d+)x(\d+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \| "
+                      r"(\d+) \|$", text, flags=re.M)
+    assert {r[0] for r in rows} == set(STANDARD_DECKS)
+    for name, lx, ly, phi, c, t_end, steps in rows:
+        p = json.loads((ROOT / "lammps_inputs" / name / "params.json").read_text())
+        deck = (ROOT / "lammps_inputs" / name / "in.bk").read_text()
+        assert (int(lx), int(ly), float(phi), float(c), float(t_end)) == \
+            (p["Lx"], p["Ly"], p["phi"], p["dt_factor"], p["t_end"]), name
+        assert re.search(rf"^run\s+{steps}$", deck, flags=re.M), name
+
+
 def test_checked_in_decks_are_current(lammps, tmp_path):
     write_standard_decks(tmp_path)
     for name in STANDARD_DECKS:

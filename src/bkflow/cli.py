@@ -127,7 +127,8 @@ def _state_args(p: argparse.ArgumentParser) -> None:
                    help="starting state of the contacts (default: the protocol's): "
                         "synchronized (the paper's, every contact formed at t = 0), random "
                         "(each contact part-way through its cycle), stratified (the phases "
-                        "evenly spread)")
+                        "evenly spread), partial (a synchronized 30%% of the contacts among "
+                        "evenly spread others: the steady protocol's companion)")
     p.add_argument("--companion", choices=STARTS + ("none",), default=None,
                    help="the start of a companion run beside the run (in its companion/), "
                         "from the other side of the steady state: the run is steady only when "
