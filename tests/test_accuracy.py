@@ -85,6 +85,17 @@ def test_a_deck_cannot_be_adaptive(tmp_path):
     assert not (tmp_path / "d").exists()
 
 
+def test_a_deck_has_no_companion(tmp_path):
+    """A companion is a second run: bkflow deck refuses it (it had dropped it silently)."""
+    proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--companion", "partial",
+                           "--out", str(tmp_path / "d")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "--start partial" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "d").exists()
+    ok = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--companion", "none",
+                         "--out", str(tmp_path / "e")], capture_output=True, text=True)
+    assert ok.returncode == 0, ok.stderr
+
+
 @pytest.mark.parametrize("args, needle", [
     (["--target-error", "-1"], "target_error must be > 0"),
     (["--accuracy", "sloppy"], "invalid choice"),

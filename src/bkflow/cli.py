@@ -669,6 +669,10 @@ def _deck(a) -> int:
     from .deck import DeckOptions, write_deck, written_by_bkflow
     from .rundir import RunDir
 
+    if getattr(a, "companion", None) not in (None, "none"):
+        raise SpecError(f"--companion {a.companion}: a deck is one run, and a companion is a "
+                        "second run beside it, which bkflow run runs; write the companion's "
+                        f"own deck with --start {a.companion} --out ANOTHER_DIR")
     spec = _spec(a, deck=True)
     if spec.adaptive:
         raise SpecError("an adaptive run (--until-steady, --target-error) needs the engine, "

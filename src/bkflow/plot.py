@@ -301,7 +301,8 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     lo, top = min(lows), max(tops)
     for ax in axes[:, 0]:
         ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
-    fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$", fontsize=9)
+    fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$ ("
+                 + protocol_label(data) + ")", fontsize=9)
     return fig
 
 
@@ -326,6 +327,8 @@ def _smooth(t, x, width: float):
     k = ((t - t[0]) // width).astype(int)
     n = np.bincount(k)
     keep = n > 0
+    if keep.sum() > 1 and t[-1] - (t[0] + k[-1] * width) < 0.5 * width:
+        keep[k[-1]] = False  # a last window under half the width: an edge artefact
     return (np.bincount(k, t)[keep] / n[keep], np.bincount(k, x)[keep] / n[keep])
 
 
@@ -393,6 +396,24 @@ def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
     return line
 
 
+def protocol_label(data: SweepData) -> str:
+    """What the figure's runs are, in words: "steady protocol" (until steady, beside a
+    companion), "paper's protocol, t_end = 1000" (a fixed length), or the mixture."""
+    r = data.runs
+    steady = r["until_steady"].fillna(False).astype(bool) if "until_steady" in r \
+        else pd.Series(False, index=r.index)
+    if steady.all():
+        return "steady protocol" if r.get("companion", pd.Series(dtype=object)).notna().all() \
+            else "runs until steady"
+    if not steady.any() and "t_end" in r:
+        ends = sorted(set(pd.to_numeric(r["t_end"], errors="coerce").dropna()))
+        starts = set(r["start"].astype(str)) if "start" in r else set()
+        who = "paper's protocol" if starts <= {"synchronized"} else \
+            "fixed length, " + "/".join(sorted(starts)) + " start"
+        return who + ", t_end = " + ", ".join(_num(e) for e in ends)
+    return "mixed protocols"
+
+
 def state_key(fig, data: SweepData, ax=None) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
     labelled handles, e.g. one per size) and the marker convention (``STATE_FILL``) for
@@ -410,7 +431,8 @@ def state_key(fig, data: SweepData, ax=None) -> None:
             labels.append(words[name])
     if handles:
         fig.legend(handles, labels, loc="outside lower center", ncol=min(len(handles), 6),
-                   frameon=False, fontsize=6.5, handletextpad=0.3, columnspacing=1.2)
+                   frameon=False, fontsize=6.5, handletextpad=0.3, columnspacing=1.2,
+                   title=protocol_label(data), title_fontsize=6.5)
 
 
 def fig2a_friction(data: SweepData, plt):
@@ -539,7 +561,8 @@ def fig4a_clusters(data: SweepData, plt):
     """l_y/Ly against l_x/Lx of every slip cluster, all seeds, for four phi (20x5 if swept)."""
     lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
     return cluster_scatter(data, plt, lx, ly, _phi_per_regime(data, lx, ly),
-                           f"Fig. 4a: slip clusters, {_size_label(lx, ly)}")
+                           f"Fig. 4a: slip clusters, {_size_label(lx, ly)}\n"
+                           f"({protocol_label(data)})")
 
 
 def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
