@@ -396,6 +396,19 @@ def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
     return line
 
 
+def state_handles(present=tuple(STATE_FILL)) -> tuple[list, list[str]]:
+    """The key of the marker convention (``STATE_FILL``) for the states ``present``:
+    grey markers and their words, in the convention's order."""
+    from matplotlib.lines import Line2D
+
+    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
+             "metastable": "metastable (some seed)"}
+    shown = [(name, fill) for name, fill in STATE_FILL.items() if name in present]
+    return ([Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
+                    mfc="grey" if fill != "none" else "white", mfcalt="white")
+             for _, fill in shown], [words[name] for name, _ in shown])
+
+
 def protocol_label(data: SweepData) -> str:
     """What the figure's runs are, in words: "steady protocol" (until steady, beside a
     companion), "paper's protocol, t_end = 1000" (a fixed length), or the mixture."""
@@ -418,17 +431,9 @@ def state_key(fig, data: SweepData, ax=None) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
     labelled handles, e.g. one per size) and the marker convention (``STATE_FILL``) for
     the states present in the figure's points (grey markers)."""
-    from matplotlib.lines import Line2D
-
-    present = set(_point_states(data.results))
-    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
-             "metastable": "metastable (some seed)"}
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
-    for name, fill in STATE_FILL.items():
-        if name in present:
-            handles.append(Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
-                                  mfc="grey" if fill != "none" else "white", mfcalt="white"))
-            labels.append(words[name])
+    more, words = state_handles(set(_point_states(data.results)))
+    handles, labels = handles + more, labels + words
     if handles:
         fig.legend(handles, labels, loc="outside lower center", ncol=min(len(handles), 6),
                    frameon=False, fontsize=6.5, handletextpad=0.3, columnspacing=1.2,

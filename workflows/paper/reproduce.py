@@ -42,7 +42,7 @@ import pandas as pd
 from bkflow import io
 from bkflow.grid import phi_values, sweep_specs
 from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
-from bkflow.plot import STATE_FILL, STYLE, SweepData, _style, cluster_scatter, plot
+from bkflow.plot import STATE_FILL, STYLE, SweepData, _style, cluster_scatter, plot, state_handles
 from bkflow.rundir import sweep_run_dir
 from bkflow.sweep import available_cores, fmt_duration, sweep
 from bkflow.tables import SETTINGS_FILE, read_tables
@@ -374,16 +374,10 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
             if row == len(OBSERVABLES) - 1:
                 ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     # one key below the panels (the curves, then the marker convention): it covers no point
-    from matplotlib.lines import Line2D
-
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
-             "metastable": "metastable (some seed)"}
-    for name, fill in STATE_FILL.items():
-        handles.append(Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
-                              mfc="grey" if fill != "none" else "white", mfcalt="white"))
-        labels.append(words[name])
-    fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False, fontsize=7)
+    states, words = state_handles()
+    fig.legend(handles + states, labels + words, loc="outside lower center", ncol=4,
+               frameon=False, fontsize=7)
     return _write(fig, figs / "fig2a_protocols.png")
 
 
