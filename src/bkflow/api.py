@@ -116,7 +116,7 @@ class Run:
         """x-t and y-t maps of the slip rate through recorded slip ``slip`` (a Figure)."""
         f = self._front(slip)
         s = self.spec
-        return front_figure(f, s.Lx, s.Ly, s.dt, title=f"phi = {s.phi:g}, {s.Lx}x{s.Ly}, "
+        return front_figure(f, s.Lx, s.Ly, s.dt, title=rf"$\phi$ = {_num(s.phi)}, {s.Lx}x{s.Ly}, "
                             f"slip {slip} (t = {f.step_max * s.dt:.1f} to "
                             f"{f.step_min * s.dt:.1f})")
 

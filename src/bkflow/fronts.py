@@ -33,13 +33,14 @@ def front_figure(front, lx: int, ly: int, dt: float, title: str = ""):
         fig, (a, b) = Figures().subplots(1, 2, figsize=(8.0, 3.4),
                                          gridspec_kw={"width_ratios": [max(lx, 8), max(ly, 8)]})
         extent_t = (t[0], t[-1]) if len(t) > 1 else (t[0], t[0] + dt)
-        for ax, img, n, label in ((a, xt, lx, "x (column)"), (b, yt, ly, "y (row)")):
+        for ax, img, n, label in ((a, xt, lx, "column (x / l)"), (b, yt, ly, "row (y / l)")):
             im = ax.imshow(img, aspect="auto", origin="lower", cmap="RdBu_r", vmin=-vmax,
                            vmax=vmax, extent=(-0.5, n - 0.5, *extent_t),
                            interpolation="nearest")
             ax.set_xlabel(label)
-        a.set_ylabel("t - t_max (time units)")
-        fig.colorbar(im, ax=(a, b), label=r"slip rate $v_x$ (mean over the column / row)")
+        a.set_ylabel(r"$t - t_{\max}$ ($\sqrt{m/k_d}$)")
+        fig.colorbar(im, ax=(a, b), label=r"slip rate $v_x$ ($l\sqrt{k_d/m}$), mean over the "
+                     "column / row")
         fig.suptitle(title or f"slip from step {front.step_max} to {front.step_min}"
                      + (" (truncated)" if front.truncated else ""))
     return fig
@@ -70,8 +71,8 @@ def front_movie(front, lx: int, ly: int, dt: float, path, fps: float = 15.0,
         img = Image.new("RGB", (rgb.shape[2], rgb.shape[1] + caption), "white")
         img.paste(Image.fromarray(rgb[k]), (0, caption))
         ImageDraw.Draw(img).text(
-            (3, 2), f"{title}t - t_max = {(step - front.step_max) * dt:6.2f}   v_x: blue "
-            f"{-vmax:.2g} .. red {vmax:.2g}", fill="black")
+            (3, 2), f"{title}t - t_max = {(step - front.step_max) * dt:6.2f} sqrt(m/k_d)   "
+            f"v_x: blue {-vmax:.2g} .. red {vmax:.2g} l sqrt(k_d/m)", fill="black")
         frames.append(img.convert("P", palette=Image.Palette.ADAPTIVE, colors=64))
     from .io import MARK, atomic_file
 
