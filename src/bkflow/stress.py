@@ -343,11 +343,12 @@ class PowerLawTest:
         f = self.fit
         if self.verdict == "no fit":
             return "no fit"
-        p = f"p < {1 / self.n_boot:.2g}" if self.p == 0 else f"p = {self.p:.2f}"
+        p = f"p < {1 / self.n_boot:.2g}" if self.p == 0 else f"p = {self.p:.3g}"
+        better = ", lognormal favoured" if self.preferred == "lognormal" else ""
         if self.verdict == "rejected":
-            better = ", lognormal favoured" if self.preferred == "lognormal" else ""
             return f"power law rejected ({p}{better})"
-        return rf"alpha = {f.alpha:.2f} +- {f.alpha_err:.2f} ({p})"
+        # plausible by the bootstrap; the likelihood ratio may still prefer a lognormal
+        return rf"alpha = {f.alpha:.2f} +- {f.alpha_err:.2f} ({p}{better})"
 
 
 def power_law_p(fit: PowerLawFit, n_boot: int = N_BOOT, seed: int = 0) -> float:
