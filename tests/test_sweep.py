@@ -512,9 +512,9 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
              1000.0: 0.01 + np.exp(rng.normal(-3.5, 0.8, 2000))}
     whole = {1.0: np.zeros(2000, bool), 1000.0: rng.random(2000) < 0.7}
 
-    def fake(data, runs, system_wide=False):
+    def fake(data, runs):
         phi = float(runs.phi.iloc[0])
-        return (drops[phi], whole[phi]) if system_wide else drops[phi]
+        return drops[phi], whole[phi]
 
     monkeypatch.setattr(plot, "_late_drops", fake)
     with plot.style():

@@ -38,18 +38,20 @@ def _key(fraction: float) -> str:
 @dataclass(frozen=True)
 class FrictionResult:
     """mu_bar over the slips after the transient with its standard error, the time-averaged
-    stress ratio, and mu_bar at each of the report thresholds (docs/model.md "Macroscopic
-    friction")."""
+    stress ratio with its standard error over the correlated samples (threshold-free: once,
+    not per threshold), and mu_bar at each of the report thresholds (docs/model.md
+    "Macroscopic friction")."""
 
     friction: stress.MacroscopicFriction
     by_threshold: dict  # fraction of mu_s sigma_n -> MacroscopicFriction
+    mean_stress_ratio_err: float
 
     def row(self) -> dict:
         f = self.friction
         return {"mu_bar": f.mu_bar, "mu_bar_err": f.mu_bar_err,
                 "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
                 "mean_stress_ratio": f.mean_stress_ratio,
-                "mean_stress_ratio_err": f.mean_stress_ratio_err,
+                "mean_stress_ratio_err": self.mean_stress_ratio_err,
                 "slip_threshold_stress": f.threshold,
                 "t_transient": f.t_transient,
                 "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
@@ -262,8 +264,10 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
         return stress.macroscopic_friction(t, sigma, spec.sigma_n, fraction * unit,
                                            t_transient=t_transient)
 
+    late = np.asarray(t, dtype=float) >= t_transient
+    ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
     return FrictionResult(at(settings.slip_threshold),
-                          {_key(f): at(f) for f in settings.report_thresholds})
+                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error)
 
 
 def _contacts(spec: RunSpec, settings: AnalysisSettings, phase: dict | None,

@@ -618,18 +618,20 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     return fig if fig is not None else ax.figure
 
 
-def _log_density(d, bins: int) -> tuple[np.ndarray, np.ndarray]:
-    """Probability density of positive values in logarithmic bins (centres, density)."""
+def _log_density(d, bins: int, part=None) -> tuple[np.ndarray, np.ndarray]:
+    """Probability density of positive values in logarithmic bins (centres, density); with
+    ``part`` (a mask of ``d``), that part's share of it, in the same bins: the parts' densities
+    add up to the whole's."""
     lo, hi = d.min(), max(d.max(), d.min() * 1.0001)
     edges = np.geomspace(lo, hi, bins + 1)
-    counts, _ = np.histogram(d, edges)
+    counts, _ = np.histogram(d if part is None else d[part], edges)
     return np.sqrt(edges[:-1] * edges[1:]), counts / (len(d) * np.diff(edges))
 
 
-def _late_drops(data: SweepData, runs: pd.DataFrame, system_wide: bool = False):
-    """The drops after the transient of ``runs`` (events.csv), pooled over the seeds; with
-    ``system_wide``, also whether each drop's slip moved every particle of the layer (its
-    largest cluster in clusters.csv holds all N; None when a run recorded no clusters)."""
+def _late_drops(data: SweepData, runs: pd.DataFrame):
+    """The drops after the transient of ``runs`` (events.csv), pooled over the seeds, and
+    whether each drop's slip moved every particle of the layer (its largest cluster in
+    clusters.csv holds all N; None when a run recorded no clusters)."""
     drops, whole = [], []
     for _, r in runs.iterrows():
         rd = data.run_dir(r)
@@ -637,18 +639,15 @@ def _late_drops(data: SweepData, runs: pd.DataFrame, system_wide: bool = False):
         late = e["late"].astype(bool).to_numpy()
         d = pd.to_numeric(e["drop"], errors="coerce").to_numpy(dtype=float)
         drops.append(d[late])
-        if system_wide:
-            c = rd.read_clusters()
-            if c is None:
-                whole = None
-            elif whole is not None:
-                largest = c.groupby("event")["n_c"].max()
-                n_max = largest.reindex(np.arange(len(e))).to_numpy(dtype=float)
-                whole.append((n_max >= int(r.Lx) * int(r.Ly))[late])
+        c = rd.read_clusters()
+        if c is None:
+            whole = None
+        elif whole is not None:
+            largest = c.groupby("event")["n_c"].max()
+            n_max = largest.reindex(np.arange(len(e))).to_numpy(dtype=float)
+            whole.append((n_max >= int(r.Lx) * int(r.Ly))[late])
     d = np.concatenate(drops) if drops else np.empty(0)
     keep = np.isfinite(d) & (d > 0)
-    if not system_wide:
-        return d[keep]
     return d[keep], (np.concatenate(whole)[keep] if whole else None)
 
 
@@ -695,7 +694,7 @@ def fig_drops(data: SweepData, plt):
     for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
                               ("black", "tab:red", "tab:green", "tab:blue")):
         runs = data.runs_of(lx, ly, phi)
-        d, whole = _late_drops(data, runs, system_wide=True)
+        d, whole = _late_drops(data, runs)
         if len(d) < 2:
             continue
         drawn += 1
@@ -738,13 +737,9 @@ def fig_drops(data: SweepData, plt):
                 transform=bx.transAxes, ha="center", va="center", fontsize=7)
         return fig
     phi, d, whole, colour, fill = stiff
-    edges = np.geomspace(d.min(), max(d.max(), d.min() * 1.0001), 16)
-    x = np.sqrt(edges[:-1] * edges[1:])
     for part, label, m, ls in ((whole, "system-wide (every particle slips)", "^", "-"),
                                (~whole, "partial", "v", "--")):
-        # the same bins for both, each normalised by all drops: the two add up to (a)'s
-        counts, _ = np.histogram(d[part], edges)
-        dens = counts / (len(d) * np.diff(edges))
+        x, dens = _log_density(d, 15, part)  # (a)'s bins: the two add up to (a)'s density
         nz = dens > 0
         if nz.any():
             bx.plot(x[nz], dens[nz], marker=m, ls=ls, color=colour, lw=0.8, fillstyle=fill,

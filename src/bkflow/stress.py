@@ -137,15 +137,13 @@ class MacroscopicFriction:
     standard error over successive (correlated) slips
     (``bkflow.stationarity.mean_error``, ``g`` the statistical inefficiency);
     ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
-    threshold involved), ``mean_stress_ratio_err`` its standard error over the correlated
-    samples (the same estimator). ``events``: every slip of the series, transient included.
+    threshold involved). ``events``: every slip of the series, transient included.
     """
 
     mu_bar: float
     mu_bar_err: float
     n_slips: int
     mean_stress_ratio: float
-    mean_stress_ratio_err: float
     threshold: float
     t_transient: float
     g: float
@@ -173,10 +171,8 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     ev = events.after(t0)
     est = mean_error(ev.sigma_fail / sigma_n)
     late = t >= t0
-    ratio = mean_error(s[late] / sigma_n)
     return MacroscopicFriction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
-                               mean_stress_ratio=ratio.mean,
-                               mean_stress_ratio_err=ratio.error,
+                               mean_stress_ratio=float((s[late] / sigma_n).mean()),
                                threshold=float(threshold), t_transient=float(t0),
                                g=est.g, error_reliable=est.reliable,
                                events=events)
