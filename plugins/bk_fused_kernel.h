@@ -18,6 +18,7 @@ namespace bkfused {
 struct Model {
   int Lx = 0, Ly = 0, N = 0;
   int drive = 0, contact = BK_NO_CONTACT, damping = BK_NO_DAMPING;    // bk_model.h
+  int ledger = 0;      // keep the energy ledger (Arrays::led)
   double dt = 0.0;
   double hv = 0.0;     // fix nve's dtf / m: v += hv f
   double hd = 0.0;     // the damping's dt / (2 m)
@@ -39,6 +40,12 @@ struct Arrays {
   // scratch: bond forces by owner (br, bu) and by partner (bl: its left bond, bd: its down
   // bond); contact-break flags
   double *brx, *bry, *blx, *bly, *bux, *buy, *bdx, *bdy, *over;
+  // the energy ledger (Model::ledger): running sums (bk_model.h bk_ledger_sum), the drive
+  // force sum F_n of the last step, the next step's first half kick's damping work (pending),
+  // and one step's scratch sums
+  double led[BK_NLEDGER];
+  double led_fprev, led_next;
+  double acc_fx, acc_done, acc_next, acc_lost;
 };
 
 /* Where the state is mirrored: LAMMPS's wrapped positions x = X - offset and velocities of

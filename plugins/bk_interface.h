@@ -15,6 +15,16 @@ enum bk_slot {
   BK_SLOT_PLATE,           /* the plate's displacement V_d (t - t0) */
   BK_SLOT_BOND_MAX,        /* the longest bond in the last step */
   BK_SLOT_PATH,            /* the path that ran, a bk_path_code */
+  /* the energy ledger (docs/model.md "Energy"): the energies of the current step, computed
+     when asked, and, with the keyword `energy`, the running sums since the fix was defined
+     (NaN without it) */
+  BK_SLOT_E_BOND,          /* bonds, sum k_b/2 (r - r0)^2 */
+  BK_SLOT_E_DRIVE,         /* drive springs, sum k_d^i/2 |r_i - anchor_i(t)|^2 */
+  BK_SLOT_E_CONTACT,       /* contacts, sum k_e/2 |dr_i|^2 */
+  BK_SLOT_E_KINETIC,       /* kinetic, sum m/2 |v_i|^2 (the full-step velocities) */
+  BK_SLOT_WORK,            /* the plate's work on the drive springs */
+  BK_SLOT_DISS_BREAK,      /* dissipated by contact breaks (the sliding work under coulomb) */
+  BK_SLOT_DISS_DAMP,       /* dissipated by damping */
   BK_NSLOTS
 };
 

@@ -148,6 +148,19 @@ static inline void bk_contact_break(int rule, double *drx, double *dry, double w
   }
 }
 
+/* The energy a break takes out of its contact (docs/model.md "Energy"), from its displacement
+   before (bx, by) and after (ax, ay) bk_contact_break: BK_RESET, the contact's energy where it
+   broke, at dr_old + th w = before - after (f_max^2 / 2 k_e unless th was clamped);
+   BK_RESET_STEP, its whole end-of-step energy (after = 0, the same formula); BK_COULOMB, the
+   energy above the threshold that the rescaling removes (the sliding work). */
+static inline double bk_break_loss(int rule, double bx, double by, double ax, double ay,
+                                   double ke)
+{
+  if (rule == BK_COULOMB) return 0.5 * ke * ((bx * bx + by * by) - (ax * ax + ay * ay));
+  const double dx = bx - ax, dy = by - ay;
+  return 0.5 * ke * (dx * dx + dy * dy);
+}
+
 /* ----------------------------------------------------------------------- damping */
 
 /* the magnitude m gamma v' of the damping force -m gamma v' on one component (mg = m gamma):
@@ -159,6 +172,25 @@ static inline double bk_damping(int scheme, double mg, double v, double h, doubl
 {
   return scheme == BK_IMPLICIT ? mg * (v + h * f_other) * den : mg * v;
 }
+
+/* ----------------------------------------------------------------------- the energy ledger */
+
+/* The ledger's damping term (docs/model.md "Energy"): what one half kick v -> v1 = v + h F
+   takes from the kinetic energy through the damping force fd, -fd (v + v1) dt/4 per component
+   (h = dt/(2m)): the work of the damping force over the half kick, exactly. A step's two half
+   kicks are computed where their forces are known: the second (vh -> v1) when the step's
+   forces are, the first of the next step (v1 -> v1 + h F) then too, held until that step. */
+static inline double bk_kick_work(double fd, double v, double v1)
+{
+  return fd * (v + v1);
+}
+
+/* The running sums of the ledger that a path keeps, per rank (their sum over ranks is the
+   layer's: every term is linear in its atoms): the plate's work by the trapezoid rule over each
+   step, V_d dt (F_n + F_n+1)/2 for the drive springs' total x force F (f_prev holds this rank's
+   F_n); the energy taken by breaks; the damping's dissipation of the half kicks done
+   (damp_next: the work of the next step's first half kick, -4/dt times, not yet counted). */
+enum bk_ledger_sum { BK_LED_WORK, BK_LED_BREAK, BK_LED_DAMP, BK_NLEDGER };
 
 /* ----------------------------------------------------------------------- contact phases */
 

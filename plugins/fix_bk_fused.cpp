@@ -357,7 +357,7 @@ void FixBKFused::set_model()
   bkfused::Model &m = model;
   const double dt = update->dt;
   m.Lx = Lx, m.Ly = Ly, m.N = N;
-  m.drive = drive_on, m.contact = contact, m.damping = damping;
+  m.drive = drive_on, m.contact = contact, m.damping = damping, m.ledger = ledger_on;
   m.dt = dt;
   m.hv = 0.5 * update->dt * force->ftm2v / mass;    // fix nve: dtf / mass
   m.hd = 0.5 * dt / mass;
@@ -385,9 +385,11 @@ void FixBKFused::setup(int /*vflag*/)
   mirror_to.x = atom->x;
   mirror_to.v = atom->v;
   mirror_to.state = nullptr;
+  for (int k = 0; k < BK_NLEDGER; k++) arr.led[k] = ledger[k];    // a restart's sums, or ours
   kernel.setup(model, arr, mirror_to, update->ntimestep, use_vh ? arr.vhx : arr.vx,
                use_vh ? arr.vhy : arr.vy);
   nbreak_step = 0;
+  energy_step = -1;
   sigma_step = rmax_step = -1;
   sync_state();
 }
@@ -406,7 +408,9 @@ void FixBKFused::initial_integrate(int /*vflag*/)
   nbreak_step = last;
   nbreak_total += nb;
   if (damping != BK_NO_DAMPING) vh_valid = 1;
-  sigma_step = rmax_step = -1;
+  if (ledger_on)
+    for (int k = 0; k < BK_NLEDGER; k++) ledger[k] = arr.led[k];
+  sigma_step = rmax_step = energy_step = -1;
 }
 
 void FixBKFused::post_run()
@@ -485,6 +489,23 @@ void FixBKFused::contact_phase(double *sums)
   double local[BK_NPHASE] = {};
   if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
+}
+
+/* the energies of the current step from the fix's own arrays, in lattice order: bonds,
+   drive springs, contacts, kinetic (the full-step velocities) */
+void FixBKFused::local_energies(double *e)
+{
+  e[0] = compute_scalar();
+  e[1] = e[2] = e[3] = 0.0;
+  if (!lattice_ready || !have_state) return;
+  for (int k = 0; k < N; k++) {
+    if (drive_on) {
+      const double ux = arr.x[k] - arr.ax[k] - plate_shift, uy = arr.y[k] - arr.ay[k];
+      e[1] += 0.5 * arr.kd[k] * (ux * ux + uy * uy);
+    }
+    if (contact != BK_NO_CONTACT) e[2] += 0.5 * ke * (arr.drx[k] * arr.drx[k] + arr.dry[k] * arr.dry[k]);
+    e[3] += 0.5 * mass * (arr.vx[k] * arr.vx[k] + arr.vy[k] * arr.vy[k]);
+  }
 }
 
 // the bond energy sum k_b/2 (r - r0)^2

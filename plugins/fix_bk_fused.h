@@ -72,6 +72,7 @@ class FixBKFused : public FixBKLayer {
                                                                          : nbreak_step); }
   double longest_bond() override;
   int path_code() const override;
+  void local_energies(double *e) override;
 
   bool mirror_due(bigint step) const;
   void build_lattice();

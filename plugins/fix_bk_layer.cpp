@@ -15,6 +15,7 @@
 #include "update.h"
 
 #include <cstring>
+#include <limits>
 
 using namespace LAMMPS_NS;
 
@@ -32,7 +33,7 @@ std::string names_of(const char *const *names, int n, bool bar = false)
 const char *USAGE =
     "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
     "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]] "
-    "[start dr_property] [integrate|fused]";
+    "[start dr_property] [energy] [integrate|fused]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
 {
@@ -114,6 +115,9 @@ FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
     } else if (strcmp(arg[iarg], "integrate") == 0 || strcmp(arg[iarg], "fused") == 0) {
       integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
       iarg++;
+    } else if (strcmp(arg[iarg], "energy") == 0) {
+      ledger_on = 1;    // the energy ledger's running sums (docs/model.md "Energy")
+      iarg++;
     } else if (strcmp(arg[iarg], "start") == 0) {
       if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
       start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
@@ -190,6 +194,11 @@ void FixBKLayer::init()
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
 }
 
+double FixBKLayer::update_dt() const
+{
+  return update->dt;
+}
+
 double FixBKLayer::current_time() const
 {
   return update->atime + static_cast<double>(update->ntimestep - update->atimestep) * update->dt;
@@ -224,9 +233,29 @@ double FixBKLayer::compute_vector(int n)
       return plate_shift;
     case BK_SLOT_BOND_MAX:
       return longest_bond();
-    default:
+    case BK_SLOT_PATH:
       return path_code();
+    default:
+      return ledger_slot(n);
   }
+}
+
+/* the ledger's slots: the energies of the step (bonds, drive springs, contacts, kinetic) and,
+   with `energy`, the running sums (plate work, dissipation by breaks and by damping; NaN
+   without it), reduced over ranks in one call per step */
+
+double FixBKLayer::ledger_slot(int n)
+{
+  if (energy_step != update->ntimestep) {
+    double local[4 + BK_NLEDGER] = {};
+    local_energies(local);
+    for (int k = 0; k < BK_NLEDGER; k++) local[4 + k] = ledger[k];
+    MPI_Allreduce(local, energy_vec, 4 + BK_NLEDGER, MPI_DOUBLE, MPI_SUM, world);
+    energy_step = update->ntimestep;
+  }
+  const int k = n - BK_SLOT_E_BOND;
+  if (k >= 4 && !ledger_on) return std::numeric_limits<double>::quiet_NaN();
+  return energy_vec[k];
 }
 
 /* the contacts' load phases u_i = k_e |dr_i| / (mu_s sigma_n A) of the local atoms in the
@@ -245,19 +274,25 @@ void FixBKLayer::contact_phase(double *sums)
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
-/* global restart state: t0, vh_valid, total breaks, and the plate's clock (elapsed_base,
-   step_base, dt_base) */
+/* global restart state: t0, vh_valid, total breaks, the plate's clock (elapsed_base,
+   step_base, dt_base), and with `energy` the ledger's running sums after them, flagged by 2
+   added to vh_valid (a file without them, older or without `energy`, holds 0 or 1 there) */
 
 void FixBKLayer::write_restart(FILE *fp)
 {
-  double local = static_cast<double>(nbreak_total), total = 0.0;
-  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, world);
+  double local[1 + BK_NLEDGER] = {static_cast<double>(nbreak_total)};
+  for (int k = 0; k < BK_NLEDGER; k++) local[1 + k] = ledger[k];
+  double total[1 + BK_NLEDGER] = {};
+  MPI_Allreduce(local, total, 1 + BK_NLEDGER, MPI_DOUBLE, MPI_SUM, world);
   if (comm->me == 0) {
-    double list[6] = {t0, static_cast<double>(vh_valid), total, elapsed_base,
-                      static_cast<double>(step_base), dt_base};
-    int size = 6 * sizeof(double);
+    double list[6 + BK_NLEDGER] = {t0, static_cast<double>(vh_valid + (ledger_on ? 2 : 0)),
+                                   total[0], elapsed_base, static_cast<double>(step_base),
+                                   dt_base};
+    const int n = ledger_on ? 6 + BK_NLEDGER : 6;
+    for (int k = 0; k < BK_NLEDGER; k++) list[6 + k] = total[1 + k];
+    int size = n * sizeof(double);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(list, sizeof(double), 6, fp);
+    fwrite(list, sizeof(double), n, fp);
   }
 }
 
@@ -265,11 +300,16 @@ void FixBKLayer::restart(char *buf)
 {
   auto *list = reinterpret_cast<double *>(buf);
   t0 = list[0];
-  vh_valid = static_cast<int>(list[1]);
+  const int flags = static_cast<int>(list[1]);
+  vh_valid = flags & 1;
   nbreak_total = comm->me == 0 ? static_cast<bigint>(list[2]) : 0;
   elapsed_base = list[3];
   step_base = static_cast<bigint>(list[4]);
   dt_base = list[5];
+  // the sums go on with the run (on rank 0: the sum over ranks is what counts); a file
+  // without them starts them at zero here
+  for (int k = 0; k < BK_NLEDGER; k++)
+    ledger[k] = (flags & 2) && comm->me == 0 ? list[6 + k] : 0.0;
 }
 
 double FixBKLayer::memory_usage()

@@ -67,6 +67,7 @@ class FixBKLayer : public Fix {
   std::string kd_name;           // name of the per-atom double property holding k_d^i
   int kd_index = -1;
   int integrate = 0;             // `integrate` or `fused`: the fix integrates the layer too
+  int ledger_on = 0;             // `energy`: keep the energy ledger's running sums
 
   double **state = nullptr;      // AX, AY: anchor at t0 (unwrapped); DR*: contact
                                  // displacement; VH*: half-step velocity of the last step
@@ -80,6 +81,13 @@ class FixBKLayer : public Fix {
   double plate_shift = 0.0;      // the plate's displacement at the current step
   int vh_valid = 0;              // VH* hold the velocity used by the last step
   bigint nbreak_step = 0, nbreak_total = 0;    // contact breaks (local on the general path)
+  // the energy ledger's running sums of this rank (bk_model.h bk_ledger_sum), with `energy`;
+  // their sum over ranks is the layer's
+  double ledger[BK_NLEDGER] = {0.0, 0.0, 0.0};
+  double ledger_fprev = 0.0;    // this rank's drive force sum F_n of the last step
+  double ledger_next = 0.0;     // the next step's first half kick's damping work, pending
+  bigint energy_step = -1;      // the step of the cached energies (-1: none)
+  double energy_vec[4 + BK_NLEDGER] = {};
 
   int double_property(const char *name, const char *keyword);
   double plate_now();    // the plate's shift at the current step (rebases the clock on a new dt)
@@ -89,6 +97,25 @@ class FixBKLayer : public Fix {
   virtual double breaks(bool total) = 0;
   virtual double longest_bond() = 0;
   virtual int path_code() const = 0;
+  // this rank's bond, drive, contact and kinetic energies of the current step, e[0..3]
+  virtual void local_energies(double *e) = 0;
+  // the ledger's slots (BK_SLOT_E_BOND ...), reduced over ranks once per step when first asked
+  double ledger_slot(int n);
+  // the ledger's step terms: the plate's work by the trapezoid rule from this rank's drive
+  // force f_now (advance: a step; else setup, which only takes f_now as F_n)
+  void ledger_plate(double f_now, int advance)
+  {
+    if (advance) ledger[BK_LED_WORK] += 0.5 * update_dt() * vd * (ledger_fprev + f_now);
+    ledger_fprev = f_now;
+  }
+  // ... and the damping's: `done`, sum fd (v + v1) of this step's second half kicks, `next`
+  // that of the next step's first (advance: a step; else setup, which only sets `next`)
+  void ledger_damping(double done, double next, int advance)
+  {
+    if (advance) ledger[BK_LED_DAMP] -= 0.25 * update_dt() * (done + ledger_next);
+    ledger_next = next;
+  }
+  double update_dt() const;
 };
 
 }    // namespace LAMMPS_NS

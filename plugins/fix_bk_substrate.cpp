@@ -62,7 +62,7 @@ int FixBKSubstrate::setmask()
 void FixBKSubstrate::init()
 {
   FixBKLayer::init();
-  if (integrate) reset_dt();
+  reset_dt();    // the kicks of `integrate`, and the ledger's (fix nve's step sizes)
 }
 
 void FixBKSubstrate::reset_dt()
@@ -270,6 +270,38 @@ double FixBKSubstrate::compute_scalar()
   return all;
 }
 
+/* this rank's energies of the current step: bonds (as compute_scalar), drive springs (from
+   the displacements of this step's forces), contacts, kinetic (the full-step velocities) */
+
+void FixBKSubstrate::local_energies(double *e)
+{
+  e[0] = e[1] = e[2] = e[3] = 0.0;
+  double *const *const x = atom->x;
+  double *const *const v = atom->v;
+  const int *const mask = atom->mask;
+  const int nlocal = atom->nlocal;
+  if (bonds_on)
+    for (int b = 0; b < nblist; b++) {
+      const int i = bl_i[b], j = bl_j[b];
+      const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
+      e[0] += (bl_both[b] ? 1.0 : 0.5) * bk_bond_energy(dx * dx + dy * dy, kb, r0);
+    }
+  const double *const kd = drive_on ? atom->dvector[kd_index] : nullptr;
+  const double *const rmass = atom->rmass;
+  const double *const mass = atom->mass;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    if (kd) {
+      const double ux = u[i][0] - plate_shift, uy = u[i][1];
+      e[1] += 0.5 * kd[i] * (ux * ux + uy * uy);
+    }
+    if (contact != BK_NO_CONTACT)
+      e[2] += 0.5 * ke * (state[i][DRX] * state[i][DRX] + state[i][DRY] * state[i][DRY]);
+    const double m = rmass ? rmass[i] : mass ? mass[atom->type[i]] : 0.0;
+    e[3] += 0.5 * m * (v[i][0] * v[i][0] + v[i][1] * v[i][1]);
+  }
+}
+
 // the bond forces of this step; returns the largest squared bond length (local bonds)
 double FixBKSubstrate::bond_forces()
 {
@@ -292,7 +324,8 @@ double FixBKSubstrate::bond_forces()
   return r2max;
 }
 
-template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate::eval()
+template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE, int LEDGER>
+void FixBKSubstrate::eval()
 {
   double *const *const v = atom->v;
   double *const *const f = atom->f;
@@ -310,6 +343,8 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
 
   double sfx = 0.0;
   bigint nb = 0;
+  // the ledger's terms of this step (LEDGER): breaks' loss, damping's kick work
+  double lost = 0.0, kick_done = 0.0, kick_next = 0.0;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     double *const s = state[i];
@@ -328,7 +363,9 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
         s[DRY] += vy * dt;
         if (bk_contact_over(s[DRX], s[DRY], ke2, fmax2)) {
           nb++;
+          const double bx = s[DRX], by = s[DRY];
           bk_contact_break(CONTACT, &s[DRX], &s[DRY], vx * dt, vy * dt, fmax, ke, lim2);
+          if constexpr (LEDGER) lost += bk_break_loss(CONTACT, bx, by, s[DRX], s[DRY], ke);
         }
       }
       fx -= ke * s[DRX];
@@ -338,8 +375,22 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
       const double m = rmass ? rmass[i] : mass[type[i]];
       const double mg = m * gamma;
       const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
-      fx -= bk_damping(DAMPING, mg, vx, h, f[i][0] + fx, den);
-      fy -= bk_damping(DAMPING, mg, vy, h, f[i][1] + fy, den);
+      const double gx = bk_damping(DAMPING, mg, vx, h, f[i][0] + fx, den);
+      const double gy = bk_damping(DAMPING, mg, vy, h, f[i][1] + fy, den);
+      fx -= gx;
+      fy -= gy;
+      if constexpr (LEDGER) {
+        // the half kicks around this force: v -> v1 (a step: v the half-step velocity; setup:
+        // none) and v1 -> v1 + hk F, the next step's first; v1 is the full-step velocity
+        const double hk = dtf / m;
+        const double Fx = f[i][0] + fx, Fy = f[i][1] + fy;
+        const double v1x = ADVANCE ? bk_kick(v[i][0], hk, Fx) : v[i][0];
+        const double v1y = ADVANCE ? bk_kick(v[i][1], hk, Fy) : v[i][1];
+        if constexpr (ADVANCE) kick_done += bk_kick_work(-gx, v[i][0], v1x)
+            + bk_kick_work(-gy, v[i][1], v1y);
+        kick_next += bk_kick_work(-gx, v1x, bk_kick(v1x, hk, Fx))
+            + bk_kick_work(-gy, v1y, bk_kick(v1y, hk, Fy));
+      }
       if constexpr (ADVANCE) {
         s[VHX] = vx;
         s[VHY] = vy;
@@ -353,23 +404,30 @@ template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void FixBKSubstrate:
   nbreak_step = nb;
   nbreak_total += nb;
   if (ADVANCE && DAMPING != BK_NO_DAMPING) vh_valid = 1;
+  if constexpr (LEDGER) {
+    ledger_plate(sfx, ADVANCE);
+    ledger[BK_LED_BREAK] += lost;
+    ledger_damping(kick_done, kick_next, ADVANCE);
+  }
 }
 
 namespace LAMMPS_NS {
-// eval() specialisations indexed by drive (0, 1), contact rule, damping and advance (0, 1)
+// eval() specialisations indexed by drive (0, 1), contact rule, damping, advance (0, 1) and
+// ledger (0, 1)
 struct BKSubstrateTable {
   using Eval = void (FixBKSubstrate::*)();
   static constexpr int NC = BK_NCONTACT, ND = BK_NDAMPING;
-  static constexpr std::size_t SIZE = 2 * NC * ND * 2;
+  static constexpr std::size_t SIZE = 2 * NC * ND * 2 * 2;
 
-  static constexpr int index(int drive, int contact, int damping, int advance)
+  static constexpr int index(int drive, int contact, int damping, int advance, int ledger)
   {
-    return drive + 2 * (contact + NC * (damping + ND * advance));
+    return drive + 2 * (contact + NC * (damping + ND * (advance + 2 * ledger)));
   }
   template <std::size_t... I>
   static constexpr std::array<Eval, sizeof...(I)> make(std::index_sequence<I...>)
   {
-    return {{&FixBKSubstrate::eval<I % 2, I / 2 % NC, I / (2 * NC) % ND, I / (2 * NC * ND)>...}};
+    return {{&FixBKSubstrate::eval<I % 2, I / 2 % NC, I / (2 * NC) % ND,
+                                   I / (2 * NC * ND) % 2, I / (4 * NC * ND)>...}};
   }
 };
 }    // namespace LAMMPS_NS
@@ -384,7 +442,9 @@ void FixBKSubstrate::apply_forces(int advance)
   static const auto table =
       BKSubstrateTable::make(std::make_index_sequence<BKSubstrateTable::SIZE>{});
   const double r2max = bonds_on ? bond_forces() : 0.0;
-  (this->*table[BKSubstrateTable::index(drive_on, contact, damping, advance ? 1 : 0)])();
+  (this->*table[BKSubstrateTable::index(drive_on, contact, damping, advance ? 1 : 0,
+                                        ledger_on)])();
+  energy_step = -1;
   rmax_local = sqrt(r2max);
   reduced = 0;
 }

@@ -61,7 +61,8 @@ class FixBKSubstrate : public FixBKLayer {
   void build_bond_list();
   void apply_forces(int advance);
   double bond_forces();
-  template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE> void eval();
+  template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE, int LEDGER> void eval();
+  void local_energies(double *e) override;
   void enforce2d();
   template <bool DRIFT> void nve_step();
 };

@@ -196,18 +196,21 @@ class Reference:
     def step(self, s: ReferenceState, n: int = 1) -> ReferenceState:
         h = 0.5 * self.dt / self.mass
         for _ in range(n):
-            # the ledger's step terms, by the trapezoid rule over the step: the plate's work
-            # V_d dt (F_n + F_{n+1})/2 and the damping's -dt (F_n + F_{n+1})/2 . (v_n +
-            # v_{n+1})/2, which is exactly what the two half kicks take from the kinetic energy
+            # the ledger's step terms: the plate's work by the trapezoid rule over the step,
+            # V_d dt (F_n + F_n+1)/2, and the damping's what the two half kicks take from the
+            # kinetic energy through the damping force, -dt/4 (fd_n . (v_n + vh) + fd_n+1 .
+            # (vh + v_n+1)) (the work of that force over each kick, exactly)
             p0, v0, fd0 = self.drive_force_x(s), s.v, s.f_damp
             s.v = s.v + h * s.f
+            vh = s.v
             s.x = s.x + self.dt * s.v
             s.t += self.dt
             fb = self.bond_forces(s.x)
             s.f = fb + self.substrate_forces(s, s.v, advance=True, f_other=fb)
             s.v = s.v + h * s.f
             s.work_plate += 0.5 * self.dt * self.V_d * (p0 + self.drive_force_x(s))
-            s.diss_damp -= 0.25 * self.dt * float(((fd0 + s.f_damp) * (v0 + s.v)).sum())
+            s.diss_damp -= 0.25 * self.dt * float((fd0 * (v0 + vh)).sum()
+                                                   + (s.f_damp * (vh + s.v)).sum())
         return s
 
 

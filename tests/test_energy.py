@@ -2,9 +2,9 @@
 each term exact where its answer is known, and the closure of plate work = change of elastic
 and kinetic energy + dissipation falling with the time step at the scheme's order.
 
-The reference keeps the ledger the way the plugin is to keep it: the plate's work and the
-damping's dissipation by the trapezoid rule over each step (exactly what the two half kicks take
-from the kinetic energy), the contact energy a break removes at the break."""
+The reference keeps the ledger the way the plugin keeps it: the plate's work by the trapezoid rule
+over each step, the damping's dissipation as what the two half kicks take from the kinetic energy
+through the damping force, the contact energy a break removes at the break."""
 
 from __future__ import annotations
 

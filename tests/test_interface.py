@@ -32,7 +32,11 @@ def test_the_output_slots_are_named_alike():
     assert slots[-1] == "BK_NSLOTS"
     want = {"BK_SLOT_SIGMA": "sigma_x", "BK_SLOT_BREAKS_STEP": "breaks_step",
             "BK_SLOT_BREAKS_TOTAL": "breaks_total", "BK_SLOT_PLATE": "plate",
-            "BK_SLOT_BOND_MAX": "bond_max", "BK_SLOT_PATH": "path"}
+            "BK_SLOT_BOND_MAX": "bond_max", "BK_SLOT_PATH": "path",
+            "BK_SLOT_E_BOND": "e_bond", "BK_SLOT_E_DRIVE": "e_drive",
+            "BK_SLOT_E_CONTACT": "e_contact", "BK_SLOT_E_KINETIC": "e_kinetic",
+            "BK_SLOT_WORK": "work", "BK_SLOT_DISS_BREAK": "diss_break",
+            "BK_SLOT_DISS_DAMP": "diss_damp"}
     assert {want[c]: i for i, c in enumerate(slots[:-1])} == SLOTS
 
 

@@ -31,7 +31,12 @@ SUBSTRATE_FIX = "bk"
 #: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/test_plugin.py checks
 #: that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
-         "path": 5}
+         "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
+         "diss_break": 11, "diss_damp": 12}
+#: the energy ledger's slots (docs/model.md "Energy"): the energies of the step, then the running
+#: sums that the keyword ``energy`` of fix bk/substrate keeps
+LEDGER_SLOTS = ("e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
+                "diss_damp")
 #: fix ID of fix bk/slips (scenes clusters, full); its vector is [events, events written]
 SLIPS_FIX = "slips"
 #: fix ID of fix bk/fronts (scenes fronts, full); its vector is [events, events written]
@@ -58,6 +63,8 @@ class DeckOptions:
     drive: bool = True
     contact: bool = True
     damp: bool = True
+    #: keep the energy ledger (``energy``): None, when the scene needs it (RunSpec.writes_energy)
+    energy: bool | None = None
 
     def __post_init__(self):
         if self.path not in PATHS:
@@ -117,9 +124,10 @@ def data_text(spec: RunSpec, lattice: Lattice | None = None, velocities=None) ->
 
 
 def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
-                  damp: bool = True, path: str = "general") -> str:
+                  damp: bool = True, path: str = "general", energy: bool = False) -> str:
     """The ``fix bk/substrate`` line of a run: the bonds, and the parts asked for; with path
-    ``auto`` or ``fused`` the fix integrates by itself (``PATHS``, plugins/README.md)."""
+    ``auto`` or ``fused`` the fix integrates by itself (``PATHS``, plugins/README.md); with
+    ``energy`` it keeps the energy ledger's running sums."""
     parts = [f"bonds {_f(spec.k_b)} 1.0"]
     if drive:
         parts.append(f"drive {_f(spec.V_d)} d_kd")
@@ -130,6 +138,8 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
         parts.append(f"damp {_f(spec.gamma)} {spec.damping}")
     if contact and spec.start != "synchronized":
         parts.append("start d_dr0")
+    if energy:
+        parts.append("energy")
     if path == "fused":
         parts.append("fused")
     elif path == "auto":
@@ -192,7 +202,7 @@ SERIAL_COMM_CUTOFF = 0.1
 
 
 def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str = "general",
-              fast: bool = False) -> list[str]:
+              fast: bool = False, energy: bool = False) -> list[str]:
     lines = [
         # on several ranks a bond partner is found only as a ghost within this cutoff, so the
         # default covers the longest bond the run allows; one rank can pass -var comm_cutoff 1
@@ -204,9 +214,10 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str =
         "",
     ]
     if path != "general":  # the fix does the velocity-Verlet step, in 2D, by itself
-        lines += [substrate_fix(spec, drive, contact, damp, path), ""]
+        lines += [substrate_fix(spec, drive, contact, damp, path, energy), ""]
     else:
-        lines += ["fix             nve all nve", substrate_fix(spec, drive, contact, damp),
+        lines += ["fix             nve all nve",
+                  substrate_fix(spec, drive, contact, damp, energy=energy),
                   "fix             2d all enforce2d", ""]
     return lines
 
@@ -272,13 +283,17 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     return lines
 
 
+def _energy(spec: RunSpec, o: DeckOptions) -> bool:
+    return spec.writes_energy if o.energy is None else o.energy
+
+
 def setup_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
     """Everything of the deck before ``run``: system, forces, integrator, outputs. Neither
     the path nor the fast settings change a number beyond rounding (the fused path sums in
     another order; tests/test_fused.py)."""
     o = options
     lines = (_header(spec, o.path) + _system(spec, o, o.fast)
-             + _dynamics(spec, o.drive, o.contact, o.damp, o.path, o.fast)
+             + _dynamics(spec, o.drive, o.contact, o.damp, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every, o.contact))
     return "\n".join(lines)
 
@@ -294,7 +309,7 @@ def continue_text(spec: RunSpec, restart: str,
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
     lines = (_header(spec, o.path) + [f"read_restart    {restart}"] + props
-             + _dynamics(spec, True, True, True, o.path, o.fast)
+             + _dynamics(spec, True, True, True, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every))
     return "\n".join(lines)
 

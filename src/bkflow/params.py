@@ -110,7 +110,7 @@ STEADY_T_MIN = ADAPTIVE_T_MIN
 
 #: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
-SCENES = ("friction", "order", "clusters", "fronts", "full")
+SCENES = ("friction", "order", "clusters", "events", "fronts", "full")
 
 #: rupture fronts recorded by the full scene (the first slips after the transient; the fronts
 #: scene records them all): the slip rate of every particle at every stress sample through a
@@ -574,7 +574,13 @@ class RunSpec:
 
     @property
     def writes_slips(self) -> bool:
-        return self.scene in ("clusters", "full")
+        return self.scene in ("clusters", "events", "full")
+
+    @property
+    def writes_energy(self) -> bool:
+        """Whether the run keeps the energy ledger and writes the event catalogue (scenes
+        events, full)."""
+        return self.scene in ("events", "full")
 
     @property
     def writes_fronts(self) -> bool:
