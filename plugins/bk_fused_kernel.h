@@ -46,6 +46,11 @@ struct Arrays {
   double led[BK_NLEDGER];
   double led_fprev, led_next;
   double acc_fx, acc_done, acc_next, acc_lost;
+  // each contact's first break at or after fb_mark (FixBKLayer::first_break_of), with
+  // fb_track: set to fb_step, the step being taken
+  double *fb;
+  double fb_mark, fb_step;
+  int fb_track;
 };
 
 /* Where the state is mirrored: LAMMPS's wrapped positions x = X - offset and velocities of

@@ -223,7 +223,7 @@ void FixBKFused::build_lattice()
 
   // every array in one pool, each 64-byte aligned and padded
   const size_t stride = (static_cast<size_t>(N) + 7) / 8 * 8;
-  constexpr int NARR = 26;
+  constexpr int NARR = 27;
   pool.assign(stride * NARR + 8, 0.0);
   double *p = pool.data();
   while (reinterpret_cast<uintptr_t>(p) % 64) p++;
@@ -241,6 +241,8 @@ void FixBKFused::build_lattice()
   arr.suy = suy;
   arr.brx = take(), arr.bry = take(), arr.blx = take(), arr.bly = take(), arr.bux = take();
   arr.buy = take(), arr.bdx = take(), arr.bdy = take(), arr.over = take();
+  arr.fb = take();
+  for (int k = 0; k < N; k++) arr.fb[k] = -1.0;
 
   loc.assign(N, 0);
   ox.assign(N, 0.0);
@@ -404,6 +406,8 @@ void FixBKFused::initial_integrate(int /*vflag*/)
   mirror_to.v = atom->v;
   mirror_to.state = due ? state : nullptr;
   long last = 0;
+  arr.fb_track = track_breaks;
+  arr.fb_mark = break_mark;
   const long nb = kernel.run(model, arr, mirror_to, n, 1, &last);
   nbreak_step = last;
   nbreak_total += nb;
@@ -473,6 +477,13 @@ double FixBKFused::longest_bond()
     rmax_step = step;
   }
   return rmax_value;
+}
+
+double FixBKFused::first_break_of(int i) const
+{
+  if (!lattice_ready) return FixBKLayer::first_break_of(i);
+  const double b = arr.fb[atom->tag[i] - 1];
+  return b >= break_mark ? b : -1.0;
 }
 
 int FixBKFused::path_code() const
@@ -579,6 +590,7 @@ void FixBKFused::unpack_restart(int nlocal, int nth)
   for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
   const int count = static_cast<int>(extra[nlocal][m++]);
   for (int c = 0; c < NSTATE; c++) state[nlocal][c] = extra[nlocal][m++];
+  first_break[nlocal] = -1.0;
   if (count >= NRESTART + 1) {
     xu[nlocal][0] = extra[nlocal][m++];
     xu[nlocal][1] = extra[nlocal][m++];

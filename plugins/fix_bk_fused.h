@@ -28,6 +28,7 @@ class FixBKFused : public FixBKLayer {
   void post_run() override;
   double compute_scalar() override;
   void contact_phase(double *sums) override;
+  double first_break_of(int i) const override;
 
   double memory_usage() override;
   void grow_arrays(int) override;

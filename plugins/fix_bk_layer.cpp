@@ -169,6 +169,7 @@ FixBKLayer::~FixBKLayer()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   memory->destroy(state);
+  memory->destroy(first_break);
 }
 
 // index of the per-atom double property d_NAME (fix property/atom), for `keyword`
@@ -314,18 +315,20 @@ void FixBKLayer::restart(char *buf)
 
 double FixBKLayer::memory_usage()
 {
-  return static_cast<double>(atom->nmax) * NSTATE * sizeof(double);
+  return static_cast<double>(atom->nmax) * (NSTATE + 1) * sizeof(double);
 }
 
 void FixBKLayer::grow_arrays(int nmax)
 {
   memory->grow(state, nmax, NSTATE, "bk/substrate:state");
+  memory->grow(first_break, nmax, "bk/substrate:first_break");
   array_atom = state;
 }
 
 void FixBKLayer::copy_arrays(int i, int j, int /*delflag*/)
 {
   for (int k = 0; k < NSTATE; k++) state[j][k] = state[i][k];
+  first_break[j] = first_break[i];
 }
 
 // a new atom: anchored where it stands, no contact history, velocity as given
@@ -338,18 +341,21 @@ void FixBKLayer::set_arrays(int i)
   state[i][DRX] = state[i][DRY] = 0.0;
   state[i][VHX] = atom->v[i][0];
   state[i][VHY] = atom->v[i][1];
+  first_break[i] = -1.0;
 }
 
 int FixBKLayer::pack_exchange(int i, double *buf)
 {
   for (int k = 0; k < NSTATE; k++) buf[k] = state[i][k];
-  return NSTATE;
+  buf[NSTATE] = first_break[i];
+  return NSTATE + 1;
 }
 
 int FixBKLayer::unpack_exchange(int nlocal, double *buf)
 {
   for (int k = 0; k < NSTATE; k++) state[nlocal][k] = buf[k];
-  return NSTATE;
+  first_break[nlocal] = buf[NSTATE];
+  return NSTATE + 1;
 }
 
 /* restart files: buf[0] holds the count (as every fix reading atom->extra expects), then the
@@ -369,6 +375,7 @@ void FixBKLayer::unpack_restart(int nlocal, int nth)
   for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
   m++;
   for (int k = 0; k < NSTATE; k++) state[nlocal][k] = extra[nlocal][m++];
+  first_break[nlocal] = -1.0;
 }
 
 int FixBKLayer::size_restart(int /*nlocal*/)

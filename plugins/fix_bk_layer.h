@@ -54,6 +54,17 @@ class FixBKLayer : public Fix {
   // per-atom state columns
   enum { AX, AY, DRX, DRY, VHX, VHY, NSTATE };
 
+  /* The step of each contact's first break at or after a mark (fix bk/slips's slip onsets:
+     where a slip nucleated and how its front spread). Kept only once a fix asks for it;
+     it travels with its atom, and is not in restart files. */
+  void track_first_breaks() { track_breaks = 1; }
+  void mark_breaks(bigint step) { break_mark = static_cast<double>(step); }
+  // local atom i's first break at or after the mark, -1 if none
+  virtual double first_break_of(int i) const
+  {
+    return first_break[i] >= break_mark ? first_break[i] : -1.0;
+  }
+
  protected:
   // model parameters (docs/model.md "Forces on particle i")
   int bonds_on = 0, drive_on = 0;
@@ -81,6 +92,9 @@ class FixBKLayer : public Fix {
   double plate_shift = 0.0;      // the plate's displacement at the current step
   int vh_valid = 0;              // VH* hold the velocity used by the last step
   bigint nbreak_step = 0, nbreak_total = 0;    // contact breaks (local on the general path)
+  double *first_break = nullptr;    // per atom: the step of its first break since the mark
+  int track_breaks = 0;
+  double break_mark = 0.0;
   // the energy ledger's running sums of this rank (bk_model.h bk_ledger_sum), with `energy`;
   // their sum over ranks is the layer's
   double ledger[BK_NLEDGER] = {0.0, 0.0, 0.0};

@@ -129,7 +129,8 @@ double FixBKReader::memory_usage()
 }
 
 FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_text,
-                         bool takes_limit) : FixBKReader(lmp, narg, arg, usage_text)
+                         bool takes_limit, bool takes_breaks) :
+    FixBKReader(lmp, narg, arg, usage_text)
 {
   if (narg < 8) error->all(FLERR, "Illegal fix {} command: {}", style, usage);
   zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
@@ -144,6 +145,9 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
       limit = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
       if (limit < 0) error->all(FLERR, "fix {}: limit must be >= 0, got {}", style, limit);
       iarg += 2;
+    } else if (takes_breaks && strcmp(arg[iarg], "breaks") == 0) {
+      with_breaks = 1;
+      iarg++;
     } else {
       error->all(FLERR, "Illegal fix {} keyword {}: {}", style, arg[iarg], usage);
     }

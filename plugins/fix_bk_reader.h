@@ -62,13 +62,16 @@ class FixBKReader : public Fix {
 /* FixBKEvents: the common part of the fixes that record slip events (bk/slips, bk/fronts):
 
      fix ID group style Nevery substrate-fix-ID threshold file FILE [start STEP] [limit K]
+         [breaks]
 
    the zigzag rule with its threshold (bk_zigzag.h), the first step whose events are written
-   (`start`), at most K events written (`limit`, where the style takes it), and the global
-   vector [1] events confirmed, [2] events written. */
+   (`start`), at most K events written (`limit`, where the style takes it), each contact's
+   first break in the event (`breaks`, where the style takes it), and the global vector
+   [1] events confirmed, [2] events written. */
 class FixBKEvents : public FixBKReader {
  public:
-  FixBKEvents(class LAMMPS *, int, char **, const char *usage_text, bool takes_limit);
+  FixBKEvents(class LAMMPS *, int, char **, const char *usage_text, bool takes_limit,
+              bool takes_breaks = false);
   double compute_vector(int) override;
 
  protected:
@@ -76,6 +79,7 @@ class FixBKEvents : public FixBKReader {
   bigint start = 0;      // events whose maximum lies before this step are not written
   bigint limit = -1;     // at most this many events written (-1: all)
   bigint nevents = 0, nwritten = 0;
+  int with_breaks = 0;    // `breaks`
 
   // whether an event whose maximum is at step `step_max` is to be written
   bool writes(bigint step_max) const

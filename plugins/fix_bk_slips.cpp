@@ -1,6 +1,6 @@
 /* bkflow LAMMPS plugin: fix bk/slips
 
-     fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]
+     fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP] [breaks]
 
    Every Nevery steps it reads sigma_x (element 1 of the substrate fix's global vector) and
    runs the zigzag rule of src/bkflow/stress.py: a maximum is the highest sample before
@@ -11,7 +11,11 @@
    LAMMPS text dump (columns id type x y z ix iy iz, sorted by id), maximum first. So the
    file holds exactly the positions the slip-cluster analysis needs and nothing in between.
    Events whose maximum lies before step `start` (the transient) are followed but not
-   written. Global vector: [1] events confirmed, [2] events written.
+   written. With `breaks`, a last column `brk` holds the step of each contact's first break
+   after the maximum (-1: none), in the minimum's frame (the maximum's holds -1): where the
+   slip nucleated and how its front spread (the event catalogue, bkflow.catalogue). A run
+   continued from a restart file loses the breaks of a slip open at the restart.
+   Global vector: [1] events confirmed, [2] events written.
 
    The zigzag state is not stored in restart files: a continued run starts a new search. */
 
@@ -31,13 +35,19 @@ using namespace LAMMPS_NS;
 
 namespace {
 const char *USAGE =
-    "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP]";
-constexpr int NCOL = 5;
+    "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP] [breaks]";
 }    // namespace
 
 FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
-    FixBKEvents(lmp, narg, arg, USAGE, false)
+    FixBKEvents(lmp, narg, arg, USAGE, false, true)
 {
+  ncol = with_breaks ? 6 : 5;
+}
+
+void FixBKSlips::init()
+{
+  FixBKEvents::init();
+  if (with_breaks) substrate->track_first_breaks();
 }
 
 void FixBKSlips::snapshot(std::vector<double> &buf)
@@ -48,7 +58,7 @@ void FixBKSlips::snapshot(std::vector<double> &buf)
   const imageint *image = atom->image;
   double **x = atom->x;
   buf.clear();
-  buf.reserve(static_cast<size_t>(nlocal) * NCOL);
+  buf.reserve(static_cast<size_t>(nlocal) * ncol);
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     buf.push_back(static_cast<double>(tag[i]));
@@ -56,6 +66,7 @@ void FixBKSlips::snapshot(std::vector<double> &buf)
     buf.push_back(x[i][1]);
     buf.push_back(static_cast<double>((image[i] & IMGMASK) - IMGMAX));
     buf.push_back(static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX));
+    if (with_breaks) buf.push_back(substrate->first_break_of(i));
   }
 }
 
@@ -78,6 +89,7 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
               world);
   if (me != 0) return;
 
+  const int NCOL = ncol;
   const size_t natom = all.size() / NCOL;
   std::vector<size_t> order(natom);
   for (size_t k = 0; k < natom; k++) order[k] = k;
@@ -88,11 +100,13 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
   frame += fmt::format("{:.17g} {:.17g}\n{:.17g} {:.17g}\n{:.17g} {:.17g}\n", domain->boxlo[0],
                        domain->boxhi[0], domain->boxlo[1], domain->boxhi[1], domain->boxlo[2],
                        domain->boxhi[2]);
-  frame += "ITEM: ATOMS id type x y z ix iy iz\n";
+  frame += with_breaks ? "ITEM: ATOMS id type x y z ix iy iz brk\n"
+                       : "ITEM: ATOMS id type x y z ix iy iz\n";
   for (size_t k : order) {
     const double *r = &all[k * NCOL];
-    frame += fmt::format("{} 1 {:.9g} {:.9g} 0 {} {} 0\n", static_cast<tagint>(r[0]), r[1],
-                         r[2], static_cast<int>(r[3]), static_cast<int>(r[4]));
+    frame += fmt::format("{} 1 {:.9g} {:.9g} 0 {} {} 0", static_cast<tagint>(r[0]), r[1], r[2],
+                         static_cast<int>(r[3]), static_cast<int>(r[4]));
+    frame += with_breaks ? fmt::format(" {}\n", static_cast<bigint>(r[5])) : "\n";
   }
   write(frame);
 }
@@ -102,6 +116,7 @@ void FixBKSlips::sample()
   const bigint step = update->ntimestep;
   switch (zigzag.feed(substrate->compute_vector(BK_SLOT_SIGMA), step)) {
     case BKZigzag::NEW_MAX:
+      if (with_breaks) substrate->mark_breaks(step + 1);    // breaks from the next step on
       snapshot(snap_max);
       break;
     case BKZigzag::FALL:
@@ -116,7 +131,9 @@ void FixBKSlips::sample()
         flush();    // every event reaches the file at once
         nwritten++;
       }
-      snapshot(snap_max);    // the confirming sample is the next running maximum
+      // the confirming sample is the next running maximum
+      if (with_breaks) substrate->mark_breaks(step + 1);
+      snapshot(snap_max);
       break;
     case BKZigzag::NONE:
       break;

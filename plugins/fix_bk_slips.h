@@ -14,10 +14,13 @@ namespace LAMMPS_NS {
 class FixBKSlips : public FixBKEvents {
  public:
   FixBKSlips(class LAMMPS *, int, char **);
+  void init() override;
   double memory_usage() override;
 
  private:
-  // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom)
+  int ncol = 5;    // columns of a snapshot (6 with `breaks`)
+  // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom), and with `breaks` the
+  // step of the first break since the maximum
   std::vector<double> snap_max, snap_min;
 
   void sample() override;

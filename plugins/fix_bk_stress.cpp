@@ -1,6 +1,6 @@
 /* bkflow LAMMPS plugin: fix bk/stress
 
-     fix ID group bk/stress Nevery substrate-fix-ID file FILE
+     fix ID group bk/stress Nevery substrate-fix-ID file FILE [energy]
 
    Every Nevery steps (and at the first step of a run when it is a multiple of Nevery) it
    appends one line "t,sigma_x" to FILE, sigma_x being element 1 of the substrate fix's global
@@ -9,7 +9,13 @@
    (std::to_chars), t to 10 significant digits. The lines go through a 1 MB buffer, flushed at
    the end of every run command and at most a second after the last flush, instead of one
    write and flush per line as fix print does: with one line every ~7 steps that per-line
-   cost was 24% of the run at N = 100 and 4% at N = 900 (1-2% now). */
+   cost was 24% of the run at N = 100 and 4% at N = 900 (1-2% now).
+
+   With `energy` each line also holds the contact breaks since the substrate fix was defined
+   and its energy ledger (docs/model.md "Energy"; the substrate fix needs its own keyword
+   `energy` for the running sums): header
+   "t,sigma_x,breaks,e_bond,e_drive,e_contact,e_kinetic,work,diss_break,diss_damp", each value
+   the shortest decimal that reads back as the same double. */
 
 #include "fix_bk_stress.h"
 
@@ -17,30 +23,50 @@
 #include "fix_bk_layer.h"
 
 #include <charconv>
+#include <cstring>
 
 using namespace LAMMPS_NS;
 
 namespace {
-const char *USAGE = "fix ID group bk/stress Nevery substrate-fix-ID file FILE";
+const char *USAGE = "fix ID group bk/stress Nevery substrate-fix-ID file FILE [energy]";
+// the slots written after sigma_x with `energy`
+constexpr int LEDGER[] = {BK_SLOT_BREAKS_TOTAL, BK_SLOT_E_BOND,    BK_SLOT_E_DRIVE,
+                          BK_SLOT_E_CONTACT,    BK_SLOT_E_KINETIC, BK_SLOT_WORK,
+                          BK_SLOT_DISS_BREAK,   BK_SLOT_DISS_DAMP};
+constexpr int NLEDGER = sizeof(LEDGER) / sizeof(LEDGER[0]);
 }    // namespace
 
 FixBKStress::FixBKStress(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
 {
-  if (narg != 7) error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
+  if (narg == 8 && strcmp(arg[7], "energy") == 0)
+    with_energy = 1;
+  else if (narg != 7)
+    error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
   open_file(5, narg, arg);
-  if (fp) write(std::string("t,sigma_x\n"));
+  if (fp)
+    write(std::string(with_energy ? "t,sigma_x,breaks,e_bond,e_drive,e_contact,e_kinetic,work,"
+                                    "diss_break,diss_damp\n"
+                                  : "t,sigma_x\n"));
 }
 
 void FixBKStress::sample()
 {
   const double sigma = substrate->compute_vector(BK_SLOT_SIGMA);    // collective: every rank calls it
+  double ledger[NLEDGER];
+  if (with_energy)
+    for (int k = 0; k < NLEDGER; k++) ledger[k] = substrate->compute_vector(LEDGER[k]);
   if (!fp) return;
   const double t = substrate->current_time();
-  char line[64];
+  char line[64 + 32 * NLEDGER];
   // t to 10 significant digits (a label; events are matched by step), sigma_x exact
   char *end = std::to_chars(line, line + 30, t, std::chars_format::general, 10).ptr;
   *end++ = ',';
   end = std::to_chars(end, line + 62, sigma).ptr;
+  if (with_energy)
+    for (int k = 0; k < NLEDGER; k++) {
+      *end++ = ',';
+      end = std::to_chars(end, end + 30, ledger[k]).ptr;
+    }
   *end++ = '\n';
   write(line, end - line);
   flush_if_due();

@@ -13,6 +13,7 @@ class FixBKStress : public FixBKReader {
   FixBKStress(class LAMMPS *, int, char **);
 
  private:
+  int with_energy = 0;    // `energy`: the breaks and the energy ledger after sigma_x
   void sample() override;
 };
 

@@ -340,6 +340,7 @@ void FixBKSubstrate::eval()
   const double fmax2 = fmax * fmax, ke2 = ke * ke, lim2 = fmax2 / ke2;
   const int use_vh = !ADVANCE && vh_valid;
   double *const *const uu = u;
+  const double step_now = static_cast<double>(update->ntimestep);
 
   double sfx = 0.0;
   bigint nb = 0;
@@ -363,6 +364,7 @@ void FixBKSubstrate::eval()
         s[DRY] += vy * dt;
         if (bk_contact_over(s[DRX], s[DRY], ke2, fmax2)) {
           nb++;
+          if (track_breaks && first_break[i] < break_mark) first_break[i] = step_now;
           const double bx = s[DRX], by = s[DRY];
           bk_contact_break(CONTACT, &s[DRX], &s[DRY], vx * dt, vy * dt, fmax, ke, lim2);
           if constexpr (LEDGER) lost += bk_break_loss(CONTACT, bx, by, s[DRX], s[DRY], ke);

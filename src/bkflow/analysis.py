@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, clusters, order, phases, stationarity, stress
+from . import __version__, catalogue, clusters, order, phases, stationarity, stress
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
@@ -182,10 +182,23 @@ class ClusterResult:
     n_events: int            # slips whose frames were found
     n_without_snapshots: int
     shape_large: clusters.ClusterShape
+    # the catalogue's columns of every event (NaN where a slip has no frames): the size and
+    # shape (catalogue.SIZE_COLUMNS), and with the breaks recorded the nucleation and front
+    events_table: dict = field(default_factory=dict)
+    # the magnitude-frequency view: the power law of the potencies of the slips after the
+    # transient (as the stress drops')
+    potency: stress.PowerLawTest | None = None
 
     def row(self) -> dict:
         s, g = self.shape, self.shape_large
-        return {"lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
+        p = self.potency
+        magnitude = {} if p is None else {
+            "potency_exponent": p.fit.alpha, "potency_exponent_err": p.fit.alpha_err,
+            "potency_x_min": p.fit.x_min, "potency_n_tail": p.fit.n_tail,
+            "potency_power_law": p.verdict, "potency_fit_p": p.p,
+            "potency_vs_lognormal": p.lognormal_R, "potency_vs_lognormal_p": p.lognormal_p}
+        return {**magnitude,
+                "lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
                 "lx_over_ly": s.lx_over_ly, "n_clusters": s.n_clusters,
                 "n_cluster_events": self.n_events,
                 "n_slips_without_snapshots": self.n_without_snapshots,
@@ -202,7 +215,11 @@ _NOT_MEASURED = {"psi_inf": math.nan, "lx_mean_over_Lx": math.nan, "ly_mean_over
                  "n_slips_without_snapshots": None, "regime": None, "regime_fractions": None,
                  "lx_mean_over_Lx_large": math.nan, "ly_mean_over_Ly_large": math.nan,
                  "lx_over_ly_large": math.nan, "n_clusters_large": None, "regime_large": None,
-                 "regime_fractions_large": None}
+                 "regime_fractions_large": None, "potency_exponent": math.nan,
+                 "potency_exponent_err": math.nan, "potency_x_min": math.nan,
+                 "potency_n_tail": None, "potency_power_law": None, "potency_fit_p": math.nan,
+                 "potency_vs_lognormal": math.nan, "potency_vs_lognormal_p": math.nan,
+                 "energy_residual": math.nan}
 
 
 @dataclass(frozen=True)
@@ -221,6 +238,8 @@ class RunAnalysis:
     order: OrderResult | None = None
     clusters: ClusterResult | None = None
     extra: dict = field(default_factory=dict)
+    # the breaks and the energy ledger at every stress sample (scenes events, full), or None
+    ledger: dict | None = None
 
     def summary(self) -> dict:
         """The summary row: parameters and settings nested, one key per observable."""
@@ -231,6 +250,9 @@ class RunAnalysis:
                      self.clusters):
             if part is not None:
                 row.update(part.row())
+        if self.ledger is not None:
+            row["energy_residual"] = catalogue.ledger_residual(
+                self.ledger, self.friction.friction.t_transient)
         row.update(self.extra)
         return row
 
@@ -238,9 +260,14 @@ class RunAnalysis:
         """The tables of the run directory: {file name: columns}."""
         ev = self.events
         t0 = self.friction.friction.t_transient
-        out = {EVENTS: {"t_max": ev.t_max, "t_min": ev.t_min, "sigma_fail": ev.sigma_fail,
+        out = {EVENTS: {"t_max": ev.t_max, "t_min": ev.t_min,
+                        "duration": ev.t_min - ev.t_max, "sigma_fail": ev.sigma_fail,
                         "drop": ev.drop, "late": (ev.t_max >= t0).astype(int),
                         "large": self.large.large.astype(int)}}
+        if self.clusters is not None:
+            out[EVENTS].update(self.clusters.events_table)
+        if self.ledger is not None:
+            out[EVENTS].update(catalogue.energy_rows(self.ledger, ev.i_max, ev.i_min))
         if self.order is not None:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
@@ -338,31 +365,44 @@ def order_result(spec: RunSpec, settings: AnalysisSettings, steps, positions) ->
 
 def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
                    t_transient: float, steps, positions, psi_inf: float,
-                   large=None) -> ClusterResult:
+                   large=None, breaks=None) -> ClusterResult:
     """Clusters of every slip after the transient whose frames (maximum, minimum) fix
     bk/slips wrote; frames are matched to events by step. ``large`` (per event): which slips
-    are large, for the shape of their clusters alone."""
+    are large, for the shape of their clusters alone. ``breaks`` (frames, N): each contact's
+    first break in the slip (fix bk/slips ``breaks``), for the nucleation site and the
+    front's speed. Also the event catalogue's columns of those slips (bkflow.catalogue)."""
     steps = np.asarray(steps)
     if len(steps) % 2:
         raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
                          f"{len(steps)} frames: the file is truncated")
     lat = square_lattice(spec.Lx, spec.Ly)
+    shifts = order.lattice_shifts(lat.positions, lat.bonds, lat.box)
     # events of stress.csv by step: sample k of stress.csv is step k * stress_nevery
     index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
-    rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": []}
+    rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": [], "n_x": [], "n_y": [],
+            "slip": [], "bond_change": [], "eq2_estimate": []}
+    columns = catalogue.SIZE_COLUMNS + (catalogue.BREAK_COLUMNS[1:] if breaks is not None
+                                        else ())
+    table = {c: np.full(len(events), np.nan) for c in columns}
     matched = 0
     for k in range(0, len(steps), 2):
         ev = index.get(int(steps[k]))
         if ev is None or events.t_max[ev] < t_transient:
             continue
         matched += 1
-        ext = clusters.event_clusters(positions[k], positions[k + 1], lat.bonds, lat.box,
-                                      settings.s_x)
-        rows["event"] += [ev] * len(ext)
-        rows["t"] += [float(events.t_max[ev])] * len(ext)
-        rows["n_c"] += ext.n_c.tolist()
-        rows["l_x"] += ext.l_x.tolist()
-        rows["l_y"] += ext.l_y.tolist()
+        row, per = catalogue.slip_row(positions[k], positions[k + 1], lat, settings.s_x,
+                                      spec.k_b, shifts)
+        if breaks is not None:
+            row.update(zip(catalogue.BREAK_COLUMNS[1:], catalogue.nucleation_and_front(
+                breaks[k + 1], lat.positions, lat.box, spec.dt)))
+        for c in columns:
+            table[c][ev] = row[c]
+        n = len(per["n_c"])
+        rows["event"] += [ev] * n
+        rows["t"] += [float(events.t_max[ev])] * n
+        for c in rows:
+            if c not in ("event", "t"):
+                rows[c] += per[c]
     shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, psi_inf,
                                    settings.span_fraction, settings.psi_crystal)
     big = np.zeros(len(rows["event"]), bool) if large is None else \
@@ -371,12 +411,15 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
                                          np.asarray(rows["l_y"])[big], lat.box, psi_inf,
                                          settings.span_fraction, settings.psi_crystal)
     n_late = int(np.sum(events.t_max >= t_transient))
-    return ClusterResult(rows, shape, matched, n_late - matched, shape_large)
+    potency = table["potency"][np.isfinite(table["potency"])]
+    test = stress.power_law_test(potency[potency > 0])
+    return ClusterResult(rows, shape, matched, n_late - matched, shape_large, table, test)
 
 
 def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(),
-              phase: dict | None = None, companion=None) -> RunAnalysis:
+              phase: dict | None = None, companion=None, ledger: dict | None = None,
+              slip_breaks=None) -> RunAnalysis:
     """The analysis of one run.
 
     ``t``, ``sigma``: the stress series (stress.csv). ``phase``: the contacts' phase series
@@ -384,7 +427,10 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     before bkflow recorded it. ``companion``: (t, sigma, phase) of the companion run
     (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
-    fix bk/slips, frames in pairs (maximum, minimum), or None.
+    fix bk/slips, frames in pairs (maximum, minimum), or None; ``slip_breaks`` (frames, N):
+    their column of first breaks (fix bk/slips ``breaks``), or None. ``ledger``: the breaks
+    and the energy ledger at every stress sample (``bkflow.rundir.LEDGER_COLUMNS`` and t),
+    or None.
     """
     settings = settings.resolved(spec)
     t = np.asarray(t, dtype=float)
@@ -401,9 +447,10 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     drops = drop_result(settings, events.after(t0))
     orders = None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan
-    clus = None if slip_frames is None else cluster_result(spec, settings, events, t0,
-                                                           *slip_frames, psi_inf, large.large)
-    return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus)
+    clus = None if slip_frames is None else cluster_result(
+        spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
+    return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus,
+                       ledger=ledger)
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
@@ -445,18 +492,20 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
                                   "(bkflow run --overwrite, or the sweep redoes it)")
     spec = rd.spec()
     t, sigma = rd.read_stress()
-    snaps = slips = None
+    snaps = slips = slip_breaks = None
     if spec.writes_snapshots:
         f = rd.read_snapshots(spec.N)
         snaps = (f.steps, f.positions)
     if spec.writes_slips:
         f = rd.read_slip_frames(spec.N)
-        slips = (f.steps, f.positions)
+        slips, slip_breaks = (f.steps, f.positions), f.breaks
     companion = None
     if spec.companion is not None:
         comp = rd.companion()
         companion = (*comp.read_stress(), comp.read_phase())
-    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase(), companion)
+    ledger = rd.read_ledger() if spec.writes_energy else None
+    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase(), companion, ledger,
+                    slip_breaks)
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
     return rd.write_analysis(summary, res.tables())

@@ -237,6 +237,10 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
               the slip is confirmed, so the file holds two frames per slip after the transient
               rather than every step. The same zigzag rule finds the events again in stress.csv
               (bkflow.stress.slip_events), which is how each pair is matched to its event.
+    events:   the clusters scene, with the energy ledger (fix bk/substrate ``energy``; stress.csv
+              gets the breaks and the ledger's columns) and each contact's first break in every
+              slip (fix bk/slips ``breaks``): what the event catalogue needs
+              (``catalogue.csv``, ``catalogue.parquet``; bkflow.catalogue).
     fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
               of every particle at every sample from each slip's maximum to its minimum
               (float32, binary), to follow rupture fronts; only one event is held in memory.
@@ -246,7 +250,7 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     if files.stress:
         lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"file {files.stress}",
+            f"file {files.stress}" + (" energy" if _energy(spec, files) else ""),
         ]
     if files.phase and contact:
         lines += [  # the contacts' load phases: what the steady-state verdict reads
@@ -262,7 +266,8 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     if spec.writes_slips and files.slips:
         lines += [
             f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}",
+            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}"
+            + (" breaks" if spec.writes_energy else ""),
         ]
     if spec.writes_fronts and files.fronts:
         limit = "" if spec.fronts_limit is None else f" limit {spec.fronts_limit}"

@@ -32,10 +32,13 @@ os.umask(_UMASK)
 
 @dataclass(frozen=True)
 class Frames:
-    """Frames of a dump: steps (F,) and unwrapped positions (F, N, 2) ordered by atom id."""
+    """Frames of a dump: steps (F,) and unwrapped positions (F, N, 2) ordered by atom id;
+    ``breaks`` (F, N): the column ``brk`` of fix bk/slips ``breaks`` (each contact's first
+    break in the slip), None without it."""
 
     steps: np.ndarray
     positions: np.ndarray
+    breaks: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -132,7 +135,10 @@ def read_regular_frames(path) -> Frames | None:
                    axis=-1)
     order = np.argsort(get["id"], axis=1, kind="stable")
     pos = np.take_along_axis(pos, order[:, :, None], axis=1)
-    return Frames(steps, pos)
+    brk = None
+    if "brk" in table:
+        brk = np.take_along_axis(table["brk"].to_numpy().reshape(n_frames, n), order, axis=1)
+    return Frames(steps, pos, brk)
 
 
 def io_bytes(data: bytes):
@@ -292,6 +298,13 @@ def write_json_atomic(path, obj) -> None:
     """Write JSON (NaN as null) atomically."""
     text = json.dumps(json_ready(obj), indent=2, sort_keys=True, allow_nan=False) + "\n"
     _replace_atomically(Path(path), lambda f: f.write(text))
+
+
+def write_parquet(path, df) -> None:
+    """Write a DataFrame as Parquet (pyarrow), atomically: the typed, columnar copy of a
+    table that pandas, polars, R's arrow, DuckDB and Julia read without bkflow."""
+    with atomic_file(path, binary=True) as f:
+        df.to_parquet(f, engine="pyarrow", index=False)
 
 
 def write_table(path, table) -> None:

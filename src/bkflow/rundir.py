@@ -10,20 +10,26 @@ a file of a run.
 |---|---|
 | ``in.bk``, ``data.bk`` | the LAMMPS deck and data file (``lmp -in in.bk`` runs it again) |
 | ``params.json`` | the RunSpec of a deck written by ``bkflow deck`` |
-| ``stress.csv`` | ``t,sigma_x``: the shear stress every stress_nevery steps |
+| ``stress.csv`` | ``t,sigma_x``: the shear stress every stress_nevery steps (+ the ledger) |
 | ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the contacts' load phases |
 | ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scenes order, full) |
-| ``slips.lammpstrj`` | positions at every slip's maximum and minimum (clusters, full) |
+| ``slips.lammpstrj`` | positions at every slip's maximum and minimum (+ first breaks) |
 | ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
 | ``log.lammps`` | LAMMPS's log |
 | ``meta.json`` | the completion record: parameters, versions, counters, sizes |
 | ``summary.json`` | the analysis: every observable, the settings it was made under |
-| ``events.csv`` | one row per slip: onset and end time, sigma_fail, drop, late, large |
+| ``events.csv`` | the event catalogue, one row per slip (bkflow.catalogue) |
+| ``events.parquet`` | the same catalogue, typed and columnar (Parquet) |
 | ``psi.csv`` | ``t,psi``: Psi(t) (scenes order, full) |
-| ``clusters.csv`` | one row per slip cluster (scenes clusters, full) |
+| ``clusters.csv`` | one row per slip cluster (scenes clusters, events, full) |
 | ``companion/`` | the companion run (RunSpec.companion), a run directory itself |
 | ``.bkflow-run`` | the mark that bkflow made the directory (written first) |
 | ``.bkflow.lock`` | the lock a process holds while it writes the run |
+
+The scenes events and full add to stress.csv the contact breaks and the energy ledger
+(``LEDGER_COLUMNS``) and to slips.lammpstrj each contact's first break in the slip (column
+``brk``); events.csv then holds the catalogue's size, shape, nucleation, front and energy
+columns, clusters.csv the paper's energy argument per cluster.
 """
 
 from __future__ import annotations
@@ -50,6 +56,8 @@ LOG = "log.lammps"
 META = "meta.json"
 SUMMARY = "summary.json"
 EVENTS = "events.csv"
+#: the event catalogue as Parquet (typed, columnar): events.csv's rows and columns
+EVENTS_PARQUET = "events.parquet"
 PSI = "psi.csv"
 CLUSTERS = "clusters.csv"
 LOCK = ".bkflow.lock"
@@ -76,7 +84,7 @@ MAY_CHANGE = (LOG,)
 #: what a run writes (the engine); a partial run's are removed before it is redone
 RUN_FILES = (DECK, DATA, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
-ANALYSIS_FILES = (SUMMARY, EVENTS, PSI, CLUSTERS)
+ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
 MOVIE_PATTERN, FRONT_MAPS_PATTERN = "movie_slip{}.gif", "fronts_slip{}.png"
 #: a sweep directory keeps its runs in signac's workspace/<job id>/
@@ -87,6 +95,10 @@ COMPANION = "companion"
 
 #: columns of the contacts' phase series (fix bk/phase)
 PHASE_COLUMNS = ("t", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std")
+#: the columns stress.csv has after t, sigma_x in the scenes that keep the energy ledger (fix
+#: bk/stress ``energy``): contact breaks so far, the energies of the sample, the running sums
+LEDGER_COLUMNS = ("breaks", "e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
+                  "diss_damp")
 #: columns of the analysis's tables
 EVENT_COLUMNS = ("t_max", "t_min", "sigma_fail", "drop", "late")
 PSI_COLUMNS = ("t", "psi")
@@ -330,6 +342,19 @@ class RunDir:
             raise DamagedRunError(f"{self.file(STRESS)} is damaged ({exc})") from None
         return c["t"], c["sigma_x"]
 
+    def read_ledger(self) -> dict | None:
+        """The breaks and the energy ledger at every stress sample (stress.csv of a scene that
+        keeps it: ``LEDGER_COLUMNS``), or None."""
+        path = self.file(STRESS)
+        with open(path, "rb") as f:
+            head = f.readline().decode(errors="replace").strip().split(",")
+        if head[2:] != list(LEDGER_COLUMNS):
+            return None
+        try:
+            return io.read_columns(path, ("t", *LEDGER_COLUMNS))
+        except ValueError as exc:
+            raise DamagedRunError(f"{path} is damaged ({exc})") from None
+
     def read_phase(self):
         """The contacts' phase series (phase.csv): a dict of float columns t, R, Z_re, Z_im,
         R2, u_mean, u_std; None for a run made before bkflow recorded it."""
@@ -424,17 +449,30 @@ class RunDir:
     def write_analysis(self, summary: dict, tables: dict) -> dict:
         """Write the analysis's tables, then summary.json (last: it lists the tables)."""
         self.file(SUMMARY).unlink(missing_ok=True)
-        for name in (EVENTS, PSI, CLUSTERS):
+        for name in (EVENTS, EVENTS_PARQUET, PSI, CLUSTERS):
             self.file(name).unlink(missing_ok=True)
         for name, table in tables.items():
             io.write_table(self.file(name), table)
+        if EVENTS in tables:
+            from .catalogue import typed
+
+            io.write_parquet(self.file(EVENTS_PARQUET), typed(tables[EVENTS]))
+            tables = {**tables, EVENTS_PARQUET: None}
         summary = {**summary, "tables": sorted(tables), "analysis_revision": ANALYSIS_REVISION}
         io.write_json_atomic(self.file(SUMMARY), summary)
         return io.json_ready(summary)
 
     def read_events(self):
-        """events.csv as a DataFrame (columns ``EVENT_COLUMNS``)."""
-        return io.read_table(self.file(EVENTS))
+        """The event catalogue as a typed DataFrame (events.parquet; events.csv where there is
+        no Parquet copy): one row per slip, columns ``EVENT_COLUMNS`` and those of
+        bkflow.catalogue the scene recorded."""
+        import pandas as pd
+
+        from .catalogue import typed
+
+        if self.file(EVENTS_PARQUET).exists():
+            return pd.read_parquet(self.file(EVENTS_PARQUET), engine="pyarrow")
+        return typed(io.read_table(self.file(EVENTS)))
 
     def read_psi(self):
         """psi.csv as a DataFrame, or None when the run recorded no snapshots."""
