@@ -1,0 +1,226 @@
+"""The event catalogue (bkflow.catalogue): each column on a hand-built case whose answer is known
+exactly (a nucleation site and a front of known speed, a rigid block slip whose perimeter bonds
+carry the paper's Eq. 2 exactly, a ledger with a known budget), then on a run of the events
+scene: its columns, its Parquet copy read back by pyarrow alone, and the same breaks on 1 and 2
+ranks."""
+
+from __future__ import annotations
+
+import subprocess
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bkflow import catalogue
+from bkflow.analysis import analyze
+from bkflow.deck import write_deck
+from bkflow.engine import run
+from bkflow.io import read_frames
+from bkflow.lattice import square_lattice
+from bkflow.params import RunSpec
+from bkflow.rundir import RunDir
+from tests.support import tool
+
+
+def _front(lat, site, speed, dt, step0=1000, reach=6.0):
+    """First-break steps of a circular front from lattice site (column, row) at `speed`,
+    reaching `reach` lattice units (beyond: no break)."""
+    origin = np.array(site) + 0.5
+    d = lat.positions - origin
+    d -= np.array(lat.box) * np.round(d / np.array(lat.box))
+    r = np.hypot(d[:, 0], d[:, 1])
+    brk = step0 + np.round(r / speed / dt)
+    brk[r > reach] = -1
+    return brk
+
+
+def test_nucleation_site_and_front_speed_of_a_circular_front():
+    lat = square_lattice(20, 10)
+    dt = 0.001
+    brk = _front(lat, (7, 3), speed=2.5, dt=dt)
+    x, y, t, v = catalogue.nucleation_and_front(brk, lat.positions, lat.box, dt)
+    assert (x, y) == (7.0, 3.0)
+    assert t == pytest.approx(1.0)
+    assert v == pytest.approx(2.5, rel=2e-3)  # the steps are whole: 1e-3 of a delay of ~1
+
+
+def test_the_front_is_measured_across_the_periodic_boundary():
+    """A front from a corner site reaches the far side first by the boundary."""
+    lat = square_lattice(12, 12)
+    brk = _front(lat, (0, 11), speed=1.0, dt=0.01, reach=5.0)
+    assert brk[lat.Lx - 1] >= 0  # the site's neighbour across x = 0 broke
+    x, y, _, v = catalogue.nucleation_and_front(brk, lat.positions, lat.box, 0.01)
+    assert (x, y) == (0.0, 11.0) and v == pytest.approx(1.0, rel=1e-2)
+
+
+def test_nucleation_ties_take_the_lowest_atom_and_no_break_gives_nan():
+    lat = square_lattice(6, 4)
+    brk = np.full(24, -1.0)
+    brk[[9, 5, 17]] = [200, 200, 230]
+    x, y, t, v = catalogue.nucleation_and_front(brk, lat.positions, lat.box, 0.1)
+    assert (x, y, t) == (5.0, 0.0, 20.0)  # atom 5 = column 5, row 0
+    assert np.isfinite(v) and v > 0
+    assert np.isnan(catalogue.nucleation_and_front(np.full(24, -1.0), lat.positions, lat.box,
+                                                   0.1)).all()
+    one = np.full(24, -1.0)
+    one[3] = 7
+    assert np.isnan(catalogue.nucleation_and_front(one, lat.positions, lat.box, 0.1)[3])
+
+
+@pytest.mark.parametrize("block, delta", [((slice(0, 20), slice(2, 3)), 0.3),   # a whole row
+                                          ((slice(4, 9), slice(1, 4)), 0.2),    # a rectangle
+                                          ((slice(6, 7), slice(0, 5)), 0.45),   # a column
+                                          ((slice(0, 20), slice(0, 5)), 0.25)])  # everything
+def test_a_rigid_block_slip_stores_exactly_eq2_in_its_perimeter(block, delta):
+    """From the relaxed lattice, a rectangular block slipping rigidly by delta along x stretches
+    its n_y left and right bonds by delta and shears its n_x top and bottom bonds to
+    sqrt(1 + delta^2): the bond energy change is the paper's Eq. 2 to rounding, and each size
+    and shape column is the block's."""
+    k_b = 37.0
+    lat = square_lattice(20, 5)
+    grid = np.zeros((5, 20), bool)
+    grid[block[1], block[0]] = True
+    member = grid.ravel()
+    x0 = lat.positions.copy()
+    x1 = x0.copy()
+    x1[member, 0] += delta
+    row, per = catalogue.slip_row(x0, x1, lat, 0.01, k_b)
+    nx, ny = int(grid.any(axis=0).sum()), int(grid.any(axis=1).sum())
+    assert row["n_slipped"] == member.sum() == row["cluster_n"]
+    assert row["potency"] == pytest.approx(member.sum() * delta)
+    assert row["slip_mean"] == pytest.approx(delta) and row["slip_max"] == pytest.approx(delta)
+    assert row["n_clusters"] == 1 and (row["cluster_nx"], row["cluster_ny"]) == (nx, ny)
+    want = float(catalogue.eq2_estimate(k_b, nx, ny, delta, 20, 5))
+    assert per["eq2_estimate"] == [pytest.approx(want)]
+    assert per["bond_change"][0] == pytest.approx(want, rel=1e-9, abs=1e-12)
+    if (nx, ny) == (20, 5):
+        assert want == 0.0
+
+
+def test_eq2_and_its_small_slip_limit():
+    """Eq. 2 tends to its Eq. 3 (k_b n_y d^2 + k_b n_x d^4 / 4) for d << l, and each
+    Theta removes a side as long as the box."""
+    d = 1e-3
+    assert catalogue.eq2_estimate(2.0, 3, 2, d, 20, 5) == pytest.approx(
+        2.0 * 2 * d ** 2 + 2.0 * 3 * d ** 4 / 4, rel=1e-6)
+    assert catalogue.eq2_estimate(2.0, 20, 2, 0.5, 20, 5) == pytest.approx(
+        2.0 * 20 * (np.sqrt(1.25) - 1) ** 2)
+    assert catalogue.eq2_estimate(2.0, 3, 5, 0.5, 20, 5) == pytest.approx(2.0 * 5 * 0.25)
+
+
+def _ledger(n=6):
+    """A ledger whose budget is known: between samples 1 and 4 the plate does 3.0, the bonds
+    release 0.5 and the drive 1.0, the contacts take 0.25 more, the kinetic energy gains 0.75,
+    breaks dissipate 2.0 and damping 1.5 - 0.1 (a residual of 0.1)."""
+    t = np.arange(n, dtype=float)
+    L = {"t": t, "breaks": np.array([0, 2, 2, 5, 9, 9.0])}
+    L["e_bond"] = np.array([0, 1.0, 1, 1, 0.5, 0.5])
+    L["e_drive"] = np.array([0, 2.0, 2, 2, 1.0, 1.0])
+    L["e_contact"] = np.array([0, 0.5, 0.5, 0.5, 0.75, 0.75])
+    L["e_kinetic"] = np.array([0, 0.25, 0.25, 0.25, 1.0, 1.0])
+    L["work"] = np.array([0, 4.0, 5, 6, 7.0, 8.0])
+    L["diss_break"] = np.array([0, 0.0, 0, 1, 2.0, 2.0])
+    L["diss_damp"] = np.array([0, 0.0, 0, 0, 1.4, 1.4])
+    return L
+
+
+def test_the_energy_columns_of_a_known_budget():
+    out = catalogue.energy_rows(_ledger(), [1], [4])
+    assert out["breaks"][0] == 7
+    assert out["bond_released"][0] == 0.5 and out["drive_released"][0] == 1.0
+    assert out["contact_released"][0] == -0.25 and out["kinetic_gain"][0] == 0.75
+    assert out["plate_work"][0] == 3.0
+    assert out["dissipated_breaks"][0] == 2.0 and out["dissipated_damping"][0] == 1.4
+    # residual: 3 + (0.5 + 1 - 0.25) - 0.75 - 3.4 = 0.1, over 3.4 dissipated
+    assert out["energy_closure"][0] == pytest.approx(0.1 / 3.4)
+
+
+def test_the_run_residual_is_taken_over_the_analysed_part():
+    L = _ledger()
+    # from t = 1 on: work 4, energy change 3.25 - 3.75 = -0.5, dissipated 3.4: (4 + 0.5 - 3.4)/4
+    assert catalogue.ledger_residual(L, 1.0) == pytest.approx((4 + 0.5 - 3.4) / 4)
+    assert np.isnan(catalogue.ledger_residual(L, 5.0))
+
+
+def test_typed_counts_keep_their_missing_values():
+    df = catalogue.typed({"n_slipped": [3.0, np.nan], "late": [1, 0], "potency": [1.5, np.nan]})
+    assert str(df["n_slipped"].dtype) == "Int64" and df["n_slipped"].isna().tolist() == [False,
+                                                                                         True]
+    assert df["late"].dtype == bool and df["potency"].dtype == float
+
+
+_RUN = {}
+
+
+@pytest.fixture
+def events_run(lammps, tmp_path_factory):
+    """One run of the events scene, made once for the tests that read it."""
+    if not _RUN:
+        d = tmp_path_factory.mktemp("events")
+        run(RunSpec(phi=10.0, t_end=600.0, scene="events", seed=2), d, progress=False)
+        _RUN["run"] = (d, analyze(d))
+    return _RUN["run"]
+
+
+def test_an_events_run_writes_the_whole_catalogue(events_run):
+    d, summary = events_run
+    ev = RunDir(d).read_events()
+    for c in ("potency", "nucleation_x", "nucleation_y", "front_speed", "breaks", "duration",
+              *catalogue.SIZE_COLUMNS, *catalogue.ENERGY_COLUMNS):
+        assert c in ev, c
+    late = ev[ev.late]
+    assert len(late) > 10
+    assert late["n_slipped"].notna().all() and (late["potency"] > 0).all()
+    assert late["nucleation_x"].between(0, 19).all() and late["nucleation_y"].between(0, 4).all()
+    assert (late["front_speed"].dropna() > 0).all() and late["front_speed"].notna().mean() > 0.8
+    assert (late["breaks"] > 0).all() and (ev["dissipated_breaks"] >= 0).all()
+    # each slip's budget closes to the integrator's error (dt = 0.1 / sqrt(...))
+    assert late["energy_closure"].abs().max() < 0.02
+    assert abs(summary["energy_residual"]) < 1e-3
+    assert summary["potency_power_law"] in ("plausible", "rejected")
+    clusters = pd.read_csv(d / "clusters.csv")
+    assert {"n_x", "n_y", "slip", "bond_change", "eq2_estimate"} <= set(clusters)
+
+
+def test_the_parquet_catalogue_reads_back_without_bkflow(events_run):
+    """pyarrow alone reads events.parquet: the same rows and values as events.csv (pandas's
+    CSV reader), its counts as integers."""
+    import pyarrow.parquet as pq
+
+    d, _ = events_run
+    table = pq.read_table(d / "events.parquet")
+    assert str(table.schema.field("n_slipped").type) == "int64"
+    assert str(table.schema.field("late").type) == "bool"
+    back = table.to_pandas()
+    csv = pd.read_csv(d / "events.csv")
+    assert list(back.columns) == list(csv.columns) and len(back) == len(csv)
+    for c in csv:
+        np.testing.assert_array_equal(back[c].astype(float).to_numpy(),
+                                      csv[c].astype(float).to_numpy(), err_msg=c)
+
+
+def test_first_breaks_are_the_same_on_two_ranks(lammps, tmp_path):
+    """fix bk/slips breaks: each contact's first break travels with its atom between ranks."""
+    spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="events", seed=3)
+    write_deck(spec, tmp_path)
+    got = {}
+    for np_ in (1, 2):
+        d = tmp_path / f"np{np_}"
+        d.mkdir()
+        for f in ("in.bk", "data.bk"):
+            (d / f).write_text((tmp_path / f).read_text())
+        cmd = [tool("lmp"), "-in", "in.bk", "-screen", "none"]
+        if np_ > 1:
+            cmd = [tool("mpirun"), "-np", str(np_)] + cmd
+        proc = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        got[np_] = read_frames(d / "slips.lammpstrj", spec.N)
+    assert len(got[1]) >= 4 and got[1].breaks is not None
+    assert (got[1].breaks[1::2] >= 0).any()
+    assert (got[1].breaks[0::2] == -1).all()  # the maximum's frame: nothing broke yet
+    np.testing.assert_array_equal(got[1].breaks, got[2].breaks)
+    # a first break lies inside its slip: after the maximum, at or before the minimum
+    for k in range(0, len(got[1]), 2):
+        b = got[1].breaks[k + 1]
+        assert ((b == -1) | ((b > got[1].steps[k]) & (b <= got[1].steps[k + 1]))).all()
