@@ -22,8 +22,9 @@ ROOT = Path(__file__).resolve().parents[1]
 #: (docs/develop.md, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
 ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "stress",
-         "order", "clusters", "io", "rundir", "deck", "plugin", "engine", "analysis", "grid", "job",
-         "flowcompat", "project", "cluster", "tables", "sweep", "plot", "fronts", "api", "cli")
+         "order", "clusters", "catalogue", "io", "rundir", "deck", "plugin", "engine",
+         "analysis", "grid", "job", "flowcompat", "project", "cluster", "tables", "sweep", "plot",
+         "fronts", "api", "cli")
 
 
 def _bkflow_imports(path: Path) -> set[str]:

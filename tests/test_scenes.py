@@ -64,7 +64,8 @@ def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(lammps
     s = analyze(tmp_path)
     assert s["n_cluster_events"] == len(events) and s["n_slips_without_snapshots"] == 0
     clusters = pd.read_csv(tmp_path / "clusters.csv")
-    assert list(clusters.columns) == ["event", "t", "n_c", "l_x", "l_y"]
+    assert list(clusters.columns) == ["event", "t", "n_c", "l_x", "l_y", "n_x", "n_y", "slip",
+                                      "bond_change", "eq2_estimate"]
     assert (clusters["n_c"] >= 2).all() and (clusters["n_c"] <= spec.N).all()
 
 

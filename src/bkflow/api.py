@@ -25,6 +25,7 @@ from .fronts import front_figure, front_movie
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
 from .rundir import AnalysisError, RunDir, sweep_run_dir
+from .tables import CATALOGUE_PARQUET
 
 
 class Run:
@@ -192,6 +193,16 @@ class Sweep:
     def results(self) -> pd.DataFrame:
         """results.csv: means over seeds with standard errors, one row per point."""
         return self._data.results
+
+    @property
+    def events(self) -> pd.DataFrame | None:
+        """The sweep's event catalogue (catalogue.parquet): one row per slip of every run,
+        the run's job id and parameters first (None when no run has events)."""
+        path = self.path / CATALOGUE_PARQUET
+        if not path.exists():
+            return None
+        df = pd.read_parquet(path, engine="pyarrow")
+        return df[df.job.isin(set(self.runs.job))].reset_index(drop=True)
 
     #: the figures ``figure`` draws (short names work too: fig2a, drops)
     figures = tuple(FIGURES)

@@ -35,8 +35,8 @@ from .project import (
     simulated,
     spec_of,
 )
-from .rundir import RunDir
-from .tables import retire_figures, write_tables
+from .rundir import EVENTS, RunDir
+from .tables import retire_figures, write_catalogue, write_tables
 
 
 @dataclass
@@ -286,10 +286,16 @@ def _collect(project, settings, jobs) -> Collection:
     runs, results = write_tables(
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
         settings.to_dict())
+    write_catalogue(project.path, [(j.id, j.cached_statepoint, _events_of(j)) for j in done])
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
     retired = retire_figures(project.path)
     return Collection(len(all_jobs), len(done), failed,
                       [j.id for j in stale if finished(j)], runs, results, retired)
+
+
+def _events_of(job):
+    rd = RunDir(job.path)
+    return rd.read_events() if rd.file(EVENTS).exists() else None
 
 
 def available_cores() -> int:

@@ -16,6 +16,9 @@ from .phases import STATES
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
+#: the sweep's event catalogue: every run's events.csv rows, the run's job id and parameters
+#: first (CSV, and typed and columnar as Parquet)
+CATALOGUE_FILE, CATALOGUE_PARQUET = "catalogue.csv", "catalogue.parquet"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"
 #: where bkflow plot puts a sweep's figures by default, and its record of what it drew there
@@ -162,6 +165,38 @@ def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.
     io.write_table(root / RESULTS_FILE, results)
     io.write_json_atomic(root / SETTINGS_FILE, settings)
     return runs, results
+
+
+def catalogue_table(run_events) -> pd.DataFrame | None:
+    """The sweep's event catalogue from (job id, state point, events DataFrame) of every
+    finished run: one row per slip, the run's job id and parameters as its first columns;
+    None without any event."""
+    from .catalogue import typed
+
+    parts = []
+    for job, statepoint, events in run_events:
+        if events is None or not len(events):
+            continue
+        params = pd.DataFrame({"job": job, **{k: [v] * len(events) for k, v in
+                                              sorted(statepoint.items())}})
+        parts.append(pd.concat([params, events.reset_index(drop=True)], axis=1))
+    if not parts:
+        return None
+    return typed(pd.concat(parts, ignore_index=True))
+
+
+def write_catalogue(root, run_events) -> pd.DataFrame | None:
+    """Write the sweep's event catalogue (``catalogue_table``) as CSV and Parquet into
+    ``root``; remove an old one when there is no event."""
+    table = catalogue_table(run_events)
+    root = Path(root)
+    if table is None:
+        for name in (CATALOGUE_FILE, CATALOGUE_PARQUET):
+            (root / name).unlink(missing_ok=True)
+        return None
+    io.write_table(root / CATALOGUE_FILE, table)
+    io.write_parquet(root / CATALOGUE_PARQUET, table)
+    return table
 
 
 def read_tables(root) -> tuple[pd.DataFrame, pd.DataFrame]:
