@@ -1,11 +1,14 @@
 """The energy ledger's closure against the time step, on the NumPy reference integrator
-(tests/reference.py): which part of the scheme limits its order.
+(tests/reference.py): which part of the scheme limits its order; and the plugin's own ledger
+(fix bk/substrate ... energy) on both paths.
 
-    python benchmarks/energy_order.py [--t 40] [--size 8x3] [--phi 10]
+    python benchmarks/energy_order.py [--t 40] [--size 8x3] [--phi 10] [--no-plugin]
 
 For each case (no contacts; contacts that never break; each contact rule with breaks) and
 C = 0.2, 0.1, 0.05, 0.025: the residual of plate work = change of elastic + kinetic energy +
 dissipation over the window, relative to the plate's work, and the order between successive C.
+Then the same for the plugin from the random start (RunSpec start "random"), on the general
+and the fused path, one seed.
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=6,
                    help="trajectories per case and C: the residual's mean over them (a "
                         "trajectory with breaks is chaotic, so one seed's residual is noisy)")
+    p.add_argument("--no-plugin", action="store_true", help="the reference integrator only")
     a = p.parse_args(argv)
     lx, ly = (int(v) for v in a.size.split("x"))
     base = RunSpec(phi=a.phi, Lx=lx, Ly=ly, seed=1)
@@ -84,7 +88,57 @@ def main(argv=None) -> int:
             row.append(f"{rel:.2e}{order} [{nb}]")
             prev = rel
         print(f"  {name:38s} " + "  ".join(row))
+    if a.no_plugin:
+        return 0
+    print(f"\nthe plugin's ledger, {a.size}, phi = {a.phi:g}, t = {a.t:g}, the random start, "
+          "seed 1: |residual| / plate work (order) [contact breaks], general | fused")
+    plugin_cases = {"contacts that never break": dict(mu_s=1e6),
+                    "reset (located break)": {}, "reset/step": dict(contact_rule="reset/step"),
+                    "coulomb": dict(contact_rule="coulomb")}
+    for name, kw in plugin_cases.items():
+        row, prev = [], None
+        for c in CS:
+            spec = dataclasses.replace(base, dt_factor=c, start="random", scene="friction",
+                                       **kw)
+            got = [plugin_residual(spec, a.t, path) for path in ("general", "fused")]
+            rel = got[0][0]
+            order = "" if prev is None or rel == 0 else f" ({math.log2(prev / rel):.2f})"
+            row.append(f"{rel:.2e}{order} [{got[0][1]}] | {got[1][0]:.2e}")
+            prev = rel
+        print(f"  {name:28s} " + "  ".join(row))
     return 0
+
+
+def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]:
+    """|residual| / plate work of the plugin's ledger over [0, t_end], and the breaks."""
+    import tempfile
+
+    from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
+
+    from bkflow.deck import LEDGER_SLOTS, SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
+    from bkflow.plugin import open_lammps
+
+    with tempfile.TemporaryDirectory() as tmp:
+        data = Path(tmp) / "data.bk"
+        data.write_text(data_text(spec))
+        lmp = open_lammps()
+        lmp.commands_string(setup_text(spec, DeckOptions(
+            data=str(data), stress=None, phase=None, thermo_every=10**7, path=path,
+            energy=True)))
+
+        def ledger():
+            return {k: lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR,
+                                       SLOTS[k]) for k in (*LEDGER_SLOTS, "breaks_total")}
+        lmp.command("run 0")
+        a = ledger()
+        lmp.command(f"run {int(round(t_end / spec.dt))}")
+        b = ledger()
+        lmp.close()
+    energy = [sum(x[k] for k in ("e_bond", "e_drive", "e_contact", "e_kinetic")) for x in (a, b)]
+    work = b["work"] - a["work"]
+    res = work - (energy[1] - energy[0]) - (b["diss_break"] - a["diss_break"]) \
+        - (b["diss_damp"] - a["diss_damp"])
+    return abs(res) / work, int(b["breaks_total"])
 
 
 if __name__ == "__main__":

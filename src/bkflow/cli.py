@@ -369,20 +369,35 @@ def _print_summary(s: dict) -> None:
               f"regime {s.get('regime') or 'n/a'}")
         print(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
               f"{g('lx_over_ly_large', '.3f')}, regime {s.get('regime_large') or 'n/a'}")
-    drops = f"  stress drops ({s['drop_n_tail']} above {g('drop_x_min', '.3g')}): "
-    exponent = f"exponent {g('drop_exponent', '.2f')} +- {g('drop_exponent_err', '.2f')}"
-    p = s.get("drop_fit_p")
-    p = "n/a" if p is None or not math.isfinite(p) else f"{p:.3f}"
-    if s.get("drop_power_law") == "rejected":
-        R = s.get("drop_vs_lognormal")
+    _power_law_line(s, "drop", f"stress drops ({s['drop_n_tail']} above "
+                    f"{g('drop_x_min', '.3g')})")
+    if s.get("potency_power_law") is not None:
+        _power_law_line(s, "potency", f"potencies ({s['potency_n_tail']} above "
+                        f"{g('potency_x_min', '.3g')})")
+    if s.get("energy_residual") is not None:
+        print(f"  energy: the balance (plate work = change of elastic and kinetic energy + "
+              f"dissipation) closes to {g('energy_residual', '.1e')} of the plate's work over "
+              "the analysed run")
+
+
+def _power_law_line(s: dict, key: str, what: str) -> None:
+    """The report's line on a power law of the summary's ``key``_* entries."""
+    def g(k, fmt):
+        v = s.get(k)
+        return "n/a" if v is None or not math.isfinite(v) else format(v, fmt)
+
+    exponent = f"exponent {g(f'{key}_exponent', '.2f')} +- {g(f'{key}_exponent_err', '.2f')}"
+    p = g(f"{key}_fit_p", ".3f")
+    if s.get(f"{key}_power_law") == "rejected":
+        R = s.get(f"{key}_vs_lognormal")
         vs = (f", against a lognormal R = {R:.1f}" if R is not None and math.isfinite(R)
               else "")
-        print(f"{drops}power law rejected (p = {p}{vs}); the fitted {exponent} does not "
+        print(f"  {what}: power law rejected (p = {p}{vs}); the fitted {exponent} does not "
               "describe them")
-    elif s.get("drop_power_law") == "plausible":
-        print(f"{drops}power law, {exponent} (p = {p})")
+    elif s.get(f"{key}_power_law") == "plausible":
+        print(f"  {what}: power law, {exponent} (p = {p})")
     else:
-        print(f"{drops}no power-law fit")
+        print(f"  {what}: no power-law fit")
 
 
 def _sweep(a) -> int:

@@ -651,29 +651,30 @@ def _late_drops(data: SweepData, runs: pd.DataFrame):
     return d[keep], (np.concatenate(whole)[keep] if whole else None)
 
 
-def _drop_verdict(runs: pd.DataFrame) -> tuple[bool, str]:
-    """Whether the seeds' stress drops follow a power law, from their analyses (runs.csv:
-    ``drop_power_law``, ``drop_fit_p``, ``drop_vs_lognormal[_p]``; ``bkflow.stress.
-    power_law_test``): plausible only when it is in every seed; and the key's words."""
-    verdicts = runs["drop_power_law"].astype(str).tolist() if "drop_power_law" in runs \
+def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
+    """Whether the seeds' stress drops (``key`` "drop"; "potency": the slips' potencies)
+    follow a power law, from their analyses (runs.csv: ``drop_power_law``, ``drop_fit_p``,
+    ``drop_vs_lognormal[_p]``; ``bkflow.stress.power_law_test``): plausible only when it is
+    in every seed; and the key's words."""
+    verdicts = runs[f"{key}_power_law"].astype(str).tolist() if f"{key}_power_law" in runs \
         else ["no fit"] * len(runs)
     def column(name):
         return pd.to_numeric(runs[name], errors="coerce") if name in runs \
             else pd.Series(np.nan, index=runs.index)
 
-    p = column("drop_fit_p")
+    p = column(f"{key}_fit_p")
     n = len(verdicts)
     if n and all(v == "plausible" for v in verdicts):
-        alpha = pd.to_numeric(runs.drop_exponent, errors="coerce").mean()
-        err = pd.to_numeric(runs.drop_exponent_err, errors="coerce").mean()
+        alpha = column(f"{key}_exponent").mean()
+        err = column(f"{key}_exponent_err").mean()
         return True, (rf"$\alpha$ = {alpha:.2f} $\pm$ {err:.2f} (p >= {p.min():.2f}"
                       + (f" in all {n} seeds)" if n > 1 else ")"))
     rejected = sum(v == "rejected" for v in verdicts)
     if not rejected:
         return False, "no fit"
-    R, Rp = column("drop_vs_lognormal"), column("drop_vs_lognormal_p")
+    R, Rp = column(f"{key}_vs_lognormal"), column(f"{key}_vs_lognormal_p")
     lognormal = bool(((R < 0) & (Rp < 0.1)).sum() == rejected)
-    worst = p[runs["drop_power_law"].astype(str) == "rejected"].max()
+    worst = p[runs[f"{key}_power_law"].astype(str) == "rejected"].max()
     shown = "p < 0.001" if worst < 0.001 else f"p <= {worst:.2f}"
     return False, ("power law rejected" + (f" in {rejected} of {n} seeds" if n > 1 else "")
                    + f" ({shown}" + (", lognormal favoured)" if lognormal else ")"))
@@ -751,13 +752,80 @@ def fig_drops(data: SweepData, plt):
     return fig
 
 
+def _late_potencies(data: SweepData, runs: pd.DataFrame):
+    """(potencies, stress drops) of the slips after the transient that have a potency
+    (events.csv of scenes with slip frames), pooled over the seeds."""
+    pot, drops = [], []
+    for _, r in runs.iterrows():
+        e = data.run_dir(r).read_events()
+        if "potency" not in e:
+            continue
+        late = e["late"].astype(bool).to_numpy()
+        pot.append(pd.to_numeric(e["potency"], errors="coerce").to_numpy(float)[late])
+        drops.append(pd.to_numeric(e["drop"], errors="coerce").to_numpy(float)[late])
+    if not pot:
+        return np.empty(0), np.empty(0)
+    p, d = np.concatenate(pot), np.concatenate(drops)
+    keep = np.isfinite(p) & (p > 0)
+    return p[keep], d[keep]
+
+
+def fig_potency(data: SweepData, plt):
+    """The magnitude-frequency view, beside fig_drops: (a) the density of the slips'
+    potencies (the sum of the slipping particles' slips, events.csv) after the transient for
+    the four phi of the cluster figure, the seeds pooled, with the analysis's verdict on a
+    power law in the key (runs.csv ``potency_power_law``; the fitted law drawn where it is
+    plausible in every seed); (b) each slip's potency against its stress drop."""
+    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    points = data.results_of(lx, ly)
+    drawn = 0
+    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
+                              ("black", "tab:red", "tab:green", "tab:blue")):
+        runs = data.runs_of(lx, ly, phi)
+        pot, drops = _late_potencies(data, runs)
+        if len(pot) < 2:
+            continue
+        drawn += 1
+        plausible, words = _drop_verdict(runs, "potency")
+        state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
+        fill = STATE_FILL.get(state[0] if len(state) else "drifting", "none")
+        style_ = dict(color=colour, fillstyle=fill, mfcalt="white",
+                      mfc=colour if fill != "none" else "white")
+        x, dens = _log_density(pot, 15)
+        nz = dens > 0
+        ax.plot(x[nz], dens[nz], m, label=rf"$\phi$ = {_num(phi)}: {words}", **style_)
+        if plausible:
+            alpha = pd.to_numeric(runs.potency_exponent, errors="coerce").mean()
+            x_min = pd.to_numeric(runs.potency_x_min, errors="coerce").mean()
+            xs = np.geomspace(x_min, pot.max(), 50)
+            ax.plot(xs, np.mean(pot >= x_min) * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
+                    color=colour, lw=0.8)
+        bx.plot(drops, pot, m, ms=2.5, alpha=0.6, ls="none", **style_)
+    if not drawn:  # no run recorded slip frames
+        return None
+    for a in (ax, bx):
+        a.set_xscale("log")
+        a.set_yscale("log")
+    ax.set_xlabel(r"potency $\sum_i \Delta x_i$ over the slipping particles ($l^3$)")
+    ax.set_ylabel("probability density")
+    ax.set_title(f"potencies, {_size_label(lx, ly)} (Clauset et al.'s test, p >= 0.1)",
+                 fontsize=7)
+    bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
+    bx.set_ylabel(r"potency ($l^3$)")
+    bx.set_title("each slip's potency against its stress drop", fontsize=7)
+    state_key(fig, data)
+    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    return fig
+
+
 FIGURES = {"fig1b_stress": fig1b_stress, "fig2a_friction": fig2a_friction,
            "fig2b_asymmetry": fig2b_asymmetry, "fig3_order": fig3_order,
            "fig4a_clusters": fig4a_clusters, "fig_drops": fig_drops,
-           "fig_contacts": fig_contacts}
+           "fig_potency": fig_potency, "fig_contacts": fig_contacts}
 #: what each figure needs the runs to have recorded
 _NEEDS = {"fig2b_asymmetry": "lx_over_ly", "fig3_order": "psi_inf",
-          "fig4a_clusters": "lx_over_ly"}
+          "fig4a_clusters": "lx_over_ly", "fig_potency": "potency_exponent"}
 
 
 def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[list[Path], dict]:

@@ -298,6 +298,9 @@ def numbers(out: Path, wall: dict) -> str:
     aspect = _tables(out, "aspect")
     if aspect is not None:
         lines += aspect_numbers(out / "aspect", aspect[0])
+    found = energy_argument(out)
+    if found:
+        lines += energy_numbers(found)
     return "\n".join(lines) + "\n"
 
 
@@ -337,6 +340,191 @@ def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
                    f"{((fx >= span) & (fy >= span)).mean():.3f} | "
                    f"{(c.l_y > c.l_x).mean():.3f} |")
     return out
+
+
+#: the curves the energy argument is measured on (claim 6): both protocols, every N
+ENERGY_CURVES = ("paper, t_end = 16000", "steady protocol")
+
+
+def slip_threshold(lx: int, ly: int) -> float:
+    """The mean slip delta above which Eq. 2 makes a transverse slip (one column spanning y:
+    n_x = 1, n_y = Ly) cheaper than a row slip (one row spanning x: n_x = Lx, n_y = 1):
+    Lx ((delta^2 + 1)^(1/2) - 1)^2 = Ly delta^2, delta* = 2a / (1 - a^2) with a = (Ly/Lx)^(1/2)
+    (l = 1; infinite when Lx <= Ly: rows are then never cheaper)."""
+    a = math.sqrt(ly / lx)
+    return 2 * a / (1 - a * a) if a < 1 else math.inf
+
+
+def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
+    """Every slip cluster after the transient of one curve's runs (their clusters.csv), with
+    the run's phi, Lx, Ly, N and seed, and its shape: `row` (spans x, not y), `transverse`
+    (spans y, not x), `whole` (both) or `patch` (neither)."""
+    name, where = CURVES[label]
+    t = _tables(out, name, where)
+    if t is None:
+        return None
+    parts = []
+    for _, r in t[0].iterrows():
+        rd = sweep_run_dir(out / name, r.job)
+        if not rd.file("clusters.csv").exists():
+            continue
+        c = pd.read_csv(rd.file("clusters.csv"))
+        if "eq2_estimate" not in c or not len(c):
+            continue
+        c = c.assign(phi=r.phi, Lx=int(r.Lx), Ly=int(r.Ly), N=int(r.N), seed=int(r.seed))
+        parts.append(c)
+    if not parts:
+        return None
+    c = pd.concat(parts, ignore_index=True)
+    sx, sy = c.n_x == c.Lx, c.n_y == c.Ly
+    c["shape"] = np.select([sx & ~sy, sy & ~sx, sx & sy], ["row", "transverse", "whole"],
+                           "patch")
+    return c
+
+
+def _log_crossing(phi, a, b) -> float:
+    """The phi (interpolated in log phi) where a - b changes sign going down in phi from its
+    largest value (a > b at the top), NaN when it never does."""
+    order_ = np.argsort(phi)[::-1]
+    x, d = np.log10(np.asarray(phi, float)[order_]), (np.asarray(a) - np.asarray(b))[order_]
+    for k in range(1, len(x)):
+        if d[k - 1] > 0 >= d[k]:
+            return float(10 ** (x[k - 1] + (x[k] - x[k - 1]) * d[k - 1] / (d[k - 1] - d[k])))
+    return math.nan
+
+
+def energy_argument(out: Path) -> dict:
+    """Claim 6 measured, per curve of ENERGY_CURVES and N: per phi the clusters' shapes, their
+    mean slip, and the bond energy change of the bonds touching each cluster against Eq. 2;
+    where transverse slips overtake row slips, and where Eq. 2 places it (the median slip of
+    the clusters reaching delta*)."""
+    from scipy.stats import spearmanr
+
+    found = {}
+    for label in ENERGY_CURVES:
+        c = cluster_rows(out, label)
+        if c is None:
+            continue
+        for n, g in c.groupby("N"):
+            lx, ly = int(g.Lx.iloc[0]), int(g.Ly.iloc[0])
+            per = []
+            for phi, h in g.groupby("phi"):
+                e = h[h.eq2_estimate > 0]
+                per.append({"phi": phi, "clusters": len(h),
+                            **{k: float((h["shape"] == k).mean())
+                               for k in ("row", "transverse", "whole", "patch")},
+                            "slip_median": float(h.slip.median()),
+                            "with_perimeter": len(e),
+                            "ratio_median": float((e.bond_change / e.eq2_estimate).median())
+                            if len(e) else math.nan})
+            per = pd.DataFrame(per)
+            e = g[g.eq2_estimate > 0]
+            rho = spearmanr(e.bond_change, e.eq2_estimate) if len(e) > 2 else None
+            found[label, n] = {
+                "lattice": f"{lx}x{ly}", "per_phi": per, "clusters": len(g),
+                "with_perimeter": len(e),
+                "spearman": (float(rho.statistic), float(rho.pvalue)) if rho else
+                (math.nan, math.nan),
+                "ratio_median": float((e.bond_change / e.eq2_estimate).median())
+                if len(e) else math.nan,
+                "ratio_iqr": tuple(float(q) for q in np.quantile(
+                    e.bond_change / e.eq2_estimate, [0.25, 0.75])) if len(e) else
+                (math.nan, math.nan),
+                "negative": float((e.bond_change < 0).mean()) if len(e) else math.nan,
+                "delta_star": slip_threshold(lx, ly),
+                "crossover_observed": _log_crossing(per.phi, per.row, per.transverse),
+                "crossover_argument": _log_crossing(per.phi, slip_threshold(lx, ly),
+                                                    per.slip_median),
+                "clusters_table": g}
+    return found
+
+
+def energy_numbers(found: dict) -> list[str]:
+    lines = ["", "## The energy argument (claim 6)", "",
+             "Per slip cluster after the transient (clusters.csv): `bond_change`, the energy of "
+             "the bonds touching the cluster at the slip's minimum minus at its maximum, against "
+             "Eq. 2 from the cluster's columns n_x, rows n_y and mean slip delta (clusters "
+             "spanning both axes have no perimeter: Eq. 2 = 0, left out of the ratio). Shapes: "
+             "row (spans x only), transverse (spans y only), whole, patch. Crossovers: the phi "
+             "(log-interpolated) below which transverse clusters outnumber row clusters "
+             "(observed) and below which the clusters' median slip exceeds delta*, where Eq. 2 "
+             "makes one transverse column cheaper than one row (the argument).", "",
+             "| curve | N | clusters | with a perimeter | bond change / Eq. 2 (median, IQR) | "
+             "bond change < 0 | Spearman rho (p) | delta* | crossover observed | "
+             "crossover by Eq. 2 |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for (label, n), f in found.items():
+        lo, hi = f["ratio_iqr"]
+        rho, p = f["spearman"]
+        lines.append(f"| {label} | {n} | {f['clusters']} | {f['with_perimeter']} | "
+                     f"{f['ratio_median']:.3g} ({lo:.3g} - {hi:.3g}) | "
+                     f"{100 * f['negative']:.0f}% | {rho:.2f} ({p:.1e}) | "
+                     f"{f['delta_star']:.2f} | {f['crossover_observed']:.3g} | "
+                     f"{f['crossover_argument']:.3g} |")
+    for (label, n), f in found.items():
+        if n != 100:
+            continue
+        lines += ["", f"{label}, N = 100: per phi", "",
+                  "| phi | clusters | row | transverse | whole | patch | median slip | "
+                  "bond change / Eq. 2 |", "|---|---|---|---|---|---|---|---|"]
+        for r in f["per_phi"].itertuples():
+            lines.append(f"| {r.phi:g} | {r.clusters} | {r.row:.2f} | {r.transverse:.2f} | "
+                         f"{r.whole:.2f} | {r.patch:.2f} | {r.slip_median:.3g} | "
+                         f"{r.ratio_median:.3g} |")
+    return lines
+
+
+def energy_figure(found: dict, figs: Path) -> Path | None:
+    """Claim 6: (a) each cluster's bond energy change against Eq. 2, by phi; (b) the share of
+    row and transverse clusters against phi at N = 100 under both protocols, with the median
+    slip against delta* (the argument's crossover)."""
+    if not found:
+        return None
+    plt = _style()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(8.6, 3.6), layout="constrained")
+    norm = matplotlib_lognorm(0.1, 1000.0)
+    for (label, _n), f in found.items():
+        g = f["clusters_table"]
+        e = g[(g.eq2_estimate > 0) & (g.bond_change > 0)]
+        sc = a.scatter(e.eq2_estimate, e.bond_change, c=e.phi, norm=norm, cmap="viridis", s=3,
+                       marker="o" if label.startswith("steady") else "^", alpha=0.5, lw=0)
+    lim = [1e-6, 1e3]
+    a.plot(lim, lim, "k--", lw=0.8, label="measured = Eq. 2")
+    a.set_xscale("log")
+    a.set_yscale("log")
+    a.set_xlim(*lim)
+    a.set_ylim(*lim)
+    a.set_xlabel(r"Eq. 2 from $n_x$, $n_y$, $\delta$ ($k_d l^2$)")
+    a.set_ylabel(r"bond energy change of the cluster ($k_d l^2$)")
+    a.legend(frameon=False, loc="upper left", fontsize=7,
+             title="o steady protocol, ^ paper's (t_end = 16000)", title_fontsize=7)
+    fig.colorbar(sc, ax=a, label=r"$\phi$")
+    b2 = b.twinx()
+    for (label, n), f in found.items():
+        if n != 100:
+            continue
+        per = f["per_phi"]
+        ls = "-" if label.startswith("steady") else ":"
+        b.plot(per.phi, per.row, ls, marker="o", ms=3, color="C0",
+               label=f"row ({label})")
+        b.plot(per.phi, per.transverse, ls, marker="s", ms=3, color="C3",
+               label=f"transverse ({label})")
+        b2.plot(per.phi, per.slip_median / f["delta_star"], ls, color="0.4", lw=0.8)
+    b2.axhline(1.0, color="0.4", lw=0.6, ls="--")
+    b2.set_yscale("log")
+    b2.set_ylabel(r"median slip / $\delta^*$ (grey)")
+    b.set_xscale("log")
+    b.set_xlabel(r"$\phi$")
+    b.set_ylabel("share of the clusters")
+    b.legend(frameon=False, fontsize=6.5, loc="center left")
+    b.set_title("N = 100 (20x5)", fontsize=9)
+    return _write(fig, figs / "energy_argument.png")
+
+
+def matplotlib_lognorm(lo: float, hi: float):
+    from matplotlib.colors import LogNorm
+
+    return LogNorm(lo, hi)
 
 
 def protocols_figure(out: Path, figs: Path) -> Path | None:
@@ -430,6 +618,9 @@ def figures(out: Path, figs: Path) -> list[Path]:
             written.append(path)
     if _tables(out, "aspect") is not None:
         written += aspect_figures(out / "aspect", figs)
+    path = energy_figure(energy_argument(out), figs)
+    if path is not None:
+        written.append(path)
     return written
 
 
