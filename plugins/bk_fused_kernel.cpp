@@ -13,6 +13,7 @@ namespace bkfused {
   void setup(const Model &, Arrays &, const Mirror &, int64_t, const double *,               \
              const double *);                                                                 \
   void phase(const double *, const double *, int, double, double *);                         \
+  void energies(const Model &, const Arrays &, double, double *);                            \
   }
 BK_DECLARE(baseline)
 #ifdef BK_FUSED_AVX2
@@ -34,14 +35,14 @@ Kernel select()
 #endif
 #ifdef BK_FUSED_AVX512
   if (!avx2_max && __builtin_cpu_supports("avx512f"))
-    return {"avx512", &avx512::run, &avx512::setup, &avx512::phase};
+    return {"avx512", &avx512::run, &avx512::setup, &avx512::phase, &avx512::energies};
 #endif
 #ifdef BK_FUSED_AVX2
   if (!baseline_only && __builtin_cpu_supports("avx2"))
-    return {"avx2", &avx2::run, &avx2::setup, &avx2::phase};
+    return {"avx2", &avx2::run, &avx2::setup, &avx2::phase, &avx2::energies};
 #endif
   (void) avx2_max;
-  return {"baseline", &baseline::run, &baseline::setup, &baseline::phase};
+  return {"baseline", &baseline::run, &baseline::setup, &baseline::phase, &baseline::energies};
 }
 
 }    // namespace bkfused

@@ -20,6 +20,7 @@ struct Model {
   int drive = 0, contact = BK_NO_CONTACT, damping = BK_NO_DAMPING;    // bk_model.h
   int ledger = 0;      // keep the energy ledger (Arrays::led)
   double dt = 0.0;
+  double mass = 0.0;   // every particle's
   double hv = 0.0;     // fix nve's dtf / m: v += hv f
   double hd = 0.0;     // the damping's dt / (2 m)
   double mg = 0.0;     // m gamma
@@ -46,6 +47,9 @@ struct Arrays {
   double led[BK_NLEDGER];
   double led_fprev, led_next;
   double acc_fx, acc_done, acc_next, acc_lost;
+  // per particle, the ledger's terms of the step before they are summed (so that the force
+  // loop keeps no reduction and vectorizes): drive x force, damping work of the kicks
+  double *term_fx, *term_done, *term_next;
   // each contact's first break at or after fb_mark (FixBKLayer::first_break_of), with
   // fb_track: set to fb_step, the step being taken
   double *fb;
@@ -81,11 +85,16 @@ using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, con
 using PhaseFn = void (*)(const double *drx, const double *dry, int n, double inv_lim,
                          double *sums);
 
+/* The energies of the state (e[0..3]: bonds, drive springs at plate shift `shift`, contacts,
+   kinetic), in LANES interleaved partial sums: vectorized, the same bits in every build. */
+using EnergyFn = void (*)(const Model &, const Arrays &, double shift, double *e);
+
 struct Kernel {
   const char *isa;    // "avx512", "avx2" or "baseline"
   RunFn run;
   SetupFn setup;
   PhaseFn phase;
+  EnergyFn energies;
 };
 
 /* The build for this CPU: "avx512" where the CPU has AVX-512F, else "avx2" where it has AVX2

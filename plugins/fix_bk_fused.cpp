@@ -223,7 +223,7 @@ void FixBKFused::build_lattice()
 
   // every array in one pool, each 64-byte aligned and padded
   const size_t stride = (static_cast<size_t>(N) + 7) / 8 * 8;
-  constexpr int NARR = 27;
+  constexpr int NARR = 30;
   pool.assign(stride * NARR + 8, 0.0);
   double *p = pool.data();
   while (reinterpret_cast<uintptr_t>(p) % 64) p++;
@@ -242,6 +242,7 @@ void FixBKFused::build_lattice()
   arr.brx = take(), arr.bry = take(), arr.blx = take(), arr.bly = take(), arr.bux = take();
   arr.buy = take(), arr.bdx = take(), arr.bdy = take(), arr.over = take();
   arr.fb = take();
+  arr.term_fx = take(), arr.term_done = take(), arr.term_next = take();
   for (int k = 0; k < N; k++) arr.fb[k] = -1.0;
 
   loc.assign(N, 0);
@@ -361,6 +362,7 @@ void FixBKFused::set_model()
   m.Lx = Lx, m.Ly = Ly, m.N = N;
   m.drive = drive_on, m.contact = contact, m.damping = damping, m.ledger = ledger_on;
   m.dt = dt;
+  m.mass = mass;
   m.hv = 0.5 * update->dt * force->ftm2v / mass;    // fix nve: dtf / mass
   m.hd = 0.5 * dt / mass;
   m.mg = mass * gamma;
@@ -502,21 +504,13 @@ void FixBKFused::contact_phase(double *sums)
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
-/* the energies of the current step from the fix's own arrays, in lattice order: bonds,
-   drive springs, contacts, kinetic (the full-step velocities) */
+/* the energies of the current step from the fix's own arrays (the kernel's, vectorized):
+   bonds, drive springs, contacts, kinetic (the full-step velocities) */
 void FixBKFused::local_energies(double *e)
 {
-  e[0] = compute_scalar();
-  e[1] = e[2] = e[3] = 0.0;
+  e[0] = e[1] = e[2] = e[3] = 0.0;
   if (!lattice_ready || !have_state) return;
-  for (int k = 0; k < N; k++) {
-    if (drive_on) {
-      const double ux = arr.x[k] - arr.ax[k] - plate_shift, uy = arr.y[k] - arr.ay[k];
-      e[1] += 0.5 * arr.kd[k] * (ux * ux + uy * uy);
-    }
-    if (contact != BK_NO_CONTACT) e[2] += 0.5 * ke * (arr.drx[k] * arr.drx[k] + arr.dry[k] * arr.dry[k]);
-    e[3] += 0.5 * mass * (arr.vx[k] * arr.vx[k] + arr.vy[k] * arr.vy[k]);
-  }
+  kernel.energies(model, arr, plate_shift, e);
 }
 
 // the bond energy sum k_b/2 (r - r0)^2

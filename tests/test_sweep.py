@@ -169,7 +169,7 @@ def test_plot_writes_every_figure(tiny_sweep, tmp_path):
     proc = bkflow("plot", out, "--out", figs)
     assert proc.returncode == 0, proc.stderr
     names = {"fig1b_stress", "fig2a_friction", "fig2b_asymmetry", "fig3_order",
-             "fig4a_clusters", "fig_drops", "fig_contacts"}
+             "fig4a_clusters", "fig_drops", "fig_potency", "fig_contacts"}
     assert {p.name for p in figs.iterdir()} == {f"{n}.{e}" for n in names for e in ("png", "pdf")} \
         | {"figures.json"}  # and the record of what was drawn from which tables
     for p in figs.glob("*.png"):
@@ -190,7 +190,7 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     written, skipped = plot(tmp_path / "s", formats=("png",))
     assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops",
                                          "fig_contacts"}
-    assert set(skipped) == {"fig2b_asymmetry", "fig3_order", "fig4a_clusters"}
+    assert set(skipped) == {"fig2b_asymmetry", "fig3_order", "fig4a_clusters", "fig_potency"}
     assert all("friction" in why for why in skipped.values())
 
 
