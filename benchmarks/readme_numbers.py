@@ -82,11 +82,42 @@ def measure_sweep() -> dict:
             "cores": os.cpu_count(), "output": out.rstrip("\n")}
 
 
+#: the event catalogue's columns the README shows, with their headers
+CATALOGUE_SHOWN = (("t_max", "t_max", ".1f"), ("duration", "duration", ".2f"),
+                   ("drop", "drop", ".4f"), ("n_slipped", "slipped", "d"),
+                   ("breaks", "breaks", "d"), ("potency", "potency", ".2f"),
+                   ("cluster_nx", "n_x", "d"), ("cluster_ny", "n_y", "d"),
+                   ("nucleation_x", "nucl. x", ".0f"), ("nucleation_y", "nucl. y", ".0f"),
+                   ("front_speed", "front speed", ".2f"),
+                   ("drive_released", "drive released", ".3f"),
+                   ("bond_released", "bonds released", ".3f"),
+                   ("dissipated_breaks", "breaks dissipated", ".3f"),
+                   ("dissipated_damping", "damping dissipated", ".3f"),
+                   ("energy_closure", "closure", ".1e"))
+
+
+def catalogue_table(events, rows: int = 6) -> str:
+    """The first ``rows`` slips after the transient of an event catalogue (a DataFrame), as a
+    markdown table of ``CATALOGUE_SHOWN``."""
+    late = events[events["late"].astype(bool)].head(rows)
+    head = "| " + " | ".join(h for _, h, _ in CATALOGUE_SHOWN) + " |"
+    lines = [head, "|" + "---|" * len(CATALOGUE_SHOWN)]
+    for _, r in late.iterrows():
+        cells = ["n/a" if r[c] is None or r[c] != r[c] else format(
+            int(r[c]) if f == "d" else float(r[c]), f) for c, _, f in CATALOGUE_SHOWN]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def measure_run() -> dict:
+    import pandas as pd
+
     with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
         out, wall = _run(RUN, Path(d))
         size = disk_bytes(Path(d) / "runs" / "phi10")
-    return {"command": RUN, "wall_s": wall, "bytes": size, "output": out.rstrip("\n")}
+        events = pd.read_parquet(Path(d) / "runs" / "phi10" / "events.parquet")
+    return {"command": RUN, "wall_s": wall, "bytes": size, "output": out.rstrip("\n"),
+            "catalogue": catalogue_table(events), "slips": int(len(events))}
 
 
 def measure_tests() -> dict:
@@ -126,6 +157,9 @@ def blocks(record: dict) -> dict[str, str]:
             "(`benchmarks/readme_numbers.py` measured it; `--scene friction` writes only the "
             "stress and phase series).")
         out["sweep-output"] = "```\n" + s["output"] + "\n```"
+    r = record.get("run")
+    if r and "catalogue" in r:
+        out["catalogue"] = r["catalogue"]
     t = record.get("tests")
     if t:
         out["tests"] = (f"Measured on a {t['cores']}-core machine: {t['all']} tests in "

@@ -146,6 +146,7 @@ FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
   size_peratom_cols = NSTATE;
   peratom_freq = 1;
   dynamic_group_allow = 0;
+  maxexchange = NSTATE + 1;    // pack_exchange: the state and the first break (Comm's margin)
 
   FixBKLayer::grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
