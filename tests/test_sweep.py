@@ -192,6 +192,17 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
                                          "fig_contacts"}
     assert set(skipped) == {"fig2b_asymmetry", "fig3_order", "fig4a_clusters", "fig_potency"}
     assert all("friction" in why for why in skipped.values())
+    # the sweep's event catalogue: the run's slips, its job id and parameters first
+    import pyarrow.parquet as pq
+
+    from bkflow.api import load_sweep
+
+    cat = pq.read_table(tmp_path / "s" / "catalogue.parquet").to_pandas()
+    events = pd.read_csv(job_dirs(tmp_path / "s")[0] / "events.csv")
+    assert len(cat) == len(events) > 0 and list(cat.columns[:2]) == ["job", "Lx"]
+    assert (cat.phi == 10.0).all() and (cat.scene == "friction").all()
+    np.testing.assert_array_equal(cat["drop"].to_numpy(), events["drop"].to_numpy())
+    assert load_sweep(tmp_path / "s").events.equals(cat)
 
 
 @pytest.mark.slow
