@@ -186,3 +186,27 @@ def test_the_residual_falls_as_dt_squared_where_no_contact_breaks(path, workdir)
         r, work = _residual(a, b)
         residuals.append(abs(r) / work)
     assert residuals[0] / residuals[1] == pytest.approx(4.0, rel=0.05), residuals
+
+
+def test_the_fused_ledger_goes_on_across_a_restart_file(workdir):
+    """The fused path in two halves joined by a restart file keeps the uninterrupted run's
+    ledger: the running sums come back from the file, the energies from the exact state."""
+    spec = RunSpec(phi=10.0, Lx=8, Ly=4, seed=5, start="random")
+    lattice, _, v0 = lively_start(spec)
+    (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
+    opts = DeckOptions(stress=None, phase=None, thermo_every=500, path="fused", energy=True)
+    half = STEPS // 2
+    whole = (setup_text(spec, opts) + _ledger_vars() + f"run {STEPS}\n" + _deck_ledger_line())
+    first = setup_text(spec, opts) + f"run {half}\nwrite_restart half.restart\n"
+    second = (continue_text(spec, "half.restart", opts) + _ledger_vars()
+              + f"run {STEPS - half}\n" + _deck_ledger_line())
+    ledgers = {}
+    for name, deck in (("whole", whole), ("first", first), ("second", second)):
+        (workdir / f"in.{name}").write_text(deck)
+        subprocess.run([tool("lmp"), "-in", f"in.{name}", "-log", f"log.{name}", "-screen",
+                        "none"], check=True, cwd=workdir, timeout=300)
+        ledgers[name] = _read_ledgers((workdir / f"log.{name}").read_text())
+    (end,), (after,) = ledgers["whole"], ledgers["second"]
+    assert end["diss_break"] > 0
+    for k in LEDGER_SLOTS:
+        assert after[k] == pytest.approx(end[k], rel=1e-12, abs=1e-15), k
