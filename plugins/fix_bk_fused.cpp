@@ -481,6 +481,13 @@ double FixBKFused::longest_bond()
   return rmax_value;
 }
 
+void FixBKFused::clear_first_breaks()
+{
+  FixBKLayer::clear_first_breaks();
+  if (lattice_ready)
+    for (int k = 0; k < N; k++) arr.fb[k] = -1.0;
+}
+
 double FixBKFused::first_break_of(int i) const
 {
   if (!lattice_ready) return FixBKLayer::first_break_of(i);
@@ -511,6 +518,7 @@ void FixBKFused::local_energies(double *e)
   e[0] = e[1] = e[2] = e[3] = 0.0;
   if (!lattice_ready || !have_state) return;
   kernel.energies(model, arr, plate_shift, e);
+  e[3] *= force->mvv2e;    // energy units, as the kicks' ftm2v (1 in lj units)
 }
 
 // the bond energy sum k_b/2 (r - r0)^2

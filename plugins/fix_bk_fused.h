@@ -29,6 +29,7 @@ class FixBKFused : public FixBKLayer {
   double compute_scalar() override;
   void contact_phase(double *sums) override;
   double first_break_of(int i) const override;
+  void clear_first_breaks() override;
 
   double memory_usage() override;
   void grow_arrays(int) override;

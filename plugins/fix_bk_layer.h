@@ -16,6 +16,7 @@
 
 #include "bk_interface.h"
 #include "bk_model.h"
+#include "atom.h"
 #include "fix.h"
 
 #include <string>
@@ -58,7 +59,17 @@ class FixBKLayer : public Fix {
      where a slip nucleated and how its front spread). Kept only once a fix asks for it;
      it travels with its atom, and is not in restart files. */
   void track_first_breaks() { track_breaks = 1; }
-  void mark_breaks(bigint step) { break_mark = static_cast<double>(step); }
+  void mark_breaks(bigint step)
+  {
+    // a mark behind the last (reset_timestep): the steps recorded are of another count
+    if (static_cast<double>(step) < break_mark) clear_first_breaks();
+    break_mark = static_cast<double>(step);
+  }
+  // forgets every first break recorded
+  virtual void clear_first_breaks()
+  {
+    for (int i = 0; i < atom->nlocal; i++) first_break[i] = -1.0;
+  }
   // local atom i's first break at or after the mark, -1 if none
   virtual double first_break_of(int i) const
   {

@@ -300,6 +300,7 @@ void FixBKSubstrate::local_energies(double *e)
     const double m = rmass ? rmass[i] : mass ? mass[atom->type[i]] : 0.0;
     e[3] += 0.5 * m * (v[i][0] * v[i][0] + v[i][1] * v[i][1]);
   }
+  e[3] *= force->mvv2e;    // energy units, as the kicks' ftm2v (1 in lj units)
 }
 
 // the bond forces of this step; returns the largest squared bond length (local bonds)

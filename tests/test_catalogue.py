@@ -143,11 +143,27 @@ def test_the_run_residual_is_taken_over_the_analysed_part():
     assert np.isnan(catalogue.ledger_residual(L, 5.0))
 
 
-def test_typed_counts_keep_their_missing_values():
-    df = catalogue.typed({"n_slipped": [3.0, np.nan], "late": [1, 0], "potency": [1.5, np.nan]})
-    assert str(df["n_slipped"].dtype) == "Int64" and df["n_slipped"].isna().tolist() == [False,
-                                                                                         True]
-    assert df["late"].dtype == bool and df["potency"].dtype == float
+def test_typed_counts_and_flags_keep_their_missing_values():
+    df = catalogue.typed({"n_slipped": [3.0, np.nan, np.inf], "late": [1, 0, np.nan],
+                          "potency": [1.5, np.nan, 2.0]})
+    assert str(df["n_slipped"].dtype) == "Int64"
+    assert df["n_slipped"].isna().tolist() == [False, True, True]  # inf is no count
+    assert str(df["late"].dtype) == "boolean"
+    assert df["late"].isna().tolist() == [False, False, True] and df["late"][0]
+    assert df["potency"].dtype == float
+
+
+def test_background_breaks_outside_the_slip_are_left_out():
+    """A contact that broke outside the slipping particles (the creeping layer's background)
+    before the slip's own first break is not its nucleation site."""
+    lat = square_lattice(20, 10)
+    brk = _front(lat, (7, 3), speed=2.5, dt=0.001)
+    brk[150] = 900  # far away, earlier, not slipping
+    within = brk >= 0
+    within[150] = False
+    x, y, t, v = catalogue.nucleation_and_front(brk, lat.positions, lat.box, 0.001, within)
+    assert (x, y, t) == (7.0, 3.0, 1.0) and v == pytest.approx(2.5, rel=2e-3)
+    assert catalogue.nucleation_and_front(brk, lat.positions, lat.box, 0.001)[:2] == (10.0, 7.0)
 
 
 _RUN = {}

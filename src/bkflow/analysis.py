@@ -394,7 +394,7 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
                                       spec.k_b, shifts)
         if breaks is not None:
             row.update(zip(catalogue.BREAK_COLUMNS[1:], catalogue.nucleation_and_front(
-                breaks[k + 1], lat.positions, lat.box, spec.dt)))
+                breaks[k + 1], lat.positions, lat.box, spec.dt, row["slipping"])))
         for c in columns:
             table[c][ev] = row[c]
         n = len(per["n_c"])

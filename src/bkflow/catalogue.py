@@ -46,11 +46,15 @@ def _minimum_image(d, box):
     return d - box * np.round(d / box)
 
 
-def nucleation_and_front(first_break, sites, box, dt: float):
+def nucleation_and_front(first_break, sites, box, dt: float, within=None):
     """(nucleation_x, nucleation_y, t_nucleation, front_speed) of one slip from each contact's
     first-break step ``first_break`` (N,) (-1: did not break), the lattice ``sites`` (N, 2) and
-    the ``box``; NaN where no contact broke (speed: where none broke after the first)."""
+    the ``box``; NaN where no contact broke (speed: where none broke after the first).
+    ``within`` (N,) bool: the contacts of the slip (its slipping particles); the others' breaks
+    (a creeping layer's background) are left out."""
     brk = np.asarray(first_break, float)
+    if within is not None:
+        brk = np.where(np.asarray(within, bool), brk, -1.0)
     broke = np.flatnonzero(brk >= 0)
     if len(broke) == 0:
         return (np.nan,) * 4
@@ -93,7 +97,8 @@ def bond_energies(positions, bonds, shifts, k_b: float, r0: float = 1.0) -> np.n
 
 def slip_row(x_max, x_min, lattice, s_x: float, k_b: float, shifts=None):
     """The size and shape columns of one slip (``SIZE_COLUMNS``) from the unwrapped positions
-    (N, 2) at its maximum and minimum, and the columns of its slip clusters of two or more
+    (N, 2) at its maximum and minimum (and ``slipping``, the mask of its slipping particles),
+    and the columns of its slip clusters of two or more
     particles (label, n_c, l_x, l_y, n_x, n_y, slip: the mean slip delta, bond_change: the
     bond energy at the minimum minus at the maximum of the bonds touching the cluster,
     eq2_estimate: Eq. 2 from n_x, n_y, delta)."""
@@ -102,7 +107,7 @@ def slip_row(x_max, x_min, lattice, s_x: float, k_b: float, shifts=None):
     mask = clusters.slipping(x_max[:, 0], x_min[:, 0], s_x)
     labels = clusters.slip_clusters(mask, lattice.bonds)
     ext = clusters.cluster_extents(x_max, labels, lattice.box)
-    row = {"n_slipped": int(mask.sum()), "potency": float(slip[mask].sum()),
+    row = {"slipping": mask, "n_slipped": int(mask.sum()), "potency": float(slip[mask].sum()),
            "slip_mean": float(slip[mask].mean()) if mask.any() else np.nan,
            "slip_max": float(slip[mask].max()) if mask.any() else np.nan,
            "n_clusters": len(ext.n_c)}
@@ -189,8 +194,10 @@ def typed(table):
     df = table.copy() if isinstance(table, pd.DataFrame) else pd.DataFrame(table)
     for c in COUNT_COLUMNS:
         if c in df:
-            df[c] = pd.array(np.round(df[c].to_numpy(float)), dtype="Float64").astype("Int64")
+            v = df[c].to_numpy(float)
+            v = np.where(np.isfinite(v), np.round(v), np.nan)  # inf is no count: missing
+            df[c] = pd.array(v, dtype="Float64").astype("Int64")
     for c in ("late", "large"):
-        if c in df:
-            df[c] = df[c].astype(bool)
+        if c in df:  # missing stays missing (pandas's nullable boolean)
+            df[c] = pd.array(df[c].to_numpy(float), dtype="Float64").astype("boolean")
     return df

@@ -636,7 +636,7 @@ def _late_drops(data: SweepData, runs: pd.DataFrame):
     for _, r in runs.iterrows():
         rd = data.run_dir(r)
         e = rd.read_events()
-        late = e["late"].astype(bool).to_numpy()
+        late = e["late"].fillna(False).astype(bool).to_numpy()
         d = pd.to_numeric(e["drop"], errors="coerce").to_numpy(dtype=float)
         drops.append(d[late])
         c = rd.read_clusters()
@@ -760,7 +760,7 @@ def _late_potencies(data: SweepData, runs: pd.DataFrame):
         e = data.run_dir(r).read_events()
         if "potency" not in e:
             continue
-        late = e["late"].astype(bool).to_numpy()
+        late = e["late"].fillna(False).astype(bool).to_numpy()
         pot.append(pd.to_numeric(e["potency"], errors="coerce").to_numpy(float)[late])
         drops.append(pd.to_numeric(e["drop"], errors="coerce").to_numpy(float)[late])
     if not pot:

@@ -486,7 +486,9 @@ class RunDir:
 class CsvTail:
     """Reads the lines a running LAMMPS appended to one of its CSV series (stress.csv,
     phase.csv) since the last call (whole lines only), so that a check during a run costs
-    what the new samples cost: ``new`` returns an array (rows, columns) of floats."""
+    what the new samples cost: ``new`` returns an array (rows, columns) of floats, the first
+    ``n_columns`` of each line (stress.csv has the ledger's after t and sigma_x in the scenes
+    that keep it)."""
 
     def __init__(self, path, n_columns: int):
         self.path = Path(path)
@@ -501,12 +503,13 @@ class CsvTail:
         self.offset += end
         rows = []
         for line in chunk[:end].decode().splitlines():
+            parts = line.split(",")
+            if len(parts) < self.n_columns:
+                continue
             try:
-                row = [float(v) for v in line.split(",")]
+                rows.append([float(v) for v in parts[:self.n_columns]])
             except ValueError:  # the header
                 continue
-            if len(row) == self.n_columns:
-                rows.append(row)
         return np.array(rows, dtype=float).reshape(-1, self.n_columns)
 
 
