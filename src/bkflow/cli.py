@@ -175,9 +175,10 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x only), order (+ snapshots for "
-                        "Psi(t)), clusters (+ positions at each slip), fronts (+ every "
-                        "particle's slip rate through every slip), full (default; the fronts "
-                        "of the first slips only)")
+                        "Psi(t)), clusters (+ positions at each slip), events (clusters + the "
+                        "energy ledger and each slip's first breaks: the event catalogue), "
+                        "fronts (+ every particle's slip rate through every slip), full "
+                        "(default: all; the fronts of the first slips only)")
     _set_arg(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
 
