@@ -240,3 +240,89 @@ def test_first_breaks_are_the_same_on_two_ranks(lammps, tmp_path):
     for k in range(0, len(got[1]), 2):
         b = got[1].breaks[k + 1]
         assert ((b == -1) | ((b > got[1].steps[k]) & (b <= got[1].steps[k + 1]))).all()
+
+
+def _copy(events_run, tmp_path):
+    import shutil
+
+    d, _ = events_run
+    out = tmp_path / "copy"
+    shutil.copytree(d, out)
+    return out
+
+
+def _rewrite(d, name, text):
+    """Replace a run file's text and its size in meta.json (a damage the size check cannot
+    see: what the file's own reader must catch)."""
+    import json
+
+    (d / name).write_text(text)
+    meta = json.loads((d / "meta.json").read_text())
+    meta["file_bytes"][name] = (d / name).stat().st_size
+    (d / "meta.json").write_text(json.dumps(meta))
+
+
+def test_another_threshold_never_mixes_two_slips_in_one_row(events_run, tmp_path):
+    """Analysed with a slip threshold other than the run's, a slip's frames are used only when
+    they are that very slip's (its maximum and its minimum): no row takes its size from a
+    shorter slip recorded at the run's threshold."""
+    from bkflow.params import AnalysisSettings
+
+    d = _copy(events_run, tmp_path)
+    recorded = RunDir(d).read_events()
+    analyze(d, AnalysisSettings(slip_threshold=0.03))
+    other = RunDir(d).read_events()
+    late = other[other.late]
+    with_size = late[late.potency.notna()]
+    assert len(with_size) and len(with_size) < len(late)  # some slips differ, some do not
+    pairs = set(zip(recorded.t_max.round(6), recorded.t_min.round(6)))
+    assert set(zip(with_size.t_max.round(6), with_size.t_min.round(6))) <= pairs
+
+
+@pytest.mark.parametrize("damage", ["garbage", "outside"])
+def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
+    from bkflow.rundir import DamagedRunError
+
+    d = _copy(events_run, tmp_path)
+    lines = (d / "slips.lammpstrj").read_text().splitlines()
+    # the second frame (a minimum's): its first atom line
+    starts = [k for k, line in enumerate(lines) if line.startswith("ITEM: ATOMS")]
+    k = starts[1] + 1
+    fields = lines[k].split()
+    fields[-1] = "garbage" if damage == "garbage" else "3"
+    lines[k] = " ".join(fields)
+    _rewrite(d, "slips.lammpstrj", "\n".join(lines) + "\n")
+    with pytest.raises(DamagedRunError, match="slips.lammpstrj"):
+        analyze(d)
+
+
+def test_a_ledger_row_missing_columns_is_refused(events_run, tmp_path):
+    from bkflow.rundir import DamagedRunError
+
+    d = _copy(events_run, tmp_path)
+    lines = (d / "stress.csv").read_text().splitlines()
+    lines[100] = ",".join(lines[100].split(",")[:6])
+    _rewrite(d, "stress.csv", "\n".join(lines) + "\n")
+    with pytest.raises(DamagedRunError, match="stress.csv is damaged"):
+        analyze(d)
+
+
+def test_the_catalogue_reads_from_either_file(events_run, tmp_path):
+    from bkflow.api import load_run
+
+    d = _copy(events_run, tmp_path)
+    whole = load_run(d).events
+    (d / "events.csv").unlink()
+    assert load_run(d).events.equals(whole)  # the Parquet copy alone
+    analyze(d)
+    (d / "events.parquet").write_bytes(b"not parquet")
+    back = load_run(d).events  # a damaged Parquet copy: the CSV
+    assert list(back.columns) == list(whole.columns) and len(back) == len(whole)
+
+
+def test_a_run_without_slips_has_every_column(lammps, tmp_path):
+    run(RunSpec(phi=10.0, t_end=5.0, scene="events"), tmp_path, progress=False)
+    analyze(tmp_path)
+    header = (tmp_path / "events.csv").read_text().splitlines()[0].split(",")
+    for c in (*catalogue.SIZE_COLUMNS, *catalogue.BREAK_COLUMNS, *catalogue.ENERGY_COLUMNS):
+        assert c in header, c

@@ -25,6 +25,7 @@ from .rundir import (  # noqa: F401
     EVENTS,
     PARAMS,
     PSI,
+    SLIPS,
     AnalysisError,
     DamagedRunError,
     RunDir,
@@ -381,18 +382,33 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
     index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
     rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": [], "n_x": [], "n_y": [],
             "slip": [], "bond_change": [], "eq2_estimate": []}
-    columns = catalogue.SIZE_COLUMNS + (catalogue.BREAK_COLUMNS[1:] if breaks is not None
-                                        else ())
+    with_breaks = spec.writes_energy
+    if with_breaks and breaks is None and len(steps):
+        raise DamagedRunError(f"{SLIPS} has no column brk, which the scene writes: the file is "
+                              "damaged; run the run again")
+    columns = catalogue.SIZE_COLUMNS + (catalogue.BREAK_COLUMNS[1:] if with_breaks else ())
     table = {c: np.full(len(events), np.nan) for c in columns}
     matched = 0
     for k in range(0, len(steps), 2):
         ev = index.get(int(steps[k]))
         if ev is None or events.t_max[ev] < t_transient:
             continue
+        if int(steps[k + 1]) != int(events.i_min[ev]) * spec.stress_nevery:
+            # the recorded slip ends elsewhere (an analysis threshold other than the run's):
+            # its frames are not this slip's
+            continue
+        if with_breaks:
+            b = breaks[k + 1]
+            if ((b != -1) & ((b <= steps[k]) | (b > steps[k + 1]))).any() or \
+                    not np.isfinite(b).all():
+                raise DamagedRunError(
+                    f"{SLIPS}: a first break (column brk) outside its slip, steps "
+                    f"{int(steps[k])}..{int(steps[k + 1])}: the file is damaged; run the run "
+                    "again")
         matched += 1
         row, per = catalogue.slip_row(positions[k], positions[k + 1], lat, settings.s_x,
                                       spec.k_b, shifts)
-        if breaks is not None:
+        if with_breaks:
             row.update(zip(catalogue.BREAK_COLUMNS[1:], catalogue.nucleation_and_front(
                 breaks[k + 1], lat.positions, lat.box, spec.dt, row["slipping"])))
         for c in columns:

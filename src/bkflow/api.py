@@ -81,10 +81,9 @@ class Run:
 
     @property
     def events(self) -> pd.DataFrame | None:
-        """One row per slip (events.csv; None before the analysis)."""
-        from .rundir import EVENTS
-
-        return self._rd.read_events() if self._rd.file(EVENTS).exists() else None
+        """The event catalogue, one row per slip, typed (events.parquet, or events.csv; None
+        before the analysis): docs/model.md "The event catalogue"."""
+        return self._rd.read_events() if self._rd.has_events() else None
 
     @property
     def psi(self) -> pd.DataFrame | None:

@@ -12,7 +12,8 @@ positions at both (fix bk/slips), each contact's first break after the maximum (
   ``cluster_n``, lattice columns and rows ``cluster_nx``, ``cluster_ny``, extents
   ``cluster_lx``, ``cluster_ly``;
 - ``nucleation_x``, ``nucleation_y``: the lattice site (column, row) of the first contact to
-  break (ties: the lowest atom ID), at ``t_nucleation``; ``front_speed``: the rupture front's
+  break (ties, several contacts breaking in the same first step: the lowest atom ID), at
+  ``t_nucleation``; ``front_speed``: the rupture front's
   mean speed away from it, the least-squares slope through the origin of each later-breaking
   contact's distance from the site (minimum image, lattice units) against its delay;
 - energy over the slip: ``bond_released``, ``drive_released``, ``contact_released``
@@ -37,8 +38,9 @@ SIZE_COLUMNS = ("n_slipped", "potency", "slip_mean", "slip_max", "n_clusters", "
 BREAK_COLUMNS = ("breaks", "nucleation_x", "nucleation_y", "t_nucleation", "front_speed")
 ENERGY_COLUMNS = ("bond_released", "drive_released", "contact_released", "kinetic_gain",
                   "plate_work", "dissipated_breaks", "dissipated_damping", "energy_closure")
-#: columns that hold counts (integers; missing values where the slip has no frames)
-COUNT_COLUMNS = ("n_slipped", "n_clusters", "cluster_n", "cluster_nx", "cluster_ny", "breaks")
+#: columns that hold counts or lattice indices (integers; missing where the slip has no frames)
+COUNT_COLUMNS = ("n_slipped", "n_clusters", "cluster_n", "cluster_nx", "cluster_ny", "breaks",
+                 "nucleation_x", "nucleation_y")
 
 
 def _minimum_image(d, box):

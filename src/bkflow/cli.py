@@ -396,7 +396,13 @@ def _power_law_line(s: dict, key: str, what: str) -> None:
         print(f"  {what}: power law rejected (p = {p}{vs}); the fitted {exponent} does not "
               "describe them")
     elif s.get(f"{key}_power_law") == "plausible":
-        print(f"  {what}: power law, {exponent} (p = {p})")
+        R, Rp = s.get(f"{key}_vs_lognormal"), s.get(f"{key}_vs_lognormal_p")
+        if R is not None and Rp is not None and R < 0 and Rp < 0.1:
+            print(f"  {what}: the bootstrap does not rule a power law out (p = {p}), but a "
+                  f"lognormal is favoured (R = {R:.1f}, p = {Rp:.2g}); the fitted {exponent} "
+                  "is no law")
+        else:
+            print(f"  {what}: power law, {exponent} (p = {p})")
     else:
         print(f"  {what}: no power-law fit")
 

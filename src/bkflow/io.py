@@ -77,6 +77,10 @@ def read_frames(path, n_atoms: int | None = None) -> Frames:
         if n_atoms is not None and frames.positions.shape[1] != n_atoms:
             raise ValueError(f"{path}: {frames.positions.shape[1]} atoms, expected {n_atoms}")
         return frames
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    if b" brk" in head:  # fix bk/slips breaks: only the regular reader reads that column
+        raise ValueError(f"{path}: a frame or its column brk cannot be read")
     return read_frames_mdanalysis(path, n_atoms)
 
 

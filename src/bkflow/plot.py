@@ -655,7 +655,8 @@ def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
     """Whether the seeds' stress drops (``key`` "drop"; "potency": the slips' potencies)
     follow a power law, from their analyses (runs.csv: ``drop_power_law``, ``drop_fit_p``,
     ``drop_vs_lognormal[_p]``; ``bkflow.stress.power_law_test``): plausible only when it is
-    in every seed; and the key's words."""
+    in every seed and no seed's lognormal is significantly better (R < 0, p < 0.1); and the
+    key's words."""
     verdicts = runs[f"{key}_power_law"].astype(str).tolist() if f"{key}_power_law" in runs \
         else ["no fit"] * len(runs)
     def column(name):
@@ -664,6 +665,11 @@ def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
 
     p = column(f"{key}_fit_p")
     n = len(verdicts)
+    R, Rp = column(f"{key}_vs_lognormal"), column(f"{key}_vs_lognormal_p")
+    favoured = int(((R < 0) & (Rp < 0.1)).sum())  # seeds whose lognormal is significantly better
+    if n and all(v == "plausible" for v in verdicts) and favoured:
+        return False, (f"a lognormal favoured in {favoured} of {n} seeds" if n > 1 else
+                       "a lognormal favoured") + f" (power law p >= {p.min():.2f})"
     if n and all(v == "plausible" for v in verdicts):
         alpha = column(f"{key}_exponent").mean()
         err = column(f"{key}_exponent_err").mean()
@@ -672,7 +678,6 @@ def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
     rejected = sum(v == "rejected" for v in verdicts)
     if not rejected:
         return False, "no fit"
-    R, Rp = column(f"{key}_vs_lognormal"), column(f"{key}_vs_lognormal_p")
     lognormal = bool(((R < 0) & (Rp < 0.1)).sum() == rejected)
     worst = p[runs[f"{key}_power_law"].astype(str) == "rejected"].max()
     shown = "p < 0.001" if worst < 0.001 else f"p <= {worst:.2f}"
@@ -807,10 +812,14 @@ def fig_potency(data: SweepData, plt):
     for a in (ax, bx):
         a.set_xscale("log")
         a.set_yscale("log")
+    from matplotlib.ticker import NullFormatter
+
+    for axis in (ax.xaxis, bx.yaxis):  # a narrow decade's minor labels overlap
+        axis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(r"potency $\sum_i \Delta x_i$ over the slipping particles ($l^3$)")
     ax.set_ylabel("probability density")
-    ax.set_title(f"potencies, {_size_label(lx, ly)} (Clauset et al.'s test, p >= 0.1)",
-                 fontsize=7)
+    ax.set_title(f"potencies, {_size_label(lx, ly)}; a law drawn only where Clauset et al.'s "
+                 "test passes (p >= 0.1)\nand a lognormal is not favoured", fontsize=6.5)
     bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     bx.set_ylabel(r"potency ($l^3$)")
     bx.set_title("each slip's potency against its stress drop", fontsize=7)

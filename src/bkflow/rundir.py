@@ -351,9 +351,20 @@ class RunDir:
         if head[2:] != list(LEDGER_COLUMNS):
             return None
         try:
-            return io.read_columns(path, ("t", *LEDGER_COLUMNS))
+            ledger = io.read_columns(path, ("t", *LEDGER_COLUMNS))
         except ValueError as exc:
             raise DamagedRunError(f"{path} is damaged ({exc})") from None
+        sums = ("work", "diss_break", "diss_damp")
+        if all(np.isnan(ledger[c]).all() for c in sums):  # a substrate fix without `energy`
+            return None
+        bad = np.zeros(len(ledger["t"]), bool)
+        for c in ("t", *LEDGER_COLUMNS):
+            bad |= ~np.isfinite(ledger[c])
+        if bad.any():
+            raise DamagedRunError(f"{path} is damaged: {int(bad.sum())} row(s) without every "
+                                  f"column of its header (the first near t = "
+                                  f"{ledger['t'][bad][0]:g}); run the run again")
+        return ledger
 
     def read_phase(self):
         """The contacts' phase series (phase.csv): a dict of float columns t, R, Z_re, Z_im,
@@ -471,8 +482,18 @@ class RunDir:
         from .catalogue import typed
 
         if self.file(EVENTS_PARQUET).exists():
-            return pd.read_parquet(self.file(EVENTS_PARQUET), engine="pyarrow")
+            try:
+                return pd.read_parquet(self.file(EVENTS_PARQUET), engine="pyarrow")
+            except Exception as exc:  # pyarrow's errors for a cut or foreign file vary
+                if not self.file(EVENTS).exists():
+                    raise DamagedRunError(f"{self.file(EVENTS_PARQUET)} is damaged "
+                                          f"({type(exc).__name__}); run bkflow analyze "
+                                          "again") from None
         return typed(io.read_table(self.file(EVENTS)))
+
+    def has_events(self) -> bool:
+        """Whether the analysis wrote the event catalogue (events.csv or events.parquet)."""
+        return self.file(EVENTS).exists() or self.file(EVENTS_PARQUET).exists()
 
     def read_psi(self):
         """psi.csv as a DataFrame, or None when the run recorded no snapshots."""

@@ -35,7 +35,7 @@ from .project import (
     simulated,
     spec_of,
 )
-from .rundir import EVENTS, RunDir
+from .rundir import RunDir
 from .tables import retire_figures, write_catalogue, write_tables
 
 
@@ -295,7 +295,7 @@ def _collect(project, settings, jobs) -> Collection:
 
 def _events_of(job):
     rd = RunDir(job.path)
-    return rd.read_events() if rd.file(EVENTS).exists() else None
+    return rd.read_events() if rd.has_events() else None
 
 
 def available_cores() -> int:
