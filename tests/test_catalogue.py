@@ -1,12 +1,10 @@
 """The event catalogue (bkflow.catalogue): each column on a hand-built case whose answer is known
 exactly (a nucleation site and a front of known speed, a rigid block slip whose perimeter bonds
 carry the paper's Eq. 2 exactly, a ledger with a known budget), then on a run of the events
-scene: its columns, its Parquet copy read back by pyarrow alone, and the same breaks on 1 and 2
-ranks."""
+scene: its columns, its Parquet copy read back by pyarrow alone, damaged inputs refused (the
+first breaks on 1 and 2 ranks: tests/test_scenes.py)."""
 
 from __future__ import annotations
-
-import subprocess
 
 import numpy as np
 import pandas as pd
@@ -14,13 +12,10 @@ import pytest
 
 from bkflow import catalogue
 from bkflow.analysis import analyze
-from bkflow.deck import write_deck
 from bkflow.engine import run
-from bkflow.io import read_frames
 from bkflow.lattice import square_lattice
 from bkflow.params import RunSpec
 from bkflow.rundir import RunDir
-from tests.support import tool
 
 
 def _front(lat, site, speed, dt, step0=1000, reach=6.0):
@@ -214,32 +209,6 @@ def test_the_parquet_catalogue_reads_back_without_bkflow(events_run):
     for c in csv:
         np.testing.assert_array_equal(back[c].astype(float).to_numpy(),
                                       csv[c].astype(float).to_numpy(), err_msg=c)
-
-
-def test_first_breaks_are_the_same_on_two_ranks(lammps, tmp_path):
-    """fix bk/slips breaks: each contact's first break travels with its atom between ranks."""
-    spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="events", seed=3)
-    write_deck(spec, tmp_path)
-    got = {}
-    for np_ in (1, 2):
-        d = tmp_path / f"np{np_}"
-        d.mkdir()
-        for f in ("in.bk", "data.bk"):
-            (d / f).write_text((tmp_path / f).read_text())
-        cmd = [tool("lmp"), "-in", "in.bk", "-screen", "none"]
-        if np_ > 1:
-            cmd = [tool("mpirun"), "-np", str(np_)] + cmd
-        proc = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-        got[np_] = read_frames(d / "slips.lammpstrj", spec.N)
-    assert len(got[1]) >= 4 and got[1].breaks is not None
-    assert (got[1].breaks[1::2] >= 0).any()
-    assert (got[1].breaks[0::2] == -1).all()  # the maximum's frame: nothing broke yet
-    np.testing.assert_array_equal(got[1].breaks, got[2].breaks)
-    # a first break lies inside its slip: after the maximum, at or before the minimum
-    for k in range(0, len(got[1]), 2):
-        b = got[1].breaks[k + 1]
-        assert ((b == -1) | ((b > got[1].steps[k]) & (b <= got[1].steps[k + 1]))).all()
 
 
 def _copy(events_run, tmp_path):

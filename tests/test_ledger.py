@@ -12,6 +12,7 @@ import subprocess
 import numpy as np
 import pytest
 
+from bkflow.catalogue import balance
 from bkflow.deck import LEDGER_SLOTS, SLOTS, DeckOptions, continue_text, data_text, setup_text
 from bkflow.lattice import contact_start
 from bkflow.params import RunSpec
@@ -44,10 +45,8 @@ def _ledger(lmp) -> dict[str, float]:
 
 def _residual(a: dict, b: dict) -> tuple[float, float]:
     """(residual, plate work) of the balance between two ledgers."""
-    energy = [sum(x[k] for k in ("e_bond", "e_drive", "e_contact", "e_kinetic")) for x in (a, b)]
-    work = b["work"] - a["work"]
-    return work - (energy[1] - energy[0]) - (b["diss_break"] - a["diss_break"]) \
-        - (b["diss_damp"] - a["diss_damp"]), work
+    residual, work, _ = balance(a, b)
+    return residual, work
 
 
 @pytest.mark.parametrize("path", PATHS)

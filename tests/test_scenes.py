@@ -122,7 +122,9 @@ def test_truncated_slip_file_is_reported(lammps, tmp_path, capsys):
 
 
 def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path):
-    spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="clusters", seed=3)
+    """The frames of fix bk/slips, and with `breaks` (scene events) each contact's first break
+    in the slip, which travels with its atom between ranks: the same on 1 and 2 ranks."""
+    spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="events", seed=3)
     write_deck(spec, tmp_path)
     got = {}
     for np_ in (1, 2):
@@ -139,6 +141,14 @@ def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path):
     assert len(got[1]) >= 4
     np.testing.assert_array_equal(got[1].steps, got[2].steps)
     np.testing.assert_allclose(got[1].positions, got[2].positions, atol=1e-6)
+    one = got[1]
+    assert one.breaks is not None and (one.breaks[1::2] >= 0).any()
+    assert (one.breaks[0::2] == -1).all()  # the maximum's frame: nothing broke yet
+    np.testing.assert_array_equal(one.breaks, got[2].breaks)
+    # a first break lies inside its slip: after the maximum, at or before the minimum
+    for k in range(0, len(one), 2):
+        b = one.breaks[k + 1]
+        assert ((b == -1) | ((b > one.steps[k]) & (b <= one.steps[k + 1]))).all()
 
 
 @pytest.mark.slow

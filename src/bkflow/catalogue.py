@@ -148,6 +148,21 @@ def slip_row(x_max, x_min, lattice, s_x: float, k_b: float, shifts=None):
     return row, per
 
 
+#: the elastic and kinetic energies of a ledger (the names of bkflow.rundir.LEDGER_COLUMNS and
+#: of fix bk/substrate's slots, bkflow.deck.LEDGER_SLOTS)
+ENERGIES = ("e_bond", "e_drive", "e_contact", "e_kinetic")
+
+
+def balance(a, b):
+    """(residual, plate work, dissipation) of the energy balance between two ledgers ``a`` and
+    ``b`` (mappings of ENERGIES, work, diss_break, diss_damp; scalars or arrays):
+    residual = plate work - change of elastic and kinetic energy - dissipation."""
+    work = b["work"] - a["work"]
+    dissipated = (b["diss_break"] - a["diss_break"]) + (b["diss_damp"] - a["diss_damp"])
+    change = sum(b[e] for e in ENERGIES) - sum(a[e] for e in ENERGIES)
+    return work - change - dissipated, work, dissipated
+
+
 def energy_rows(ledger: dict, i_max, i_min) -> dict:
     """The energy columns (``ENERGY_COLUMNS``) and ``breaks`` of every slip, from the ledger
     series (bkflow.rundir.RunDir.read_ledger) at the samples of its maximum and minimum."""
@@ -161,10 +176,8 @@ def energy_rows(ledger: dict, i_max, i_min) -> dict:
     out["plate_work"] = L["work"][b] - L["work"][a]
     out["dissipated_breaks"] = L["diss_break"][b] - L["diss_break"][a]
     out["dissipated_damping"] = L["diss_damp"][b] - L["diss_damp"][a]
-    released = out["bond_released"] + out["drive_released"] + out["contact_released"]
-    residual = out["plate_work"] + released - out["kinetic_gain"] \
-        - out["dissipated_breaks"] - out["dissipated_damping"]
-    dissipated = out["dissipated_breaks"] + out["dissipated_damping"]
+    residual, _, dissipated = balance({k: v[a] for k, v in L.items()},
+                                      {k: v[b] for k, v in L.items()})
     with np.errstate(invalid="ignore", divide="ignore"):
         out["energy_closure"] = np.where(dissipated > 0, residual / dissipated, np.nan)
     return out
@@ -177,15 +190,9 @@ def ledger_residual(ledger: dict, t0: float) -> float:
     k = np.flatnonzero(t >= t0)
     if len(k) < 2:
         return float("nan")
-    a, b = k[0], k[-1]
-    energy = {i: sum(float(ledger[c][i]) for c in ("e_bond", "e_drive", "e_contact",
-                                                     "e_kinetic")) for i in (a, b)}
-    work = float(ledger["work"][b] - ledger["work"][a])
-    dissipated = float(ledger["diss_break"][b] - ledger["diss_break"][a]
-                       + ledger["diss_damp"][b] - ledger["diss_damp"][a])
-    if not work > 0:
-        return float("nan")
-    return (work - (energy[b] - energy[a]) - dissipated) / work
+    residual, work, _ = balance({c: float(v[k[0]]) for c, v in ledger.items()},
+                                {c: float(v[k[-1]]) for c, v in ledger.items()})
+    return residual / work if work > 0 else float("nan")
 
 
 def typed(table):
