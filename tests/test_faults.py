@@ -611,7 +611,7 @@ def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
     one_line(bk("plot", d), "the sweep's analysis settings are not those its tables")
     p = bk("collect", d, "--analysis", "slip_threshold=0.05")
     assert p.returncode == 0, p.stderr
-    assert "removed 12 figure file(s)" in p.stdout  # the tables changed
+    assert "removed 14 figure file(s)" in p.stdout  # the tables changed (7 figures, 2 formats)
     assert sorted(os.listdir(d / "figures")) == ["mine.txt"]
     assert bk("plot", d).returncode == 0
     assert (d / "figures" / "fig2a_friction.png").is_file()
