@@ -812,9 +812,11 @@ def fig_potency(data: SweepData, plt):
     for a in (ax, bx):
         a.set_xscale("log")
         a.set_yscale("log")
-    from matplotlib.ticker import NullFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    for axis in (ax.xaxis, bx.yaxis):  # a narrow decade's minor labels overlap
+    for axis in (ax.xaxis, bx.yaxis):  # potencies span a decade or two: 1-2-5 ticks, plain
+        axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         axis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(r"potency $\sum_i \Delta x_i$ over the slipping particles ($l^3$)")
     ax.set_ylabel("probability density")
@@ -824,7 +826,8 @@ def fig_potency(data: SweepData, plt):
     bx.set_ylabel(r"potency ($l^3$)")
     bx.set_title("each slip's potency against its stress drop", fontsize=7)
     state_key(fig, data)
-    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    # below the axis label (two lines tall with its sum)
+    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.27))
     return fig
 
 
