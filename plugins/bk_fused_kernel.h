@@ -17,6 +17,12 @@ namespace bkfused {
    vector is d = x_k - x_partner + s. Positions are unwrapped. */
 struct Model {
   int Lx = 0, Ly = 0, N = 0;
+  /* slab: the arrays hold a block of Ly rows of a larger lattice (several MPI ranks), with a
+     ghost row below (indices -Lx..-1) and above (Ly Lx..(Ly + 1) Lx - 1) whose positions
+     Arrays::halo fills after every drift; the top row's +y partners are the ghost row above.
+     Each particle's arithmetic is the same as on the whole lattice, so every block division
+     gives the same bits. */
+  int slab = 0;
   int drive = 0, contact = BK_NO_CONTACT, damping = BK_NO_DAMPING;    // bk_model.h
   int ledger = 0;      // keep the energy ledger (Arrays::led)
   double dt = 0.0;
@@ -55,6 +61,9 @@ struct Arrays {
   double *fb;
   double fb_mark, fb_step;
   int fb_track;
+  // Model::slab: fills the ghost rows of x and y from the neighbouring blocks (collective)
+  void (*halo)(void *ctx, double *x, double *y);
+  void *halo_ctx;
 };
 
 /* Where the state is mirrored: LAMMPS's wrapped positions x = X - offset and velocities of

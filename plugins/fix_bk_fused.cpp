@@ -1,5 +1,5 @@
-/* bkflow LAMMPS plugin: `fix ID all bk/substrate ... fused`, the single-rank fast
-   path of fix bk/substrate (fix_bk_fused.h, plugins/README.md "The fused path").
+/* bkflow LAMMPS plugin: `fix ID all bk/substrate ... fused`, the fast path of fix
+   bk/substrate on any number of ranks (fix_bk_fused.h, plugins/README.md "The fused path").
 
    The fix is fix bk/substrate (same style, same keywords, outputs and restart state, so that
    bk/stress, bk/slips and restart files work with either path) that also integrates: at
@@ -11,7 +11,15 @@
    half-step velocities. LAMMPS's own force array is not used (it holds zeros).
 
    Lattice: atom ID k + 1 = 1 + ix + Lx iy, bonded to its four periodic neighbours (the data
-   file of bkflow), found from the bond topology when the fix is first initialised. */
+   file of bkflow), found from the bond topology when the fix is first initialised.
+
+   Ranks: K ranks in a column (`processors 1 * 1`) hold K blocks of whole rows; the fix cuts
+   LAMMPS's sub-domains between rows (a non-uniform brick layout, as `balance` sets) before the
+   first exchange, so that LAMMPS's local atoms are the rank's rows, and every step trades the
+   block's first and last rows with the neighbouring ranks (halo()). Atoms never migrate: a
+   particle that strays half a row from its site into another rank's sub-domain stops the run
+   (update_map). Each particle's arithmetic does not depend on the blocks, so any number of
+   ranks gives the same bits; the sums of the outputs are made the same way (row_sum_total). */
 
 #include "fix_bk_fused.h"
 
@@ -28,6 +36,7 @@
 #include "update.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -37,18 +46,13 @@ using namespace FixConst;
 
 namespace {
 constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double GHOST_CUTOFF = 0.1;    // the communication cutoff of the fused path
 }    // namespace
 
 /* What must be true before FixBKLayer's constructor runs (an error after it, which registered
-   callbacks with Atom, would leave them dangling): one rank, group all, the bonds. Returns
-   narg. */
+   callbacks with Atom, would leave them dangling): group all, the bonds. Returns narg. */
 static int fused_args(LAMMPS *lmp, int narg, char **arg)
 {
-  if (lmp->comm->nprocs != 1)
-    lmp->error->all(FLERR,
-                    "fix bk/substrate fused runs on one MPI rank only (this run has {}): on "
-                    "several ranks drop `fused` and integrate with fix nve and fix enforce2d",
-                    lmp->comm->nprocs);
   if (narg < 3 || strcmp(arg[1], "all") != 0)
     lmp->error->all(FLERR, "fix bk/substrate fused acts on group all only");
   bool bonds = false;
@@ -63,6 +67,7 @@ FixBKFused::FixBKFused(LAMMPS *lmp, int narg, char **arg) :
     FixBKLayer(lmp, fused_args(lmp, narg, arg), arg)
 {
   time_integrate = 1;
+  maxexchange = NSTATE + 1 + 2;    // pack_exchange: the base's, then the exact position
   // the base's constructor called its own grow_arrays and set_arrays
   FixBKFused::grow_arrays(atom->nmax);
   for (int i = 0; i < atom->nlocal; i++) xu[i][0] = xu[i][1] = NaN;
@@ -75,7 +80,7 @@ FixBKFused::~FixBKFused()
 
 int FixBKFused::setmask()
 {
-  return INITIAL_INTEGRATE | POST_NEIGHBOR | POST_RUN;
+  return INITIAL_INTEGRATE | PRE_EXCHANGE | POST_NEIGHBOR | POST_RUN;
 }
 
 /* Everything else in the deck must leave the layer to this fix: no other integrator, no force
@@ -84,9 +89,6 @@ int FixBKFused::setmask()
 void FixBKFused::init()
 {
   FixBKLayer::init();
-  if (comm->nprocs != 1)
-    error->all(FLERR, "fix bk/substrate fused runs on one MPI rank only (this run has {})",
-               comm->nprocs);
   if (strncmp(update->integrate_style, "verlet", 6) != 0)
     error->all(FLERR, "fix bk/substrate fused needs run_style verlet");
   if (force->pair || force->bond || force->angle || force->dihedral || force->improper ||
@@ -109,12 +111,32 @@ void FixBKFused::init()
   if (lattice_ready && atom->natoms != N)
     error->all(FLERR, "fix bk/substrate fused: the number of atoms changed ({} -> {})", N,
                atom->natoms);
-  if (!lattice_ready) build_lattice();
+  if (!Lx) find_lattice();
   const char *was = kernel.isa;
   kernel = bkfused::select();
-  if (!was || strcmp(was, kernel.isa) != 0)
-    utils::logmesg(lmp, "fix {} bk/substrate fused: {}x{} lattice, one rank, kernel {}\n", id,
-                   Lx, Ly, kernel.isa);
+  if (comm->me == 0 && (!was || strcmp(was, kernel.isa) != 0)) {
+    std::string blocks = "one rank";
+    if (nblocks > 1) {
+      blocks = fmt::format("{} ranks, blocks of rows", nblocks);
+      for (int j = 0; j < nblocks; j++)
+        blocks += fmt::format("{}{}-{}", j ? " | " : " ", block_first_row(j, nblocks, Ly),
+                              block_first_row(j + 1, nblocks, Ly) - 1);
+    }
+    utils::logmesg(lmp, "fix {} bk/substrate fused: {}x{} lattice, {}, kernel {}\n", id, Lx, Ly,
+                   blocks, kernel.isa);
+  }
+  // The fix trades its boundary rows itself: LAMMPS's ghost atoms, which nothing here reads,
+  // would only cost a copy of their positions every step. One rank needs none (0.1 rather
+  // than 0, of which LAMMPS warns); on several, LAMMPS's check of the bonds at setup wants
+  // each bond partner as a ghost, and the neighbouring block's boundary row is within a row
+  // of the cut as long as no particle strays half a row (update_map)
+  const double cutoff = nblocks > 1 ? 1.1 * domain->yprd / Ly : GHOST_CUTOFF;
+  if (comm->cutghostuser > cutoff) {
+    if (comm->me == 0)
+      utils::logmesg(lmp, "fix {} bk/substrate fused: the fix trades its boundary rows itself, "
+                     "comm_modify cutoff {} -> {}\n", id, comm->cutghostuser, cutoff);
+    comm->cutghostuser = cutoff;
+  }
 
   // who reads LAMMPS's positions, velocities or the per-atom array during a run (mirror_due)
   reader_every.clear();
@@ -150,15 +172,15 @@ bool FixBKFused::mirror_due(bigint step) const
 /* The square lattice of bkflow: atom ID k + 1 = 1 + ix + Lx iy has exactly four bonds, to its
    periodic neighbours (ix +- 1, iy) and (ix, iy +- 1). Lx is the one divisor of N for which
    every atom's bond partners are these; Lx, Ly >= 3 (with 2 rows, the up and down neighbours
-   coincide). */
+   coincide). Checked on this rank's atoms. */
 
 static bool lattice_matches(LAMMPS *lmp, int n, int lx)
 {
   Atom *atom = lmp->atom;
   const int ly = n / lx;
-  for (int k = 0; k < n; k++) {
-    const int i = atom->map(k + 1);
+  for (int i = 0; i < atom->nlocal; i++) {
     if (atom->num_bond[i] != 4) return false;
+    const int k = static_cast<int>(atom->tag[i]) - 1;
     const int ix = k % lx, iy = k / lx;
     tagint want[4] = {(ix + 1) % lx + lx * iy + 1, (ix + lx - 1) % lx + lx * iy + 1,
                       ix + lx * ((iy + 1) % ly) + 1, ix + lx * ((iy + ly - 1) % ly) + 1};
@@ -171,65 +193,202 @@ static bool lattice_matches(LAMMPS *lmp, int n, int lx)
   return true;
 }
 
-/* The one lattice detector: Lx of the lattice the fused path can run, 0 when it cannot, with
-   the reason in *why (the end of an error message): one rank holding atom IDs 1..N, an atom map, the bonds of bkflow's
-   periodic square lattice, one positive mass. `integrate` takes the fused path exactly when
-   this is not 0 (plugins/bkplugin.cpp); `fused` refuses a deck it is 0 for. */
+/* The one lattice detector (collective): Lx of the lattice the fused path can run, 0 when it
+   cannot, with the reason in *why (the end of an error message): atom IDs 1..N, an atom map,
+   the bonds of bkflow's periodic square lattice, one positive mass; on K > 1 ranks, the ranks
+   in a column (`processors 1 * 1`: each holds a block of rows) and at least one row each.
+   `integrate` takes the fused path exactly when this is not 0 (plugins/bkplugin.cpp); `fused`
+   refuses a deck it is 0 for. */
 
 int FixBKFused::fused_lattice(LAMMPS *lmp, std::string *why)
 {
   Atom *atom = lmp->atom;
+  Comm *comm = lmp->comm;
+  MPI_Comm world = lmp->world;
   auto no = [why](std::string reason) {
     if (why) *why = std::move(reason);
     return 0;
   };
-  if (lmp->comm->nprocs != 1)
-    return no(fmt::format(" runs on one MPI rank only (this run has {})", lmp->comm->nprocs));
+  const int K = comm->nprocs;
+  if (K > 1 &&
+      (comm->layout == Comm::LAYOUT_TILED || comm->procgrid[0] != 1 || comm->procgrid[2] != 1))
+    return no(fmt::format(" on {} ranks needs them in one column, each holding a block of "
+                          "lattice rows: add `processors 1 * 1` before read_data (the grid is "
+                          "{}x{}x{}{})", K, comm->procgrid[0], comm->procgrid[1],
+                          comm->procgrid[2],
+                          comm->layout == Comm::LAYOUT_TILED ? ", tiled" : ""));
   if (atom->map_style == Atom::MAP_NONE)
     return no(" needs an atom map: atom_modify map array");
   if (!atom->molecular || !atom->num_bond)
     return no(" needs the bonds (the lattice): add bonds k_b r0");
-  if (atom->natoms > 2000000000 || atom->nlocal != atom->natoms)
-    return no(fmt::format(": {} atoms, {} of them local", atom->natoms, atom->nlocal));
+  if (atom->natoms > 2000000000) return no(fmt::format(": {} atoms", atom->natoms));
   const int n = static_cast<int>(atom->natoms);
   auto mass_of = [atom](int i) {
     return atom->rmass ? atom->rmass[i] : atom->mass ? atom->mass[atom->type[i]] : 0.0;
   };
-  double m0 = 0.0;
-  for (int k = 0; k < n; k++) {
-    const int i = atom->map(k + 1);
-    if (i < 0 || i >= atom->nlocal)
-      return no(fmt::format(" needs atom IDs 1..{} (the lattice's), {} is missing", n, k + 1));
-    if (k == 0) m0 = mass_of(i);
-    if (mass_of(i) != m0)
-      return no(fmt::format(" needs one mass for every atom ({} and {})", m0, mass_of(i)));
+  // IDs 1..n (with natoms = n and LAMMPS's IDs unique, every one is present); the masses
+  double local[3] = {0.0, std::numeric_limits<double>::infinity(),
+                     -std::numeric_limits<double>::infinity()};
+  for (int i = 0; i < atom->nlocal; i++) {
+    if (atom->tag[i] < 1 || atom->tag[i] > n) local[0] = 1.0;
+    local[1] = std::min(local[1], mass_of(i));
+    local[2] = std::max(local[2], mass_of(i));
   }
-  if (!(m0 > 0.0)) return no(": mass must be > 0");
-  for (int lx = 3; lx <= n / 3; lx++)
-    if (n % lx == 0 && lattice_matches(lmp, n, lx)) return lx;
+  local[1] = -local[1];
+  double all[3];
+  MPI_Allreduce(local, all, 3, MPI_DOUBLE, MPI_MAX, world);
+  if (all[0] != 0.0) return no(fmt::format(" needs atom IDs 1..{} (the lattice's)", n));
+  if (-all[1] != all[2])
+    return no(fmt::format(" needs one mass for every atom ({} and {})", -all[1], all[2]));
+  if (!(all[2] > 0.0)) return no(": mass must be > 0");
+  for (int lx = 3; lx <= n / 3; lx++) {
+    if (n % lx) continue;
+    int ok = lattice_matches(lmp, n, lx) ? 1 : 0, all_ok = 0;
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
+    if (!all_ok) continue;
+    if (K > n / lx)
+      return no(fmt::format(" on {} ranks needs at least one lattice row per rank (the lattice "
+                            "has {}): run on at most {} ranks", K, n / lx, n / lx));
+    if (K > 1) {    // each row inside its block's sub-domain (y = ylo + yprd first(j) / Ly)
+      const tagint stray = first_stray(lmp, lx, n / lx, K);
+      tagint all = stray;
+      MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+      if (all != std::numeric_limits<tagint>::max())
+        return no(fmt::format(" on {} ranks cuts the box between rows at y = ylo + yprd j / {}, "
+                              "but particle {} (row {}) is not between its row's cuts: rows "
+                              "must sit between them (bkflow's lattices: y = ylo + (iy + 1/2) "
+                              "yprd / Ly)", K, n / lx, all, (all - 1) / lx));
+    }
+    return lx;
+  }
   return no(": the bonds are not a periodic square lattice with atom ID 1 + ix + Lx iy bonded "
             "to its neighbours at ix +- 1 and iy +- 1 (Lx, Ly >= 3), which the fused path "
             "needs: drop `fused`");
 }
 
-void FixBKFused::build_lattice()
+// the lattice, its mass and this rank's block of rows
+void FixBKFused::find_lattice()
 {
   std::string why;
   Lx = fused_lattice(lmp, &why);
   if (!Lx) error->all(FLERR, "fix bk/substrate fused{}", why);
   N = static_cast<int>(atom->natoms);
   Ly = N / Lx;
-  mass = atom->rmass ? atom->rmass[atom->map(1)] : atom->mass[atom->type[atom->map(1)]];
+  double m = atom->nlocal ? (atom->rmass ? atom->rmass[0] : atom->mass[atom->type[0]]) : 0.0;
+  MPI_Allreduce(MPI_IN_PLACE, &m, 1, MPI_DOUBLE, MPI_MAX, world);
+  mass = m;
+  nblocks = comm->nprocs;
+  const int j = comm->myloc[1];
+  row0 = block_first_row(j, nblocks, Ly);
+  nrows = block_first_row(j + 1, nblocks, Ly) - row0;
+  nloc = nrows * Lx;
+}
 
-  // every array in one pool, each 64-byte aligned and padded
-  const size_t stride = (static_cast<size_t>(N) + 7) / 8 * 8;
+/* before the first exchange of every run on several ranks: LAMMPS's sub-domains cut between
+   the blocks' rows (rows at y = ylo + (iy + 1/2) yprd / Ly, as bkflow writes them), so that the
+   exchange gives each rank the atoms of its rows */
+
+void FixBKFused::setup_pre_exchange()
+{
+  if (nblocks < 2) return;
+  comm->layout = Comm::LAYOUT_NONUNIFORM;
+  for (int j = 0; j <= nblocks; j++)
+    comm->ysplit[j] = static_cast<double>(block_first_row(j, nblocks, Ly)) / Ly;
+  domain->set_local_box();
+  pre_exchange();
+}
+
+/* before every exchange on several ranks: no particle may have left its rows' sub-domain (it
+   would be moved to another rank, where its bond partners are not even ghosts) */
+
+void FixBKFused::pre_exchange()
+{
+  if (nblocks > 1) report_stray(first_stray(lmp, Lx, Ly, nblocks));
+}
+
+/* The lowest ID of this rank's atoms that is not in the sub-domain of its row's block (the
+   cuts of setup_pre_exchange, y = ylo + yprd first(j) / Ly), or the largest tagint */
+
+tagint FixBKFused::first_stray(LAMMPS *lmp, int Lx, int Ly, int K)
+{
+  const Atom *atom = lmp->atom;
+  const Domain *domain = lmp->domain;
+  const double lo = domain->boxlo[1], prd = domain->yprd;
+  tagint stray = std::numeric_limits<tagint>::max();
+  for (int i = 0; i < atom->nlocal; i++) {
+    double y = atom->x[i][1];    // wrapped as Domain::pbc will
+    if (domain->yperiodic) {
+      if (y < lo) y += prd;
+      if (y >= lo + prd) y -= prd;
+    }
+    const int row = static_cast<int>((atom->tag[i] - 1) / Lx);
+    int j = static_cast<int>(static_cast<long long>(row) * K / Ly);
+    while (block_first_row(j, K, Ly) > row) j--;
+    while (block_first_row(j + 1, K, Ly) <= row) j++;
+    const double below = static_cast<double>(block_first_row(j, K, Ly)) / Ly;
+    const double above = static_cast<double>(block_first_row(j + 1, K, Ly)) / Ly;
+    if (!(y >= lo + prd * below && y < lo + prd * above)) stray = std::min(stray, atom->tag[i]);
+  }
+  return stray;
+}
+
+// stops the run on every rank with the lowest ID any rank found out of place, if any
+void FixBKFused::report_stray(tagint stray)
+{
+  tagint all = stray;
+  if (nblocks > 1) MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+  if (all == std::numeric_limits<tagint>::max()) return;
+  if (nblocks > 1)
+    error->all(FLERR,
+               "{} fix bk/substrate fused: particle {} (lattice row {}) left the sub-domain "
+               "of its rank's rows: it moved half a row (or the layer tore) across a rank "
+               "boundary. On {} ranks the fused path needs every particle within half a row "
+               "of its site: run it on one rank, or on the general path (without "
+               "`integrate`: fix nve and fix enforce2d)",
+               BK_ERR_ATOM_LOST, all, (all - 1) / Lx, nblocks);
+  error->all(FLERR, "{} fix bk/substrate fused: atom {} is not local", BK_ERR_ATOM_LOST, all);
+}
+
+/* The halo (bkfused::Arrays::halo): this block's first row goes to the block below (its ghost
+   row above) while the block above's first row comes in, then the last rows the other way.
+   The neighbours are LAMMPS's in the column of ranks (one rank each side, the same one when
+   there are two). */
+
+void FixBKFused::halo(void *self, double *x, double *y)
+{
+  auto *f = static_cast<FixBKFused *>(self);
+  const int Lx = f->Lx, n = f->nloc;
+  const int down = f->comm->procneigh[1][0], up = f->comm->procneigh[1][1];
+  double *s = f->halo_send.data(), *r = f->halo_recv.data();
+  const size_t row = static_cast<size_t>(Lx) * sizeof(double);
+  memcpy(s, x, row);
+  memcpy(s + Lx, y, row);
+  MPI_Sendrecv(s, 2 * Lx, MPI_DOUBLE, down, 0, r, 2 * Lx, MPI_DOUBLE, up, 0, f->world,
+               MPI_STATUS_IGNORE);
+  memcpy(x + n, r, row);
+  memcpy(y + n, r + Lx, row);
+  memcpy(s, x + n - Lx, row);
+  memcpy(s + Lx, y + n - Lx, row);
+  MPI_Sendrecv(s, 2 * Lx, MPI_DOUBLE, up, 1, r, 2 * Lx, MPI_DOUBLE, down, 1, f->world,
+               MPI_STATUS_IGNORE);
+  memcpy(x - Lx, r, row);
+  memcpy(y - Lx, r + Lx, row);
+}
+
+void FixBKFused::build_lattice()
+{
+  const bool slab = nblocks > 1;
+  // every array in one pool, each 64-byte aligned and padded; on a slab with a ghost row
+  // before (in the pad) and after
+  const size_t pad = slab ? (static_cast<size_t>(Lx) + 7) / 8 * 8 : 0;
+  const size_t stride = pad + (static_cast<size_t>(nloc) + (slab ? Lx : 0) + 7) / 8 * 8;
   constexpr int NARR = 30;
   pool.assign(stride * NARR + 8, 0.0);
   double *p = pool.data();
   while (reinterpret_cast<uintptr_t>(p) % 64) p++;
   double *next = p;
   auto take = [&]() {
-    double *q = next;
+    double *q = next + pad;
     next += stride;
     return q;
   };
@@ -243,54 +402,67 @@ void FixBKFused::build_lattice()
   arr.buy = take(), arr.bdx = take(), arr.bdy = take(), arr.over = take();
   arr.fb = take();
   arr.term_fx = take(), arr.term_done = take(), arr.term_next = take();
-  for (int k = 0; k < N; k++) arr.fb[k] = -1.0;
+  for (int k = 0; k < nloc; k++) arr.fb[k] = -1.0;
+  halo_send.assign(2 * static_cast<size_t>(Lx), 0.0);
+  halo_recv.assign(2 * static_cast<size_t>(Lx), 0.0);
+  arr.halo = &FixBKFused::halo;
+  arr.halo_ctx = this;
 
-  loc.assign(N, 0);
-  ox.assign(N, 0.0);
-  oy.assign(N, 0.0);
-  z.assign(N, 0.0);
+  loc.assign(nloc, 0);
+  ox.assign(nloc, 0.0);
+  oy.assign(nloc, 0.0);
+  z.assign(nloc, 0.0);
   update_map();
 
   // constant: anchors, k_d, and each bond's periodic image, fixed from the anchors (the
   // lattice image bk/substrate keeps: bond vector minus relative displacement = lattice vector)
   const double *kdv = drive_on ? atom->dvector[kd_index] : nullptr;
-  for (int k = 0; k < N; k++) {
+  for (int k = 0; k < nloc; k++) {
     const int i = loc[k];
     ax[k] = state[i][AX];
     ay[k] = state[i][AY];
     kd[k] = kdv ? kdv[i] : 0.0;
   }
+  if (slab) halo(this, ax, ay);    // the ghost rows' anchors
   const double xprd = domain->xprd, yprd = domain->yprd;
   auto image_shift = [](double d, double prd, int periodic) {
     return periodic ? bk_image_shift(d, prd) : 0.0;
   };
-  for (int k = 0; k < N; k++) {
-    const int ix = k % Lx, iy = k / Lx;
-    const int r = (ix + 1) % Lx + Lx * iy, u = ix + Lx * ((iy + 1) % Ly);
-    srx[k] = image_shift(ax[k] - ax[r], xprd, domain->xperiodic);
-    sry[k] = image_shift(ay[k] - ay[r], yprd, domain->yperiodic);
+  // a slab: the +y bonds of the ghost row below too (the first row's -y bonds)
+  for (int k = slab ? -Lx : 0; k < nloc; k++) {
+    const int ix = (k + Lx) % Lx, iy = (k + Lx) / Lx - 1;
+    const int u = slab ? k + Lx : ix + Lx * ((iy + 1) % Ly);
     sux[k] = image_shift(ax[k] - ax[u], xprd, domain->xperiodic);
     suy[k] = image_shift(ay[k] - ay[u], yprd, domain->yperiodic);
+    if (k < 0) continue;
+    const int r = (ix + 1) % Lx + Lx * iy;
+    srx[k] = image_shift(ax[k] - ax[r], xprd, domain->xperiodic);
+    sry[k] = image_shift(ay[k] - ay[r], yprd, domain->yperiodic);
   }
   lattice_ready = true;
   have_state = false;
 }
 
-/* local index and periodic offset of every lattice particle: at every reneighbouring (atoms
-   may be sorted, image flags change) and at every setup (commands between runs may have moved
-   atoms) */
+/* local index and periodic offset of every lattice particle of this rank's rows: at every
+   reneighbouring (atoms may be sorted, image flags change) and at every setup (commands
+   between runs may have moved atoms). Every particle of the rows must be local here, and no
+   other: on several ranks, a particle that strayed into another rank's sub-domain (half a row
+   from its site) stops the run, on every rank at once. */
 
 void FixBKFused::update_map()
 {
   static constexpr double origin[3] = {0.0, 0.0, 0.0};
   const imageint *const image = atom->image;
+  const tagint first = static_cast<tagint>(row0) * Lx + 1;
+  tagint stray = std::numeric_limits<tagint>::max();    // the lowest ID out of place
   identity = true;
   double o[3];
-  for (int k = 0; k < N; k++) {
-    const int i = atom->map(k + 1);
-    if (i < 0 || i >= atom->nlocal)
-      error->one(FLERR, "{} fix bk/substrate fused: atom {} is not local", BK_ERR_ATOM_LOST,
-                 k + 1);
+  for (int k = 0; k < nloc; k++) {
+    const int i = atom->map(first + k);
+    if (i < 0 || i >= atom->nlocal) {
+      stray = std::min(stray, first + k);
+      continue;
+    }
     loc[k] = i;
     identity = identity && i == k;
     domain->unmap(origin, image[i], o);
@@ -298,6 +470,11 @@ void FixBKFused::update_map()
     oy[k] = o[1];
     z[k] = atom->x[i][2];
   }
+  if (atom->nlocal != nloc)
+    for (int i = 0; i < atom->nlocal; i++)
+      if (atom->tag[i] < first || atom->tag[i] >= first + nloc)
+        stray = std::min(stray, atom->tag[i]);
+  report_stray(stray);
   mirror_to.x = atom->x;
   mirror_to.v = atom->v;
   mirror_to.loc = identity ? nullptr : loc.data();
@@ -308,7 +485,8 @@ void FixBKFused::update_map()
 
 void FixBKFused::setup_post_neighbor()
 {
-  post_neighbor();
+  if (!lattice_ready) build_lattice();    // which maps
+  else update_map();
 }
 
 void FixBKFused::post_neighbor()
@@ -328,7 +506,7 @@ void FixBKFused::adopt_atoms()
   double *const *const v = atom->v;
   const double L = domain->xprd + domain->yprd;
   constexpr double TOL = 16 * std::numeric_limits<double>::epsilon();
-  for (int k = 0; k < N; k++) {
+  for (int k = 0; k < nloc; k++) {
     const int i = loc[k];
     const double xa = x[i][0] + ox[k], ya = x[i][1] + oy[k];
     double X, Y;
@@ -359,7 +537,7 @@ void FixBKFused::set_model()
 {
   bkfused::Model &m = model;
   const double dt = update->dt;
-  m.Lx = Lx, m.Ly = Ly, m.N = N;
+  m.Lx = Lx, m.Ly = nrows, m.N = nloc, m.slab = nblocks > 1;
   m.drive = drive_on, m.contact = contact, m.damping = damping, m.ledger = ledger_on;
   m.dt = dt;
   m.mass = mass;
@@ -381,6 +559,7 @@ void FixBKFused::set_model()
 
 void FixBKFused::setup(int /*vflag*/)
 {
+  if (!lattice_ready) build_lattice();
   update_map();
   adopt_atoms();
   set_model();
@@ -427,7 +606,7 @@ void FixBKFused::post_run()
 // the per-atom array (contact displacement, half-step velocity) and the exact positions
 void FixBKFused::sync_state()
 {
-  for (int k = 0; k < N; k++) {
+  for (int k = 0; k < nloc; k++) {
     double *s = state[loc[k]];
     s[DRX] = arr.drx[k];
     s[DRY] = arr.dry[k];
@@ -438,17 +617,37 @@ void FixBKFused::sync_state()
   }
 }
 
-/* sigma_x = sum_k k_d^k (plate shift - (X_k - anchor_k)) / (Lx Ly), in lattice order, from
-   the positions of the step, computed once per step when first asked (bk/stress, thermo) */
+/* The sum over the lattice of per-row values, rows[r] for row r of this rank's block
+   (collective): the blocks' rows gathered exactly (a sum of one value and zeros) and added in
+   row order, so that every division into blocks gives the same bits */
+
+double FixBKFused::row_sum_total(const std::vector<double> &rows) const
+{
+  std::vector<double> all(Ly, 0.0);
+  std::copy(rows.begin(), rows.end(), all.begin() + row0);
+  if (nblocks > 1) MPI_Allreduce(MPI_IN_PLACE, all.data(), Ly, MPI_DOUBLE, MPI_SUM, world);
+  double s = 0.0;
+  for (double r : all) s += r;
+  return s;
+}
+
+/* sigma_x = sum_k k_d^k (plate shift - (X_k - anchor_k)) / (Lx Ly), summed in lattice order
+   within each row and then over rows, from the positions of the step, computed once per step
+   when first asked (bk/stress, thermo) */
 
 double FixBKFused::sigma_x()
 {
   const bigint step = update->ntimestep;
   if (sigma_step != step) {
     const double shift = plate_shift;
-    double s = 0.0;
-    for (int k = 0; k < N; k++) s += bk_drive_x(arr.kd[k], shift, arr.x[k] - arr.ax[k]);
-    sigma_value = s / (domain->xprd * domain->yprd);
+    std::vector<double> rows(nrows, 0.0);
+    for (int r = 0; r < nrows; r++) {
+      double s = 0.0;
+      for (int k = r * Lx; k < (r + 1) * Lx; k++)
+        s += bk_drive_x(arr.kd[k], shift, arr.x[k] - arr.ax[k]);
+      rows[r] = s;
+    }
+    sigma_value = row_sum_total(rows) / (domain->xprd * domain->yprd);
     sigma_step = step;
   }
   return sigma_value;
@@ -458,11 +657,20 @@ double FixBKFused::sigma_x()
 void FixBKFused::bond_r2(int k, double &rx2, double &uy2) const
 {
   const int ix = k % Lx, iy = k / Lx;
-  const int r = (ix + 1) % Lx + Lx * iy, u = ix + Lx * ((iy + 1) % Ly);
+  // a slab's top row: its +y partners are the ghost row above
+  const int r = (ix + 1) % Lx + Lx * iy, u = nblocks > 1 ? k + Lx : ix + Lx * ((iy + 1) % Ly);
   const double dx = arr.x[k] - arr.x[r] + arr.srx[k], dy = arr.y[k] - arr.y[r] + arr.sry[k];
   const double ex = arr.x[k] - arr.x[u] + arr.sux[k], ey = arr.y[k] - arr.y[u] + arr.suy[k];
   rx2 = dx * dx + dy * dy;
   uy2 = ex * ex + ey * ey;
+}
+
+// the contact breaks of the last step or since the fix was defined, over every rank
+double FixBKFused::breaks(bool total)
+{
+  double b = static_cast<double>(total ? nbreak_total : nbreak_step);
+  if (nblocks > 1) MPI_Allreduce(MPI_IN_PLACE, &b, 1, MPI_DOUBLE, MPI_SUM, world);
+  return b;
 }
 
 double FixBKFused::longest_bond()
@@ -470,11 +678,12 @@ double FixBKFused::longest_bond()
   const bigint step = update->ntimestep;
   if (rmax_step != step) {
     double r2max = 0.0;
-    for (int k = 0; k < N; k++) {
+    for (int k = 0; k < nloc; k++) {
       double a, b;
       bond_r2(k, a, b);
       r2max = std::max(r2max, std::max(a, b));
     }
+    if (nblocks > 1) MPI_Allreduce(MPI_IN_PLACE, &r2max, 1, MPI_DOUBLE, MPI_MAX, world);
     rmax_value = sqrt(r2max);
     rmax_step = step;
   }
@@ -485,13 +694,13 @@ void FixBKFused::clear_first_breaks()
 {
   FixBKLayer::clear_first_breaks();
   if (lattice_ready)
-    for (int k = 0; k < N; k++) arr.fb[k] = -1.0;
+    for (int k = 0; k < nloc; k++) arr.fb[k] = -1.0;
 }
 
 double FixBKFused::first_break_of(int i) const
 {
   if (!lattice_ready) return FixBKLayer::first_break_of(i);
-  const double b = arr.fb[atom->tag[i] - 1];
+  const double b = arr.fb[atom->tag[i] - 1 - static_cast<tagint>(row0) * Lx];
   return b >= break_mark ? b : -1.0;
 }
 
@@ -507,7 +716,7 @@ void FixBKFused::contact_phase(double *sums)
 {
   if (!lattice_ready || !have_state) return FixBKLayer::contact_phase(sums);
   double local[BK_NPHASE] = {};
-  if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, N, ke / fmax, local);
+  if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, nloc, ke / fmax, local);
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
@@ -521,17 +730,21 @@ void FixBKFused::local_energies(double *e)
   e[3] *= force->mvv2e;    // energy units, as the kicks' ftm2v (1 in lj units)
 }
 
-// the bond energy sum k_b/2 (r - r0)^2
+// the bond energy sum k_b/2 (r - r0)^2, row by row (row_sum_total)
 double FixBKFused::compute_scalar()
 {
   if (!lattice_ready || !have_state) return 0.0;    // before the first setup: no state yet
-  double e = 0.0;
-  for (int k = 0; k < N; k++) {
-    double a, b;
-    bond_r2(k, a, b);
-    e += bk_bond_energy(a, kb, r0) + bk_bond_energy(b, kb, r0);
+  std::vector<double> rows(nrows, 0.0);
+  for (int r = 0; r < nrows; r++) {
+    double e = 0.0;
+    for (int k = r * Lx; k < (r + 1) * Lx; k++) {
+      double a, b;
+      bond_r2(k, a, b);
+      e += bk_bond_energy(a, kb, r0) + bk_bond_energy(b, kb, r0);
+    }
+    rows[r] = e;
   }
-  return e;
+  return row_sum_total(rows);
 }
 
 double FixBKFused::memory_usage()
@@ -573,8 +786,8 @@ int FixBKFused::pack_restart(int i, double *buf)
   for (int c = 0; c < NSTATE; c++) buf[c + 1] = state[i][c];
   buf[XU + 1] = xu[i][0];
   buf[YU + 1] = xu[i][1];
-  if (lattice_ready && have_state) {
-    const int k = static_cast<int>(atom->tag[i]) - 1;
+  const tagint k = atom->tag[i] - 1 - static_cast<tagint>(row0) * Lx;
+  if (lattice_ready && have_state && k >= 0 && k < nloc) {
     buf[DRX + 1] = arr.drx[k];
     buf[DRY + 1] = arr.dry[k];
     buf[VHX + 1] = arr.vhx[k];
@@ -599,6 +812,25 @@ void FixBKFused::unpack_restart(int nlocal, int nth)
   } else {
     xu[nlocal][0] = xu[nlocal][1] = NaN;
   }
+}
+
+/* atoms that change rank (only at the first setup of a run on several ranks, when the fix
+   cuts the sub-domains between rows) take their exact position with them */
+
+int FixBKFused::pack_exchange(int i, double *buf)
+{
+  int n = FixBKLayer::pack_exchange(i, buf);
+  buf[n++] = xu[i][0];
+  buf[n++] = xu[i][1];
+  return n;
+}
+
+int FixBKFused::unpack_exchange(int nlocal, double *buf)
+{
+  int n = FixBKLayer::unpack_exchange(nlocal, buf);
+  xu[nlocal][0] = buf[n++];
+  xu[nlocal][1] = buf[n++];
+  return n;
 }
 
 int FixBKFused::size_restart(int /*nlocal*/)

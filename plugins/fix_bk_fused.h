@@ -1,8 +1,10 @@
-/* bkflow LAMMPS plugin: `fix ID all bk/substrate ... fused`, the single-rank fast path of fix
+/* bkflow LAMMPS plugin: `fix ID all bk/substrate ... fused`, the fast path of fix
    bk/substrate. It integrates the layer itself (it replaces fix nve and fix enforce2d): the
    whole velocity-Verlet step of the model in one fused pass over arrays kept in lattice order,
    with the bonds found by index arithmetic, mirrored into LAMMPS's positions and velocities
-   at the steps where something reads them. See plugins/README.md ("The fused path"). */
+   at the steps where something reads them. On several MPI ranks each rank holds a block of
+   lattice rows (LAMMPS's sub-domains cut between rows) and trades its boundary rows with its
+   neighbours every step. See plugins/README.md ("The fused path"). */
 
 #ifndef BKFLOW_FIX_BK_FUSED_H
 #define BKFLOW_FIX_BK_FUSED_H
@@ -22,6 +24,8 @@ class FixBKFused : public FixBKLayer {
   int setmask() override;
   void init() override;
   void setup(int) override;
+  void setup_pre_exchange() override;
+  void pre_exchange() override;
   void setup_post_neighbor() override;
   void post_neighbor() override;
   void initial_integrate(int) override;
@@ -39,11 +43,20 @@ class FixBKFused : public FixBKLayer {
   void unpack_restart(int, int) override;
   int size_restart(int) override;
   int maxsize_restart() override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
 
   // restart columns: FixBKLayer's, then the exact unwrapped position
   enum { XU = NSTATE, YU, NRESTART };
-  // Lx of a lattice the fused path runs, 0 if it cannot; why not in *why (fix_bk_fused.cpp)
+  // Lx of a lattice the fused path runs, 0 if it cannot; why not in *why (fix_bk_fused.cpp).
+  // Collective.
   static int fused_lattice(class LAMMPS *, std::string *why = nullptr);
+  // the first row of block j of K blocks of an Ly-row lattice (block j: rows [first(j),
+  // first(j + 1)))
+  static int block_first_row(int j, int K, int Ly)
+  {
+    return static_cast<int>(static_cast<long long>(j) * Ly / K);
+  }
 
  private:
 
@@ -54,6 +67,11 @@ class FixBKFused : public FixBKLayer {
   bool lattice_ready = false;    // lattice found and arrays allocated
   bool have_state = false;       // arrays hold the state of the last step
   int Lx = 0, Ly = 0, N = 0;
+  // this rank's block of rows: [row0, row0 + nrows), nloc = nrows Lx particles, lattice
+  // particle k (local index k) being atom ID row0 Lx + k + 1; K blocks (ranks), a slab when
+  // K > 1 (bkfused::Model::slab)
+  int row0 = 0, nrows = 0, nloc = 0, nblocks = 1;
+  std::vector<double> halo_send, halo_recv;
   double mass = 0.0;
 
   bkfused::Kernel kernel{};
@@ -61,7 +79,7 @@ class FixBKFused : public FixBKLayer {
   bkfused::Arrays arr{};
   bkfused::Mirror mirror_to;
   std::vector<double> pool;    // every array of `arr`, 64-byte aligned inside
-  std::vector<int> loc;        // local index of lattice particle k (atom ID k + 1)
+  std::vector<int> loc;        // LAMMPS's local index of lattice particle k
   std::vector<double> ox, oy;  // its periodic offset (ix Lx, iy Ly): X = x + offset
   std::vector<double> z;       // and its z (constant in 2D)
   bool identity = false;       // loc[k] == k for every k
@@ -70,14 +88,18 @@ class FixBKFused : public FixBKLayer {
   double sigma_value = 0.0, rmax_value = 0.0;
 
   double sigma_x() override;
-  double breaks(bool total) override { return static_cast<double>(total ? nbreak_total
-                                                                         : nbreak_step); }
+  double breaks(bool total) override;
   double longest_bond() override;
   int path_code() const override;
   void local_energies(double *e) override;
 
   bool mirror_due(bigint step) const;
   void build_lattice();
+  void find_lattice();
+  void report_stray(tagint stray);
+  static tagint first_stray(class LAMMPS *, int Lx, int Ly, int K);
+  static void halo(void *self, double *x, double *y);
+  double row_sum_total(const std::vector<double> &rows) const;
   void update_map();
   void adopt_atoms();
   void sync_state();

@@ -6,7 +6,8 @@ both damping schemes, from the lively start of test_reference.py and from the ra
 against fix bk/substrate (fix nve + bk/substrate + enforce2d) to ~1e-12; a run in chunks and a
 run continued from a restart file equal one run bit for bit; both builds of the kernel (AVX2 and
 baseline) give the same bits; the outputs (stress series, slip frames, per-atom output) work
-with the settings the fused deck uses; what the fused path cannot do is refused clearly.
+with the settings the fused deck uses; what the fused path cannot do is refused clearly. On
+several ranks: tests/test_fused_ranks.py.
 """
 
 import itertools
@@ -330,18 +331,6 @@ def test_per_atom_output_is_current_when_dumped(workdir):
     g, f = dumps["general"], dumps["fused"]
     assert g.shape == f.shape and len(g) == 21 * spec.N
     np.testing.assert_allclose(f, g, rtol=0, atol=1e-11)
-
-
-def test_more_than_one_rank_is_refused(workdir):
-    spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
-    (workdir / "data.bk").write_text(data_text(spec))
-    (workdir / "in.bk").write_text(setup_text(spec, DeckOptions(stress=None, path="fused"))
-                                   + "run 10\n")
-    proc = subprocess.run([tool("mpirun"), "-np", "2", tool("lmp"), "-in", "in.bk"],
-                          cwd=workdir, capture_output=True, text=True, timeout=300)
-    assert proc.returncode != 0
-    assert "fused runs on one MPI rank only (this run has 2)" in proc.stdout
-    assert "terminate called" not in proc.stderr
 
 
 def _refusal(workdir, spec, deck, lattice=None):

@@ -81,11 +81,14 @@ def _standalone(workdir, deck: str, ranks: int, tag: str):
     return np.loadtxt(workdir / "final.txt", skiprows=9), (workdir / f"log.{tag}").read_text()
 
 
-def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(lammps, workdir):
-    """mpirun -np 2 of the default deck: the general path, the very bits of the fix nve deck
-    with the same LAMMPS settings; and it follows one rank's fused path to rounding."""
+@pytest.mark.parametrize("rows_at", [0.0, 0.6])
+def test_integrate_on_two_ranks(rows_at, lammps, workdir):
+    """mpirun -np 2 of the default deck: the fused path with the very bits of one rank's when
+    the rows sit between the cuts of its blocks (bkflow's lattices); else (rows moved 0.6 of a
+    row) the general path, the very bits of the fix nve deck with the same LAMMPS settings,
+    saying why. Either follows the other path to rounding."""
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start="random")
-    lattice, _, v0 = lively_start(spec)
+    lattice, _, v0 = lively_start(spec, offset=(0.495, rows_at), drift=(0.2, 0.0))
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     tail = ("displace_atoms all move -1.2 0 0\nrun 2000\n"
             "write_dump all custom final.txt id xu yu vx vy f_bk[3] f_bk[4] "
@@ -97,10 +100,20 @@ def test_integrate_on_two_ranks_is_the_general_path_bit_for_bit(lammps, workdir)
                                     ("auto1", "auto", None, 1)):
         deck = setup_text(spec, files.replace(thermo_every=500, path=path, fast=fast)) + "\n" + tail
         runs[name] = _standalone(workdir, deck, ranks, name)
-    assert "PATH 0" in runs["auto2"][1] and "on 2 procs" in runs["auto2"][1]
+    assert "on 2 procs" in runs["auto2"][1]
     assert any(f"PATH {k}" in runs["auto1"][1] for k in (1, 2, 3))
-    np.testing.assert_array_equal(runs["auto2"][0], runs["general2"][0])
-    np.testing.assert_allclose(runs["auto1"][0], runs["auto2"][0], rtol=0, atol=1e-9)
+    if rows_at == 0.0:
+        assert any(f"PATH {k}" in runs["auto2"][1] for k in (1, 2, 3))
+        assert "2 ranks, blocks of rows 0-0 | 1-2" in runs["auto2"][1]
+        np.testing.assert_array_equal(runs["auto2"][0], runs["auto1"][0])
+        np.testing.assert_allclose(runs["general2"][0], runs["auto2"][0], rtol=0, atol=1e-9)
+    else:
+        assert "PATH 0" in runs["auto2"][1]
+        assert ("the general path on 2 rank(s) (the fused path on 2 ranks cuts the box between "
+                "rows at y = ylo + yprd j / 3, but particle 1 (row 0) is not between"
+                in runs["auto2"][1])
+        np.testing.assert_array_equal(runs["auto2"][0], runs["general2"][0])
+        np.testing.assert_allclose(runs["auto1"][0], runs["auto2"][0], rtol=0, atol=1e-9)
 
 
 def test_the_default_deck_integrates_by_itself():
@@ -128,8 +141,9 @@ def test_engine_records_the_path_and_both_paths_agree(lammps, tmp_path):
     assert auto_meta["engine"]["path"] == "fused"
     assert auto_meta["engine"]["kernel"] in ("avx512", "avx2", "baseline")
     assert auto_meta["engine"]["requested"] == "auto" and auto_meta["engine"]["ranks"] == 1
+    assert auto_meta["engine"]["rows_per_rank"] == [[0, 2]]
     assert gen_meta["engine"] == {"requested": "general", "path": "general", "kernel": None,
-                                  "ranks": 1}
+                                  "ranks": 1, "rows_per_rank": None}
     assert auto_meta["params"] == gen_meta["params"]
     assert " integrate" in (tmp_path / "auto" / "in.bk").read_text()
     assert "fix             nve all nve" in (tmp_path / "general" / "in.bk").read_text()

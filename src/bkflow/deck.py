@@ -158,10 +158,9 @@ def _header(spec: RunSpec, path: str) -> list[str]:
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
     ] + ({
         "auto": ["# `integrate`: fix bk/substrate integrates the layer itself, on the fused path",
-                 "# on one rank (lmp -in), on the general path on several (mpirun -np K lmp",
-                 "# -in); one rank runs faster with -var comm_cutoff 0.1 (every bond partner",
-                 "# is local)."],
-        "fused": ["# `fused`: the single-rank fused path (one rank only)."],
+                 "# on any number of ranks (lmp -in, or mpirun -np K lmp -in with K up to the",
+                 "# number of lattice rows: each rank holds a block of rows), the same bits."],
+        "fused": ["# `fused`: the fused path (any number of ranks up to the number of rows)."],
         "general": ["# fix nve + fix bk/substrate + fix enforce2d: the general path, any number of",
                     "# ranks."],
     }[path]) + [""]
@@ -177,6 +176,11 @@ FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check
                  "newton          off off")
 
 
+#: the ranks in one column, each holding a block of lattice rows: what the fused path needs on
+#: several ranks (plugins/README.md "The fused path"); the general path runs on any grid
+PROCESSORS = "processors      1 * 1"
+
+
 def _system(spec: RunSpec, files: DeckOptions, fast: bool = False) -> list[str]:
     return [
         "units           lj",
@@ -184,6 +188,7 @@ def _system(spec: RunSpec, files: DeckOptions, fast: bool = False) -> list[str]:
         "boundary        p p p",
         "atom_style      bond",
         "atom_modify     map array",
+        PROCESSORS,
     ] + ([FAST_SETTINGS[0]] if fast else []) + [
         # every atom holds all four of its bonds: the fix sums them without reverse comm
         FAST_SETTINGS[2] if fast else "newton          on off",
@@ -313,7 +318,7 @@ def continue_text(spec: RunSpec, restart: str,
     o = options
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
-    lines = (_header(spec, o.path) + [f"read_restart    {restart}"] + props
+    lines = (_header(spec, o.path) + [PROCESSORS, f"read_restart    {restart}"] + props
              + _dynamics(spec, True, True, True, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every))
     return "\n".join(lines)

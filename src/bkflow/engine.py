@@ -47,7 +47,8 @@ from .params import (
     transient_step,
 )
 from .phases import COHERENT_FLUCTUATION, coherence, state
-from .plugin import ERROR_TOKENS, PATH_CODES, build_info, lammps_version, open_lammps
+from .plugin import (ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_version,
+                     open_lammps)
 from .provenance import record as provenance
 from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
 from .stationarity import stationarity
@@ -369,7 +370,7 @@ class _Leg:
                 "fronts": {k: int(_fix_vector(lmp, FRONTS_FIX, i))
                            for i, k in enumerate(("events", "written"))}
                 if spec.writes_fronts else None,
-                "engine": _path_record(lmp, self.options.path)}
+                "engine": _path_record(lmp, self.options.path, spec.Ly)}
 
     def close(self) -> None:
         if self.lmp is not None:
@@ -433,12 +434,16 @@ def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
 _RUNS_IN_PROCESS = {"pid": None, "runs": 0}
 
 
-def _path_record(lmp, requested: str) -> dict:
-    """What meta.json says of the integration path: asked for, taken, kernel, ranks."""
+def _path_record(lmp, requested: str, Ly: int) -> dict:
+    """What meta.json says of the integration path: asked for, taken, kernel, ranks, and on
+    the fused path the rows (first, last) each rank holds (LAMMPS's own decomposition on the
+    general path: None)."""
     code = int(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["path"]))
     path, kernel = PATH_CODES.get(code, (f"unknown ({code})", None))
-    return {"requested": requested, "path": path, "kernel": kernel,
-            "ranks": int(lmp.extract_setting("world_size"))}
+    ranks = int(lmp.extract_setting("world_size"))
+    return {"requested": requested, "path": path, "kernel": kernel, "ranks": ranks,
+            "rows_per_rank": ([list(b) for b in block_rows(Ly, ranks)]
+                              if path == "fused" else None)}
 
 
 def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = None,

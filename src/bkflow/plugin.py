@@ -24,6 +24,18 @@ PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2
 #: (plugins/bk_interface.h, BK_ERR_*; tests/test_plugin.py checks)
 ERROR_TOKENS = {"write_failed": "[bk:write-failed]", "cannot_open": "[bk:cannot-open]",
                 "partner_missing": "[bk:partner-missing]", "atom_lost": "[bk:atom-lost]"}
+
+
+def block_rows(Ly: int, ranks: int) -> list[tuple[int, int]]:
+    """The rows (first, last) of each rank's block on the fused path on ``ranks`` ranks of a
+    lattice of ``Ly`` rows: FixBKFused::block_first_row's division (rank j from row
+    floor(j Ly / K)), which the log prints (tests/test_fused_ranks.py)."""
+    if not 1 <= ranks <= Ly:
+        raise ValueError(f"{ranks} ranks cannot each hold a row of a {Ly}-row lattice")
+    first = [j * Ly // ranks for j in range(ranks + 1)]
+    return [(first[j], first[j + 1] - 1) for j in range(ranks)]
+
+
 #: environment variable naming another plugin directory (a development build)
 PLUGIN_DIR_ENV = "BKFLOW_PLUGIN_DIR"
 FIX_STYLE = "bk/substrate"

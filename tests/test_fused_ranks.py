@@ -1,0 +1,198 @@
+"""The fused path on several MPI ranks (plugins/fix_bk_fused.cpp, "Ranks"): each rank holds a
+block of lattice rows and trades its boundary rows with its neighbours every step.
+
+One fused rank and K fused ranks (K = 2, 3, 4; 3 is oversubscribed here, for correctness only)
+give the same bits: the trajectory, the per-atom state, the global outputs and the stress
+series, on every contact rule, damping scheme and start, in chunks and across a restart
+written on one number of ranks and read on another. The log says the decomposition, meta.json
+the ranks; what the path cannot do on several ranks is refused or falls back, and says why.
+"""
+
+import subprocess
+
+import pytest
+
+from bkflow.deck import PROCESSORS, DeckOptions, continue_text, data_text, setup_text
+from bkflow.params import RunSpec
+from bkflow.plugin import block_rows
+from tests.support import lively_start, tool
+
+pytestmark = pytest.mark.usefixtures("lammps")
+
+# 8 x 7: blocks of 7 rows on 2, 3, 4 ranks are uneven (3+4, 2+2+3, 1+2+2+2), and on 4 ranks a
+# block of one row has the same rank on both sides
+SIZE = (8, 7)
+STEPS = 600
+PRELOAD = 1.2
+# f_bk[1..6]: the per-atom state (anchor, contact displacement, half-step velocity)
+FINAL = ("write_dump all custom final.txt id x y xu yu vx vy ix iy f_bk[1] f_bk[2] f_bk[3] "
+         "f_bk[4] f_bk[5] f_bk[6] modify sort id format float %.17g\n")
+OUTPUTS = ("thermo_style custom step f_bk[1] f_bk[2] f_bk[3] f_bk[5] f_bk[7] f_bk[8] f_bk[9] "
+           "f_bk[10] f_bk[11] f_bk[12] f_bk[13] pe\nthermo_modify format float %.17g\n")
+
+
+def _mpirun(workdir, ranks, deck="in.bk", log="log.lammps"):
+    cmd = [tool("lmp"), "-in", deck, "-log", log, "-screen", "none"]
+    if ranks > 1:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    return subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=300)
+
+
+def _spec(**kw):
+    return RunSpec(phi=kw.pop("phi", 10.0), Lx=SIZE[0], Ly=SIZE[1], seed=kw.pop("seed", 3), **kw)
+
+
+def _deck(spec, workdir, steps=STEPS, chunks=3, tail=FINAL):
+    """a lively start on the default path (integrate), in chunks as the engine runs: rows at
+    their sites (y = iy + 1/2, half a row from the ranks' cuts) and every particle near the x
+    edge, drifting across it"""
+    lattice, _, v0 = lively_start(spec, offset=(0.495, 0.0), drift=(0.2, 0.0))
+    (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
+    deck = setup_text(spec, DeckOptions(thermo_every=steps // chunks // 2, path="auto",
+                                        energy=True, phase=None))
+    deck = deck.replace("\nrun ", "\n# run ")
+    deck += f"\ndisplace_atoms all move {-PRELOAD!r} 0 0\n" + OUTPUTS
+    for k in range(chunks):
+        deck += f"run {steps // chunks} pre {'yes' if k == 0 else 'no'} post no\n"
+    return deck + tail
+
+
+def _run(workdir, ranks, deck):
+    """(final dump, stress.csv, the thermo rows of the log) of ``deck`` on ``ranks`` ranks"""
+    (workdir / "in.bk").write_text(deck)
+    for name in ("final.txt", "stress.csv"):
+        (workdir / name).unlink(missing_ok=True)
+    proc = _mpirun(workdir, ranks, log=f"log.{ranks}")
+    log = (workdir / f"log.{ranks}").read_text()
+    assert proc.returncode == 0, log[-2000:]
+    assert "bk/substrate fused:" in log and "general path" not in log
+    thermo = [line for line in log.splitlines()
+              if len(line.split()) == 13 and line.split()[0].isdigit()]
+    stress = (workdir / "stress.csv").read_text() if (workdir / "stress.csv").exists() else ""
+    return (workdir / "final.txt").read_text(), stress, thermo, log
+
+
+def _same_stress(got, want):
+    """stress.csv: t, sigma_x and the breaks the same bits; the ledger's energies, summed over
+    ranks, to rounding"""
+    rows_got = [r.split(",") for r in got.splitlines()]
+    rows_want = [r.split(",") for r in want.splitlines()]
+    assert len(rows_got) == len(rows_want) > 10 and rows_got[0] == rows_want[0]
+    exact = [i for i, name in enumerate(rows_want[0]) if name in ("t", "sigma_x", "breaks")]
+    assert len(exact) == 3, rows_want[0]
+    for a, b in zip(rows_got[1:], rows_want[1:]):
+        assert [a[i] for i in exact] == [b[i] for i in exact]
+        assert [float(x) for x in a] == pytest.approx([float(x) for x in b], rel=1e-12,
+                                                      abs=1e-12)
+
+
+RULES = [("reset", "implicit", "synchronized"), ("reset", "half", "random"),
+         ("reset/step", "implicit", "random"), ("reset/step", "half", "synchronized"),
+         ("coulomb", "implicit", "synchronized"), ("coulomb", "half", "random")]
+
+
+@pytest.mark.parametrize("mode, damping, start", RULES)
+def test_three_ranks_give_the_bits_of_one(mode, damping, start, workdir):
+    spec = _spec(contact_rule=mode, damping=damping, start=start)
+    deck = _deck(spec, workdir)
+    one = _run(workdir, 1, deck)
+    three = _run(workdir, 3, deck)
+    assert "3 ranks, blocks of rows 0-1 | 2-3 | 4-6" in three[3]
+    assert three[0] == one[0]          # every column of every particle, to the last digit
+    _same_stress(three[1], one[1])
+    # the global outputs: the same bits but the energies and ledger sums, which are summed
+    # over ranks (the order of a sum): to rounding
+    rows1 = [r.split() for r in one[2]]
+    rows3 = [r.split() for r in three[2]]
+    assert len(rows1) == len(rows3) > 3
+    for a, b in zip(rows1, rows3):
+        assert a[:5] == b[:5]
+        assert [float(x) for x in b[5:]] == pytest.approx([float(x) for x in a[5:]],
+                                                          rel=1e-12, abs=1e-12)
+    breaks = float(rows1[-1][3])    # f_bk[3]: breaks since the fix was defined
+    assert breaks > 0, "no contact broke: the test would not see the contact rule"
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_two_and_four_ranks_give_the_bits_of_one(ranks, workdir):
+    spec = _spec(seed=7, start="random")
+    deck = _deck(spec, workdir)
+    one = _run(workdir, 1, deck)
+    many = _run(workdir, ranks, deck)
+    assert many[0] == one[0]
+    _same_stress(many[1], one[1])
+    assert f"{ranks} ranks, blocks of rows " + " | ".join(
+        f"{a}-{b}" for a, b in block_rows(SIZE[1], ranks)) in many[3]
+
+
+@pytest.mark.parametrize("first, then", [(1, 3), (4, 2), (3, 1)])
+def test_a_restart_read_on_other_ranks_follows_one_run(first, then, workdir):
+    """written on ``first`` ranks half-way, continued on ``then``: the uninterrupted run's bits"""
+    spec = _spec(seed=11, start="random", contact_rule="reset/step")
+    whole = _run(workdir, 1, _deck(spec, workdir, chunks=2))
+    half = _deck(spec, workdir, steps=STEPS // 2, chunks=1, tail="write_restart half.restart\n")
+    _run_ok = _mpirun
+    (workdir / "in.bk").write_text(half)
+    assert _run_ok(workdir, first).returncode == 0
+    cont = continue_text(spec, "half.restart", DeckOptions(data="", thermo_every=50,
+                                                            path="auto", energy=True,
+                                                            phase=None))
+    cont = cont.replace("\nrun ", "\n# run ") + "\n" + OUTPUTS
+    cont += f"run {STEPS // 2} pre yes post no\n" + FINAL
+    (workdir / "stress.csv").unlink(missing_ok=True)
+    resumed = _run(workdir, then, cont)
+    assert resumed[0] == whole[0]
+
+
+@pytest.mark.parametrize("how", ["moved", "kicked"])
+def test_a_particle_that_strays_to_another_rank_stops_the_run(how, workdir):
+    """particle 17 (row 2, the top row of rank 0's block 0-2) moved past the cut at y = 3
+    before the run (found when the run starts), or kicked across it during the run (found at
+    the next reneighbouring)"""
+    spec = _spec()
+    deck = _deck(spec, workdir, tail="")
+    move = ("displace_atoms stray move 0 0.7 0" if how == "moved"
+            else "velocity stray set 0.0 8.0 0.0")
+    deck = deck.replace("\ndisplace_atoms", f"\ngroup stray id 17\n{move}\ndisplace_atoms", 1)
+    (workdir / "in.bk").write_text(deck)
+    proc = _mpirun(workdir, 2)
+    assert proc.returncode != 0
+    out = (workdir / "log.lammps").read_text()
+    if how == "moved":
+        assert ("fused on 2 ranks cuts the box between rows at y = ylo + yprd j / 7, but "
+                "particle 17 (row 2) is not between its row's cuts" in out)
+    else:
+        assert "particle 17 (lattice row 2) left the sub-domain of its rank's rows" in out
+        assert "run it on one rank, or on the general path" in out
+    assert "terminate called" not in proc.stderr
+
+
+def test_what_several_ranks_cannot_do_is_refused_or_falls_back(workdir):
+    spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
+    (workdir / "data.bk").write_text(data_text(spec))
+    column = setup_text(spec, DeckOptions(stress=None, phase=None, path="fused"))
+    row = column.replace(PROCESSORS, "processors      2 1 1")
+    for deck, ranks, why in [
+            (row, 2, "on 2 ranks needs them in one column, each holding a block of lattice "
+                     "rows: add `processors 1 * 1` before read_data (the grid is 2x1x1)"),
+            (column, 4, "on 4 ranks needs at least one lattice row per rank (the lattice has 3)"
+                        ": run on at most 3 ranks")]:
+        (workdir / "in.bk").write_text(deck.replace("\nrun ", "\n# run ") + "\nrun 10\n")
+        proc = _mpirun(workdir, ranks)
+        assert proc.returncode != 0 and why in (workdir / "log.lammps").read_text()
+        assert "terminate called" not in proc.stderr
+        # integrate: the general path, with the same reason in the log
+        (workdir / "in.bk").write_text(deck.replace(" fused", " integrate")
+                                       .replace("\nrun ", "\n# run ") + "\nrun 10\n")
+        proc = _mpirun(workdir, ranks)
+        log = (workdir / "log.lammps").read_text()
+        assert proc.returncode == 0, log[-1500:]
+        assert f"the general path on {ranks} rank(s) (the fused path {why})" in log
+
+
+def test_block_rows_is_the_plugins_division():
+    assert block_rows(7, 1) == [(0, 6)]
+    assert block_rows(7, 3) == [(0, 1), (2, 3), (4, 6)]
+    assert block_rows(60, 4) == [(0, 14), (15, 29), (30, 44), (45, 59)]
+    with pytest.raises(ValueError):
+        block_rows(3, 4)
