@@ -24,12 +24,14 @@ bkflow) against old: the bkflow of ``--old-bkflow`` (an environment built from g
 installs (``pip install .``): an editable install under PYTHONDONTWRITEBYTECODE compiles its
 modules at every start.
 
-``--scaling``: atom-steps/s against N up to 57600 on one rank (the fused path, and the general
-path) and two ranks (``mpirun -np 2``: the general path), with the ratios.
+``--scaling``: atom-steps/s against N (900 to 230400) of one fused rank, two fused ranks and
+two general ranks (``mpirun -np 2``), side by side, with the ratios and the two fused ranks'
+halo exchange time per step (the fix's log line); its last line, MEASURED, feeds
+benchmarks/scaling_model.py.
 
     python benchmarks/throughput.py [--sizes 20x5 60x15 120x30 240x60] [--rounds 3]
     python benchmarks/throughput.py --whole [--sizes 20x5 60x15] [--old-bkflow PATH]
-    python benchmarks/throughput.py --scaling [--sizes 60x15 120x30 240x60 480x120]
+    python benchmarks/throughput.py --scaling [--sizes 60x15 120x30 240x60 480x120 960x240]
     python benchmarks/throughput.py --compare-output | --compare-schemes
 """
 
@@ -42,6 +44,7 @@ for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import argparse  # noqa: E402
+import re  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -172,44 +175,55 @@ def whole(a) -> None:
     print("\n".join(rows))
 
 
+#: ``--scaling``: (path, ranks) of each code, side by side
+SCALING = {"fused, 1 rank": ("auto", 1), "fused, 2 ranks": ("auto", 2),
+           "general, 2 ranks": ("general", 2)}
+HALO = re.compile(r"(\d+) halo exchanges of (\d+) bytes .*? ([\d.e+-]+) to ([\d.e+-]+) us each")
+
+
 def scaling(a) -> None:
-    """atom-steps/s against N: one rank fused, one rank general, two ranks (general)."""
+    """atom-steps/s against N: one fused rank, two fused ranks, two general ranks, with the
+    two-rank runs' halo exchange time (the fix's log line), for the model of RESULTS.md."""
     work = Path(tempfile.mkdtemp(prefix="bkscaling"))
-    cases = {"fused, 1 rank": ("auto", 1, NEW_CUTOFF),
-             "general, 1 rank": ("general", 1, NEW_CUTOFF)}
-    for r in a.ranks:
-        if r > 1:
-            spec0 = spec_for(a.sizes[0], a.t_end, a.atom_steps)
-            cases[f"general, {r} ranks"] = ("auto", r, spec0.bond_limit + 1.0)
-    rows = []
+    rows, fits = [], []
     for size in a.sizes:
         spec = spec_for(size, a.t_end, a.atom_steps)
         (work / DATA).write_text(data_text(spec))
-        rates = {k: [] for k in cases}
+        rates = {k: [] for k in SCALING}
+        halo = []
         for _ in range(a.rounds):
-            for k, (path, ranks, cutoff) in cases.items():
+            for k, (path, ranks) in SCALING.items():
                 deck = setup_text(spec, DeckOptions(data=DATA, stress=STRESS, path=path)) + \
                     f"\nrun             {spec.n_steps}\n"
+                cutoff = NEW_CUTOFF if ranks == 1 else spec.bond_limit + 1.0
                 wall, _, steps, atoms, log = loop_time(deck, work, ranks, cutoff)
-                want = "fused" if k.startswith("fused") else "general"
+                want = k.split(",")[0]
                 got = "fused" if "bk/substrate fused:" in log else "general"
                 if got != want:
                     raise SystemExit(f"{k}: the deck ran the {got} path")
                 rates[k].append(steps * atoms / wall)
+                if want == "fused" and ranks > 1:
+                    n, nbytes, fast, slow = HALO.findall(log)[-1]
+                    halo.append(float(slow) * 1e-6 * int(n) / steps)
         m = {k: statistics.median(v) for k, v in rates.items()}
-        cells = " | ".join(f"{m[k]:.3e}" for k in cases)
-        two = [k for k in cases if not k.endswith("1 rank")]
-        ratios = " | ".join(f"{m[k] / m['general, 1 rank']:.2f} | {m[k] / m['fused, 1 rank']:.2f}"
-                            for k in two)
-        rows.append(f"| {spec.N} | {spec.n_steps} | {cells} | {ratios} |")
+        h = statistics.median(halo)
+        t2 = spec.N / m["fused, 2 ranks"]
+        cells = " | ".join(f"{m[k]:.3e}" for k in SCALING)
+        rows.append(f"| {spec.Lx}x{spec.Ly} | {spec.N} | {spec.n_steps} | {cells} | "
+                    f"{m['fused, 2 ranks'] / m['fused, 1 rank']:.2f} | "
+                    f"{m['general, 2 ranks'] / m['fused, 1 rank']:.2f} | "
+                    f"{h * 1e6:.2f} | {100 * h / t2:.0f}% |")
+        fits.append((spec.Lx, spec.N, spec.N / m["fused, 1 rank"], t2, h))
         print(rows[-1], flush=True)
-    two = [k for k in cases if not k.endswith("1 rank")]
     print(f"\natom-steps/s (LAMMPS Loop time), median of {a.rounds} alternated rounds, phi = 100, "
-          "C = 0.1, scene friction; several ranks use the deck's ghost cutoff bond_limit + 1\n")
-    print("| N | steps | " + " | ".join(cases) + " | "
-          + " | ".join(f"{k} / general 1 | {k} / fused 1" for k in two) + " |")
-    print("|---|---|" + "---|" * (len(cases) + 2 * len(two)))
+          "C = 0.1, scene friction; halo: the two fused ranks' exchange time per step (the "
+          "slower rank's, waits included) and its share of the step\n")
+    print("| lattice | N | steps | " + " | ".join(SCALING)
+          + " | fused 2 / fused 1 | general 2 / fused 1 | halo us/step | halo share |")
+    print("|---|---|---|" + "---|" * (len(SCALING) + 4))
     print("\n".join(rows))
+    print("\n# (Lx, N, t_1 s/step, t_2 s/step, halo s/step), for benchmarks/scaling_model.py")
+    print("MEASURED = " + repr([tuple(float(f"{v:.6g}") for v in r) for r in fits]))
 
 
 # ------------------------------------------------------------------- earlier comparisons
@@ -279,7 +293,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--sizes", nargs="+", default=None,
                     help="lattices LXxLY (default 20x5 60x15 120x30 240x60; --whole 20x5 60x15; "
-                         "--scaling 60x15 120x30 240x60 480x120)")
+                         "--scaling 60x15 120x30 240x60 480x120 960x240)")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--t-end", type=float, default=1000.0)
     ap.add_argument("--atom-steps", type=float, default=4e8,
@@ -292,13 +306,12 @@ def main(argv=None):
                     help="--whole: the bkflow command of the new engine (default: this one); "
                          "give a regular install (pip install .) to compare like with like")
     ap.add_argument("--scaling", action="store_true")
-    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--compare-output", action="store_true")
     ap.add_argument("--compare-schemes", action="store_true")
     a = ap.parse_args(argv)
     if a.sizes is None:
         a.sizes = (["20x5", "60x15"] if a.whole else
-                   ["60x15", "120x30", "240x60", "480x120"] if a.scaling else
+                   ["60x15", "120x30", "240x60", "480x120", "960x240"] if a.scaling else
                    ["20x5", "60x15", "120x30", "240x60"])
     if a.whole:
         return whole(a)

@@ -19,7 +19,7 @@ struct Model {
   int Lx = 0, Ly = 0, N = 0;
   /* slab: the arrays hold a block of Ly rows of a larger lattice (several MPI ranks), with a
      ghost row below (indices -Lx..-1) and above (Ly Lx..(Ly + 1) Lx - 1) whose positions
-     Arrays::halo fills after every drift; the top row's +y partners are the ghost row above.
+     Arrays::halo_start and halo_wait fill after every drift; the top row's +y partners are the ghost row above.
      Each particle's arithmetic is the same as on the whole lattice, so every block division
      gives the same bits. */
   int slab = 0;
@@ -61,8 +61,11 @@ struct Arrays {
   double *fb;
   double fb_mark, fb_step;
   int fb_track;
-  // Model::slab: fills the ghost rows of x and y from the neighbouring blocks (collective)
-  void (*halo)(void *ctx, double *x, double *y);
+  // Model::slab: sends the block's first and last rows of x and y to the neighbouring blocks
+  // and posts the receives of their ghost rows (halo_start), then waits for them and fills
+  // the ghost rows (halo_wait); the step computes the rows that need no ghost in between
+  void (*halo_start)(void *ctx, const double *x, const double *y);
+  void (*halo_wait)(void *ctx, double *x, double *y);
   void *halo_ctx;
 };
 

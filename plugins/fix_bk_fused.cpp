@@ -349,30 +349,45 @@ void FixBKFused::report_stray(tagint stray)
   error->all(FLERR, "{} fix bk/substrate fused: atom {} is not local", BK_ERR_ATOM_LOST, all);
 }
 
-/* The halo (bkfused::Arrays::halo): this block's first row goes to the block below (its ghost
-   row above) while the block above's first row comes in, then the last rows the other way.
-   The neighbours are LAMMPS's in the column of ranks (one rank each side, the same one when
-   there are two). */
+/* The halo (bkfused::Arrays::halo_start, halo_wait): this block's first row goes to the block
+   below (its ghost row above) and its last row to the block above, while theirs come in;
+   non-blocking, so that the kernel computes the rows that need no ghost meanwhile. The
+   neighbours are LAMMPS's in the column of ranks (one rank each side, the same one when there
+   are two: the tags tell the two messages apart). */
 
-void FixBKFused::halo(void *self, double *x, double *y)
+void FixBKFused::halo_start(void *self, const double *x, const double *y)
 {
   auto *f = static_cast<FixBKFused *>(self);
+  const double t0 = MPI_Wtime();
   const int Lx = f->Lx, n = f->nloc;
   const int down = f->comm->procneigh[1][0], up = f->comm->procneigh[1][1];
-  double *s = f->halo_send.data(), *r = f->halo_recv.data();
+  double *s = f->halo_send.data(), *r = f->halo_recv.data();    // [0, 2 Lx): to/from below
   const size_t row = static_cast<size_t>(Lx) * sizeof(double);
+  MPI_Irecv(r, 2 * Lx, MPI_DOUBLE, down, 1, f->world, &f->halo_req[0]);
+  MPI_Irecv(r + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 0, f->world, &f->halo_req[1]);
   memcpy(s, x, row);
   memcpy(s + Lx, y, row);
-  MPI_Sendrecv(s, 2 * Lx, MPI_DOUBLE, down, 0, r, 2 * Lx, MPI_DOUBLE, up, 0, f->world,
-               MPI_STATUS_IGNORE);
-  memcpy(x + n, r, row);
-  memcpy(y + n, r + Lx, row);
-  memcpy(s, x + n - Lx, row);
-  memcpy(s + Lx, y + n - Lx, row);
-  MPI_Sendrecv(s, 2 * Lx, MPI_DOUBLE, up, 1, r, 2 * Lx, MPI_DOUBLE, down, 1, f->world,
-               MPI_STATUS_IGNORE);
-  memcpy(x - Lx, r, row);
+  memcpy(s + 2 * Lx, x + n - Lx, row);
+  memcpy(s + 3 * Lx, y + n - Lx, row);
+  MPI_Isend(s, 2 * Lx, MPI_DOUBLE, down, 0, f->world, &f->halo_req[2]);
+  MPI_Isend(s + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 1, f->world, &f->halo_req[3]);
+  f->halo_time += MPI_Wtime() - t0;
+}
+
+void FixBKFused::halo_wait(void *self, double *x, double *y)
+{
+  auto *f = static_cast<FixBKFused *>(self);
+  const double t0 = MPI_Wtime();
+  const int Lx = f->Lx, n = f->nloc;
+  const double *r = f->halo_recv.data();
+  const size_t row = static_cast<size_t>(Lx) * sizeof(double);
+  MPI_Waitall(4, f->halo_req, MPI_STATUSES_IGNORE);
+  memcpy(x - Lx, r, row);    // the block below's last row
   memcpy(y - Lx, r + Lx, row);
+  memcpy(x + n, r + 2 * Lx, row);    // the block above's first row
+  memcpy(y + n, r + 3 * Lx, row);
+  f->halo_time += MPI_Wtime() - t0;
+  f->halo_calls++;
 }
 
 void FixBKFused::build_lattice()
@@ -381,7 +396,11 @@ void FixBKFused::build_lattice()
   // every array in one pool, each 64-byte aligned and padded; on a slab with a ghost row
   // before (in the pad) and after
   const size_t pad = slab ? (static_cast<size_t>(Lx) + 7) / 8 * 8 : 0;
-  const size_t stride = pad + (static_cast<size_t>(nloc) + (slab ? Lx : 0) + 7) / 8 * 8;
+  size_t stride = pad + (static_cast<size_t>(nloc) + (slab ? Lx : 0) + 7) / 8 * 8;
+  // arrays a multiple of 4 KB apart alias in the CPU's store forwarding (the loops stream
+  // ten of them at once: twice the time per step where it happened, benchmarks/RESULTS.md);
+  // an odd number of 64-byte lines apart, the NARR arrays start at distinct offsets of 4 KB
+  if (stride / 8 % 2 == 0) stride += 8;
   constexpr int NARR = 30;
   pool.assign(stride * NARR + 8, 0.0);
   double *p = pool.data();
@@ -403,9 +422,10 @@ void FixBKFused::build_lattice()
   arr.fb = take();
   arr.term_fx = take(), arr.term_done = take(), arr.term_next = take();
   for (int k = 0; k < nloc; k++) arr.fb[k] = -1.0;
-  halo_send.assign(2 * static_cast<size_t>(Lx), 0.0);
-  halo_recv.assign(2 * static_cast<size_t>(Lx), 0.0);
-  arr.halo = &FixBKFused::halo;
+  halo_send.assign(4 * static_cast<size_t>(Lx), 0.0);
+  halo_recv.assign(4 * static_cast<size_t>(Lx), 0.0);
+  arr.halo_start = &FixBKFused::halo_start;
+  arr.halo_wait = &FixBKFused::halo_wait;
   arr.halo_ctx = this;
 
   loc.assign(nloc, 0);
@@ -423,7 +443,10 @@ void FixBKFused::build_lattice()
     ay[k] = state[i][AY];
     kd[k] = kdv ? kdv[i] : 0.0;
   }
-  if (slab) halo(this, ax, ay);    // the ghost rows' anchors
+  if (slab) {    // the ghost rows' anchors
+    halo_start(this, ax, ay);
+    halo_wait(this, ax, ay);
+  }
   const double xprd = domain->xprd, yprd = domain->yprd;
   auto image_shift = [](double d, double prd, int periodic) {
     return periodic ? bk_image_shift(d, prd) : 0.0;
@@ -601,6 +624,17 @@ void FixBKFused::initial_integrate(int /*vflag*/)
 void FixBKFused::post_run()
 {
   sync_state();
+  if (nblocks > 1 && halo_calls) {    // the exchanges' share of the run (benchmarks/RESULTS.md)
+    double t[2] = {halo_time, -halo_time}, all[2];
+    MPI_Allreduce(t, all, 2, MPI_DOUBLE, MPI_MAX, world);
+    if (comm->me == 0)
+      utils::logmesg(lmp, "fix {} bk/substrate fused: {} halo exchanges of {} bytes (sent "
+                     "and received) a rank, {:.3g} to {:.3g} us each (the fastest and slowest rank's mean, waits "
+                     "included)\n", id, halo_calls, 4 * 2 * Lx * sizeof(double),
+                     -all[1] / halo_calls * 1e6, all[0] / halo_calls * 1e6);
+  }
+  halo_time = 0.0;
+  halo_calls = 0;
 }
 
 // the per-atom array (contact displacement, half-step velocity) and the exact positions

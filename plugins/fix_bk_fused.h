@@ -72,6 +72,9 @@ class FixBKFused : public FixBKLayer {
   // K > 1 (bkfused::Model::slab)
   int row0 = 0, nrows = 0, nloc = 0, nblocks = 1;
   std::vector<double> halo_send, halo_recv;
+  double halo_time = 0.0;    // seconds in halo_start and halo_wait this run (this rank), and
+                             // the exchanges
+  bigint halo_calls = 0;
   double mass = 0.0;
 
   bkfused::Kernel kernel{};
@@ -98,7 +101,9 @@ class FixBKFused : public FixBKLayer {
   void find_lattice();
   void report_stray(tagint stray);
   static tagint first_stray(class LAMMPS *, int Lx, int Ly, int K);
-  static void halo(void *self, double *x, double *y);
+  static void halo_start(void *self, const double *x, const double *y);
+  static void halo_wait(void *self, double *x, double *y);
+  MPI_Request halo_req[4];
   double row_sum_total(const std::vector<double> &rows) const;
   void update_map();
   void adopt_atoms();

@@ -196,3 +196,33 @@ def test_block_rows_is_the_plugins_division():
     assert block_rows(60, 4) == [(0, 14), (15, 29), (30, 44), (45, 59)]
     with pytest.raises(ValueError):
         block_rows(3, 4)
+
+
+def test_the_scaling_model_fit_recovers_known_parameters():
+    """benchmarks/scaling_model.py: measurements made from a known model give it back (exactly
+    without noise, to a few percent with 1% noise), and its predictions follow from it"""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    import numpy as np
+    from scaling_model import Model, fit, stops, strong
+
+    true = Model(a=6e-9, o=2e-6, lam=1e-6, bw=5e9, g0=3e-6, g1=2e-9)
+    sizes = [(60, 900), (120, 3600), (240, 14400), (480, 57600), (960, 230400)]
+    exact = [(lx, n, true.step(n, lx, 1), true.step(n, lx, 2), true.halo(lx)) for lx, n in sizes]
+    got = fit(exact)
+    for name in ("a", "o", "lam", "bw", "g0", "g1"):
+        assert getattr(got, name) == pytest.approx(getattr(true, name), rel=1e-6), name
+    rng = np.random.default_rng(1)
+    noisy = [tuple(v * (1 + 0.01 * rng.standard_normal()) if i >= 2 else v
+                   for i, v in enumerate(row)) for row in exact]
+    got = fit(noisy)
+    assert got.a == pytest.approx(true.a, rel=0.03)
+    # extrapolated 64x in P from 1% noise: within 10%
+    assert got.step(10**6, 2000, 64) == pytest.approx(true.step(10**6, 2000, 64), rel=0.1)
+    # one rank: speed-up 1; the halo makes the efficiency fall with P; doubling stops paying
+    rows = strong(true, 10**6, 2000, [1, 2, 64])
+    assert rows[0][2] == pytest.approx(1.0) and rows[1][3] > rows[2][3]
+    P = stops(true, 10**6, 2000, 256)
+    assert true.step(10**6, 2000, P) / true.step(10**6, 2000, 2 * P) <= 1.1 or P == 256

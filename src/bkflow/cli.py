@@ -205,10 +205,10 @@ def _spec(a, deck: bool = False) -> RunSpec:
 
 def _path_arg(p) -> None:
     p.add_argument("--path", choices=PATHS, default="auto",
-                   help="integration path: auto (default: the fused path on one rank, the "
-                        "general path on several), general (fix nve + fix bk/substrate + fix "
-                        "enforce2d, as before the fused path: slower, same physics), fused "
-                        "(one rank only)")
+                   help="integration path: auto (default: the fused path whenever the lattice "
+                        "is bkflow's, on any number of ranks; else the general path), general "
+                        "(fix nve + fix bk/substrate + fix enforce2d, as before the fused path: "
+                        "slower, same physics), fused (refuses what it cannot run)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -177,7 +177,8 @@ FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check
 
 
 #: the ranks in one column, each holding a block of lattice rows: what the fused path needs on
-#: several ranks (plugins/README.md "The fused path"); the general path runs on any grid
+#: several ranks (plugins/README.md "The fused path"); the general path's decks leave the grid
+#: to LAMMPS, which cuts a wide lattice across x (fewer ghost atoms for its cutoff)
 PROCESSORS = "processors      1 * 1"
 
 
@@ -188,8 +189,8 @@ def _system(spec: RunSpec, files: DeckOptions, fast: bool = False) -> list[str]:
         "boundary        p p p",
         "atom_style      bond",
         "atom_modify     map array",
-        PROCESSORS,
-    ] + ([FAST_SETTINGS[0]] if fast else []) + [
+    ] + ([PROCESSORS] if files.path != "general" else []) + (
+        [FAST_SETTINGS[0]] if fast else []) + [
         # every atom holds all four of its bonds: the fix sums them without reverse comm
         FAST_SETTINGS[2] if fast else "newton          on off",
         "fix             kd all property/atom d_kd",
@@ -318,7 +319,8 @@ def continue_text(spec: RunSpec, restart: str,
     o = options
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
-    lines = (_header(spec, o.path) + [PROCESSORS, f"read_restart    {restart}"] + props
+    lines = (_header(spec, o.path) + ([PROCESSORS] if o.path != "general" else [])
+             + [f"read_restart    {restart}"] + props
              + _dynamics(spec, True, True, True, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every))
     return "\n".join(lines)

@@ -41,9 +41,10 @@ CONTACT_RULE_HELP = {
 CONTACT_RULES = tuple(CONTACT_RULE_HELP)
 
 #: integration paths of a deck (bkflow.deck.setup_text): auto lets fix bk/substrate choose
-#: (keyword ``integrate``: the fused path on one rank and bkflow's lattice, else the general
-#: path integrating by itself, on any number of ranks); general is fix nve + fix bk/substrate
-#: + fix enforce2d (bkflow before the fused path); fused forces the single-rank fused path.
+#: (keyword ``integrate``: the fused path on bkflow's lattice, on any number of ranks up to its
+#: rows, else the general path integrating by itself, on any grid of ranks); general is fix nve
+#: + fix bk/substrate + fix enforce2d (bkflow before the fused path); fused forces the fused
+#: path (an error where it cannot run).
 #: The paths differ in the order of floating-point sums only (tests/test_fused.py).
 PATHS = ("auto", "general", "fused")
 
