@@ -28,6 +28,7 @@
 #include "domain.h"
 #include "error.h"
 #include "force.h"
+#include "input.h"
 #include "memory.h"
 #include "fix_bk_stress.h"
 #include "modify.h"
@@ -126,17 +127,19 @@ void FixBKFused::init()
                    blocks, kernel.isa);
   }
   // The fix trades its boundary rows itself: LAMMPS's ghost atoms, which nothing here reads,
-  // would only cost a copy of their positions every step. One rank needs none (0.1 rather
-  // than 0, of which LAMMPS warns); on several, LAMMPS's check of the bonds at setup wants
-  // each bond partner as a ghost, and the neighbouring block's boundary row is within a row
-  // of the cut as long as no particle strays half a row (update_map)
-  const double cutoff = nblocks > 1 ? 1.1 * domain->yprd / Ly : GHOST_CUTOFF;
-  if (comm->cutghostuser > cutoff) {
+  // would cost a copy of their positions every step and, on several ranks, a second meeting
+  // of the ranks every step (LAMMPS's forward communication). So no ghost: a cutoff of 0.1
+  // (0 LAMMPS warns of), which no atom half a row from the cuts reaches. LAMMPS's check of the
+  // bonds at setup then finds no partner across ranks: it is told to ignore that (the bonds
+  // are this fix's alone, no bond style reads them; a stray is this fix's error, update_map)
+  if (comm->cutghostuser > GHOST_CUTOFF) {
     if (comm->me == 0)
       utils::logmesg(lmp, "fix {} bk/substrate fused: the fix trades its boundary rows itself, "
-                     "comm_modify cutoff {} -> {}\n", id, comm->cutghostuser, cutoff);
-    comm->cutghostuser = cutoff;
+                     "comm_modify cutoff {} -> {}{}\n", id, comm->cutghostuser, GHOST_CUTOFF,
+                     nblocks > 1 ? ", thermo_modify lost/bond ignore" : "");
+    comm->cutghostuser = GHOST_CUTOFF;
   }
+  if (nblocks > 1) input->one("thermo_modify lost/bond ignore");
 
   // who reads LAMMPS's positions, velocities or the per-atom array during a run (mirror_due)
   reader_every.clear();
