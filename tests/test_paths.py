@@ -14,7 +14,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckOptions, data_text, deck_text, setup_text
+from bkflow.deck import PROCESSORS, DeckOptions, data_text, deck_text, setup_text
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
@@ -99,6 +99,9 @@ def test_integrate_on_two_ranks(rows_at, lammps, workdir):
     for name, path, fast, ranks in (("auto2", "auto", False, 2), ("general2", "general", False, 2),
                                     ("auto1", "auto", None, 1)):
         deck = setup_text(spec, files.replace(thermo_every=500, path=path, fast=fast)) + "\n" + tail
+        if path == "general":    # the same process grid as the auto deck's
+            deck = deck.replace("atom_modify     map array\n",
+                                f"atom_modify     map array\n{PROCESSORS}\n")
         runs[name] = _standalone(workdir, deck, ranks, name)
     assert "on 2 procs" in runs["auto2"][1]
     assert any(f"PATH {k}" in runs["auto1"][1] for k in (1, 2, 3))
