@@ -60,10 +60,11 @@ std::string LAMMPS_NS::bk_version_mismatch(LAMMPS *lmp)
                      BK_LAMMPS_VERSION, BK_LAMMPS_GIT, lmp->version, LAMMPS::git_descriptor());
 }
 
-/* fix bk/substrate, or with the keyword `fused` its single-rank fast path (the same style, so
-   that restart files, bk/stress and bk/slips work with either). With `integrate` the fix
-   chooses: the fused path when it can run (one rank, bkflow's lattice: FixBKFused::
-   fused_lattice), else the general path integrating by itself (any number of ranks). */
+/* fix bk/substrate, or with the keyword `fused` its fast path (the same style, so that
+   restart files, bk/stress and bk/slips work with either). With `integrate` the fix chooses:
+   the fused path when it can run (bkflow's lattice, on one rank or on a column of ranks each
+   holding a block of its rows: FixBKFused::fused_lattice), else the general path
+   integrating by itself (any grid of ranks). */
 static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
 {
   bool integrate = false;

@@ -16,7 +16,7 @@
    Ranks: K ranks in a column (`processors 1 * 1`) hold K blocks of whole rows; the fix cuts
    LAMMPS's sub-domains between rows (a non-uniform brick layout, as `balance` sets) before the
    first exchange, so that LAMMPS's local atoms are the rank's rows, and every step trades the
-   block's first and last rows with the neighbouring ranks (halo()). Atoms never migrate: a
+   block's first and last rows with the neighbouring ranks (halo_start, halo_wait). Atoms never migrate: a
    particle that strays half a row from its site into another rank's sub-domain stops the run
    (update_map). Each particle's arithmetic does not depend on the blocks, so any number of
    ranks gives the same bits; the sums of the outputs are made the same way (row_sum_total). */
@@ -77,6 +77,7 @@ FixBKFused::FixBKFused(LAMMPS *lmp, int narg, char **arg) :
 FixBKFused::~FixBKFused()
 {
   memory->destroy(xu);
+  if (halo_comm != MPI_COMM_NULL) MPI_Comm_free(&halo_comm);
 }
 
 int FixBKFused::setmask()
@@ -100,6 +101,9 @@ void FixBKFused::init()
       FINAL_INTEGRATE;
   for (int i = 0; i < modify->nfix; i++) {
     Fix *f = modify->fix[i];
+    if (comm->nprocs > 1 && strcmp(f->style, "balance") == 0)
+      error->all(FLERR, "fix bk/substrate fused on several ranks cuts the sub-domains between "
+                        "lattice rows itself: remove fix {} (balance)", f->id);
     if (f == this || strcmp(f->style, "enforce2d") == 0) continue;    // enforce2d: harmless
     if (f->time_integrate || (modify->fmask[i] & ACTS))
       error->all(FLERR,
@@ -135,11 +139,15 @@ void FixBKFused::init()
   if (comm->cutghostuser > GHOST_CUTOFF) {
     if (comm->me == 0)
       utils::logmesg(lmp, "fix {} bk/substrate fused: the fix trades its boundary rows itself, "
-                     "comm_modify cutoff {} -> {}{}\n", id, comm->cutghostuser, GHOST_CUTOFF,
-                     nblocks > 1 ? ", thermo_modify lost/bond ignore" : "");
+                     "comm_modify cutoff {} -> {}\n", id, comm->cutghostuser, GHOST_CUTOFF);
     comm->cutghostuser = GHOST_CUTOFF;
   }
-  if (nblocks > 1) input->one("thermo_modify lost/bond ignore");
+  if (nblocks > 1) {    // (the wheel ships no thermo.h: the command, before the run's setup)
+    if (comm->me == 0)
+      utils::logmesg(lmp, "fix {} bk/substrate fused: thermo_modify lost/bond ignore (LAMMPS's "
+                     "bond check at setup finds no bond partner across ranks)\n", id);
+    input->one("thermo_modify lost/bond ignore");
+  }
 
   // who reads LAMMPS's positions, velocities or the per-atom array during a run (mirror_due)
   reader_every.clear();
@@ -252,15 +260,30 @@ int FixBKFused::fused_lattice(LAMMPS *lmp, std::string *why)
     if (K > n / lx)
       return no(fmt::format(" on {} ranks needs at least one lattice row per rank (the lattice "
                             "has {}): run on at most {} ranks", K, n / lx, n / lx));
-    if (K > 1) {    // each row inside its block's sub-domain (y = ylo + yprd first(j) / Ly)
-      const tagint stray = first_stray(lmp, lx, n / lx, K);
-      tagint all = stray;
-      MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
-      if (all != std::numeric_limits<tagint>::max())
-        return no(fmt::format(" on {} ranks cuts the box between rows at y = ylo + yprd j / {}, "
-                              "but particle {} (row {}) is not between its row's cuts: rows "
-                              "must sit between them (bkflow's lattices: y = ylo + (iy + 1/2) "
-                              "yprd / Ly)", K, n / lx, all, (all - 1) / lx));
+    if (K > 1) {    // each particle within a quarter row of its row's line
+      const int ly = n / lx;
+      const double a = lmp->domain->yprd / ly, lo = lmp->domain->boxlo[1];
+      double far = 0.0;    // the farthest off its line, in rows, and its ID (the lowest at a tie)
+      tagint who = std::numeric_limits<tagint>::max();
+      for (int i = 0; i < atom->nlocal; i++) {
+        const double site = lo + (static_cast<double>((atom->tag[i] - 1) / lx) + 0.5) * a;
+        double d = std::fabs(atom->x[i][1] - site) / a;
+        if (lmp->domain->yperiodic) {
+          d = std::fmod(d, static_cast<double>(ly));
+          d = std::min(d, ly - d);
+        }
+        if (d > far || (d == far && atom->tag[i] < who)) far = d, who = atom->tag[i];
+      }
+      double far_all = 0.0;
+      MPI_Allreduce(&far, &far_all, 1, MPI_DOUBLE, MPI_MAX, world);
+      tagint mine = far == far_all ? who : std::numeric_limits<tagint>::max(), tag = mine;
+      MPI_Allreduce(&mine, &tag, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+      if (far_all > 0.25)
+        return no(fmt::format(" on {} ranks needs every particle within a quarter row of its "
+                              "row's line y = ylo + (iy + 1/2) yprd / Ly (the ranks' cuts fall "
+                              "half a row from these lines, where bkflow's lattices sit); "
+                              "particle {} (row {}) is {:.2f} rows off it", K, tag,
+                              (tag - 1) / lx, far_all));
     }
     return lx;
   }
@@ -361,26 +384,26 @@ void FixBKFused::report_stray(tagint stray)
 void FixBKFused::halo_start(void *self, const double *x, const double *y)
 {
   auto *f = static_cast<FixBKFused *>(self);
-  const double t0 = MPI_Wtime();
+  const double t0 = f->in_step ? MPI_Wtime() : 0.0;
   const int Lx = f->Lx, n = f->nloc;
   const int down = f->comm->procneigh[1][0], up = f->comm->procneigh[1][1];
   double *s = f->halo_send.data(), *r = f->halo_recv.data();    // [0, 2 Lx): to/from below
   const size_t row = static_cast<size_t>(Lx) * sizeof(double);
-  MPI_Irecv(r, 2 * Lx, MPI_DOUBLE, down, 1, f->world, &f->halo_req[0]);
-  MPI_Irecv(r + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 0, f->world, &f->halo_req[1]);
+  MPI_Irecv(r, 2 * Lx, MPI_DOUBLE, down, 1, f->halo_comm, &f->halo_req[0]);
+  MPI_Irecv(r + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 0, f->halo_comm, &f->halo_req[1]);
   memcpy(s, x, row);
   memcpy(s + Lx, y, row);
   memcpy(s + 2 * Lx, x + n - Lx, row);
   memcpy(s + 3 * Lx, y + n - Lx, row);
-  MPI_Isend(s, 2 * Lx, MPI_DOUBLE, down, 0, f->world, &f->halo_req[2]);
-  MPI_Isend(s + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 1, f->world, &f->halo_req[3]);
-  f->halo_time += MPI_Wtime() - t0;
+  MPI_Isend(s, 2 * Lx, MPI_DOUBLE, down, 0, f->halo_comm, &f->halo_req[2]);
+  MPI_Isend(s + 2 * Lx, 2 * Lx, MPI_DOUBLE, up, 1, f->halo_comm, &f->halo_req[3]);
+  if (f->in_step) f->halo_time += MPI_Wtime() - t0;
 }
 
 void FixBKFused::halo_wait(void *self, double *x, double *y)
 {
   auto *f = static_cast<FixBKFused *>(self);
-  const double t0 = MPI_Wtime();
+  const double t0 = f->in_step ? MPI_Wtime() : 0.0;
   const int Lx = f->Lx, n = f->nloc;
   const double *r = f->halo_recv.data();
   const size_t row = static_cast<size_t>(Lx) * sizeof(double);
@@ -389,8 +412,10 @@ void FixBKFused::halo_wait(void *self, double *x, double *y)
   memcpy(y - Lx, r + Lx, row);
   memcpy(x + n, r + 2 * Lx, row);    // the block above's first row
   memcpy(y + n, r + 3 * Lx, row);
-  f->halo_time += MPI_Wtime() - t0;
-  f->halo_calls++;
+  if (f->in_step) {
+    f->halo_time += MPI_Wtime() - t0;
+    f->halo_calls++;
+  }
 }
 
 void FixBKFused::build_lattice()
@@ -427,6 +452,7 @@ void FixBKFused::build_lattice()
   for (int k = 0; k < nloc; k++) arr.fb[k] = -1.0;
   halo_send.assign(4 * static_cast<size_t>(Lx), 0.0);
   halo_recv.assign(4 * static_cast<size_t>(Lx), 0.0);
+  if (slab && halo_comm == MPI_COMM_NULL) MPI_Comm_dup(world, &halo_comm);    // its own tags
   arr.halo_start = &FixBKFused::halo_start;
   arr.halo_wait = &FixBKFused::halo_wait;
   arr.halo_ctx = this;
@@ -615,7 +641,9 @@ void FixBKFused::initial_integrate(int /*vflag*/)
   long last = 0;
   arr.fb_track = track_breaks;
   arr.fb_mark = break_mark;
+  in_step = true;
   const long nb = kernel.run(model, arr, mirror_to, n, 1, &last);
+  in_step = false;
   nbreak_step = last;
   nbreak_total += nb;
   if (damping != BK_NO_DAMPING) vh_valid = 1;
@@ -654,17 +682,28 @@ void FixBKFused::sync_state()
   }
 }
 
-/* The sum over the lattice of per-row values, rows[r] for row r of this rank's block
-   (collective): the blocks' rows gathered exactly (a sum of one value and zeros) and added in
-   row order, so that every division into blocks gives the same bits */
+/* Sums over the lattice of per-row values (collective): rows[w r + j] is value j of row r of
+   this rank's block (width w values a row); the blocks' rows are gathered exactly (a sum of
+   one value and zeros) and added in row order into total[j], so that every division into
+   blocks gives the same bits */
+
+void FixBKFused::row_totals(const std::vector<double> &rows, int w, double *total) const
+{
+  std::vector<double> all(static_cast<size_t>(Ly) * w, 0.0);
+  std::copy(rows.begin(), rows.end(), all.begin() + static_cast<size_t>(row0) * w);
+  if (nblocks > 1)
+    MPI_Allreduce(MPI_IN_PLACE, all.data(), Ly * w, MPI_DOUBLE, MPI_SUM, world);
+  for (int j = 0; j < w; j++) {
+    double s = 0.0;
+    for (int r = 0; r < Ly; r++) s += all[static_cast<size_t>(r) * w + j];
+    total[j] = s;
+  }
+}
 
 double FixBKFused::row_sum_total(const std::vector<double> &rows) const
 {
-  std::vector<double> all(Ly, 0.0);
-  std::copy(rows.begin(), rows.end(), all.begin() + row0);
-  if (nblocks > 1) MPI_Allreduce(MPI_IN_PLACE, all.data(), Ly, MPI_DOUBLE, MPI_SUM, world);
-  double s = 0.0;
-  for (double r : all) s += r;
+  double s;
+  row_totals(rows, 1, &s);
   return s;
 }
 
@@ -748,13 +787,15 @@ int FixBKFused::path_code() const
                                            : BK_PATH_FUSED_BASELINE;
 }
 
-// the contacts' phase sums from the fix's own arrays, in lattice order
+// the contacts' phase sums from the fix's own arrays, row by row (row_totals)
 void FixBKFused::contact_phase(double *sums)
 {
   if (!lattice_ready || !have_state) return FixBKLayer::contact_phase(sums);
-  double local[BK_NPHASE] = {};
-  if (contact != BK_NO_CONTACT) kernel.phase(arr.drx, arr.dry, nloc, ke / fmax, local);
-  MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
+  std::vector<double> rows(static_cast<size_t>(nrows) * BK_NPHASE, 0.0);
+  if (contact != BK_NO_CONTACT)
+    for (int r = 0; r < nrows; r++)
+      kernel.phase(arr.drx + r * Lx, arr.dry + r * Lx, Lx, ke / fmax, &rows[r * BK_NPHASE]);
+  row_totals(rows, BK_NPHASE, sums);
 }
 
 /* the energies of the current step from the fix's own arrays (the kernel's, vectorized):

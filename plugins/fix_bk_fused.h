@@ -104,6 +104,9 @@ class FixBKFused : public FixBKLayer {
   static void halo_start(void *self, const double *x, const double *y);
   static void halo_wait(void *self, double *x, double *y);
   MPI_Request halo_req[4];
+  MPI_Comm halo_comm = MPI_COMM_NULL;    // a duplicate of world: the halo's tags are its own
+  bool in_step = false;                  // inside the step's kernel (the halo's timing)
+  void row_totals(const std::vector<double> &rows, int w, double *total) const;
   double row_sum_total(const std::vector<double> &rows) const;
   void update_map();
   void adopt_atoms();

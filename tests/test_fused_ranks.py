@@ -20,7 +20,8 @@ from tests.support import lively_start, tool
 pytestmark = pytest.mark.usefixtures("lammps")
 
 # 8 x 7: blocks of 7 rows on 2, 3, 4 ranks are uneven (3+4, 2+2+3, 1+2+2+2), and on 4 ranks a
-# block of one row has the same rank on both sides
+# block is one row; on 2 ranks the rank below is the rank above (test_paths.py: a 12 x 3
+# lattice on 2 ranks, a block of one row with the same rank on both sides)
 SIZE = (8, 7)
 STEPS = 600
 PRELOAD = 1.2
@@ -39,7 +40,8 @@ def _mpirun(workdir, ranks, deck="in.bk", log="log.lammps"):
 
 
 def _spec(**kw):
-    return RunSpec(phi=kw.pop("phi", 10.0), Lx=SIZE[0], Ly=SIZE[1], seed=kw.pop("seed", 3), **kw)
+    size = kw.pop("size", SIZE)
+    return RunSpec(phi=kw.pop("phi", 10.0), Lx=size[0], Ly=size[1], seed=kw.pop("seed", 3), **kw)
 
 
 def _deck(spec, workdir, steps=STEPS, chunks=3, tail=FINAL):
@@ -125,6 +127,19 @@ def test_two_and_four_ranks_give_the_bits_of_one(ranks, workdir):
         f"{a}-{b}" for a, b in block_rows(SIZE[1], ranks)) in many[3]
 
 
+def test_a_wide_lattice_with_several_row_blocks_per_rank(workdir):
+    """64 x 21 on 3 ranks: 7 rows a rank, the interior rows in the pipeline's blocks of 4 rows
+    (256 particles), so the step advances rows block after block between the halo's start and
+    its wait"""
+    spec = _spec(size=(64, 21), seed=13, start="random", contact_rule="coulomb")
+    deck = _deck(spec, workdir, steps=300)
+    one = _run(workdir, 1, deck)
+    three = _run(workdir, 3, deck)
+    assert "3 ranks, blocks of rows 0-6 | 7-13 | 14-20" in three[3]
+    assert three[0] == one[0]
+    _same_stress(three[1], one[1])
+
+
 @pytest.mark.parametrize("first, then", [(1, 3), (4, 2), (3, 1)])
 def test_a_restart_read_on_other_ranks_follows_one_run(first, then, workdir):
     """written on ``first`` ranks half-way, continued on ``then``: the uninterrupted run's bits"""
@@ -159,8 +174,9 @@ def test_a_particle_that_strays_to_another_rank_stops_the_run(how, workdir):
     assert proc.returncode != 0
     out = (workdir / "log.lammps").read_text()
     if how == "moved":
-        assert ("fused on 2 ranks cuts the box between rows at y = ylo + yprd j / 7, but "
-                "particle 17 (row 2) is not between its row's cuts" in out)
+        assert ("fused on 2 ranks needs every particle within a quarter row of its row's line "
+                "y = ylo + (iy + 1/2) yprd / Ly" in out)
+        assert "particle 17 (row 2) is 0.70 rows off it" in out
     else:
         assert "particle 17 (lattice row 2) left the sub-domain of its rank's rows" in out
         assert "run it on one rank, or on the general path" in out

@@ -116,21 +116,29 @@ def _standalone(workdir, deck, ranks, tag):
     return pd.read_csv(workdir / f"phase.{tag}.csv")
 
 
+@pytest.mark.parametrize("path", ["auto", "general"])
 @pytest.mark.parametrize("start", ["synchronized", "stratified"])
-def test_two_ranks_record_the_phases_of_one_rank(lammps, start, workdir):
-    """The general path on 2 ranks (each sums its own contacts, then the sums are reduced)
-    against the fused path on one rank: the same phases to the rounding of the sums' order."""
+def test_two_ranks_record_the_phases_of_one_rank(lammps, start, path, workdir):
+    """The fused path on 2 ranks (each sums its rows, the rows gathered exactly and added in
+    order) against the fused path on one rank: the same bits; the general path on 2 ranks
+    (each sums its own contacts, then the sums are reduced): to the rounding of the order."""
     spec = _spec(phi=10.0, Lx=12, Ly=3, seed=5, start=start)
-    lattice, _, v0 = lively_start(spec)
+    # rows at their sites, half a row from the fused path's cuts between ranks
+    lattice, _, v0 = lively_start(spec, offset=(0.495, 0.0), drift=(0.2, 0.0))
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     runs = {}
     for ranks in (1, 2):
         deck = setup_text(spec, DeckOptions(stress=None, phase=f"phase.{ranks}.csv",
-                                            thermo_every=10**6, path="auto"))
+                                            thermo_every=10**6,
+                                            path="auto" if ranks == 1 else path))
         deck += f"displace_atoms all move {-PRELOAD!r} 0 0\nrun {STEPS}\n"
         runs[ranks] = _standalone(workdir, deck, ranks, str(ranks))
-        assert f"on {ranks} procs" in (workdir / f"log.{ranks}").read_text()
+        log = (workdir / f"log.{ranks}").read_text()
+        assert f"on {ranks} procs" in log
+        assert ("bk/substrate fused:" in log) == (ranks == 1 or path == "auto")
     assert len(runs[1]) == len(runs[2]) == STEPS // EVERY + 1
+    if path == "auto":
+        assert (workdir / "phase.2.csv").read_text() == (workdir / "phase.1.csv").read_text()
     for col in COLUMNS:
         np.testing.assert_allclose(runs[2][col], runs[1][col], rtol=0, atol=1e-10, err_msg=col)
 

@@ -121,11 +121,15 @@ def test_truncated_slip_file_is_reported(lammps, tmp_path, capsys):
     assert "truncated" in capsys.readouterr().err
 
 
-def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path):
+@pytest.mark.parametrize("path", ["auto", "general"])
+def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path, path):
     """The frames of fix bk/slips, and with `breaks` (scene events) each contact's first break
-    in the slip, which travels with its atom between ranks: the same on 1 and 2 ranks."""
+    in the slip: the same on 1 and 2 ranks, on the fused path (each rank its rows) and on the
+    general one (the first break travels with its atom between ranks)."""
+    from bkflow.deck import DeckOptions
+
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="events", seed=3)
-    write_deck(spec, tmp_path)
+    write_deck(spec, tmp_path, DeckOptions(path=path))
     got = {}
     for np_ in (1, 2):
         d = tmp_path / f"np{np_}"
@@ -205,7 +209,7 @@ def test_the_fast_dump_reader_agrees_with_mdanalysis(lammps, tmp_path):
 
 
 # ------------------------------------------------------------------------ rupture fronts
-def _fronts_against_a_velocity_dump(spec, workdir, ranks):
+def _fronts_against_a_velocity_dump(spec, workdir, ranks, path="auto"):
     """Run the deck of ``spec`` standalone (``ranks`` MPI ranks) with a dump of every
     particle's v_x at every stress sample beside fix bk/fronts; (fronts, {step: v_x by id},
     stress series)."""
@@ -213,7 +217,7 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks):
     from bkflow.io import read_fronts
 
     (workdir / "data.bk").write_text(data_text(spec))
-    deck = setup_text(spec, DeckOptions(thermo_every=10**6))
+    deck = setup_text(spec, DeckOptions(thermo_every=10**6, path=path))
     deck += (f"\ndump v all custom {spec.stress_nevery} v.dump id vx\n"
              "dump_modify v sort id format float %.17g\n"
              f"run {spec.n_steps}\n")
@@ -232,15 +236,16 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks):
     return read_fronts(workdir / "fronts.bin"), vel, (t, sigma)
 
 
-@pytest.mark.parametrize("ranks", [1, 2])
-def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tmp_path, ranks):
+@pytest.mark.parametrize("ranks, path", [(1, "auto"), (2, "auto"), (2, "general")])
+def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tmp_path, ranks,
+                                                                      path):
     """fix bk/fronts (scene fronts): one record per slip after the transient, the very slips
     of stress.csv (the zigzag rule), sampled at every stress sample from the slip's maximum to
     its minimum, holding every particle's v_x (float32) at those steps; on the fused path (one
-    rank) and the general one (two)."""
+    rank, two) and the general one (two)."""
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
     assert "bk/fronts" in deck_line(spec) and "bk/slips" not in deck_line(spec)
-    fronts, vel, (t, sigma) = _fronts_against_a_velocity_dump(spec, tmp_path, ranks)
+    fronts, vel, (t, sigma) = _fronts_against_a_velocity_dump(spec, tmp_path, ranks, path)
     events = slip_events(t, sigma, spec.slip_threshold_stress).after(
         spec.slips_start_step * spec.dt)
     assert len(fronts) == len(events) >= 3

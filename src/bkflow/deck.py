@@ -168,10 +168,10 @@ def _header(spec: RunSpec, path: str) -> list[str]:
 
 #: LAMMPS settings that speed up the fused path and change no number (benchmarks/floor.py):
 #: the fused fix mirrors positions into LAMMPS only when something reads them, so a
-#: neighbour check every step would force a copy every step. On several ranks (general path)
-#: they are safe too: ghosts reach bond_limit + 1 beyond a subdomain, and an atom moves far
-#: less than that in 50 steps; the fix reads no ghost force, so newton_pair off (no reverse
-#: communication) changes nothing.
+#: neighbour check every step would force a copy every step. On several ranks on the general
+#: path they are safe too: ghosts reach bond_limit + 1 beyond a subdomain, and an atom moves
+#: far less than that in 50 steps; the fix reads no ghost force, so newton_pair off (no
+#: reverse communication) changes nothing. (The fused path on several ranks needs no ghost.)
 FAST_SETTINGS = ("timer           loop", "neigh_modify    every 50 delay 0 check yes",
                  "newton          off off")
 
