@@ -1,29 +1,30 @@
 """The time per step of the fused path on P ranks: a model, fitted to this machine, and what it
 predicts past it (benchmarks/RESULTS.md, "The fused path on many ranks").
 
-Each of P ranks holds a block of N / P atoms in whole rows of an Lx x Ly lattice and, every
-step, trades its first and last rows with its two neighbours (two MPI_Sendrecv of 2 Lx
-doubles each way). The model of one step:
+Each of P ranks holds a block of n = N / P atoms in whole rows of an Lx x Ly lattice and,
+every step, trades its first and last rows with its two neighbours (32 Lx bytes leave each
+rank, in two messages). The model of one step:
 
-    t_P = a N / P + o + [P > 1] (2 lam + 32 Lx / bw + g0 + g1 Lx)
+    t_P = c(n) n (1 + kappa [P > 1]) + [P > 1] (2 lam + 32 Lx / bw)
 
-  a         compute per atom-step (the kernel), o the loop's fixed cost per step (LAMMPS's
-            Verlet, the fix's calls): both fitted to one rank, t_1 = a N + o;
-  lam, bw   latency per exchange and bandwidth: fitted to the halo time the fix itself
-            measures on two ranks (its log line; 32 Lx bytes leave each rank per step);
-  g0, g1    what else two ranks cost per step (LAMMPS's own forward communication of the ghost
-            atoms of the bond check, about one row each side, and the wait for the slower
-            rank): fitted to the rest of t_2.
+  c(n)      the compute per atom-step of one rank holding n atoms: measured on one rank at
+            each lattice and interpolated in log n (it is not a constant: it grows once a
+            rank's arrays, about 240 bytes an atom, leave the caches; held at the end values
+            outside the measured range);
+  kappa     what the ranks lose meeting every step, in proportion to their compute (each waits
+            for the slower one: the jitter of a step scales with the step);
+  lam, bw   the latency of one exchange and the bandwidth.
 
-Past this machine the exchange's lam and bw are those of the network the boundary crosses:
-inside a node, the fitted ones (shared memory); between nodes, NETWORK below (an assumption,
-stated where it is used: a 100 Gb/s InfiniBand link). The slowest rank sets the step, so on
-several nodes every step pays one inter-node exchange.
+kappa, lam and 1/bw are fitted (non-negative least squares, scipy.optimize.nnls, in relative
+terms) to the time of two fused ranks beside one. Past this machine the exchanges crossing a
+node boundary have NETWORK's latency and bandwidth (an assumption, stated where it is used);
+the slowest rank sets the step, so on several nodes every step pays one inter-node exchange.
+What this machine cannot tell: c(n) on a 64-core node, whose ranks share the memory bandwidth
+(here two ranks did not slow each other: benchmarks/RESULTS.md).
 
     python benchmarks/scaling_model.py     # the fit of MEASURED and the predictions
 
-MEASURED is the last line of ``python benchmarks/throughput.py --scaling`` (benchmarks/
-RESULTS.md has the run it comes from).
+MEASURED is the last line of ``python benchmarks/throughput.py --scaling``.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import nnls
 
 #: (Lx, N, t_1 s/step, t_2 s/step, halo s/step) of `throughput.py --scaling`, this machine
 MEASURED = []
@@ -44,12 +46,16 @@ NODE = 64
 
 @dataclass(frozen=True)
 class Model:
-    a: float      # s per atom-step
-    o: float      # s per step, fixed
-    lam: float    # s per exchange (latency)
-    bw: float     # bytes/s
-    g0: float     # s per step, other costs of several ranks
-    g1: float     # s per step per row atom, other costs of several ranks
+    n: tuple        # atoms of one rank at which c was measured
+    c: tuple        # s per atom-step there
+    kappa: float    # the ranks' meeting, a fraction of the compute
+    lam: float      # s per exchange
+    bw: float       # bytes/s
+
+    def compute(self, n):
+        """c(n) n: one rank's compute per step, holding n atoms"""
+        c = np.interp(np.log(n), np.log(self.n), self.c)
+        return c * n
 
     def halo(self, Lx, lam=None, bw=None):
         """the two exchanges of one step"""
@@ -59,21 +65,26 @@ class Model:
 
     def step(self, N, Lx, P, lam=None, bw=None):
         """seconds per step of an N-atom lattice Lx wide on P ranks"""
-        t = self.a * N / P + self.o
+        t = self.compute(N / P)
         if P > 1:
-            t = t + self.halo(Lx, lam, bw) + self.g0 + self.g1 * Lx
+            t = t * (1.0 + self.kappa) + self.halo(Lx, lam, bw)
         return t
 
 
 def fit(measured) -> Model:
-    """least squares (numpy.linalg.lstsq) of each part on its own measurements"""
-    m = np.asarray(measured, dtype=float)
-    Lx, N, t1, t2, h = m.T
-    (a, o), *_ = np.linalg.lstsq(np.column_stack([N, np.ones_like(N)]), t1, rcond=None)
-    (c0, c1), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(Lx), Lx]), h, rcond=None)
-    rest = t2 - (a * N / 2 + o) - h
-    (g0, g1), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(Lx), Lx]), rest, rcond=None)
-    return Model(a=a, o=o, lam=c0 / 2.0, bw=32.0 / c1 if c1 > 0 else np.inf, g0=g0, g1=g1)
+    m = np.asarray(sorted(measured, key=lambda r: r[1]), dtype=float)
+    Lx, N, t1, t2, _ = m.T
+    base = Model(n=tuple(N), c=tuple(t1 / N), kappa=0.0, lam=0.0, bw=np.inf)
+    comp = np.array([base.compute(n / 2) for n in N])
+    # relative residuals: each lattice counts alike
+    A = np.column_stack([comp, 2.0 * np.ones_like(N), 32.0 * Lx]) / t2[:, None]
+    (kappa, lam, inv_bw), _ = nnls(A, (t2 - comp) / t2)
+    return Model(n=base.n, c=base.c, kappa=kappa, lam=lam,
+                 bw=1.0 / inv_bw if inv_bw > 0 else np.inf)
+
+
+def _net(P):
+    return NETWORK if P > NODE else (None, None)
 
 
 def strong(model: Model, N: int, Lx: int, ranks) -> list[tuple[int, float, float, float]]:
@@ -82,8 +93,7 @@ def strong(model: Model, N: int, Lx: int, ranks) -> list[tuple[int, float, float
     t1 = model.step(N, Lx, 1)
     out = []
     for P in ranks:
-        net = NETWORK if P > NODE else (None, None)
-        t = model.step(N, Lx, P, *net)
+        t = model.step(N, Lx, P, *_net(P))
         out.append((P, t, t1 / t, t1 / t / P))
     return out
 
@@ -92,7 +102,7 @@ def stops(model: Model, N: int, Lx: int, limit: int) -> int:
     """the largest P (a power of 2, <= limit) past which one more doubling gains less than 10%
     (beyond NODE ranks with the inter-node exchange)"""
     def t(P):
-        return model.step(N, Lx, P, *(NETWORK if P > NODE else (None, None)))
+        return model.step(N, Lx, P, *_net(P))
     P = 1
     while 2 * P <= limit and t(P) / t(2 * P) > 1.1:
         P *= 2
@@ -104,37 +114,56 @@ def main() -> None:
         raise SystemExit("MEASURED is empty: paste the last line of "
                          "`python benchmarks/throughput.py --scaling`")
     mdl = fit(MEASURED)
-    print(f"a = {mdl.a * 1e9:.2f} ns/atom-step, o = {mdl.o * 1e6:.2f} us/step, "
-          f"lam = {mdl.lam * 1e6:.2f} us/exchange, bw = {mdl.bw / 1e9:.2f} GB/s, "
-          f"g0 = {mdl.g0 * 1e6:.2f} us/step, g1 = {mdl.g1 * 1e9:.2f} ns/step per row atom\n")
-    print("| lattice | N | t_1 measured | model | t_2 measured | model | halo measured | model |")
-    print("|---|---|---|---|---|---|---|---|")
-    for Lx, N, t1, t2, h in MEASURED:
-        print(f"| {Lx:.0f}x{N / Lx:.0f} | {N:.0f} | {t1 * 1e6:.1f} us | "
-              f"{mdl.step(N, Lx, 1) * 1e6:.1f} | {t2 * 1e6:.1f} us | "
-              f"{mdl.step(N, Lx, 2) * 1e6:.1f} | {h * 1e6:.2f} us | {mdl.halo(Lx) * 1e6:.2f} |")
+    print("c(n), ns per atom-step on one rank: " + ", ".join(
+        f"{c * 1e9:.2f} at n = {n:.0f}" for n, c in zip(mdl.n, mdl.c)))
+    print(f"kappa = {mdl.kappa:.3f}, lam = {mdl.lam * 1e6:.2f} us/exchange, "
+          f"bw = {mdl.bw / 1e9:.2f} GB/s\n")
+    print("| lattice | N | t_2 measured | model | halo measured (waits included) | model |")
+    print("|---|---|---|---|---|---|")
+    for Lx, N, _t1, t2, h in sorted(MEASURED, key=lambda r: r[1]):
+        print(f"| {Lx:.0f}x{N / Lx:.0f} | {N:.0f} | {t2 * 1e6:.1f} us | "
+              f"{mdl.step(N, Lx, 2) * 1e6:.1f} | {h * 1e6:.2f} us | "
+              f"{(mdl.halo(Lx) + mdl.kappa * mdl.compute(N / 2)) * 1e6:.2f} |")
     N, Lx = 2000 * 500, 2000    # 10^6 atoms, the paper's 4:1 aspect
     print(f"\nstrong scaling, N = {N} ({Lx}x{N // Lx}); past {NODE} ranks, {NODE} a node with "
           f"one inter-node exchange a step (lam = {NETWORK[0] * 1e6:g} us, "
           f"bw = {NETWORK[1] / 1e9:g} GB/s, assumed)\n")
-    print("| P | us/step | speed-up | efficiency |")
-    print("|---|---|---|---|")
+    print("| P | atoms a rank | us/step | speed-up | efficiency |")
+    print("|---|---|---|---|---|")
     for P, t, s, e in strong(mdl, N, Lx, [1, 2, 4, 8, 16, 32, 64, 128, 256]):
-        print(f"| {P} | {t * 1e6:.1f} | {s:.1f} | {e:.2f} |")
-    print(f"\nweak scaling, 14400 atoms a rank: Lx fixed at 240 (blocks of 60 rows), and the "
-          f"4:1 aspect kept (Lx grows as sqrt(P))\n")
+        print(f"| {P} | {N // P} | {t * 1e6:.1f} | {s:.1f} | {e:.2f} |")
+    print("\nweak scaling, 14400 atoms a rank: Lx fixed at 240 (blocks of 60 rows), and the "
+          "4:1 aspect kept (Lx grows as sqrt(P))\n")
     print("| P | us/step, Lx = 240 | efficiency | Lx at 4:1 | us/step | efficiency |")
     print("|---|---|---|---|---|---|")
     base = mdl.step(14400, 240, 1)
     for P in [1, 2, 4, 16, 64, 256]:
-        net = NETWORK if P > NODE else (None, None)
-        t_fixed = mdl.step(14400 * P, 240, P, *net)
+        t_fixed = mdl.step(14400 * P, 240, P, *_net(P))
         lx = int(round(2 * np.sqrt(14400 * P)))
-        t_aspect = mdl.step(14400 * P, lx, P, *net)
+        t_aspect = mdl.step(14400 * P, lx, P, *_net(P))
         print(f"| {P} | {t_fixed * 1e6:.1f} | {base / t_fixed:.2f} | {lx} | "
               f"{t_aspect * 1e6:.1f} | {base / t_aspect:.2f} |")
-    print(f"\nwhere doubling P stops paying 10% (N = {N}): one node, P = "
-          f"{stops(mdl, N, Lx, NODE)}; four nodes, P = {stops(mdl, N, Lx, 4 * NODE)}")
+    # the same without the caches' gain: c held at its in-cache value (n = 14400), the
+    # pessimistic reading for a node whose ranks share memory bandwidth
+    flat = Model(n=(1.0,), c=(float(np.interp(np.log(14400), np.log(mdl.n), mdl.c)),),
+                 kappa=mdl.kappa, lam=mdl.lam, bw=mdl.bw)
+    print("\nwhere doubling P stops paying 10% (P a power of 2, at most one lattice row a rank): "
+          "P, atoms a rank, and the share of the step that is not compute there (the exchanges "
+          "and the ranks' meeting); in brackets, P with c held at its in-cache value (n = "
+          "14400), the reading for a node whose ranks share the memory bandwidth\n")
+    print("| N | lattice | one node | four nodes |")
+    print("|---|---|---|---|")
+    for n_, lx in ((14400, 240), (57600, 480), (230400, 960), (N, Lx)):
+        ly = n_ // lx
+        cells = []
+        for limit in (NODE, 4 * NODE):
+            P = stops(mdl, n_, lx, min(limit, ly))
+            Pf = stops(flat, n_, lx, min(limit, ly))
+            t = mdl.step(n_, lx, P, *_net(P))
+            share = 1.0 - mdl.compute(n_ / P) / t
+            why = " (rows)" if 2 * P > ly else ""
+            cells.append(f"P = {P}{why}, {n_ // P} atoms, {100 * share:.0f}% [{Pf}]")
+        print(f"| {n_} | {lx}x{ly} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

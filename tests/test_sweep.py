@@ -363,6 +363,26 @@ def test_a_failed_run_is_reported_and_the_others_finish(lammps, tmp_path):
     assert rep2.finished_before == 1 and list(rep2.failed) == [job_id]
 
 
+def test_force_lets_a_sweeps_runs_above_the_cost_limits(lammps, tmp_path, monkeypatch):
+    """--force of a sweep reaches its runs (each run checks its own cost again): without it a
+    run above the limits fails with the limit named, with it the run is made; a later sweep
+    without it takes the permission back"""
+    import bkflow.limits
+
+    spec = sweep_specs([10.0], [(20, 5)], 1, t_end=100.0)[0]
+    monkeypatch.setattr(bkflow.limits, "MAX_ATOM_STEPS", spec.N * spec.n_steps / 2)
+    out = tmp_path / "s"
+    rep = sweep([spec], out, jobs=1, progress=False)
+    (job_id, msg), = rep.failed.items()
+    assert "atom-steps" in msg and "pass --force" in msg
+    rep = sweep([spec], out, jobs=1, progress=False, force=True)
+    assert rep.finished == [job_id] and not rep.failed
+    job = open_project(out, create=False).open_job(id=job_id)
+    assert job.document["force"] is True
+    sweep([spec], out, jobs=1, progress=False)
+    assert "force" not in job.document
+
+
 def test_plot_refuses_an_unknown_format(tiny_sweep, tmp_path):
     out, _ = tiny_sweep
     proc = bkflow("plot", out, "--out", tmp_path, "--format", "png,jpgx")

@@ -436,7 +436,7 @@ def _sweep(a) -> int:
     if a.init:
         from .project import init_jobs
 
-        done = init_jobs(specs, a.out, settings)
+        done = init_jobs(specs, a.out, settings, force=a.force)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
               f"(cd {a.out} && python -m bkflow.cluster run|submit ...)")
         return 0
@@ -447,7 +447,7 @@ def _sweep(a) -> int:
     for k, v in axes.items():
         print(f"  {k} = {', '.join(map(str, v))}", flush=True)
     rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None,
-                settings=settings)
+                settings=settings, force=a.force)
     print(f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
           f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
           + (f" ({len(rep.reanalysed)} of them only re-analysed)" if rep.reanalysed else "")

@@ -47,8 +47,7 @@ from .params import (
     transient_step,
 )
 from .phases import COHERENT_FLUCTUATION, coherence, state
-from .plugin import (ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_version,
-                     open_lammps)
+from .plugin import ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_version, open_lammps
 from .provenance import record as provenance
 from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
 from .stationarity import stationarity

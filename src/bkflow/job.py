@@ -31,13 +31,14 @@ def analysed(out, spec: RunSpec, settings: AnalysisSettings) -> bool:
     return simulated(out, spec) and rd.analysis_problem(settings) is None
 
 
-def simulate(spec: RunSpec, out, command: str | None = None) -> bool:
-    """Run ``spec`` into ``out`` unless it is there; True when LAMMPS ran."""
+def simulate(spec: RunSpec, out, command: str | None = None, force: bool = False) -> bool:
+    """Run ``spec`` into ``out`` unless it is there; True when LAMMPS ran. ``force``: above
+    the cost limits too."""
     rd = RunDir(out)
     with rd.lock():
         if simulated(out, spec):
             return False
-        run(spec, out, overwrite=True, progress=False, command=command)
+        run(spec, out, overwrite=True, progress=False, command=command, force=force)
         return True
 
 

@@ -108,6 +108,10 @@ def _record_failure(job, exc: Exception) -> None:
         job.document["error"] = (f"{type(exc).__name__}: {exc} ({spec.label}; see {job.path})")
 
 
+#: the job document's key saying its run may go above the cost limits (``--force``)
+FORCE = "force"
+
+
 @SweepProject.post(simulated)
 @SweepProject.operation(directives={"np": 1, "walltime": _walltime_hours})
 def simulate(job):
@@ -118,7 +122,8 @@ def simulate(job):
     _die_with_parent()
     try:
         spec = spec_of(job)
-        one.simulate(spec, job.path, command=f"bkflow sweep ({SIMULATE})")
+        one.simulate(spec, job.path, command=f"bkflow sweep ({SIMULATE})",
+                     force=bool(job.document.get(FORCE, False)))
         one.analyze(spec, job.path, settings_of(job.project))
     except Exception as exc:
         _record_failure(job, exc)
@@ -331,12 +336,26 @@ class ClusterProject(SweepProject):
         set_template_dir(self, TEMPLATE_DIR)
 
 
-def init_jobs(specs, root, settings: AnalysisSettings | None = None) -> int:
+def permit_above_limits(job, force: bool) -> None:
+    """Record in the job's document whether its run may go above the cost limits (``--force``
+    of the sweep that made or ran it), which ``simulate`` passes to the engine."""
+    if force:
+        job.document[FORCE] = True
+    elif FORCE in job.document:
+        del job.document[FORCE]
+
+
+def init_jobs(specs, root, settings: AnalysisSettings | None = None,
+              force: bool = False) -> int:
     """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
-    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished."""
+    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished. ``force``:
+    their runs may go above the cost limits."""
     check_sweep_dir(root)  # before the lock file is made
     with RunDir(root).lock():
         project = open_project(root)
         if settings is not None:
             set_settings(project, settings)
-        return sum(finished(project.open_job(s.to_dict()).init()) for s in specs)
+        jobs = [project.open_job(s.to_dict()).init() for s in specs]
+        for job in jobs:
+            permit_above_limits(job, force)
+        return sum(finished(job) for job in jobs)

@@ -30,6 +30,7 @@ from .project import (
     check_sweep_dir,
     finished,
     open_project,
+    permit_above_limits,
     set_settings,
     settings_of,
     simulated,
@@ -198,13 +199,14 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
 
 
 def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
-          settings: AnalysisSettings | None = None) -> SweepReport:
+          settings: AnalysisSettings | None = None, force: bool = False) -> SweepReport:
     """Run every spec not yet finished in sweep directory ``out``, ``jobs`` runs at a time
     (default: all cores), through signac-flow; then write runs.csv and results.csv.
 
     ``settings``: the analysis settings of the sweep (default: those it has, or the
     defaults); a finished run analysed under others is analysed again, not run again.
     Runs are started most expensive first, so that the cores stay busy to the end.
+    ``force``: the runs may go above the cost limits (bkflow.limits).
     """
     specs = list(specs)
     jobs = jobs or available_cores()
@@ -212,10 +214,10 @@ def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
         raise SpecError(f"--jobs must be >= 1, got {jobs}")
     check_sweep_dir(out)  # before the lock file is made in it
     with RunDir(out).lock():  # one sweep at a time writes a sweep directory
-        return _sweep(specs, out, jobs, progress, settings)
+        return _sweep(specs, out, jobs, progress, settings, force)
 
 
-def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
+def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
     project = open_project(out)
     if settings is not None:
         set_settings(project, settings)
@@ -224,6 +226,7 @@ def _sweep(specs, out, jobs, progress, settings) -> SweepReport:
         for key in ("error", "busy"):
             if key in job.document:
                 del job.document[key]
+        permit_above_limits(job, force)
     todo = [j for j in selected if not finished(j)]
     stale = {j.id for j in todo if simulated(j)}
     report = SweepReport(total=len(selected), finished_before=len(selected) - len(todo))
