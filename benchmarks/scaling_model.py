@@ -35,7 +35,12 @@ import numpy as np
 from scipy.optimize import nnls
 
 #: (Lx, N, t_1 s/step, t_2 s/step, halo s/step) of `throughput.py --scaling`, this machine
-MEASURED = []
+#: (2026-11-24, benchmarks/RESULTS.md "The fused path on many ranks")
+MEASURED = [(60.0, 900.0, 5.37206e-06, 6.35276e-06, 3.13e-06),
+            (120.0, 3600.0, 2.38575e-05, 1.60747e-05, 3.76e-06),
+            (240.0, 14400.0, 9.53438e-05, 5.25592e-05, 4.89e-06),
+            (480.0, 57600.0, 0.000460776, 0.000240901, 1.38e-05),
+            (960.0, 230400.0, 0.00370687, 0.00215652, 0.000139)]
 
 #: the inter-node link assumed past one node: latency (s) and bandwidth (bytes/s) of one
 #: exchange, a 100 Gb/s InfiniBand link as MPI sees it

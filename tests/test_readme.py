@@ -153,3 +153,31 @@ def test_the_python_example_runs_as_written(lammps, tmp_path):
     state, mu_bar, breaks = p.stdout.split()
     assert state in ("steady", "drifting", "metastable") and 0.1 < float(mu_bar) < 0.13
     assert int(breaks) > 0
+
+
+def test_the_readmes_scaling_numbers_are_the_measured_and_the_models():
+    """README's "Scaling out": the speed-ups are RESULTS.md's table (throughput.py --scaling),
+    the model's constants and stopping points are benchmarks/scaling_model.py's on its
+    MEASURED"""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import scaling_model as sm
+
+    text = " ".join(README.read_text().split())
+    got = re.search(r"two fused ranks run (\d\.\d\d)x one at N = 14400 and (\d\.\d\d)x at 57600 "
+                    r"\((\d\.\d\d)x at 230400", text)
+    assert got, "README's scaling sentence is gone"
+    results = (ROOT / "benchmarks" / "RESULTS.md").read_text()
+    section = results[results.index("### Scaling (`python benchmarks/throughput.py --scaling`)"):]
+    for n, ratio in zip(("14400", "57600", "230400"), got.groups()):
+        row = next(r for r in section.splitlines() if re.match(rf"\| \d+x\d+ \| {n} \|", r))
+        assert row.split("|")[7].strip().strip("*") == ratio, (n, row)
+    mdl = sm.fit(sm.MEASURED)
+    model = re.search(r"t_P = c\(n\) n \(1 \+ ([\d.]+)\) \+ 2 x ([\d.]+) us", text)
+    assert model and float(model.group(1)) == round(mdl.kappa, 2)
+    assert float(model.group(2)) == round(mdl.lam * 1e6, 1)
+    stops = re.search(r"up to all (\d+) cores, and on four nodes up to (\d+) ranks", text)
+    assert stops
+    assert int(stops.group(1)) == sm.stops(mdl, 10**6, 2000, sm.NODE)
+    assert int(stops.group(2)) == sm.stops(mdl, 10**6, 2000, 4 * sm.NODE)
