@@ -221,8 +221,10 @@ int FixBKFused::fused_lattice(LAMMPS *lmp, std::string *why)
     return 0;
   };
   const int K = comm->nprocs;
-  if (K > 1 &&
-      (comm->layout == Comm::LAYOUT_TILED || comm->procgrid[0] != 1 || comm->procgrid[2] != 1))
+  if (K > 1 && comm->layout == Comm::LAYOUT_TILED)
+    return no(fmt::format(" on {} ranks needs LAMMPS's brick layout, each rank a block of "
+                          "lattice rows: drop `comm_style tiled` (and `balance ... rcb`)", K));
+  if (K > 1 && (comm->procgrid[0] != 1 || comm->procgrid[2] != 1))
     return no(fmt::format(" on {} ranks needs them in one column, each holding a block of "
                           "lattice rows: add `processors 1 * 1` before read_data (the grid is "
                           "{}x{}x{}{})", K, comm->procgrid[0], comm->procgrid[1],
@@ -316,6 +318,7 @@ void FixBKFused::find_lattice()
 
 void FixBKFused::setup_pre_exchange()
 {
+  exchanged_in_setup = true;
   if (nblocks < 2) return;
   comm->layout = Comm::LAYOUT_NONUNIFORM;
   for (int j = 0; j <= nblocks; j++)
@@ -507,11 +510,13 @@ void FixBKFused::update_map()
   const imageint *const image = atom->image;
   const tagint first = static_cast<tagint>(row0) * Lx + 1;
   tagint stray = std::numeric_limits<tagint>::max();    // the lowest ID out of place
+  int stale = 0;    // the atom map names another atom: atoms moved without a map rebuild
   identity = true;
   double o[3];
   for (int k = 0; k < nloc; k++) {
     const int i = atom->map(first + k);
-    if (i < 0 || i >= atom->nlocal) {
+    if (i >= 0 && i < atom->nlocal && atom->tag[i] != first + k) stale = 1;
+    if (i < 0 || i >= atom->nlocal || atom->tag[i] != first + k) {
       stray = std::min(stray, first + k);
       continue;
     }
@@ -526,6 +531,20 @@ void FixBKFused::update_map()
     for (int i = 0; i < atom->nlocal; i++)
       if (atom->tag[i] < first || atom->tag[i] >= first + nloc)
         stray = std::min(stray, atom->tag[i]);
+  // a run started with `pre no` after a command moved atoms between ranks (balance): LAMMPS
+  // did not exchange them back, nor rebuild its map
+  tagint all = stray;
+  int any_stale = stale;
+  if (nblocks > 1) {
+    MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+    MPI_Allreduce(&stale, &any_stale, 1, MPI_INT, MPI_MAX, world);
+  }
+  if (any_stale || (all != std::numeric_limits<tagint>::max() && unexchanged_start))
+    error->all(FLERR,
+               "{} fix bk/substrate fused: at the start of this run particle {} is not where "
+               "the fix holds it (a command between runs moved atoms between ranks, e.g. "
+               "`balance`, and `run ... pre no` skipped the exchange that puts them back): "
+               "run with `pre yes`", BK_ERR_ATOM_LOST, all);
   report_stray(stray);
   mirror_to.x = atom->x;
   mirror_to.v = atom->v;
@@ -612,7 +631,10 @@ void FixBKFused::set_model()
 void FixBKFused::setup(int /*vflag*/)
 {
   if (!lattice_ready) build_lattice();
+  unexchanged_start = !exchanged_in_setup;
   update_map();
+  unexchanged_start = exchanged_in_setup = false;
+  setup_step = update->ntimestep;
   adopt_atoms();
   set_model();
   plate_shift = plate_now();
@@ -632,6 +654,13 @@ void FixBKFused::setup(int /*vflag*/)
 void FixBKFused::initial_integrate(int /*vflag*/)
 {
   const bigint n = update->ntimestep;
+  // a run started with `run ... pre no` calls no setup (LAMMPS 22Jul2025): on several ranks,
+  // check that no command between runs moved atoms between ranks (balance)
+  if (nblocks > 1 && n == update->firststep + 1 && setup_step != update->firststep) {
+    unexchanged_start = true;
+    update_map();
+    unexchanged_start = false;
+  }
   plate_shift = plate_now();
   model.e0 = elapsed_base, model.n0 = step_base, model.dt0 = dt_base;
   const bool due = mirror_due(n);

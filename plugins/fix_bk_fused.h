@@ -106,6 +106,9 @@ class FixBKFused : public FixBKLayer {
   MPI_Request halo_req[4];
   MPI_Comm halo_comm = MPI_COMM_NULL;    // a duplicate of world: the halo's tags are its own
   bool in_step = false;                  // inside the step's kernel (the halo's timing)
+  bool exchanged_in_setup = false;       // this run's setup exchanged atoms (not `pre no`)
+  bool unexchanged_start = false;        // update_map at a run's start with no exchange
+  bigint setup_step = -1;                // the step of the last setup()
   void row_totals(const std::vector<double> &rows, int w, double *total) const;
   double row_sum_total(const std::vector<double> &rows) const;
   void update_map();

@@ -184,6 +184,28 @@ def test_a_particle_that_strays_to_another_rank_stops_the_run(how, workdir):
     assert "terminate called" not in proc.stderr
 
 
+def test_a_balance_before_run_pre_no_is_refused(workdir):
+    """`balance` moves atoms between ranks; `run ... pre no` (no setup, no exchange) must not
+    go on with the fix writing into other atoms: it stops, saying to run with `pre yes`; with
+    `pre yes` the run goes on with one rank's bits"""
+    spec = _spec(seed=5)
+    head = _deck(spec, workdir, steps=200, chunks=1, tail="balance 1.0 y uniform\n")
+    for pre, ok in (("no", False), ("yes", True)):
+        (workdir / "in.bk").write_text(head + f"run 30 pre {pre}\n" + FINAL)
+        proc = _mpirun(workdir, 2)
+        log = (workdir / "log.lammps").read_text()
+        assert (proc.returncode == 0) == ok, log[-1500:]
+        if not ok:
+            assert ("is not where the fix holds it (a command between runs moved atoms between "
+                    "ranks, e.g. `balance`, and `run ... pre no` skipped the exchange that puts "
+                    "them back): run with `pre yes`") in log
+    two = (workdir / "final.txt").read_text()
+    (workdir / "in.bk").write_text(head.replace("balance 1.0 y uniform\n", "")
+                                   + "run 30 pre yes\n" + FINAL)
+    assert _mpirun(workdir, 1).returncode == 0
+    assert (workdir / "final.txt").read_text() == two
+
+
 def test_what_several_ranks_cannot_do_is_refused_or_falls_back(workdir):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))

@@ -159,7 +159,8 @@ def _header(spec: RunSpec, path: str) -> list[str]:
     ] + ({
         "auto": ["# `integrate`: fix bk/substrate integrates the layer itself, on the fused path",
                  "# on any number of ranks (lmp -in, or mpirun -np K lmp -in with K up to the",
-                 "# number of lattice rows: each rank holds a block of rows), the same bits."],
+                 "# number of lattice rows: each rank holds a block of rows), one rank's",
+                 "# trajectory to the bit."],
         "fused": ["# `fused`: the fused path (any number of ranks up to the number of rows)."],
         "general": ["# fix nve + fix bk/substrate + fix enforce2d: the general path, any number of",
                     "# ranks."],
