@@ -332,7 +332,11 @@ void FixBKFused::setup_pre_exchange()
 
 void FixBKFused::pre_exchange()
 {
-  if (nblocks > 1) report_stray(first_stray(lmp, Lx, Ly, nblocks));
+  if (nblocks < 2) return;
+  const tagint stray = first_stray(lmp, Lx, Ly, nblocks);
+  tagint all = stray;
+  MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+  report_stray(all);
 }
 
 /* The lowest ID of this rank's atoms that is not in the sub-domain of its row's block (the
@@ -361,11 +365,10 @@ tagint FixBKFused::first_stray(LAMMPS *lmp, int Lx, int Ly, int K)
   return stray;
 }
 
-// stops the run on every rank with the lowest ID any rank found out of place, if any
-void FixBKFused::report_stray(tagint stray)
+// stops the run on every rank with `all`, the lowest ID any rank found out of place (reduced
+// over ranks by the caller), if any
+void FixBKFused::report_stray(tagint all)
 {
-  tagint all = stray;
-  if (nblocks > 1) MPI_Allreduce(&stray, &all, 1, MPI_LMP_TAGINT, MPI_MIN, world);
   if (all == std::numeric_limits<tagint>::max()) return;
   if (nblocks > 1)
     error->all(FLERR,
@@ -545,7 +548,7 @@ void FixBKFused::update_map()
                "the fix holds it (a command between runs moved atoms between ranks, e.g. "
                "`balance`, and `run ... pre no` skipped the exchange that puts them back): "
                "run with `pre yes`", BK_ERR_ATOM_LOST, all);
-  report_stray(stray);
+  report_stray(all);
   mirror_to.x = atom->x;
   mirror_to.v = atom->v;
   mirror_to.loc = identity ? nullptr : loc.data();

@@ -99,7 +99,7 @@ class FixBKFused : public FixBKLayer {
   bool mirror_due(bigint step) const;
   void build_lattice();
   void find_lattice();
-  void report_stray(tagint stray);
+  void report_stray(tagint all);
   static tagint first_stray(class LAMMPS *, int Lx, int Ly, int K);
   static void halo_start(void *self, const double *x, const double *y);
   static void halo_wait(void *self, double *x, double *y);
