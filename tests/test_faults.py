@@ -432,6 +432,8 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
     ({"NUMEXPR_NUM_THREADS": "x"}, "NUMEXPR_NUM_THREADS='x' is not a number of threads"),
     ({"NUMEXPR_MAX_THREADS": "-3"}, "NUMEXPR_MAX_THREADS"),
     ({"TQDM_MININTERVAL": "abc"}, "TQDM_MININTERVAL: tqdm (the progress bars) cannot read it"),
+    ({"PMI_SIZE": "1"}, None),  # one process under a launcher (srun -n 1): works
+    ({"OMPI_COMM_WORLD_SIZE": "3"}, "started as 3 MPI processes (mpirun -np 3)"),
 ], ids=lambda v: "-".join(f"{k}={x}" for k, x in v.items()) if isinstance(v, dict) else "")
 def test_the_environment_is_named_never_blamed_on_the_run(tmp_path, finished, env, needle):
     """A bad environment variable of a library under bkflow is named in one line (exit 2);
@@ -449,6 +451,21 @@ def test_the_environment_is_named_never_blamed_on_the_run(tmp_path, finished, en
         one_line(p, needle)
         assert "damaged" not in p.stderr
         assert digest(d) == before
+
+
+def test_bkflow_under_mpirun_is_refused_not_hung(lammps, tmp_path):
+    """mpirun -np 2 bkflow run started two bkflow processes in one MPI world: one took the
+    run's lock and the other left, and the first waited for it forever. Every copy now says in
+    one line what to do instead (exit 2), and nothing is created."""
+    d = tmp_path / "run"
+    p = subprocess.run([tool("mpirun"), "-np", "2", tool("bkflow"), "run", "--phi", "1",
+                        "--t-end", "10", "--out", str(d)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == EXIT_BAD_INPUT, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 2, p.stderr  # one line from each copy
+    assert all("started as 2 MPI processes" in ln and "bkflow deck" in ln for ln in lines)
+    assert not d.exists()
 
 
 @pytest.mark.slow
