@@ -363,6 +363,29 @@ def test_a_failed_run_is_reported_and_the_others_finish(lammps, tmp_path):
     assert rep2.finished_before == 1 and list(rep2.failed) == [job_id]
 
 
+def test_a_runs_cost_counts_its_companion(tmp_path):
+    """The steady protocol's companion runs beside the run, step for step: its atom-steps,
+    memory and series are counted, and the refusal says so and what the time is at the
+    estimate's rate (the request that was told 1.35 h for one of its two halves)"""
+    from bkflow.limits import ATOM_STEPS_PER_SECOND, MAX_ATOM_STEPS, CostError, check_cost, cost
+    from bkflow.params import protocol_fields
+
+    spec = RunSpec(phi=1000, Lx=240, Ly=60, seed=1, **{**protocol_fields("steady"),
+                                                       "t_end": 16000.0, "scene": "friction"})
+    alone = spec.replace(companion=None)
+    assert cost(spec).atom_steps == 2 * cost(alone).atom_steps == 2 * 14400 * spec.n_steps
+    assert cost(spec).memory_bytes > cost(alone).memory_bytes
+    assert cost(spec).disk_bytes > cost(alone).disk_bytes
+    assert cost(alone).atom_steps < MAX_ATOM_STEPS < cost(spec).atom_steps
+    check_cost(alone, tmp_path)  # within the limit alone
+    with pytest.raises(CostError) as e:
+        check_cost(spec, tmp_path)
+    hours = 2 * 14400 * spec.n_steps / ATOM_STEPS_PER_SECOND / 3600
+    assert f"{spec.n_steps} steps and as many for its companion" in str(e.value)
+    assert f"up to {hours:.2g} h of one core" in str(e.value)
+    check_cost(spec, tmp_path, force=True)
+
+
 def test_force_lets_a_sweeps_runs_above_the_cost_limits(lammps, tmp_path, monkeypatch):
     """--force of a sweep reaches its runs (each run checks its own cost again): without it a
     run above the limits fails with the limit named, with it the run is made; a later sweep

@@ -3,9 +3,10 @@ anything is created (bkflow run and sweep refuse above the limits unless --force
 
 The estimates are deliberately simple and a little generous:
 
-- work: atom-steps, N * n_steps (one core runs 2-4e7 a second, benchmarks/RESULTS.md);
-- memory: about 2 kB per atom for LAMMPS and the engine, and for the analysis the frames of
-  the dumps it reads at once (16 bytes per atom and frame);
+- work: atom-steps, N * n_steps, twice that with a companion run (which runs beside the run,
+  step for step); the time is said at ``ATOM_STEPS_PER_SECOND``;
+- memory: about 2 kB per atom for LAMMPS and the engine (twice with a companion), and for the
+  analysis the frames of the dumps it reads at once (16 bytes per atom and frame);
 - disk: the stress series (40 bytes a sample), the snapshots (50 bytes per atom and frame)
   and the slip frames (two per slip, at most one slip per 10 time units after the transient).
 """
@@ -19,8 +20,14 @@ from pathlib import Path
 
 from .params import RunSpec, SpecError
 
-#: one run may take at most this many atom-steps (about an hour of one core) unless forced
-MAX_ATOM_STEPS = 1e11
+#: the rate at which the time of a run is estimated: one core runs the fused path at 6e7 (N =
+#: 230400, out of the caches) to 1.7e8 atom-steps a second (N = 900 to 57600) and 3-4e7 at N =
+#: 100 (benchmarks/RESULTS.md, "Scaling" and "Speed"), the general path at 3-5e7: generous
+#: for the fused path (a run at N = 14400 takes about a third of the time said)
+ATOM_STEPS_PER_SECOND = 5e7
+#: one run (with its companion) may take at most this many atom-steps (about an hour of one
+#: core at ATOM_STEPS_PER_SECOND) unless forced
+MAX_ATOM_STEPS = 2e11
 #: a run may need at most this share of the memory available now
 MAX_MEMORY_SHARE = 0.5
 #: a run or a sweep may write at most this share of the free disk, and never more than
@@ -54,8 +61,10 @@ def cost(spec: RunSpec) -> Cost:
     snapshots = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
     slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slips else 0
     disk = 40.0 * samples + 50.0 * n * (snapshots + slips) + 120.0 * n  # + the data file
-    memory = 2e3 * n + 16.0 * n * max(snapshots, slips)
-    return Cost(float(n) * steps, memory, disk)
+    runs = 1 if spec.companion is None else 2  # the companion: its stress series, its data
+    disk += (runs - 1) * (40.0 * samples + 120.0 * n)
+    memory = 2e3 * n * runs + 16.0 * n * max(snapshots, slips)
+    return Cost(float(n) * steps * runs, memory, disk)
 
 
 def _available_memory() -> float:
@@ -102,8 +111,8 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
                         f"at {out}, at most {_fmt(MAX_BYTES)}): choose --scene friction or "
                         f"another --out{hint}")
     if c.atom_steps > MAX_ATOM_STEPS:
-        hours = c.atom_steps / 3e7 / 3600
-        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, about {hours:.3g} h of one "
+        hours = c.atom_steps / ATOM_STEPS_PER_SECOND / 3600
+        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, up to {hours:.2g} h of one "
                         f"core (limit {MAX_ATOM_STEPS:.0e}): shorten --t-end, raise "
                         f"--dt-factor or use a smaller lattice{hint}")
 
@@ -111,7 +120,8 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
 def check_cost(spec: RunSpec, out, force: bool = False) -> Cost:
     """The cost of one run, refused above the limits unless ``force``."""
     c = cost(spec)
-    check(c, out, f"this run ({spec.label}, {spec.n_steps} steps)", force)
+    also = "" if spec.companion is None else " and as many for its companion"
+    check(c, out, f"this run ({spec.label}, {spec.n_steps} steps{also})", force)
     return c
 
 
