@@ -78,6 +78,13 @@ FixBKFused::~FixBKFused()
 {
   memory->destroy(xu);
   if (halo_comm != MPI_COMM_NULL) MPI_Comm_free(&halo_comm);
+  // after unfix, the deck's own ghost cutoff again: a general-path fix defined next needs its
+  // ghosts (comm is deleted after modify at LAMMPS's end). thermo_modify lost/bond stays
+  // ignore: a command cannot be issued from here (a fix redefined with the same ID is deleted
+  // while LAMMPS still reads the new one's arguments from the input's buffer), and the
+  // general path checks its bond partners itself
+  if (cutoff_replaced >= 0.0 && comm && comm->cutghostuser == GHOST_CUTOFF)
+    comm->cutghostuser = cutoff_replaced;
 }
 
 int FixBKFused::setmask()
@@ -140,6 +147,7 @@ void FixBKFused::init()
     if (comm->me == 0)
       utils::logmesg(lmp, "fix {} bk/substrate fused: the fix trades its boundary rows itself, "
                      "comm_modify cutoff {} -> {}\n", id, comm->cutghostuser, GHOST_CUTOFF);
+    if (cutoff_replaced < 0.0) cutoff_replaced = comm->cutghostuser;
     comm->cutghostuser = GHOST_CUTOFF;
   }
   if (nblocks > 1) {    // (the wheel ships no thermo.h: the command, before the run's setup)

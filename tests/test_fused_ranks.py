@@ -229,6 +229,30 @@ def test_what_several_ranks_cannot_do_is_refused_or_falls_back(workdir):
         assert f"the general path on {ranks} rank(s) (the fused path {why})" in log
 
 
+def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
+    """The fused fix lowers the ghost cutoff to 0.1 (it trades its rows itself); unfix gives
+    the deck's cutoff back, so the general path defined next finds its bond partners as ghosts
+    (it stopped with its partner-missing error before)"""
+    spec = RunSpec(phi=10.0, Lx=12, Ly=4, seed=5)
+    (workdir / "data.bk").write_text(data_text(spec))
+    deck = setup_text(spec, DeckOptions(stress=None, phase=None, path="fused"))
+    keep = [ln for ln in deck.splitlines()
+            if not ln.startswith(("fix             slips", "fix             fronts", "dump",
+                                  "run "))]
+    fused = next(ln for ln in keep if " bk/substrate " in ln)
+    general = fused.replace("fix             bk ", "fix             bk2 ").replace(" fused", "")
+    deck = "\n".join(keep) + (f"\nrun 50\nunfix bk\nfix nve all nve\n{general}\n"
+                               "fix 2d all enforce2d\nthermo_style custom step f_bk2[1]\n"
+                               "run 50\n")
+    (workdir / "in.bk").write_text(deck)
+    proc = _mpirun(workdir, 2)
+    log = (workdir / "log.lammps").read_text()
+    assert proc.returncode == 0, log[-1500:]
+    assert "2 ranks, blocks of rows 0-1 | 2-3" in log
+    assert "comm_modify cutoff 11 -> 0.1" in log
+    assert log.count("Loop time") == 2
+
+
 def test_block_rows_is_the_plugins_division():
     assert block_rows(7, 1) == [(0, 6)]
     assert block_rows(7, 3) == [(0, 1), (2, 3), (4, 6)]
