@@ -68,6 +68,7 @@ FixBKFused::FixBKFused(LAMMPS *lmp, int narg, char **arg) :
     FixBKLayer(lmp, fused_args(lmp, narg, arg), arg)
 {
   time_integrate = 1;
+  for (int i = 3; i < narg; i++) chosen = chosen || strcmp(arg[i], "integrate") == 0;
   maxexchange = NSTATE + 1 + 2;    // pack_exchange: the base's, then the exact position
   // the base's constructor called its own grow_arrays and set_arrays
   FixBKFused::grow_arrays(atom->nmax);
@@ -307,7 +308,13 @@ void FixBKFused::find_lattice()
 {
   std::string why;
   Lx = fused_lattice(lmp, &why);
-  if (!Lx) error->all(FLERR, "fix bk/substrate fused{}", why);
+  // with `integrate` the layer passed this test when the fix was made (bkplugin.cpp): it
+  // changed before the first run, and the path cannot change any more
+  if (!Lx)
+    error->all(FLERR, "fix bk/substrate fused{}{}", why,
+               chosen ? "; `integrate` chose the fused path when the fix was defined, and the "
+                        "layer changed before its first run: define the fix after the change "
+                        "(integrate then chooses for the layer as it is)" : "");
   N = static_cast<int>(atom->natoms);
   Ly = N / Lx;
   double m = atom->nlocal ? (atom->rmass ? atom->rmass[0] : atom->mass[atom->type[0]]) : 0.0;

@@ -108,6 +108,7 @@ class FixBKFused : public FixBKLayer {
   bool in_step = false;                  // inside the step's kernel (the halo's timing)
   bool exchanged_in_setup = false;       // this run's setup exchanged atoms (not `pre no`)
   bool unexchanged_start = false;        // update_map at a run's start with no exchange
+  bool chosen = false;                   // `integrate` chose this path when the fix was made
   double cutoff_replaced = -1.0;         // the ghost cutoff this fix lowered (-1: none),
                                          // given back when the fix is deleted (unfix)
   bigint setup_step = -1;                // the step of the last setup()

@@ -239,7 +239,7 @@ def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
     keep = [ln for ln in deck.splitlines()
             if not ln.startswith(("fix             slips", "fix             fronts", "dump",
                                   "run "))]
-    fused = next(ln for ln in keep if " bk/substrate " in ln)
+    fused = next(ln for ln in keep if ln.startswith("fix ") and " bk/substrate " in ln)
     general = fused.replace("fix             bk ", "fix             bk2 ").replace(" fused", "")
     deck = "\n".join(keep) + (f"\nrun 50\nunfix bk\nfix nve all nve\n{general}\n"
                                "fix 2d all enforce2d\nthermo_style custom step f_bk2[1]\n"
@@ -251,6 +251,33 @@ def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
     assert "2 ranks, blocks of rows 0-1 | 2-3" in log
     assert "comm_modify cutoff 11 -> 0.1" in log
     assert log.count("Loop time") == 2
+
+
+def test_a_layer_moved_after_integrate_chose_is_told_to_define_the_fix_later(workdir):
+    """`integrate` chooses the path when the fix is defined; a layer moved off its rows' lines
+    before the first run then fails the fused path's check, and the message says why the path
+    was the fused one and what to do (defined after the move, the fix takes the general path)"""
+    spec = RunSpec(phi=10.0, Lx=12, Ly=4, seed=5)
+    (workdir / "data.bk").write_text(data_text(spec))
+    deck = setup_text(spec, DeckOptions(stress=None, phase=None, path="auto"))
+    deck = deck.replace("\nrun ", "\n# run ")
+    moved = deck + "\ndisplace_atoms all move 0 0.3 0\nrun 10\n"
+    (workdir / "in.bk").write_text(moved)
+    proc = _mpirun(workdir, 2)
+    log = (workdir / "log.lammps").read_text()
+    assert proc.returncode != 0
+    assert "is 0.30 rows off it; `integrate` chose the fused path when the fix was defined" \
+        in log
+    assert "define the fix after the change" in log
+    # the move first, then the fix: the general path, the reason in the log
+    fix = next(ln for ln in deck.splitlines() if ln.startswith("fix ") and " bk/substrate " in ln)
+    before = deck.replace(fix + "\n", "displace_atoms all move 0 0.3 0\n" + fix + "\n")
+    (workdir / "in.bk").write_text(before + "\nrun 10\n")
+    proc = _mpirun(workdir, 2)
+    log = (workdir / "log.lammps").read_text()
+    assert proc.returncode == 0, log[-1500:]
+    assert "the general path on 2 rank(s) (the fused path on 2 ranks needs every particle " \
+        "within a quarter row" in log
 
 
 def test_block_rows_is_the_plugins_division():
