@@ -148,7 +148,7 @@ void FixBKFused::init()
     if (comm->me == 0)
       utils::logmesg(lmp, "fix {} bk/substrate fused: the fix trades its boundary rows itself, "
                      "comm_modify cutoff {} -> {}\n", id, comm->cutghostuser, GHOST_CUTOFF);
-    if (cutoff_replaced < 0.0) cutoff_replaced = comm->cutghostuser;
+    cutoff_replaced = comm->cutghostuser;    // the deck's latest (comm_modify between runs)
     comm->cutghostuser = GHOST_CUTOFF;
   }
   if (nblocks > 1) {    // (the wheel ships no thermo.h: the command, before the run's setup)
@@ -309,12 +309,14 @@ void FixBKFused::find_lattice()
   std::string why;
   Lx = fused_lattice(lmp, &why);
   // with `integrate` the layer passed this test when the fix was made (bkplugin.cpp): it
-  // changed before the first run, and the path cannot change any more
+  // moved before the first run, and the path cannot change any more (a fix defined after the
+  // move would be another run: the fix keeps the layer's positions at its definition)
   if (!Lx)
     error->all(FLERR, "fix bk/substrate fused{}{}", why,
                chosen ? "; `integrate` chose the fused path when the fix was defined, and the "
-                        "layer changed before its first run: define the fix after the change "
-                        "(integrate then chooses for the layer as it is)" : "");
+                        "layer moved before its first run: for this layer on several ranks "
+                        "use the general path, the same trajectory (drop `integrate`, add fix "
+                        "nve and fix enforce2d), or run it on one rank" : "");
   N = static_cast<int>(atom->natoms);
   Ly = N / Lx;
   double m = atom->nlocal ? (atom->rmass ? atom->rmass[0] : atom->mass[atom->type[0]]) : 0.0;

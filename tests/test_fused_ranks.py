@@ -8,6 +8,7 @@ written on one number of ranks and read on another. The log says the decompositi
 the ranks; what the path cannot do on several ranks is refused or falls back, and says why.
 """
 
+import re
 import subprocess
 
 import pytest
@@ -241,7 +242,8 @@ def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
                                   "run "))]
     fused = next(ln for ln in keep if ln.startswith("fix ") and " bk/substrate " in ln)
     general = fused.replace("fix             bk ", "fix             bk2 ").replace(" fused", "")
-    deck = "\n".join(keep) + (f"\nrun 50\nunfix bk\nfix nve all nve\n{general}\n"
+    deck = "\n".join(keep) + (f"\nrun 50\ncomm_modify cutoff 12.5\nrun 10\nunfix bk\n"
+                               f"info communication out log\nfix nve all nve\n{general}\n"
                                "fix 2d all enforce2d\nthermo_style custom step f_bk2[1]\n"
                                "run 50\n")
     (workdir / "in.bk").write_text(deck)
@@ -250,34 +252,47 @@ def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
     assert proc.returncode == 0, log[-1500:]
     assert "2 ranks, blocks of rows 0-1 | 2-3" in log
     assert "comm_modify cutoff 11 -> 0.1" in log
-    assert log.count("Loop time") == 2
+    # the deck's latest cutoff is the one given back (set between the runs)
+    assert "comm_modify cutoff 12.5 -> 0.1" in log
+    assert re.search(r"Communication cutoff .*= 12\.5\b", log), log
+    assert log.count("Loop time") == 3
 
 
-def test_a_layer_moved_after_integrate_chose_is_told_to_define_the_fix_later(workdir):
+def test_a_layer_moved_after_integrate_chose_is_told_to_take_the_general_path(workdir):
     """`integrate` chooses the path when the fix is defined; a layer moved off its rows' lines
-    before the first run then fails the fused path's check, and the message says why the path
-    was the fused one and what to do (defined after the move, the fix takes the general path)"""
+    before the first run then fails the fused path's check on two ranks, and the message says
+    why the path was the fused one and what runs the same trajectory: the general path (the
+    fix keeps the positions at its definition, so defining it after the move is another run)"""
     spec = RunSpec(phi=10.0, Lx=12, Ly=4, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
     deck = setup_text(spec, DeckOptions(stress=None, phase=None, path="auto"))
-    deck = deck.replace("\nrun ", "\n# run ")
-    moved = deck + "\ndisplace_atoms all move 0 0.3 0\nrun 10\n"
-    (workdir / "in.bk").write_text(moved)
+    deck = deck.replace("\nrun ", "\n# run ") + "\ndisplace_atoms all move 0 0.3 0\n"
+    deck += "thermo_style custom step f_bk[1]\nthermo_modify format float %.17g\nrun 20\n"
+    (workdir / "in.bk").write_text(deck)
     proc = _mpirun(workdir, 2)
     log = (workdir / "log.lammps").read_text()
     assert proc.returncode != 0
     assert "is 0.30 rows off it; `integrate` chose the fused path when the fix was defined" \
         in log
-    assert "define the fix after the change" in log
-    # the move first, then the fix: the general path, the reason in the log
+    assert "use the general path, the same trajectory (drop `integrate`, add fix nve and fix " \
+        "enforce2d), or run it on one rank" in log
+
+    def last_row(text):
+        return [ln for ln in text.splitlines() if ln.split()[:1] == ["20"]][-1]
+
+    # what the message says: one rank, and the general path on two, run the same steps
+    assert _mpirun(workdir, 1).returncode == 0
+    one = last_row((workdir / "log.lammps").read_text())
     fix = next(ln for ln in deck.splitlines() if ln.startswith("fix ") and " bk/substrate " in ln)
-    before = deck.replace(fix + "\n", "displace_atoms all move 0 0.3 0\n" + fix + "\n")
-    (workdir / "in.bk").write_text(before + "\nrun 10\n")
+    general = deck.replace(fix, "fix nve all nve\n" + fix.replace(" integrate", "")
+                           + "\nfix 2d all enforce2d")
+    (workdir / "in.bk").write_text(general)
     proc = _mpirun(workdir, 2)
     log = (workdir / "log.lammps").read_text()
     assert proc.returncode == 0, log[-1500:]
-    assert "the general path on 2 rank(s) (the fused path on 2 ranks needs every particle " \
-        "within a quarter row" in log
+    assert "fused" not in log.split("displace_atoms")[-1]
+    got = last_row(log).split()
+    assert float(got[1]) == pytest.approx(float(one.split()[1]), rel=1e-9)  # a sum over ranks
 
 
 def test_block_rows_is_the_plugins_division():

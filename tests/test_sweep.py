@@ -386,6 +386,26 @@ def test_a_runs_cost_counts_its_companion(tmp_path):
     check_cost(spec, tmp_path, force=True)
 
 
+def test_a_refusal_names_what_would_lift_it(tmp_path):
+    """The advice follows the cause: the frames (snapshots, slip frames) are lifted by
+    --scene friction, a long stress series is not; a long time is said in whole hours"""
+    from bkflow.limits import Cost, CostError, check, check_cost
+
+    def said(spec):
+        with pytest.raises(CostError) as e:
+            check_cost(spec, tmp_path)
+        return str(e.value)
+
+    base = RunSpec(phi=10, Lx=60, Ly=15, seed=1)
+    frames = said(base.replace(t_end=1e8))  # snapshots every 20: 230 GB of memory to read
+    assert "of memory" in frames and "choose --scene friction or shorten --t-end" in frames
+    series = said(base.replace(t_end=1e9, scene="friction"))  # 824 GB of stress samples
+    assert "would write about" in series and "--scene friction" not in series
+    assert "shorten --t-end or sample the stress less often (--set stress_every=...)" in series
+    with pytest.raises(CostError, match=r"up to 5,556 h of one core"):
+        check(Cost(1e15, 0.0, 0.0), tmp_path, "this run")
+
+
 def test_force_lets_a_sweeps_runs_above_the_cost_limits(lammps, tmp_path, monkeypatch):
     """--force of a sweep reaches its runs (each run checks its own cost again): without it a
     run above the limits fails with the limit named, with it the run is made; a later sweep

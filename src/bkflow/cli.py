@@ -820,22 +820,6 @@ def _thread_count(text: str) -> bool:
     return text.strip().isdigit() and int(text) > 0
 
 
-#: the variables in which MPI launchers tell each process how many were started: MPICH's and
-#: Intel MPI's hydra (and srun's PMI-2), Open MPI, MVAPICH, PMIx (srun --mpi=pmix)
-MPI_SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "PMIX_SIZE")
-
-
-def _mpi_world_size(env=os.environ) -> int:
-    """How many processes an MPI launcher started with this one (1 when none did). bkflow is
-    one process: its runs are single-rank LAMMPS instances (MPI_COMM_WORLD of one), so K
-    copies under ``mpirun -np K`` would share one world and wait on each other forever."""
-    for var in MPI_SIZE_VARS:
-        v = env.get(var, "").strip()
-        if v.isdigit():
-            return int(v)
-    return 1
-
-
 def check_environment(env=os.environ) -> None:
     """The environment variables the libraries under bkflow read, checked before any of them
     is imported, so that a bad one is named (it was reported as a damaged stress.csv when
@@ -855,13 +839,11 @@ def check_environment(env=os.environ) -> None:
                             "thread count (e.g. 4, or 4,2 for nested levels): unset it or fix it")
         if "," in omp and not env.get("NUMEXPR_NUM_THREADS"):
             env["NUMEXPR_NUM_THREADS"] = omp.split(",")[0].strip()  # numexpr reads one level
-    launched = _mpi_world_size(env)
+    from .limits import mpi_refusal, mpi_world_size
+
+    launched = mpi_world_size(env)
     if launched > 1:
-        raise SpecError(f"bkflow was started as {launched} MPI processes (mpirun -np "
-                        f"{launched}), which would all write the same run and wait on each "
-                        "other: start it once (a sweep runs its runs side by side with --jobs "
-                        "J); to run one lattice on several ranks, write its deck with bkflow "
-                        "deck and run mpirun -np K lmp -in in.bk")
+        raise SpecError(mpi_refusal(launched))
     env["MPLBACKEND"] = "Agg"
     env.pop("SIGNAC_FLOW_ENVIRONMENT", None)
     bad = [k for k in env if k.startswith("TQDM_")]

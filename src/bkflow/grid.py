@@ -134,5 +134,7 @@ def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[
 
 
 def run_cost(spec: RunSpec) -> float:
-    """Atom-steps of a run: what its wall time scales with."""
-    return float(spec.N) * spec.n_steps
+    """Atom-steps of a run, its companion's included: what its wall time scales with."""
+    from .limits import cost
+
+    return cost(spec).atom_steps

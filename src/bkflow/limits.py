@@ -1,5 +1,6 @@
 """What a run or a sweep will cost, checked against what this machine can give before
-anything is created (bkflow run and sweep refuse above the limits unless --force).
+anything is created (bkflow run and sweep refuse above the limits unless --force); and how
+many processes an MPI launcher started bkflow as (it is one: ``mpi_world_size``).
 
 The estimates are deliberately simple and a little generous:
 
@@ -47,11 +48,15 @@ class Cost:
     atom_steps: float
     memory_bytes: float
     disk_bytes: float
+    #: of these, the frames' (snapshots, slip frames): what --scene friction does away with
+    frame_bytes: float = 0.0
+    frame_memory: float = 0.0
 
     def __add__(self, other: Cost) -> Cost:
-        return Cost(self.atom_steps + other.atom_steps,
-                    max(self.memory_bytes, other.memory_bytes),
-                    self.disk_bytes + other.disk_bytes)
+        big = self if self.memory_bytes >= other.memory_bytes else other
+        return Cost(self.atom_steps + other.atom_steps, big.memory_bytes,
+                    self.disk_bytes + other.disk_bytes, self.frame_bytes + other.frame_bytes,
+                    big.frame_memory)
 
 
 def cost(spec: RunSpec) -> Cost:
@@ -60,11 +65,11 @@ def cost(spec: RunSpec) -> Cost:
     samples = steps / spec.stress_nevery + 1
     snapshots = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
     slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slips else 0
-    disk = 40.0 * samples + 50.0 * n * (snapshots + slips) + 120.0 * n  # + the data file
+    frames, frame_memory = 50.0 * n * (snapshots + slips), 16.0 * n * max(snapshots, slips)
     runs = 1 if spec.companion is None else 2  # the companion: its stress series, its data
-    disk += (runs - 1) * (40.0 * samples + 120.0 * n)
-    memory = 2e3 * n * runs + 16.0 * n * max(snapshots, slips)
-    return Cost(float(n) * steps * runs, memory, disk)
+    disk = runs * (40.0 * samples + 120.0 * n) + frames  # the series, the data files, frames
+    memory = 2e3 * n * runs + frame_memory
+    return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory)
 
 
 def _available_memory() -> float:
@@ -102,17 +107,21 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
     hint = "; pass --force to run it anyway"
     mem = _available_memory()
     if c.memory_bytes > MAX_MEMORY_SHARE * mem:
+        fix = ("choose --scene friction or shorten --t-end (the analysis reads the frames at "
+               "once)" if c.frame_memory > c.memory_bytes / 2 else "use a smaller lattice")
         raise CostError(f"{what} needs about {_fmt(c.memory_bytes)} of memory, more than half "
-                        f"of the {_fmt(mem)} available: use a smaller lattice{hint}")
+                        f"of the {_fmt(mem)} available: {fix}{hint}")
     free = _free_disk(out)
     if c.disk_bytes > min(MAX_BYTES, MAX_DISK_SHARE * free):
+        fix = ("choose --scene friction (no frames)" if c.frame_bytes > c.disk_bytes / 2 else
+               "shorten --t-end or sample the stress less often (--set stress_every=...)")
         raise CostError(f"{what} would write about {_fmt(c.disk_bytes)}, more than "
                         f"{_fmt(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
-                        f"at {out}, at most {_fmt(MAX_BYTES)}): choose --scene friction or "
-                        f"another --out{hint}")
+                        f"at {out}, at most {_fmt(MAX_BYTES)}): {fix}, or another --out{hint}")
     if c.atom_steps > MAX_ATOM_STEPS:
         hours = c.atom_steps / ATOM_STEPS_PER_SECOND / 3600
-        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, up to {hours:.2g} h of one "
+        hours = f"{hours:.2g}" if hours < 100 else f"{hours:,.0f}"
+        raise CostError(f"{what} is {c.atom_steps:.3g} atom-steps, up to {hours} h of one "
                         f"core (limit {MAX_ATOM_STEPS:.0e}): shorten --t-end, raise "
                         f"--dt-factor or use a smaller lattice{hint}")
 
@@ -146,5 +155,31 @@ def check_sweep(specs, out, jobs: int, cores: int, force: bool = False) -> Cost:
     total = Cost(0, 0, 0)
     for s in specs:
         total = total + check_cost(s, out)
-    check(Cost(0, 0, total.disk_bytes), out, f"this sweep of {len(specs)} runs")
+    check(Cost(0, 0, total.disk_bytes, total.frame_bytes), out,
+          f"this sweep of {len(specs)} runs")
     return total
+
+
+#: the variables in which MPI launchers tell each process how many were started: MPICH's and
+#: Intel MPI's hydra (and srun's PMI-2), Open MPI, MVAPICH, PMIx (srun --mpi=pmix)
+MPI_SIZE_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "PMIX_SIZE")
+
+
+def mpi_world_size(env=os.environ) -> int:
+    """How many processes an MPI launcher started with this one (1 when none did): the
+    largest count any launcher's variable gives (one inherited from an outer ``srun -n 1``
+    must not hide Open MPI's). bkflow is one process: its runs are single-rank LAMMPS
+    instances, and K copies under ``mpirun -np K`` would share one MPI world and wait on each
+    other forever."""
+    counts = [int(v) for v in (env.get(var, "").strip() for var in MPI_SIZE_VARS)
+              if v.isascii() and v.isdigit()]
+    return max(counts + [1])
+
+
+def mpi_refusal(launched: int) -> str:
+    """Why bkflow stops when started as ``launched`` > 1 MPI processes, and what to do."""
+    return (f"bkflow was started as {launched} MPI processes (mpirun -np {launched}), which "
+            "would all write the same run and wait on each other: start it once (a sweep runs "
+            "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
+            "one lattice on several ranks, write its deck with bkflow deck and run that with "
+            "mpirun -np K lmp -in")
