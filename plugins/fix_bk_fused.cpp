@@ -309,12 +309,12 @@ void FixBKFused::find_lattice()
   std::string why;
   Lx = fused_lattice(lmp, &why);
   // with `integrate` the layer passed this test when the fix was made (bkplugin.cpp): it
-  // moved before the first run, and the path cannot change any more (a fix defined after the
+  // changed (moved) before the first run, and the path cannot change any more (a fix defined after the
   // move would be another run: the fix keeps the layer's positions at its definition)
   if (!Lx)
     error->all(FLERR, "fix bk/substrate fused{}{}", why,
                chosen ? "; `integrate` chose the fused path when the fix was defined, and the "
-                        "layer moved before its first run: for this layer on several ranks "
+                        "layer changed before its first run: for this layer on several ranks "
                         "use the general path, the same trajectory (drop `integrate`, add fix "
                         "nve and fix enforce2d), or run it on one rank" : "");
   N = static_cast<int>(atom->natoms);

@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 
+from .limits import cost
 from .params import PAPER_SIZES, RunSpec, SpecError, parse_size
 
 #: default sampling of a --phi range
@@ -135,6 +136,4 @@ def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[
 
 def run_cost(spec: RunSpec) -> float:
     """Atom-steps of a run, its companion's included: what its wall time scales with."""
-    from .limits import cost
-
     return cost(spec).atom_steps
