@@ -97,9 +97,10 @@ using SetupFn = void (*)(const Model &, Arrays &, const Mirror &, int64_t n, con
 using PhaseFn = void (*)(const double *drx, const double *dry, int n, double inv_lim,
                          double *sums);
 
-/* The energies of the state (e[0..3]: bonds, drive springs at plate shift `shift`, contacts,
-   kinetic), in LANES interleaved partial sums: vectorized, the same bits in every build. */
-using EnergyFn = void (*)(const Model &, const Arrays &, double shift, double *e);
+/* The energies of the state, row by row (rows[4 r + j], r < m.Ly; j: bonds, drive springs at
+   plate shift `shift`, contacts, |v|^2 without m/2), in LANES interleaved partial sums:
+   vectorized, the same bits in every build. */
+using EnergyFn = void (*)(const Model &, const Arrays &, double shift, double *rows);
 
 struct Kernel {
   const char *isa;    // "avx512", "avx2" or "baseline"

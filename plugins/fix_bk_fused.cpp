@@ -848,13 +848,22 @@ void FixBKFused::contact_phase(double *sums)
 }
 
 /* the energies of the current step from the fix's own arrays (the kernel's, vectorized):
-   bonds, drive springs, contacts, kinetic (the full-step velocities) */
+   bonds, drive springs, contacts, kinetic (the full-step velocities), row by row and summed
+   over the lattice in row order (row_totals, collective), the same bits on any number of
+   ranks; rank 0 holds them and the others zeros, so the caller's sum over ranks adds only
+   zeros to them */
 void FixBKFused::local_energies(double *e)
 {
   e[0] = e[1] = e[2] = e[3] = 0.0;
   if (!lattice_ready || !have_state) return;
-  kernel.energies(model, arr, plate_shift, e);
+  std::vector<double> rows(static_cast<size_t>(nrows) * 4, 0.0);
+  kernel.energies(model, arr, plate_shift, rows.data());
+  row_totals(rows, 4, e);
+  e[3] *= 0.5 * model.mass;
   e[3] *= force->mvv2e;    // energy units, as the kicks' ftm2v (1 in lj units)
+  if (!model.drive) e[1] = 0.0;
+  if (model.contact == BK_NO_CONTACT) e[2] = 0.0;
+  if (comm->me != 0) e[0] = e[1] = e[2] = e[3] = 0.0;
 }
 
 // the bond energy sum k_b/2 (r - r0)^2, row by row (row_sum_total)
