@@ -477,6 +477,10 @@ def test_bkflow_under_mpirun_is_refused_not_hung(lammps, tmp_path):
                        capture_output=True, text=True, timeout=120)
     _refused_under_mpirun(p, "bkflow: error: bkflow was started as 2 MPI processes")
     assert not d.exists()
+    p = subprocess.run([tool("mpirun"), "-np", "2", tool("bkflow"), "--version"],
+                       capture_output=True, text=True, timeout=120)
+    _refused_under_mpirun(p, "bkflow: error: bkflow was started as 2 MPI processes")
+    assert p.stdout == ""
     # the cluster's command line too (its run would hang the same way), before it reads anything
     p = subprocess.run([tool("mpirun"), "-np", "2", sys.executable, "-m", "bkflow.cluster",
                         "run"], cwd=tmp_path, capture_output=True, text=True, timeout=120)

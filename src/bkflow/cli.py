@@ -839,11 +839,6 @@ def check_environment(env=os.environ) -> None:
                             "thread count (e.g. 4, or 4,2 for nested levels): unset it or fix it")
         if "," in omp and not env.get("NUMEXPR_NUM_THREADS"):
             env["NUMEXPR_NUM_THREADS"] = omp.split(",")[0].strip()  # numexpr reads one level
-    from .limits import mpi_refusal, mpi_world_size
-
-    launched = mpi_world_size(env)
-    if launched > 1:
-        raise SpecError(mpi_refusal(launched))
     env["MPLBACKEND"] = "Agg"
     env.pop("SIGNAC_FLOW_ENVIRONMENT", None)
     bad = [k for k in env if k.startswith("TQDM_")]
@@ -859,6 +854,12 @@ def check_environment(env=os.environ) -> None:
 
 def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    from .limits import mpi_refusal, mpi_world_size
+
+    launched = mpi_world_size()
+    if launched > 1:  # before anything, --help and --version included: one line a copy
+        print(f"bkflow: error: {mpi_refusal(launched)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     a = build_parser().parse_args(argv)
     paths = [p for p in (getattr(a, "out", None), getattr(a, "dir", None)) if p]
     for p in paths:
