@@ -309,8 +309,8 @@ void FixBKFused::find_lattice()
   std::string why;
   Lx = fused_lattice(lmp, &why);
   // with `integrate` the layer passed this test when the fix was made (bkplugin.cpp): it
-  // changed (moved) before the first run, and the path cannot change any more (a fix defined after the
-  // move would be another run: the fix keeps the layer's positions at its definition)
+  // changed (moved) before the first run, and the path cannot change any more (a fix defined
+  // after the move would be another run: the fix keeps the layer's positions at its definition)
   if (!Lx)
     error->all(FLERR, "fix bk/substrate fused{}{}", why,
                chosen ? "; `integrate` chose the fused path when the fix was defined, and the "

@@ -854,11 +854,11 @@ def check_environment(env=os.environ) -> None:
 
 def _main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    from .limits import mpi_refusal, mpi_world_size
+    from .limits import mpi_refusal
 
-    launched = mpi_world_size()
-    if launched > 1:  # before anything, --help and --version included: one line a copy
-        print(f"bkflow: error: {mpi_refusal(launched)}", file=sys.stderr)
+    why = mpi_refusal()
+    if why:  # before anything, --help and --version included: one line a copy
+        print(f"bkflow: error: {why}", file=sys.stderr)
         return EXIT_BAD_INPUT
     a = build_parser().parse_args(argv)
     paths = [p for p in (getattr(a, "out", None), getattr(a, "dir", None)) if p]

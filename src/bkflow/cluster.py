@@ -37,11 +37,11 @@ def project(path=None):
 def main(argv=None) -> None:
     if argv is not None:
         sys.argv[1:] = list(argv)
-    from bkflow.limits import mpi_refusal, mpi_world_size
+    from bkflow.limits import mpi_refusal
 
-    launched = mpi_world_size()
-    if launched > 1:  # K copies of one command in one MPI world: they would wait forever
-        print(f"bkflow.cluster: error: {mpi_refusal(launched)}", file=sys.stderr)
+    why = mpi_refusal()
+    if why:  # K copies of one command in one MPI world: they would wait forever
+        print(f"bkflow.cluster: error: {why}", file=sys.stderr)
         sys.exit(2)
     try:
         p = project()

@@ -1,6 +1,6 @@
 """What a run or a sweep will cost, checked against what this machine can give before
 anything is created (bkflow run and sweep refuse above the limits unless --force); and how
-many processes an MPI launcher started bkflow as (it is one: ``mpi_world_size``).
+many processes an MPI launcher started bkflow as (it is one: ``mpi_refusal``).
 
 The estimates are deliberately simple and a little generous:
 
@@ -176,8 +176,12 @@ def mpi_world_size(env=os.environ) -> int:
     return max(counts + [1])
 
 
-def mpi_refusal(launched: int) -> str:
-    """Why bkflow stops when started as ``launched`` > 1 MPI processes, and what to do."""
+def mpi_refusal(env=os.environ) -> str | None:
+    """Why bkflow stops when an MPI launcher started it as more than one process, and what to
+    do instead; None when it was started once (``mpi_world_size``)."""
+    launched = mpi_world_size(env)
+    if launched < 2:
+        return None
     return (f"bkflow was started as {launched} MPI processes (mpirun -np {launched}), which "
             "would all write the same run and wait on each other: start it once (a sweep runs "
             "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
