@@ -25,6 +25,7 @@ enum bk_slot {
   BK_SLOT_WORK,            /* the plate's work on the drive springs */
   BK_SLOT_DISS_BREAK,      /* dissipated by contact breaks (the sliding work under coulomb) */
   BK_SLOT_DISS_DAMP,       /* dissipated by damping */
+  BK_SLOT_IMAGE_BASE,      /* box lengths the fix took out of LAMMPS's x image flags */
   BK_NSLOTS
 };
 

@@ -526,13 +526,12 @@ void FixBKFused::build_lattice()
 
 void FixBKFused::update_map()
 {
-  static constexpr double origin[3] = {0.0, 0.0, 0.0};
   const imageint *const image = atom->image;
   const tagint first = static_cast<tagint>(row0) * Lx + 1;
   tagint stray = std::numeric_limits<tagint>::max();    // the lowest ID out of place
   int stale = 0;    // the atom map names another atom: atoms moved without a map rebuild
   identity = true;
-  double o[3];
+  double o[2];
   for (int k = 0; k < nloc; k++) {
     const int i = atom->map(first + k);
     if (i >= 0 && i < atom->nlocal && atom->tag[i] != first + k) stale = 1;
@@ -542,7 +541,7 @@ void FixBKFused::update_map()
     }
     loc[k] = i;
     identity = identity && i == k;
-    domain->unmap(origin, image[i], o);
+    image_offset(image[i], o);
     ox[k] = o[0];
     oy[k] = o[1];
     z[k] = atom->x[i][2];
@@ -576,12 +575,14 @@ void FixBKFused::update_map()
 
 void FixBKFused::setup_post_neighbor()
 {
+  rebase_images();
   if (!lattice_ready) build_lattice();    // which maps
   else update_map();
 }
 
 void FixBKFused::post_neighbor()
 {
+  rebase_images();
   if (lattice_ready) update_map();
 }
 

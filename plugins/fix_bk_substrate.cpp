@@ -139,6 +139,7 @@ void FixBKSubstrate::setup_post_neighbor()
 
 void FixBKSubstrate::post_neighbor()
 {
+  rebase_images();
   if (drive_on || bonds_on) update_offsets();
   if (bonds_on) build_bond_list();
 }
@@ -205,12 +206,11 @@ void FixBKSubstrate::grow_displacements()
 void FixBKSubstrate::update_offsets()
 {
   grow_displacements();
-  static constexpr double origin[3] = {0.0, 0.0, 0.0};
   const imageint *const image = atom->image;
   const int nlocal = atom->nlocal;
-  double o[3];
+  double o[2];
   for (int i = 0; i < nlocal; i++) {
-    domain->unmap(origin, image[i], o);
+    image_offset(image[i], o);
     offset[i][0] = o[0];
     offset[i][1] = o[1];
   }

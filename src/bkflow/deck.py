@@ -32,7 +32,7 @@ SUBSTRATE_FIX = "bk"
 #: that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
          "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
-         "diss_break": 11, "diss_damp": 12}
+         "diss_break": 11, "diss_damp": 12, "image_base": 13}
 #: the energy ledger's slots (docs/model.md "Energy"): the energies of the step, then the running
 #: sums that the keyword ``energy`` of fix bk/substrate keeps
 LEDGER_SLOTS = ("e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
