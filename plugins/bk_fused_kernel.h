@@ -61,6 +61,8 @@ struct Arrays {
   double *fb;
   double fb_mark, fb_step;
   int fb_track;
+  // contacts the rule left past the threshold (FixBKLayer::novershoot), counted here
+  long overshoot;
   // Model::slab: sends the block's first and last rows of x and y to the neighbouring blocks
   // and posts the receives of their ghost rows (halo_start), then waits for them and fills
   // the ghost rows (halo_wait); the step computes the rows that need no ghost in between

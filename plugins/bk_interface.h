@@ -26,6 +26,9 @@ enum bk_slot {
   BK_SLOT_DISS_BREAK,      /* dissipated by contact breaks (the sliding work under coulomb) */
   BK_SLOT_DISS_DAMP,       /* dissipated by damping */
   BK_SLOT_IMAGE_BASE,      /* box lengths the fix took out of LAMMPS's x image flags */
+  BK_SLOT_OVERSHOOT,       /* contacts the rule left past the threshold, since the fix was
+                              defined: a step moved them past their whole range, too long a
+                              time step for the friction law (0 at any sensible step) */
   BK_NSLOTS
 };
 

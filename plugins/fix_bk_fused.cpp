@@ -696,6 +696,8 @@ void FixBKFused::initial_integrate(int /*vflag*/)
   in_step = false;
   nbreak_step = last;
   nbreak_total += nb;
+  novershoot += arr.overshoot;
+  arr.overshoot = 0;
   if (damping != BK_NO_DAMPING) vh_valid = 1;
   if (ledger_on)
     for (int k = 0; k < BK_NLEDGER; k++) ledger[k] = arr.led[k];

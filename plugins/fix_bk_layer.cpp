@@ -288,6 +288,11 @@ double FixBKLayer::compute_vector(int n)
       return path_code();
     case BK_SLOT_IMAGE_BASE:
       return static_cast<double>(image_base[0]);
+    case BK_SLOT_OVERSHOOT: {
+      double mine = static_cast<double>(novershoot), all = 0.0;
+      MPI_Allreduce(&mine, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+      return all;
+    }
     default:
       return ledger_slot(n);
   }

@@ -117,6 +117,10 @@ class FixBKLayer : public Fix {
   double plate_shift = 0.0;      // the plate's displacement at the current step
   int vh_valid = 0;              // VH* hold the velocity used by the last step
   bigint nbreak_step = 0, nbreak_total = 0;    // contact breaks (local on the general path)
+  // contacts that the rule left past the threshold (this rank's, since the fix was defined):
+  // the step moved them farther than their whole range f_max / k_e, so that the friction
+  // force passed f_max; bkflow's engine stops such a run
+  bigint novershoot = 0;
   double *first_break = nullptr;    // per atom: the step of its first break since the mark
   int track_breaks = 0;
   double break_mark = 0.0;

@@ -344,7 +344,7 @@ void FixBKSubstrate::eval()
   const double step_now = static_cast<double>(update->ntimestep);
 
   double sfx = 0.0;
-  bigint nb = 0;
+  bigint nb = 0, nover = 0;
   // the ledger's terms of this step (LEDGER): breaks' loss, damping's kick work
   double lost = 0.0, kick_done = 0.0, kick_next = 0.0;
   for (int i = 0; i < nlocal; i++) {
@@ -368,6 +368,7 @@ void FixBKSubstrate::eval()
           if (track_breaks && first_break[i] < break_mark) first_break[i] = step_now;
           const double bx = s[DRX], by = s[DRY];
           bk_contact_break(CONTACT, &s[DRX], &s[DRY], vx * dt, vy * dt, fmax, ke, lim2);
+          nover += bk_contact_over(s[DRX], s[DRY], ke2, fmax2);
           if constexpr (LEDGER) lost += bk_break_loss(CONTACT, bx, by, s[DRX], s[DRY], ke);
         }
       }
@@ -406,6 +407,7 @@ void FixBKSubstrate::eval()
   sum_fx_drive = sfx;
   nbreak_step = nb;
   nbreak_total += nb;
+  novershoot += nover;
   if (ADVANCE && DAMPING != BK_NO_DAMPING) vh_valid = 1;
   if constexpr (LEDGER) {
     ledger_plate(sfx, ADVANCE);

@@ -36,7 +36,8 @@ def test_the_output_slots_are_named_alike():
             "BK_SLOT_E_BOND": "e_bond", "BK_SLOT_E_DRIVE": "e_drive",
             "BK_SLOT_E_CONTACT": "e_contact", "BK_SLOT_E_KINETIC": "e_kinetic",
             "BK_SLOT_WORK": "work", "BK_SLOT_DISS_BREAK": "diss_break",
-            "BK_SLOT_DISS_DAMP": "diss_damp", "BK_SLOT_IMAGE_BASE": "image_base"}
+            "BK_SLOT_DISS_DAMP": "diss_damp", "BK_SLOT_IMAGE_BASE": "image_base",
+            "BK_SLOT_OVERSHOOT": "overshoot"}
     assert {want[c]: i for i, c in enumerate(slots[:-1])} == SLOTS
 
 

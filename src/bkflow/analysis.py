@@ -246,7 +246,8 @@ class RunAnalysis:
         """The summary row: parameters and settings nested, one key per observable."""
         row = {"bkflow": __version__, "params": self.spec.to_dict(),
                "settings": self.settings.to_dict(), "N": self.spec.N,
-               "t_run": self.spec.t_end, **_NOT_MEASURED}
+               "t_run": self.spec.t_end, "dt": self.spec.dt, "dt_rule": self.spec.dt_rule,
+               **_NOT_MEASURED}
         for part in (self.friction, self.steady, self.state, self.large, self.drops, self.order,
                      self.clusters):
             if part is not None:

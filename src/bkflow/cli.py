@@ -31,6 +31,7 @@ from .params import (  # noqa: E402
     ADAPTIVE_T_MIN,
     CONTACT_RULE_HELP,
     CONTACT_RULES,
+    DT_FACTOR_MAX,
     PAPER_SIZES,
     PATHS,
     PROTOCOLS,
@@ -92,16 +93,20 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
                         "mu_bar's error is below the preset's target, at most --t-end; "
                         "paper: the paper's, from the synchronized start, a fixed --t-end")
     p.add_argument("--accuracy", choices=tuple(ACCURACY), default="default",
-                   help="preset of --dt-factor, --t-end and --target-error: " + ", ".join(
-                       f"{k} (C = {c.dt_factor:g}; the steady protocol until mu_bar's error "
-                       f"is below {c.target_error:g}, at most t = {c.t_cap:g}; the paper's "
-                       f"protocol t_end = {c.t_end:g})" for k, c in ACCURACY.items()))
+                   help="preset of the time step, --t-end and --target-error: " + ", ".join(
+                       f"{k} (the time step's bias at most {100 * c.dt_error:g}%%: dt = "
+                       f"min({c.c_contact:g} / omega_c, {c.c_stable:g} / omega_max); the "
+                       f"steady protocol until mu_bar's error is below {c.target_error:g}, at "
+                       f"most t = {c.t_cap:g}; the paper's protocol t_end = {c.t_end:g})"
+                       for k, c in ACCURACY.items()))
     p.add_argument("--t-end", type=float, default=None, metavar="T",
                    help="run length in time units (default: the --accuracy preset's); for "
                         "the steady protocol or with --target-error, the longest the run may "
                         "go (raise it if a run stops at it before it is steady)")
     p.add_argument("--dt-factor", type=float, default=None, metavar="C",
-                   help="C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (default: the preset's)")
+                   help="C in dt = C / omega_max, omega_max = sqrt((4 k_b + k_e + k_d + dk_d) "
+                        "/ m), instead of the --accuracy preset's rule (at most "
+                        f"{DT_FACTOR_MAX:g}, the stability bound)")
     p.add_argument("--target-error", type=float, default=None, metavar="E",
                    help="run until mu_bar's standard error is below this (checked every 1%% of "
                         f"--t-end, at most every {ADAPTIVE_CHUNK_T:g} time units, from t = "

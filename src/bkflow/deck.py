@@ -32,7 +32,8 @@ SUBSTRATE_FIX = "bk"
 #: that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
          "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
-         "diss_break": 11, "diss_damp": 12, "image_base": 13}
+         "diss_break": 11, "diss_damp": 12, "image_base": 13,
+         "overshoot": 14}
 #: the energy ledger's slots (docs/model.md "Energy"): the energies of the step, then the running
 #: sums that the keyword ``energy`` of fix bk/substrate keeps
 LEDGER_SLOTS = ("e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
@@ -152,8 +153,8 @@ def _header(spec: RunSpec, path: str) -> list[str]:
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; docs/model.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, "
         f"seed {spec.seed}, contact rule {spec.contact_rule}, {spec.start} start",
-        f"# dt = {spec.dt_factor:g} / sqrt(4 k_b + k_e + k_d + dk_d) = {spec.dt:.6g}; "
-        f"t_end = {spec.t_end:g} ({spec.n_steps} steps)",
+        f"# dt = {spec.dt:.6g}, {spec.dt_rule}",
+        f"# t_end = {spec.t_end:g} ({spec.n_steps} steps)",
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
     ] + ({

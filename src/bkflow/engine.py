@@ -72,8 +72,15 @@ class RunResult:
     meta: dict
 
 
-#: a layer that tears at a time step this accurate (C <= 0.5: stable and within percents of
-#: the converged stress, benchmarks/RESULTS.md) tears because of its physics, not of dt
+#: a run stops when more than this share of its contact breaks (at least of
+#: OVERSHOOT_MIN_BREAKS) left the contact past its threshold: steps too long for the friction
+#: law (phi = 10, 2000 time units: none at the default preset; 2e-3 at dt omega_max = 1.9; a
+#: contact 100 times stiffer, k_e = 1000, 5e-4 at the default preset and 79% at 1.9)
+OVERSHOOT_ALLOWED = 0.01
+OVERSHOOT_MIN_BREAKS = 1000
+
+#: a layer that tears at a time step this far inside the stability bound (dt omega_max <=
+#: 0.5) tears because of its physics, not of dt
 TEAR_IS_PHYSICAL_BELOW_C = 0.5
 
 
@@ -241,9 +248,19 @@ def _check(lmp, spec: RunSpec, step: int) -> float:
     if not (np.all(np.isfinite(x[:natoms, :2])) and math.isfinite(sx)):
         raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
                        "try a smaller --dt-factor")
+    over = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["overshoot"])
+    if over > OVERSHOOT_ALLOWED * max(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"]),
+                                      OVERSHOOT_MIN_BREAKS):
+        breaks = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"])
+        raise RunError(f"{where}: the time step dt = {spec.dt:.3g} moved {over:.0f} of "
+                       f"{breaks:.0f} breaking contacts past their whole range (f_max / k_e = "
+                       f"{spec.friction_threshold / spec.k_e:.3g} l) in one step, so that the "
+                       "friction force passed mu_s sigma_n A: the model's friction law no "
+                       "longer holds at this step (dt omega_max = "
+                       f"{spec.dt * spec.omega_max:.3g}); choose a smaller --dt-factor")
     longest = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["bond_max"])
     if not longest < spec.bond_limit:
-        if spec.dt_factor <= TEAR_IS_PHYSICAL_BELOW_C:
+        if spec.dt * spec.omega_max <= TEAR_IS_PHYSICAL_BELOW_C:
             # at an accurate time step a torn layer is the model's own answer: bonds this
             # soft cannot hold the layer against its heterogeneous drive, whatever dt
             advice = (f"bonds of k_b = {spec.k_b:g} cannot hold the layer against the "
@@ -363,6 +380,7 @@ class _Leg:
     def counters(self) -> dict:
         lmp, spec = self.lmp, self.spec
         return {"contact_breaks": int(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"])),
+                "contact_overshoots": int(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["overshoot"])),
                 "slip_snapshots": {k: int(_fix_vector(lmp, SLIPS_FIX, i))
                                    for i, k in enumerate(("events", "written"))}
                 if spec.writes_slips else None,
@@ -525,7 +543,8 @@ def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: 
         "requested": requested.to_dict(),
         "adaptive": None if adaptive is None else adaptive.record(requested, spec.t_end,
                                                                   stopped_early),
-        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "n_steps": step,
+        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "dt_rule": spec.dt_rule,
+                    "n_steps": step,
                     "stress_nevery": spec.stress_nevery,
                     "stress_dt": spec.stress_nevery * spec.dt,
                     "snapshot_nevery": spec.snapshot_nevery if spec.writes_snapshots else None,

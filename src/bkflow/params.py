@@ -7,7 +7,7 @@ hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
 >>> spec.k_b, spec.N
 (10.0, 100)
 >>> round(spec.dt, 6)
-0.013868
+0.028868
 """
 
 from __future__ import annotations
@@ -21,11 +21,10 @@ from typing import NamedTuple
 #: The paper's lattice sizes by particle number (Ly = Lx / 4).
 PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
 
-#: Largest accepted time-step factor C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d): the
-#: measured stability bound. benchmarks/stability.py ran phi = 0.1 .. 1e4 (N = 100, 2000 time
-#: units) at C up to 2.5: every phi is stable at C = 1.9, phi >= 100 blows up at C = 2.0
-#: (velocity Verlet's linear bound, omega_max dt < 2). Stable is not accurate: above
-#: C ~ 0.5 <sigma_x> moves by percents (benchmarks/RESULTS.md); the presets stay at <= 0.4.
+#: Largest accepted C = dt omega_max, omega_max^2 = (4 k_b + k_e + k_d + dk_d) / m the layer's
+#: fastest mode: the measured stability bound (benchmarks/stability.py: every phi from 0.1 to
+#: 1e4 stable at C = 1.9, phi >= 100 blowing up at C = 2.0, velocity Verlet's omega dt < 2).
+#: Any time step, from a preset's rule or from --dt-factor, is refused above it.
 DT_FACTOR_MAX = 1.9
 
 #: contact rules at |k_e dr| > mu_s sigma_n A, each with what it does (the CLI's help). reset:
@@ -53,23 +52,56 @@ PATHS = ("auto", "general", "fused")
 DAMPING_MODES = ("implicit", "half")
 
 class Preset(NamedTuple):
-    """An accuracy preset: the time-step factor C, the length of a fixed run (the paper's
-    protocol), the cap of a run until steady (the steady protocol) and the standard error of
-    mu_bar that the steady protocol also waits for (absolute; mu_bar is 0.10-0.12, so 2e-4
-    is about 0.2%)."""
+    """An accuracy preset, defined by ``dt_error``: the largest bias its time step may put on
+    the steady observables (<sigma_x>/sigma_n and mu_bar, relative), at every phi. Its time
+    step follows the rule of ``time_step``, dt = min(c_contact / omega_c, c_stable /
+    omega_max), the two constants the largest that meet ``dt_error`` at every phi measured
+    (benchmarks/timestep.py; benchmarks/RESULTS.md "The time step"). Beside it: the length of a
+    fixed run (the paper's protocol), the cap of a run until steady (the steady protocol) and
+    the standard error of mu_bar that the steady protocol waits for (absolute; mu_bar is
+    0.10-0.12, so 2e-4 is about 0.2%)."""
 
-    dt_factor: float
+    dt_error: float
+    c_contact: float
+    c_stable: float
     t_end: float
     t_cap: float
     target_error: float
 
 
-#: accuracy presets, chosen from the work-precision benchmarks of the steady state
-#: (benchmarks/steady_presets.py: C = 0.2 is 0.8% low at phi = 0.1, C = 0.1 within 0.3%
-#: everywhere; errors and costs in benchmarks/RESULTS.md)
-ACCURACY = {"fast": Preset(0.2, 2000.0, 16000.0, 5e-4),
-            "default": Preset(0.1, 8000.0, 64000.0, 2e-4),
-            "precise": Preset(0.05, 16000.0, 64000.0, 1e-4)}
+#: accuracy presets (Preset): the time step's error target and the rule's constants from the
+#: work-precision of benchmarks/timestep.py, errors and costs in benchmarks/RESULTS.md
+ACCURACY = {"fast": Preset(0.01, 0.2, 1.5, 2000.0, 16000.0, 5e-4),
+            "default": Preset(0.002, 0.1, 1.5, 8000.0, 64000.0, 2e-4),
+            "precise": Preset(0.0005, 0.05, 1.0, 16000.0, 64000.0, 1e-4)}
+
+
+def omega_max(k_b: float, k_e: float, k_d: float, dk_d: float, mass: float) -> float:
+    """The layer's fastest angular frequency, sqrt((4 k_b + k_e + k_d + dk_d) / m): a particle
+    held by its four bonds, its contact and the stiffest drive spring; the stability bound is
+    dt omega_max < 2."""
+    return math.sqrt((4 * k_b + k_e + k_d + dk_d) / mass)
+
+
+def omega_contact(k_e: float, k_d: float, dk_d: float, mass: float) -> float:
+    """The angular frequency of a contact's load cycle, sqrt((k_e + k_d + dk_d) / m): a particle
+    on its contact spring and its stiffest drive spring, the bonds left out. It sets what the
+    observables need resolved (docs/model.md "Integration")."""
+    return math.sqrt((k_e + k_d + dk_d) / mass)
+
+
+def time_step(preset: Preset, w_max: float, w_contact: float) -> float:
+    """The time step of an accuracy preset: dt = min(c_contact / omega_c, c_stable /
+    omega_max). Soft layers (bonds slower than the contacts) take the contacts' step; stiff
+    ones the stability bound's, with its margin: their bond modes barely move the contacts,
+    so resolving them buys no accuracy (benchmarks/RESULTS.md "The time step").
+
+    >>> dt = time_step(ACCURACY["default"], omega_max(0.1, 10, 1, 1, 1), omega_contact(10, 1, 1, 1))
+    >>> round(dt * omega_contact(10, 1, 1, 1), 6)
+    0.1
+    """
+    return min(preset.c_contact / w_contact, preset.c_stable / w_max)
+
 
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
@@ -325,7 +357,8 @@ class RunSpec:
     """One run of the model: lattice, physics, integration and output sampling.
 
     Attributes follow docs/model.md symbols. ``phi`` = k_b / dk_d is the control parameter;
-    ``dt_factor`` is C in dt = C / sqrt(4 k_b + k_e + k_d + dk_d) (docs/model.md "Integration").
+    The time step is the ``accuracy`` preset's rule (``time_step``), or with ``dt_factor``
+    C = dt omega_max given explicitly (docs/model.md "Integration"); ``dt_rule`` says which.
     ``stress_every`` is the sampling interval of sigma_x in time units (rounded to whole steps).
     """
 
@@ -334,7 +367,10 @@ class RunSpec:
     Ly: int = checked(5, integer(3, tail=_TWO_CELLS))
     seed: int = checked(1, integer(0, "a non-negative integer"))
     t_end: float = checked(ACCURACY["default"].t_end, number(gt=0))
-    dt_factor: float = checked(ACCURACY["default"].dt_factor, number(gt=0))
+    #: the accuracy preset (ACCURACY) whose time-step rule gives dt, unless dt_factor is given
+    accuracy: str = checked("default", choice(tuple(ACCURACY)))
+    #: C = dt omega_max given explicitly (None: the accuracy preset's rule)
+    dt_factor: float | None = checked(None, number(gt=0, optional=True))
     #: rule at a contact break (CONTACT_RULES)
     contact_rule: str = checked("reset", choice(CONTACT_RULES))
     #: starting state of the contacts (STARTS)
@@ -406,10 +442,12 @@ class RunSpec:
         if self.companion is not None and self.companion == self.start:
             raise SpecError(f"companion {self.companion!r} is the run's own start: a "
                             "companion runs from another start")
-        if self.dt_factor > DT_FACTOR_MAX:
+        if self.dt * self.omega_max > DT_FACTOR_MAX * (1 + 1e-12):
             raise SpecError(
-                f"dt_factor {self.dt_factor} is above the stability bound {DT_FACTOR_MAX} "
-                f"(dt = C / sqrt(4 k_b + k_e + k_d + dk_d)); use a smaller --dt-factor")
+                f"dt = {self.dt:.4g} ({self.dt_rule}) is dt omega_max = "
+                f"{self.dt * self.omega_max:.3g} with omega_max = {self.omega_max:.4g} the "
+                f"fastest mode of these parameters, above the stability bound {DT_FACTOR_MAX}; "
+                "use a smaller --dt-factor")
         if self.V_d * self.dt > MAX_DRIVE_STEP:
             raise SpecError(
                 f"V_d = {self.V_d:g} moves the plate {self.V_d * self.dt:.3g} lattice units "
@@ -498,11 +536,35 @@ class RunSpec:
         return self.phi * self.dk_d
 
     @property
+    def omega_max(self) -> float:
+        """The fastest mode of the run's own parameters (``omega_max``)."""
+        return omega_max(self.k_b, self.k_e, self.k_d, self.dk_d, self.mass)
+
+    @property
+    def omega_contact(self) -> float:
+        """The contacts' load cycle of the run's own parameters (``omega_contact``)."""
+        return omega_contact(self.k_e, self.k_d, self.dk_d, self.mass)
+
+    @property
     def dt(self) -> float:
-        """C / sqrt((4 k_b + k_e + k_d + dk_d) / m): the stiffest mode's period scales with
-        sqrt(m) (the model's m = 1 divides exactly: the same bits)."""
-        return self.dt_factor / math.sqrt(
-            (4 * self.k_b + self.k_e + self.k_d + self.dk_d) / self.mass)
+        """The time step: C / omega_max with an explicit ``dt_factor`` C (omega_max computed as
+        sqrt(x / m): the model's m = 1 divides exactly), else the accuracy preset's rule."""
+        if self.dt_factor is not None:
+            return self.dt_factor / self.omega_max
+        return time_step(ACCURACY[self.accuracy], self.omega_max, self.omega_contact)
+
+    @property
+    def dt_rule(self) -> str:
+        """How dt was chosen, for the records: the preset's rule with its constants and which
+        of them set dt, or the explicit C."""
+        c = self.dt * self.omega_max
+        if self.dt_factor is not None:
+            return f"dt = {self.dt_factor:g} / omega_max (--dt-factor)"
+        p = ACCURACY[self.accuracy]
+        which = ("the contacts' cycle" if p.c_contact / self.omega_contact
+                 <= p.c_stable / self.omega_max else "the stability margin")
+        return (f"{self.accuracy}: dt = min({p.c_contact:g} / omega_c, {p.c_stable:g} / "
+                f"omega_max), set by {which} (dt omega_max = {c:.3g})")
 
     @property
     def n_steps(self) -> int:
@@ -626,8 +688,8 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
                     start: str | None = None, t_end: float | None = None,
                     dt_factor: float | None = None, until_steady: bool = False,
                     target_error: float | None = None, companion: str | None = "") -> dict:
-    """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, dt_factor,
-    target_error) from an accuracy preset (``ACCURACY``) and what is given explicitly
+    """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, accuracy,
+    dt_factor, target_error) from an accuracy preset (``ACCURACY``) and what is given explicitly
     (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
     none). ``steady``: from STEADY_START with a companion from STEADY_COMPANION (or, when
     ``start`` is that, STEADY_START) until the pair is steady and mu_bar's error is below the
@@ -656,7 +718,7 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     return {"start": start, "companion": companion,
             "until_steady": steady,
             "t_end": default_t if t_end is None else t_end,
-            "dt_factor": preset.dt_factor if dt_factor is None else dt_factor,
+            "accuracy": accuracy, "dt_factor": dt_factor,
             "target_error": target_error if target_error is not None
             else preset.target_error if protocol == "steady" else None}
 

@@ -1,0 +1,87 @@
+"""The stiff end over long runs: which long-lived states a layer visits, how long it stays in
+each, and what its long-run mean is (docs/model.md, "Steady state" and the stiff end's states).
+
+    python benchmarks/stiff_states.py run [--n 100] [--t-end 1e6] [--phi 30,100,215,464,1000]
+                                          [--starts all] [--seeds 1,2,3] [--shard I/K]
+    python benchmarks/stiff_states.py report      # tables and the figure from the records
+
+run
+    One ``longrun.LongRun`` per (phi, start, seed) at the lattice of N particles: blocks of
+    1000 time units recorded in benchmarks/records/stiff_states/ (Parquet), resumable (run
+    the same command again to go on, or with a larger --t-end to extend every run). --shard
+    I/K takes every K-th case from the I-th: one process per core.
+report
+    See ``bkflow.states`` for the classification; prints the tables of benchmarks/RESULTS.md.
+
+The time step: dt = min(1 / omega_max, 0.1 / omega_c), omega_max^2 = 4 k_b + k_e + k_d + dk_d
+(the bonds' fastest mode) and omega_c^2 = k_e + k_d + dk_d (the contacts' load cycle), i.e. the
+stiff layers at C = dt omega_max = 1 (where the mean stress is the same as at C = 0.1 to 0.1%)
+and the softer ones resolving the contacts as the default preset does at phi = 0.1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from longrun import RECORDS, LongRun, case_name  # noqa: E402
+
+from bkflow.params import STARTS, RunSpec, size_from_n  # noqa: E402
+
+OUT = RECORDS / "stiff_states"
+PHI = (30.0, 100.0, 215.0, 464.0, 1000.0)
+
+
+def dt_factor(spec: RunSpec) -> float:
+    """C = dt omega_max of dt = min(1 / omega_max, 0.1 / omega_c) (module doc)."""
+    w_max = math.sqrt((4 * spec.k_b + spec.k_e + spec.k_d + spec.dk_d) / spec.mass)
+    w_c = math.sqrt((spec.k_e + spec.k_d + spec.dk_d) / spec.mass)
+    return round(min(1.0, 0.1 * w_max / w_c), 4)
+
+
+def cases(n: int, phis, starts, seeds):
+    Lx, Ly = size_from_n(n)
+    for phi in phis:
+        for seed in seeds:
+            for start in starts:
+                spec = RunSpec(phi=phi, Lx=Lx, Ly=Ly, seed=seed, start=start)
+                yield spec.replace(dt_factor=dt_factor(spec))
+
+
+def _floats(text):
+    return [float(v) for v in text.split(",")]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--n", type=int, default=100)
+    r.add_argument("--t-end", type=float, default=1e6)
+    r.add_argument("--phi", type=_floats, default=list(PHI))
+    r.add_argument("--starts", default="all")
+    r.add_argument("--seeds", default="1,2,3")
+    r.add_argument("--shard", default="0/1")
+    r.add_argument("--chunk", type=float, default=1e5)
+    sub.add_parser("report")
+    a = ap.parse_args(argv)
+    if a.cmd == "run":
+        starts = STARTS if a.starts == "all" else a.starts.split(",")
+        seeds = [int(s) for s in a.seeds.split(",")]
+        i, k = (int(v) for v in a.shard.split("/"))
+        todo = list(cases(a.n, a.phi, starts, seeds))[i::k]
+        for spec in todo:
+            LongRun(spec, OUT / f"{case_name(spec)}.parquet", 1000.0, a.chunk).advance_to(
+                a.t_end, log=lambda m: print(m, flush=True))
+    else:
+        from states_report import report
+
+        report(OUT)
+
+
+if __name__ == "__main__":
+    main()

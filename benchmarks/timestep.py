@@ -1,0 +1,95 @@
+"""Work-precision of the time step: the bias of the steady observables against dt, per phi and
+size, over the whole stable range; the time-step rule and the presets are derived from it
+(docs/model.md "Integration", bkflow.params.time_step).
+
+    python benchmarks/timestep.py run [--n 100] [--phi ...] [--c ...] [--seeds 1,2,3,4]
+                                      [--shard I/K]
+    python benchmarks/timestep.py report [--n 100,400]
+
+run
+    For each phi, C = dt omega_max (omega_max^2 = (4 k_b + k_e + k_d + dk_d) / m, the old
+    rule's variable) and seed: one run from the random start of T_SOFT time units (phi <= 10)
+    or T_STIFF (phi > 10, where the states switch slowly), recorded in blocks
+    (``longrun.LongRun``, benchmarks/records/timestep/), resumable. A C whose plate moves more
+    than MAX_DRIVE_STEP a step is left out (bkflow refuses it).
+report
+    Per (phi, N, C): the bias of <sigma_x>/sigma_n and of mu_bar (1% threshold) after the
+    first 20% of the run, against the smallest C of that phi (C_REF_SOFT or C_REF_STIFF),
+    relative; each the mean over seeds of the paired difference (same seed: the same disorder
+    k_d^i and start), with its standard error over seeds; the cost in atom-steps per time unit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from longrun import RECORDS, LongRun, case_name  # noqa: E402
+
+from bkflow.params import RunSpec, SpecError, size_from_n  # noqa: E402
+
+OUT = RECORDS / "timestep"
+PHI = (0.1, 0.464, 2.15, 10.0, 46.4, 215.0, 1000.0)
+C_VALUES = (0.025, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 1.9)
+#: the references: the smallest C run at each end
+C_REF_SOFT, C_REF_STIFF = 0.025, 0.05
+#: phi above which runs are T_STIFF long, and start at C_REF_STIFF
+PHI_STIFF = 10.0
+T_SOFT, T_STIFF = 2e4, 1e5
+
+
+def run_length(phi: float) -> float:
+    return T_STIFF if phi > PHI_STIFF else T_SOFT
+
+
+def cases(n: int, phis, cs, seeds):
+    Lx, Ly = size_from_n(n)
+    for seed in seeds:
+        for phi in phis:
+            for c in cs:
+                if phi > PHI_STIFF and c < C_REF_STIFF:
+                    continue
+                try:
+                    spec = RunSpec(phi=phi, Lx=Lx, Ly=Ly, seed=seed, start="random",
+                                   dt_factor=c)
+                except SpecError:  # the plate would move more than MAX_DRIVE_STEP a step
+                    continue
+                yield spec
+
+
+def _floats(text):
+    return [float(v) for v in text.split(",")]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--n", type=int, default=100)
+    r.add_argument("--phi", type=_floats, default=list(PHI))
+    r.add_argument("--c", type=_floats, default=list(C_VALUES))
+    r.add_argument("--seeds", default="1,2,3,4")
+    r.add_argument("--shard", default="0/1")
+    rep = sub.add_parser("report")
+    rep.add_argument("--n", default="100,400")
+    a = ap.parse_args(argv)
+    if a.cmd == "run":
+        seeds = [int(s) for s in a.seeds.split(",")]
+        i, k = (int(v) for v in a.shard.split("/"))
+        todo = list(cases(a.n, a.phi, a.c, seeds))[i::k]
+        for spec in todo:
+            LongRun(spec, OUT / f"{case_name(spec)}.parquet", 1000.0,
+                    chunk_t=min(1e5, run_length(spec.phi))).advance_to(
+                run_length(spec.phi), log=lambda m: print(m, flush=True))
+    else:
+        from timestep_report import report
+
+        report(OUT, [int(v) for v in a.n.split(",")])
+
+
+if __name__ == "__main__":
+    main()
