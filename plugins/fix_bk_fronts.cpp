@@ -36,7 +36,7 @@ using namespace LAMMPS_NS;
 
 namespace {
 const char *USAGE = "fix ID group bk/fronts Nevery substrate-fix-ID threshold file FILE "
-                    "[start STEP] [limit K]";
+                    "[start STEP] [limit K] [append]";
 // the longest event kept whole, in samples (20000 time units at bkflow's 0.1 sampling)
 constexpr std::size_t MAX_SAMPLES = 200000;
 }    // namespace
@@ -45,7 +45,7 @@ FixBKFronts::FixBKFronts(LAMMPS *lmp, int narg, char **arg) :
     FixBKEvents(lmp, narg, arg, USAGE, true)
 {
   natoms = atom->natoms;
-  if (comm->me == 0) {
+  if (comm->me == 0 && !appending) {
     const int64_t n = natoms;
     write("BKFRONT1", 8);
     write(reinterpret_cast<const char *>(&n), sizeof(n));

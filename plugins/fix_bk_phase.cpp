@@ -20,18 +20,22 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstring>
 
 using namespace LAMMPS_NS;
 
 namespace {
-const char *USAGE = "fix ID group bk/phase Nevery substrate-fix-ID file FILE";
+const char *USAGE = "fix ID group bk/phase Nevery substrate-fix-ID file FILE [append]";
 }    // namespace
 
 FixBKPhase::FixBKPhase(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
 {
-  if (narg != 7) error->all(FLERR, "Illegal fix bk/phase command: {}", USAGE);
+  if (narg == 8 && strcmp(arg[7], "append") == 0)
+    appending = 1;
+  else if (narg != 7)
+    error->all(FLERR, "Illegal fix bk/phase command: {}", USAGE);
   open_file(5, narg, arg);
-  if (fp) write(std::string("t,R,Z_re,Z_im,R2,u_mean,u_std\n"));
+  if (fp && !appending) write(std::string("t,R,Z_re,Z_im,R2,u_mean,u_std\n"));
 }
 
 void FixBKPhase::init()

@@ -47,7 +47,7 @@ int FixBKReader::open_file(int iarg, int narg, char **arg)
   delete[] filename;
   filename = utils::strdup(arg[iarg + 1]);
   if (comm->me == 0) {
-    fp = fopen(filename, "w");
+    fp = fopen(filename, appending ? "a" : "w");
     if (!fp)
       error->one(FLERR, "{} fix {}: cannot open {}: {}", BK_ERR_CANNOT_OPEN, style, filename,
                  utils::getsyserror());
@@ -79,6 +79,12 @@ void FixBKReader::init()
 
 void FixBKReader::setup(int /*vflag*/)
 {
+  const bool skip = appending && first_setup;    // sampled by the run that was continued
+  first_setup = false;
+  if (skip) {
+    last_step = update->ntimestep;
+    return;
+  }
   if (update->ntimestep % nevery == 0) sample_once();
 }
 
@@ -147,6 +153,9 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
       iarg += 2;
     } else if (takes_breaks && strcmp(arg[iarg], "breaks") == 0) {
       with_breaks = 1;
+      iarg++;
+    } else if (strcmp(arg[iarg], "append") == 0) {
+      appending = 1;
       iarg++;
     } else {
       error->all(FLERR, "Illegal fix {} keyword {}: {}", style, arg[iarg], usage);

@@ -37,6 +37,10 @@ class FixBKReader : public Fix {
   const char *usage;
   class FixBKLayer *substrate = nullptr;    // the bk/substrate fix, set by init()
   FILE *fp = nullptr;                           // FILE on rank 0, nullptr elsewhere
+  /* `append` (a run continued from a restart file): FILE is appended to, without a header,
+     and the first setup's sample is left out (the run that wrote the restart file sampled
+     that step already). A derived fix sets it before open_file() and skips its header. */
+  int appending = 0;
 
   // parses `file FILE` at arg[iarg] and opens FILE (rank 0); returns the next iarg
   int open_file(int iarg, int narg, char **arg);
@@ -53,6 +57,7 @@ class FixBKReader : public Fix {
   char *filename = nullptr;
   std::vector<char> buffer;    // stdio buffer of fp: lines reach the disk in blocks
   bigint last_step = -1;       // last sampled step (setup() and end_of_step() may meet)
+  bool first_setup = true;
   std::chrono::steady_clock::time_point last_flush;
 
   void sample_once();

@@ -35,7 +35,8 @@ using namespace LAMMPS_NS;
 
 namespace {
 const char *USAGE =
-    "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP] [breaks]";
+    "fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP] [breaks] "
+    "[append]";
 }    // namespace
 
 FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :

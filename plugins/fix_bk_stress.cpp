@@ -28,7 +28,7 @@
 using namespace LAMMPS_NS;
 
 namespace {
-const char *USAGE = "fix ID group bk/stress Nevery substrate-fix-ID file FILE [energy]";
+const char *USAGE = "fix ID group bk/stress Nevery substrate-fix-ID file FILE [energy] [append]";
 // the slots written after sigma_x with `energy`
 constexpr int LEDGER[] = {BK_SLOT_BREAKS_TOTAL, BK_SLOT_E_BOND,    BK_SLOT_E_DRIVE,
                           BK_SLOT_E_CONTACT,    BK_SLOT_E_KINETIC, BK_SLOT_WORK,
@@ -38,12 +38,17 @@ constexpr int NLEDGER = sizeof(LEDGER) / sizeof(LEDGER[0]);
 
 FixBKStress::FixBKStress(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, narg, arg, USAGE)
 {
-  if (narg == 8 && strcmp(arg[7], "energy") == 0)
-    with_energy = 1;
-  else if (narg != 7)
-    error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
+  if (narg < 7) error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
+  for (int iarg = 7; iarg < narg; iarg++) {
+    if (strcmp(arg[iarg], "energy") == 0)
+      with_energy = 1;
+    else if (strcmp(arg[iarg], "append") == 0)
+      appending = 1;
+    else
+      error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
+  }
   open_file(5, narg, arg);
-  if (fp)
+  if (fp && !appending)
     write(std::string(with_energy ? "t,sigma_x,breaks,e_bond,e_drive,e_contact,e_kinetic,work,"
                                     "diss_break,diss_damp\n"
                                   : "t,sigma_x\n"));

@@ -223,3 +223,20 @@ def phase_statistics(dr, k_e, f_max) -> dict:
     z, z2 = np.exp(2j * np.pi * u).mean(), np.exp(4j * np.pi * u).mean()
     return {"R": abs(z), "Z_re": z.real, "Z_im": z.imag, "R2": abs(z2), "u_mean": u.mean(),
             "u_std": u.std()}
+
+
+#: the accuracy presets' time-step constants as docs/model.md ("Integration") states them:
+#: (c_contact, c_stable) of dt = min(c_contact / omega_c, c_stable / omega_max)
+TIME_STEP_RULE = {"fast": (0.2, 1.5), "default": (0.1, 1.5), "precise": (0.05, 1.0)}
+
+
+def time_step(preset: str, k_b: float, k_e: float, k_d: float, dk_d: float,
+              mass: float = 1.0) -> float:
+    """docs/model.md's time step of a preset, written from its text: the contacts' load cycle
+    (a particle on its contact spring and its stiffest drive spring, sqrt((k_e + k_d + dk_d)
+    / m)) resolved to c_contact, and no more than c_stable over the fastest mode (its four bonds
+    too, sqrt((4 k_b + k_e + k_d + dk_d) / m))."""
+    c_contact, c_stable = TIME_STEP_RULE[preset]
+    contact = np.sqrt((k_e + k_d + dk_d) / mass)
+    fastest = np.sqrt((4 * k_b + k_e + k_d + dk_d) / mass)
+    return float(min(c_contact / contact, c_stable / fastest))

@@ -58,15 +58,19 @@ def test_adaptive_sweep_is_not_redone(lammps, tmp_path):
 def test_accuracy_presets_set_the_time_step_and_length(preset, tmp_path):
     """A deck runs the preset's fixed length (a deck cannot stop by itself); a run of the
     steady protocol is capped at the preset's t_cap."""
-    c, t, cap, target = ACCURACY[preset]
+    p_ = ACCURACY[preset]
     proc = subprocess.run([tool("bkflow"), "deck", "--phi", "10", "--accuracy", preset, "--out",
                            str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     p = json.loads((tmp_path / "params.json").read_text())
-    assert (p["dt_factor"], p["t_end"], p["until_steady"]) == (c, t, False)
+    assert (p["accuracy"], p["dt_factor"], p["t_end"], p["until_steady"]) == \
+        (preset, None, p_.t_end, False)
+    spec = RunSpec.from_dict(p)
+    assert f"timestep        {spec.dt!r}" in (tmp_path / "in.bk").read_text()
     steady = protocol_fields("steady", preset)
-    assert (steady["dt_factor"], steady["t_end"], steady["until_steady"]) == (c, cap, True)
-    assert steady["target_error"] == target
+    assert (steady["accuracy"], steady["dt_factor"], steady["t_end"],
+            steady["until_steady"]) == (preset, None, p_.t_cap, True)
+    assert steady["target_error"] == p_.target_error
 
 
 def test_explicit_options_override_the_preset(tmp_path):
@@ -75,7 +79,8 @@ def test_explicit_options_override_the_preset(tmp_path):
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     p = json.loads((tmp_path / "params.json").read_text())
-    assert (p["dt_factor"], p["t_end"]) == (0.07, ACCURACY["fast"][1])
+    assert (p["dt_factor"], p["t_end"]) == (0.07, ACCURACY["fast"].t_end)
+    assert RunSpec.from_dict(p).dt == 0.07 / RunSpec(phi=10.0).omega_max
 
 
 def test_a_deck_cannot_be_adaptive(tmp_path):
@@ -135,7 +140,7 @@ def test_extreme_but_valid_inputs_run_and_stay_finite(lammps, changes, tmp_path)
     # each parameter's physical domain, not just finiteness (docs/model.md)
     ({"V_d": -0.02}, "V_d must be > 0 (the plate moves along +x"),
     ({"V_d": 0.0}, "V_d must be > 0"),
-    ({"V_d": 1.0}, "moves the plate 0.0139 lattice units per time step"),
+    ({"V_d": 1.0}, "moves the plate 0.0289 lattice units per time step"),
     ({"gamma": -0.2}, "gamma must be >= 0"),
     ({"mass": 0.0}, "mass must be > 0"),
     ({"k_e": 0.0}, "k_e must be > 0"),

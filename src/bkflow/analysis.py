@@ -11,12 +11,13 @@ in every summary, so that a summary made under other settings is known to be sta
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, catalogue, clusters, order, phases, stationarity, stress
+from . import __version__, catalogue, clusters, order, phases, states, stationarity, stress
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
@@ -41,23 +42,46 @@ class FrictionResult:
     """mu_bar over the slips after the transient with its standard error, the time-averaged
     stress ratio with its standard error over the correlated samples (threshold-free: once,
     not per threshold), and mu_bar at each of the report thresholds (docs/model.md
-    "Macroscopic friction")."""
+    "Macroscopic friction"). The errors are the run's own (``..._err_run``) until
+    ``covering`` widens them to cover the layer's switching between states
+    (``bkflow.states``): each is then an error of the layer's long-run mean."""
 
     friction: stress.MacroscopicFriction
     by_threshold: dict  # fraction of mu_s sigma_n -> MacroscopicFriction
     mean_stress_ratio_err: float
+    mean_stress_ratio_err_run: float = math.nan
+    mu_bar_err: float = math.nan
+    mu_bar_err_by_threshold: dict = field(default_factory=dict)
+
+    def covering(self, window: states.Window, spec: RunSpec) -> FrictionResult:
+        f = self.friction
+
+        def cover(value, own):
+            return window.err_of("mu_bar", value, own, spec.phi, spec.N)
+
+        return dataclasses.replace(
+            self, mean_stress_ratio_err=window.err,
+            mean_stress_ratio_err_run=self.mean_stress_ratio_err,
+            mu_bar_err=cover(f.mu_bar, f.mu_bar_err),
+            mu_bar_err_by_threshold={k: cover(v.mu_bar, v.mu_bar_err)
+                                     for k, v in self.by_threshold.items()})
 
     def row(self) -> dict:
         f = self.friction
-        return {"mu_bar": f.mu_bar, "mu_bar_err": f.mu_bar_err,
+        covered = bool(self.mu_bar_err_by_threshold)
+        return {"mu_bar": f.mu_bar, "mu_bar_err": self.mu_bar_err if covered else f.mu_bar_err,
+                "mu_bar_err_run": f.mu_bar_err,
                 "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
                 "mean_stress_ratio": f.mean_stress_ratio,
                 "mean_stress_ratio_err": self.mean_stress_ratio_err,
+                "mean_stress_ratio_err_run": (self.mean_stress_ratio_err_run if covered
+                                              else self.mean_stress_ratio_err),
                 "slip_threshold_stress": f.threshold,
                 "t_transient": f.t_transient,
                 "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
-                "mu_bar_err_by_threshold": {k: v.mu_bar_err
-                                            for k, v in self.by_threshold.items()},
+                "mu_bar_err_by_threshold": (dict(self.mu_bar_err_by_threshold) if covered else
+                                            {k: v.mu_bar_err
+                                             for k, v in self.by_threshold.items()}),
                 "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()}}
 
 
@@ -68,15 +92,24 @@ class LargeDropResult:
     those slips. The paper averages sigma_fail "right before large stress drops" and never says
     what large is; the run's own mean drop needs no scale and adapts to every phi: a stiff
     layer's bimodal drops (small reloading drops, system-wide ones) are split between the
-    modes, and of a broad distribution its upper part is kept."""
+    modes, and of a broad distribution its upper part is kept. Its error covers the switching
+    as mu_bar's does (``covering``: the calibration of mu_bar at the 1% threshold)."""
 
     threshold: float          # the drop that counts as large (stress units)
     large: np.ndarray         # per event (all events): large or not
     estimate: stationarity.MeanEstimate
+    err: float = math.nan
+
+    def covering(self, window: states.Window, spec: RunSpec) -> LargeDropResult:
+        e = self.estimate
+        return dataclasses.replace(self, err=window.err_of("mu_bar", e.mean, e.error, spec.phi,
+                                                           spec.N))
 
     def row(self) -> dict:
         e = self.estimate
-        return {"mu_bar_large": e.mean, "mu_bar_large_err": e.error,
+        return {"mu_bar_large": e.mean,
+                "mu_bar_large_err": self.err if math.isfinite(self.err) else e.error,
+                "mu_bar_large_err_run": e.error,
                 "n_slips_large": e.n, "large_drop_threshold": self.threshold}
 
 
@@ -97,40 +130,68 @@ class StationarityResult:
 
 @dataclass(frozen=True)
 class CompanionResult:
-    """The companion run over the same window (RunSpec.companion): its own state, its mean
-    stress, and the gap main / companion - 1 of the two mean stresses."""
+    """The companion run over the same window (RunSpec.companion): its own window (state,
+    mean stress, errors; ``bkflow.states.Window``) and the gap main / companion - 1 of the two
+    mean stresses."""
 
     start: str
-    state: str
-    mean_stress_ratio: float
+    window: states.Window
     gap: float
 
     @property
-    def agrees(self) -> bool:
-        return abs(self.gap) <= STEADY_AGREEMENT
+    def state(self) -> str:
+        return self.window.state
+
+    @property
+    def mean_stress_ratio(self) -> float:
+        return self.window.mean
+
+
+def pair_state(main: str, other: str, disagree: bool) -> str:
+    """The verdict of a run and its companion (``bkflow.states.VERDICTS``): metastable when
+    either is, or their means disagree beyond both errors; the states either visited where
+    either names its states; drifting when either drifts; steady when both are."""
+    if disagree or "metastable" in (main, other):
+        return "metastable"
+    if main in states.SWITCHING or other in states.SWITCHING:
+        seen = {s for v in (main, other) if v in states.SWITCHING for s in v.split("+")}
+        return "+".join(s for s in states.STATE_NAMES if s in seen)
+    return "drifting" if "drifting" in (main, other) else "steady"
 
 
 @dataclass(frozen=True)
 class StateResult:
-    """The state of the run over its analysed window (docs/model.md "Steady state"): steady,
-    drifting or metastable, from the stress's trend test and the contacts' phases
-    (``bkflow.phases``; ``contacts`` None for a run made before bkflow recorded them),
-    and with a companion run, from the pair: the run is steady only when the companion is
-    too and their mean stresses agree (a flat stress that disagrees with the other side's
-    still remembers its start: metastable)."""
+    """The state of the run over its analysed window (docs/model.md "Steady state",
+    ``bkflow.states.VERDICTS``): steady, drifting, metastable, or the states it visited where
+    the layer switches between states more slowly than the window averages over them, from the
+    stress's trend test, the contacts' phases (``contacts`` None for a run made before bkflow
+    recorded them) and the calibrated switching (``bkflow.states``); with a companion run,
+    from the pair (``pair_state``)."""
 
     state: str
-    contacts: phases.Coherence | None
+    window: states.Window
     companion: CompanionResult | None = None
 
+    @property
+    def contacts(self) -> phases.Coherence | None:
+        return self.window.contacts
+
     def row(self) -> dict:
-        c, k = self.contacts, self.companion
+        c, k, w = self.contacts, self.companion, self.window
         row = {"state": self.state, "state_evidence": "pair" if k is not None else "single run",
-               "contacts_recorded": c is not None,
+               "state_own": w.state, "contacts_recorded": c is not None,
+               "switching_calibrated": w.calibration is None,
+               "switching_not_calibrated_because": w.calibration,
+               "switching_error": (math.sqrt(w.var_switching) * abs(w.mean)
+                                   if w.var_switching is not None else math.nan),
                "companion_start": None if k is None else k.start,
                "companion_state": None if k is None else k.state,
                "companion_mean_stress_ratio": math.nan if k is None else k.mean_stress_ratio,
+               "companion_mean_stress_ratio_err": math.nan if k is None else k.window.err,
                "companion_gap": math.nan if k is None else k.gap}
+        row.update((w.comp or states.Composition({}, {}, {})).row())
+        if w.comp is None:
+            row["states_visited"] = None
         if c is None:
             return {**row, "phase_coherence": math.nan, "phase_coherence_static": math.nan,
                     "phase_fluctuation": math.nan, "phase_r2": math.nan,
@@ -139,7 +200,7 @@ class StateResult:
         return {**row, "phase_coherence": c.R, "phase_coherence_static": c.R_static,
                 "phase_fluctuation": c.fluctuation, "phase_r2": c.R2, "phase_u_std": c.u_std,
                 "phase_drift": c.trend.drift, "phase_drift_z": c.trend.drift_z,
-                "contacts_coherent": c.coherent}
+                "contacts_coherent": bool(c.fluctuation > states.memory_chi(w.n))}
 
 
 @dataclass(frozen=True)
@@ -299,40 +360,40 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
                           {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error)
 
 
-def _contacts(spec: RunSpec, settings: AnalysisSettings, phase: dict | None,
-              t_transient: float) -> phases.Coherence | None:
+def _phase(phase: dict | None) -> dict | None:
+    """The phase series as states.window reads it (R as the modulus of Z where the series
+    has no column R)."""
     if phase is None:
         return None
-    return phases.coherence(phase["t"], phase["Z_re"] + 1j * phase["Z_im"], t_transient,
-                            spec.N, phase["R2"], phase["u_std"], settings.n_blocks,
-                            settings.alpha)
+    if "R" not in phase:
+        phase = {**phase, "R": np.hypot(phase["Z_re"], phase["Z_im"])}
+    return phase
+
+
+def run_window(spec: RunSpec, settings: AnalysisSettings, t, sigma, phase,
+               t_transient: float, events: stress.SlipEvents | None = None) -> states.Window:
+    """The analysed window of one run (``bkflow.states.window``)."""
+    late = None if events is None else events.after(t_transient)
+    return states.window(spec, t, sigma, _phase(phase), t_transient, settings.n_blocks,
+                         settings.alpha, None if late is None else late.t_max,
+                         None if late is None else late.sigma_fail)
 
 
 def companion_result(spec: RunSpec, settings: AnalysisSettings, t_transient: float,
                      mean_stress_ratio: float, t, sigma, phase) -> CompanionResult:
-    """The companion's state and mean stress over the main run's window [t_transient, end]."""
+    """The companion's window over the main run's [t_transient, end], and the gap."""
     comp = spec.companion_spec
-    t, sigma = np.asarray(t, float), np.asarray(sigma, float)
-    trend = stationarity.stationarity(t, sigma, t_transient, settings.n_blocks, settings.alpha)
-    own = phases.state(trend, _contacts(comp, settings, phase, t_transient))
-    late = t >= t_transient
-    mean = float(sigma[late].mean() / comp.sigma_n) if late.any() else math.nan
-    gap = mean_stress_ratio / mean - 1 if mean else math.nan
-    return CompanionResult(comp.start, own, mean, gap)
+    w = run_window(comp, settings, t, sigma, phase, t_transient)
+    gap = mean_stress_ratio / w.mean - 1 if w.mean else math.nan
+    return CompanionResult(comp.start, w, gap)
 
 
-def state_result(spec: RunSpec, settings: AnalysisSettings, steady: StationarityResult,
-                 phase: dict | None, t_transient: float,
+def state_result(window: states.Window,
                  companion: CompanionResult | None = None) -> StateResult:
-    contacts = _contacts(spec, settings, phase, t_transient)
-    state = phases.state(steady.test, contacts)
-    if state == "steady" and companion is not None:
-        # the pair: the other side must be steady too, and both at the same stress
-        if companion.state != "steady":
-            state = companion.state
-        elif not companion.agrees:
-            state = "metastable"
-    return StateResult(state, contacts, companion)
+    if companion is None:
+        return StateResult(window.state, window)
+    disagree = states.pair_disagrees(window, companion.window, STEADY_AGREEMENT)
+    return StateResult(pair_state(window.state, companion.state, disagree), window, companion)
 
 
 def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
@@ -457,10 +518,12 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     fr = friction_result(spec, settings, t, sigma, t0)
     events = fr.friction.events
     steady = stationarity_result(settings, t, sigma, t0, t_equil)
+    win = run_window(spec, settings, t, sigma, phase, t0, events)
     comp = None if companion is None else companion_result(
         spec, settings, t0, fr.friction.mean_stress_ratio, *companion)
-    verdict = state_result(spec, settings, steady, phase, t0, comp)
-    large = large_drop_result(spec, settings, events, t0)
+    verdict = state_result(win, comp)
+    fr = fr.covering(win, spec)
+    large = large_drop_result(spec, settings, events, t0).covering(win, spec)
     drops = drop_result(settings, events.after(t0))
     orders = None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan

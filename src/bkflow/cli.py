@@ -22,7 +22,7 @@ import sys
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-from . import __version__  # noqa: E402
+from . import __version__, report  # noqa: E402
 from . import rundir as rd  # noqa: E402
 from .grid import ASPECT, POINTS_PER_DECADE, SEEDS  # noqa: E402
 from .params import (  # noqa: E402
@@ -295,45 +295,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def state_line(s: dict) -> str:
-    """One line of what a summary says of its run's state (docs/model.md "Steady state"):
-    the verdict, and the stress trend and the contacts' phases it rests on."""
-    def num(key, scale=1.0):
-        v = s.get(key)
-        return float("nan") if v is None else scale * v
-
-    window = f"t = {num('t_transient'):.0f}..{num('t_run'):.0f}"
-    trend = (f"drift {num('drift', 100):+.2f}% +- {num('drift_err', 100):.2f}%, "
-             f"z = {num('drift_z'):.1f}")
-    contacts = (f"phase fluctuation {num('phase_fluctuation'):.3g}, R = "
-                f"{num('phase_coherence'):.3f}") if s.get("contacts_recorded") else \
-        "contacts not recorded: the verdict rests on the stress alone"
-    state = s.get("state") or "drifting"
-    pair = ""
-    if s.get("companion_start"):
-        pair = (f"; the companion run from the {s['companion_start']} start is "
-                f"{s.get('companion_state')}, its mean stress "
-                f"{num('companion_gap', -100):+.2f}% from this run's")
-    if s.get("drift") is None:
-        return (f"DRIFTING (untested) over {window}: too short for the trend test's blocks; "
-                "run longer")
-    if state == "drifting":
-        return (f"DRIFTING over {window}: the stress still drifts ({trend}); its numbers are "
-                "a transient's")
-    if state == "metastable" and s.get("contacts_coherent"):
-        return (f"METASTABLE over {window}: the stress is flat ({trend}) but the contacts "
-                f"still move together ({contacts}): the start is not forgotten, its numbers "
-                f"are not the steady state's{pair}")
-    if state == "metastable":
-        return (f"METASTABLE over {window}: the stress is flat ({trend}) but it disagrees "
-                f"with the other side's{pair} (agreement within "
-                f"{100 * STEADY_AGREEMENT:g}% needed): a start is not forgotten yet; run "
-                "longer")
-    return (f"steady over {window}: the stress is flat ({trend}; a drift up to "
-            f"{num('drift_bound', 100):.1f}% not excluded) and the contacts have forgotten "
-            f"the start ({contacts}){pair}")
-
-
 def subcommands(parser: argparse.ArgumentParser | None = None) -> dict:
     """{name: parser} of bkflow's commands."""
     parser = parser or build_parser()
@@ -348,68 +309,6 @@ def synopsis(command: str, width: int = 96) -> str:
     formatter = argparse.HelpFormatter(p.prog, width=width)
     formatter.add_usage(p.usage, p._actions, p._mutually_exclusive_groups, prefix="")
     return formatter.format_help().rstrip()
-
-
-def _print_summary(s: dict) -> None:
-    def g(key, fmt):
-        v = s.get(key)
-        return "n/a" if v is None else format(v, fmt)
-
-    print("  " + state_line(s))
-    state = s.get("state") or "drifting"
-    print(f"  mu_bar = {g('mu_bar', '.4f')} +- {g('mu_bar_err', '.4f')} ({state}) over "
-          f"{s['n_slips']} slips (threshold {s['slip_threshold_stress']:g}); "
-          f"<sigma_x>/sigma_n = {g('mean_stress_ratio', '.4f')} ({state})")
-    print(f"  mu_bar over large drops (> {g('large_drop_threshold', '.3g')}) = "
-          f"{g('mu_bar_large', '.4f')} +- {g('mu_bar_large_err', '.4f')} over "
-          f"{s.get('n_slips_large')} slips")
-    by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
-                   for k, v in s["mu_bar_by_threshold"].items())
-    print(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}")
-    if s.get("psi_inf") is not None:
-        print(f"  Psi(inf) = {s['psi_inf']:.4f}")
-    if s.get("n_clusters") is not None:
-        print(f"  clusters: {s['n_clusters']} in {s['n_cluster_events']} slips, "
-              f"<l_x/Lx> = {g('lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
-              f"{g('ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = {g('lx_over_ly', '.3f')}, "
-              f"regime {s.get('regime') or 'n/a'}")
-        print(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
-              f"{g('lx_over_ly_large', '.3f')}, regime {s.get('regime_large') or 'n/a'}")
-    _power_law_line(s, "drop", f"stress drops ({s['drop_n_tail']} above "
-                    f"{g('drop_x_min', '.3g')})")
-    if s.get("potency_power_law") is not None:
-        _power_law_line(s, "potency", f"potencies ({s['potency_n_tail']} above "
-                        f"{g('potency_x_min', '.3g')})")
-    if s.get("energy_residual") is not None:
-        print(f"  energy: the balance (plate work = change of elastic and kinetic energy + "
-              f"dissipation) closes to {g('energy_residual', '.1e')} of the plate's work over "
-              "the analysed run")
-
-
-def _power_law_line(s: dict, key: str, what: str) -> None:
-    """The report's line on a power law of the summary's ``key``_* entries."""
-    def g(k, fmt):
-        v = s.get(k)
-        return "n/a" if v is None or not math.isfinite(v) else format(v, fmt)
-
-    exponent = f"exponent {g(f'{key}_exponent', '.2f')} +- {g(f'{key}_exponent_err', '.2f')}"
-    p = g(f"{key}_fit_p", ".3f")
-    if s.get(f"{key}_power_law") == "rejected":
-        R = s.get(f"{key}_vs_lognormal")
-        vs = (f", against a lognormal R = {R:.1f}" if R is not None and math.isfinite(R)
-              else "")
-        print(f"  {what}: power law rejected (p = {p}{vs}); the fitted {exponent} does not "
-              "describe them")
-    elif s.get(f"{key}_power_law") == "plausible":
-        R, Rp = s.get(f"{key}_vs_lognormal"), s.get(f"{key}_vs_lognormal_p")
-        if R is not None and Rp is not None and R < 0 and Rp < 0.1:
-            print(f"  {what}: the bootstrap does not rule a power law out (p = {p}), but a "
-                  f"lognormal is favoured (R = {R:.1f}, p = {Rp:.2g}); the fitted {exponent} "
-                  "is no law")
-        else:
-            print(f"  {what}: power law, {exponent} (p = {p})")
-    else:
-        print(f"  {what}: no power-law fit")
 
 
 def _sweep(a) -> int:
@@ -461,9 +360,9 @@ def _sweep(a) -> int:
     res = rep.results
     if len(res):  # this sweep's rows (the directory may hold other sweeps too)
         res = rows_of(res, specs)
-        _print_results(res, list(axes))
+        print("\n".join(report.results_lines(res, list(axes))))
     if len(res):
-        print(states_line(res))
+        print(report.states_line(res))
     print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
     _say_retired(a.out, rep.retired_figures)
     for job_id, msg in rep.failed.items():
@@ -486,50 +385,6 @@ def _say_retired(root, removed) -> None:
               f"before (they no longer match them): bkflow plot {root} draws them again")
 
 
-def states_line(res) -> str:
-    """How many runs of a results table are steady, drifting, metastable, and what to do."""
-    total = int(res.n_seeds.sum())
-    n = {k: int(res[f"n_{k}"].sum()) if f"n_{k}" in res else 0
-         for k in ("steady", "drifting", "metastable")}
-    line = (f"{n['steady']} of {total} runs are steady over their analysed window, "
-            f"{n['drifting']} drifting, {n['metastable']} metastable (column 'state')")
-    if n["steady"] < total:
-        line += ("; the numbers of the others are not the steady state's: run longer (the "
-                 "steady protocol runs until steady; raise --t-end if a run stopped at it)")
-    return line
-
-
-def _cell_state(r) -> str:
-    """A point's state for the printed table: the state, with the count when not all seeds'
-    runs are steady."""
-    state = r.get("state") if isinstance(r.get("state"), str) else "drifting"
-    if state == "steady":
-        return "steady"
-    return f"{state} {int(r.get(f'n_{state}', 0))}/{int(r.n_seeds)}"
-
-
-def _print_results(res, axes=()) -> None:
-    def pm(v, e, fmt):
-        if v != v:
-            return "n/a"
-        return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
-
-    extra = "".join(f" {k:>10}" for k in axes)
-    print(f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'state':>15}  {'mu_bar':>18}  "
-          f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
-          f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime")
-    for _, r in res.iterrows():
-        cells = "".join(f" {str(r[k]):>10}" for k in axes)
-        print(f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6}{cells} {r.n_seeds:>5} "
-              f"{_cell_state(r):>15}  "
-              f"{pm(r.mu_bar, r.mu_bar_sem, '.4f'):>18}  "
-              f"{pm(r.mu_bar_large, r.mu_bar_large_sem, '.4f'):>18}  "
-              f"{pm(r.mean_stress_ratio, r.mean_stress_ratio_sem, '.4f'):>18}  "
-              f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>16}  "
-              f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
-              f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
-
-
 def _collect(a) -> int:
     from .project import open_project
     from .sweep import collect
@@ -547,8 +402,8 @@ def _collect(a) -> int:
     if len(c.results):
         from .tables import varied_parameters
 
-        _print_results(c.results, varied_parameters(c.results))
-        print(states_line(c.results))
+        print("\n".join(report.results_lines(c.results, varied_parameters(c.results))))
+        print(report.states_line(c.results))
     print(f"wrote {a.dir}/{RUNS_FILE} ({len(c.runs)} rows) and {a.dir}/{RESULTS_FILE} "
           f"({len(c.results)} rows)")
     _say_retired(a.dir, c.retired_figures)
@@ -661,8 +516,7 @@ def _run_locked(a, argv, spec) -> int:
           + f"), {m['contact_breaks']} contact breaks")
     ad = m.get("adaptive")
     if ad:
-        print(f"  adaptive: ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
-              f"stopped because {ad['stopped_because']}"
+        print("  adaptive: " + report.stop_line(ad, spec.companion)
               + ("" if ad["reached"] else "; raise --t-end"))
     if not a.no_analyze:
         from .analysis import analyze
@@ -721,6 +575,10 @@ def _deck(a) -> int:
     paths = write_deck(spec, a.out, DeckOptions(path=a.path))
     print(f"wrote {paths['deck']} and {paths['data']} ({spec.n_steps} steps)")
     return 0
+
+
+def _print_summary(s: dict) -> None:
+    print("\n".join(report.summary_lines(s)))
 
 
 def _fs_message(exc: OSError) -> str:

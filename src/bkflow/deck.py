@@ -66,6 +66,10 @@ class DeckOptions:
     damp: bool = True
     #: keep the energy ledger (``energy``): None, when the scene needs it (RunSpec.writes_energy)
     energy: bool | None = None
+    #: continue a run from its restart file at this step (None: a new run): every output is
+    #: appended to, the step sampled already left out (``append`` of the output fixes, a
+    #: dump's ``delay``)
+    append_from: int | None = None
 
     def __post_init__(self):
         if self.path not in PATHS:
@@ -255,34 +259,36 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only).
     """
     lines = []
+    more = " append" if files.append_from is not None else ""
     if files.stress:
         lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"file {files.stress}" + (" energy" if _energy(spec, files) else ""),
+            f"file {files.stress}" + (" energy" if _energy(spec, files) else "") + more,
         ]
     if files.phase and contact:
         lines += [  # the contacts' load phases: what the steady-state verdict reads
             f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
-            f"file {files.phase}",
+            f"file {files.phase}{more}",
         ]
     if spec.writes_snapshots and files.snapshots:
         lines += [
             f"dump            snap all custom {spec.snapshot_nevery} {files.snapshots} "
             "id type x y z ix iy iz",
             'dump_modify     snap sort id format float %.9g',
-        ]
+        ] + ([f"dump_modify     snap append yes delay {files.append_from + 1}"]
+             if more else [])
     if spec.writes_slips and files.slips:
         lines += [
             f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}"
-            + (" breaks" if spec.writes_energy else ""),
+            + (" breaks" if spec.writes_energy else "") + more,
         ]
     if spec.writes_fronts and files.fronts:
         limit = "" if spec.fronts_limit is None else f" limit {spec.fronts_limit}"
         lines += [
             f"fix             {FRONTS_FIX} all bk/fronts {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {files.fronts} start "
-            f"{spec.slips_start_step}{limit}",
+            f"{spec.slips_start_step}{limit}{more}",
         ]
     thermo = thermo_every or max(1, spec.n_steps // 100)
     cols = "".join(f"f_{SUBSTRATE_FIX}[{SLOTS[k] + 1}] "
@@ -322,7 +328,7 @@ def continue_text(spec: RunSpec, restart: str,
     props = ["fix             kd all property/atom d_kd"] + (
         ["fix             dr0 all property/atom d_dr0"] if spec.start != "synchronized" else [])
     lines = (_header(spec, o.path) + ([PROCESSORS] if o.path != "general" else [])
-             + [f"read_restart    {restart}"] + props
+             + [f"read_restart    {restart}"] + ([FAST_SETTINGS[0]] if o.fast else []) + props
              + _dynamics(spec, True, True, True, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every))
     return "\n".join(lines)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from . import __version__, states
 from .deck import (
     FRONTS_FIX,
     SERIAL_COMM_CUTOFF,
@@ -31,6 +31,7 @@ from .deck import (
     SLOTS,
     SUBSTRATE_FIX,
     DeckOptions,
+    continue_text,
     data_text,
     deck_text,
     setup_text,
@@ -46,11 +47,9 @@ from .params import (
     RunSpec,
     transient_step,
 )
-from .phases import COHERENT_FLUCTUATION, coherence, state
 from .plugin import ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_version, open_lammps
 from .provenance import record as provenance
-from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RunDir
-from .stationarity import stationarity
+from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RESTART, RunDir
 from .stress import Growing, RunningFriction
 
 
@@ -89,14 +88,17 @@ class AdaptiveStop:
     run is long enough (ADAPTIVE_T_MIN; STEADY_T_MIN for a run until steady), over the
     analysed window of the run so far (the transient rule of a fixed run of that length):
 
-    - ``target_error``: mu_bar's standard error is below the target and reliable;
-    - ``until_steady``: the run is ``steady`` (``bkflow.phases.state``: the stress passes
-      the trend test of ``bkflow.stationarity`` and the contacts' phases no longer move
-      together), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
+    - ``target_error``: mu_bar's standard error is below the target and reliable, the error
+      that covers the layer's switching between states (``bkflow.states``);
+    - ``until_steady``: the window is ``steady`` (``bkflow.states.window``: no memory of the
+      start shown, no switching between states that the window has not averaged over, the
+      stress trend-free), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
 
     The stress and phase series are read incrementally and the slips found once, so each
     check costs what the new samples cost (and one pass over the window); the summary of the
-    finished run finds the very same slips, error, trend and state."""
+    finished run finds the very same slips, error, trend and state. What the last check found
+    is ``last`` (a ``bkflow.states.Window``); ``record`` returns it as data, and
+    ``bkflow.report`` words it."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
         import scipy.stats  # noqa: F401  (the trend test's; imported before the loop is timed)
@@ -106,9 +108,19 @@ class AdaptiveStop:
         self.phase_tail = run_dir.phase_reader() if spec.until_steady else None
         self.phase = Growing(len(PHASE_COLUMNS))
         self.met, self.checks = False, 0
-        self.last_error = self.last_trend = self.last_contacts = self.last_state = None
-        self.last_mean = math.nan   # mean stress over the window of the last check
+        self.last: states.Window | None = None
+        self.last_error = None      # mu_bar's error at the last check (covering the switching)
         self.companion_gap = None   # the pair's gap at the last check (the main run's rule)
+        self.pair_disagrees = False
+
+    @property
+    def last_mean(self) -> float:
+        return self.last.mean if self.last is not None else math.nan
+
+    def _phase(self) -> dict | None:
+        if self.phase_tail is None or not self.phase.n:
+            return None
+        return {c: self.phase.column(i) for i, c in enumerate(PHASE_COLUMNS)}
 
     def reached(self, step: int) -> bool:
         spec = self.spec
@@ -120,78 +132,50 @@ class AdaptiveStop:
             return False
         self.checks += 1
         t0 = transient_step(spec.transient, step) * spec.dt
-        late = self.stat.t >= t0
-        self.last_mean = float(self.stat.sigma[late].mean()) if late.any() else math.nan
+        self.last = win = states.window(spec, self.stat.t, self.stat.sigma, self._phase(), t0,
+                                        own_error=False)
         met = True
         if spec.target_error is not None:
             est = self.stat.error(t0)
             if est.n < 2:
                 return False
-            self.last_error = est.error
-            met &= bool(est.reliable and est.error <= spec.target_error)
+            self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N)
+            met &= bool(est.reliable and self.last_error <= spec.target_error)
         if spec.until_steady:
-            self.last_trend = stationarity(self.stat.t, self.stat.sigma, t0)
-            col = self.phase.column
-            self.last_contacts = coherence(col(0), col(2) + 1j * col(3), t0, spec.N)
-            self.last_state = state(self.last_trend, self.last_contacts)
-            met &= bool(self.last_state == "steady"
-                        and self.last_trend.drift_bound <= STEADY_DRIFT_BOUND)
+            met &= bool(win.state == "steady"
+                        and win.trend.drift_bound <= STEADY_DRIFT_BOUND)
         self.met = met
         return met
 
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
-        trend, contacts = self.last_trend, self.last_contacts
-        rules = []
-        if requested.target_error is not None:
-            rules.append(f"mu_bar error <= {requested.target_error:g}")
-        if requested.until_steady:
-            rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g}"
-                         + (f", the companion run from the {requested.companion} start steady "
-                            f"and within {100 * STEADY_AGREEMENT:g}%"
-                            if requested.companion else "") + ")")
-        rules = " and ".join(rules)
-        met = stopped_early or self.met
-        missed = []  # what the last check found short of the rules
-        if requested.target_error is not None and not (
-                self.last_error is not None and self.last_error <= requested.target_error):
-            missed.append("mu_bar error " + (
-                "not measurable yet (too few slips after the transient)"
-                if self.last_error is None or not math.isfinite(self.last_error) else
-                f"{self.last_error:.2g} > {requested.target_error:g}"))
-        if requested.until_steady:
-            if trend is None or not math.isfinite(trend.drift):
-                missed.append("the state not testable yet")
-            elif not trend.stationary:
-                missed.append(f"drifting: the stress still drifts ({100 * trend.drift:+.2f}% +- "
-                              f"{100 * trend.drift_err:.2f}%)")
-            elif self.last_state == "metastable":
-                missed.append(f"metastable: the contacts still move together (phase "
-                              f"fluctuation {contacts.fluctuation:.3g} > "
-                              f"{COHERENT_FLUCTUATION:g})")
-            elif trend.drift_bound > STEADY_DRIFT_BOUND:
-                missed.append(f"a drift up to {100 * trend.drift_bound:.2g}% not excluded "
-                              f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
-            if requested.companion is not None and self.companion_gap is not None \
-                    and not abs(self.companion_gap) <= STEADY_AGREEMENT:
-                missed.append(f"the companion run ({requested.companion} start) not yet steady "
-                              "or its mean stress "
-                              + (f"{100 * self.companion_gap:+.2f}% off"
-                                 if math.isfinite(self.companion_gap) else "not measurable")
-                              + f" (agreement within {100 * STEADY_AGREEMENT:g}% required)")
+        """What the stop rule found, as data (``bkflow.report.stop_line`` words it)."""
+        w = self.last
+        trend = None if w is None else w.trend
+        comp = None if w is None else w.comp
+        needed = None
+        if requested.target_error is not None and self.last_error is not None:
+            needed = states.needed_length(requested, self.stat.error(0.0).mean
+                                          if self.stat.fail else math.nan)
         return {"target_error": requested.target_error,
                 "until_steady": requested.until_steady,
                 "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
-                "t_cap": requested.t_end, "t_run": t_run, "reached": met,
-                "stopped_because": (f"{rules} at t = {t_run:g}" if met else
-                                    f"the cap t_end = {requested.t_end:g} came first: "
-                                    + "; ".join(missed or [f"not {rules}"])),
+                "agreement_required": STEADY_AGREEMENT if requested.companion else None,
+                "t_cap": requested.t_end, "t_run": t_run,
+                "reached": bool(stopped_early or self.met),
                 "mu_bar_err_at_stop": self.last_error,
-                "state_at_stop": self.last_state,
+                "state_at_stop": None if w is None else w.state,
+                "states_visited_at_stop": None if comp is None else comp.name,
                 "drift_at_stop": None if trend is None else trend.drift,
+                "drift_err_at_stop": None if trend is None else trend.drift_err,
                 "drift_z_at_stop": None if trend is None else trend.drift_z,
                 "drift_bound_at_stop": None if trend is None else trend.drift_bound,
-                "phase_fluctuation_at_stop": None if contacts is None else contacts.fluctuation,
+                "phase_fluctuation_at_stop": None if w is None or w.contacts is None
+                else w.contacts.fluctuation,
+                "memory_chi": states.memory_chi(requested.N),
                 "companion_gap_at_stop": self.companion_gap,
+                "pair_disagrees_at_stop": self.pair_disagrees,
+                "switching_calibrated": None if w is None else w.calibration is None,
+                "t_needed": needed,
                 "checks": self.checks}
 
 
@@ -330,8 +314,9 @@ def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions,
     """The run's data file and deck; ``steps``: an adaptive run's deck rewritten at its end to
     run the steps it ran, so that ``lmp -in in.bk`` in the finished directory redoes exactly
     this run (the same files, bit for bit, on one rank)."""
-    if steps is None:
-        write_text_atomic(rd.file(DATA), data_text(spec))
+    if steps is None or steps == spec.n_steps:  # (a continued run's deck: the whole run)
+        if steps is None:
+            write_text_atomic(rd.file(DATA), data_text(spec))
         write_text_atomic(rd.file(DECK), deck_text(spec, options))
         return
     write_text_atomic(rd.file(DECK), setup_text(spec, options.replace())
@@ -358,21 +343,39 @@ class _Leg:
         self.lmp = None
         self.adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
 
-    def open(self) -> None:
+    def open(self, resume: str | None = None, step: int = 0) -> None:
+        """LAMMPS set up for the run, or continuing it from ``resume`` (its restart file, of
+        step ``step``), appending to every output."""
         with contextlib.chdir(self.rd.path):
-            self.lmp = open_lammps(log=LOG)
+            self.lmp = open_lammps(log=LOG if resume is None else None)
+            if resume is not None:
+                self.lmp.command(f"log {LOG} append")
             # one rank: every bond partner is local, ghosts beyond that are pure overhead
             self.lmp.command(f"variable comm_cutoff index {SERIAL_COMM_CUTOFF}")
             try:
-                self.lmp.commands_string(setup_text(self.spec, self.options))
+                self.lmp.commands_string(
+                    setup_text(self.spec, self.options) if resume is None else continue_text(
+                        self.spec, resume, self.options.replace(data="", append_from=step)))
             except Exception as exc:
-                raise _lammps_error(self.spec, exc, 0, 0, self.rd.file(LOG)) from None
+                raise _lammps_error(self.spec, exc, step, 0, self.rd.file(LOG)) from None
 
-    def advance(self, step: int, n: int) -> float:
-        """Run n steps from ``step``; sigma_x after them, the state checked."""
+    def write_restart(self, step: int) -> str:
+        """The restart file of the run's last step (a longer run continues from it): its
+        name, which the run's record gives."""
+        name = RESTART.format(step)
         with contextlib.chdir(self.rd.path):
             try:
-                self.lmp.command(f"run {n} pre {'yes' if step == 0 else 'no'} post no")
+                self.lmp.command(f"write_restart {name}")
+            except Exception as exc:
+                raise _lammps_error(self.spec, exc, step, 0, self.rd.file(LOG)) from None
+        return name
+
+    def advance(self, step: int, n: int, first: bool) -> float:
+        """Run n steps from ``step`` (``first``: the first piece of this LAMMPS instance);
+        sigma_x after them, the state checked."""
+        with contextlib.chdir(self.rd.path):
+            try:
+                self.lmp.command(f"run {n} pre {'yes' if first else 'no'} post no")
             except Exception as exc:  # LAMMPS errors arrive as plain exceptions
                 raise _lammps_error(self.spec, exc, step, n, self.rd.file(LOG)) from None
         return _check(self.lmp, self.spec, step + n)
@@ -397,33 +400,38 @@ class _Leg:
 
 def _stop(legs: list[_Leg], step: int) -> bool:
     """The stop rule of an adaptive run at ``step``: its own (AdaptiveStop), and with a
-    companion, the companion's too and the agreement of their mean stresses."""
+    companion, the companion's too and the agreement of their mean stresses (within
+    STEADY_AGREEMENT, or their errors: ``bkflow.states.pair_disagrees``)."""
     reached = [leg.adaptive.reached(step) for leg in legs]  # every leg reads its new samples
     if len(legs) == 1:
         return reached[0]
     main, comp = legs[0].adaptive, legs[1].adaptive
+    if main.last is None or comp.last is None:
+        return False
     main.companion_gap = main.last_mean / comp.last_mean - 1 if comp.last_mean else math.nan
-    ok = all(reached) and abs(main.companion_gap) <= STEADY_AGREEMENT
+    main.pair_disagrees = states.pair_disagrees(main.last, comp.last, STEADY_AGREEMENT)
+    ok = all(reached) and not main.pair_disagrees
     main.met = ok
     return ok
 
 
-def _advance(legs: list[_Leg], chunk: int, bar: _Progress) -> int:
-    """Run the legs side by side, piece by piece, up to the run's n_steps; the steps run.
+def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> int:
+    """Run the legs side by side, piece by piece, from step ``start`` (a continued run's) up
+    to the run's n_steps; the steps run in all.
 
     LAMMPS runs in pieces of about PIECE_WALL_S of wall time (for all legs together), the
     state checked after each (a run shorter than that is one ``run`` command). An adaptive
-    run's stop rule is checked at fixed steps (every ``chunk`` steps), so that it stops at the
-    same step every time; pieces end there too."""
+    run's stop rule is checked at fixed steps (every multiple of ``chunk``), so that it stops
+    at the same step every time, continued or not; pieces end there too."""
     spec = legs[0].spec
-    step, n_total = 0, spec.n_steps
+    step, n_total = start, spec.n_steps
     piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / (spec.N * len(legs)))))
     while step < n_total:
-        end = min(step + chunk, n_total)
+        end = min((step // chunk + 1) * chunk, n_total)
         while step < end:
             n = min(piece, end - step)
             t0 = time.perf_counter()
-            sigma = [leg.advance(step, n) for leg in legs][0]
+            sigma = [leg.advance(step, n, step == start) for leg in legs][0]
             step += n
             wall = time.perf_counter() - t0
             if wall > 0:
@@ -482,56 +490,120 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     check_cost(spec, out, force)
     rd = RunDir(Path(out).absolute())
     with rd.lock():
-        _claim(rd, overwrite)
+        prior = None if overwrite else continuation(rd, spec)
+        if prior is None:
+            _claim(rd, overwrite)
+        start = 0 if prior is None else int(prior["derived"]["n_steps"])
+        dirs = [rd] + ([rd.companion()] if spec.companion is not None else [])
+        if prior is not None:
+            for d in dirs:
+                d.begin_continuation()
         legs = [_Leg(spec, rd, options)]
         if spec.companion is not None:
             comp = rd.companion()
-            comp.path.mkdir()
-            comp.mark()
+            if prior is None:
+                comp.path.mkdir()
+                comp.mark()
             legs.append(_Leg(spec.companion_spec, comp, options))
-        for leg in legs:
-            _write_inputs(leg.spec, leg.rd, options)
-        started = time.time()
+        if prior is None:
+            for leg in legs:
+                _write_inputs(leg.spec, leg.rd, options)
+        started = time.time() if prior is None else prior.get("started_epoch", time.time())
         bar = _Progress(spec.label, spec.n_steps, progress)
         try:
             for leg in legs:
-                leg.open()
+                leg.open(None if prior is None else leg.rd.meta()["restart"], start)
             t_wall = time.perf_counter()
-            step = _advance(legs, _chunk(spec, chunk_steps), bar)
+            step = _advance(legs, _chunk(spec, chunk_steps), bar, start) \
+                if start < spec.n_steps else start
             wall = time.perf_counter() - t_wall
             counters = [leg.counters() for leg in legs]
+            restarts = [leg.write_restart(step) for leg in legs]
         finally:
             bar.close()
             for leg in legs:
                 leg.close()
-        if step != spec.n_steps:  # an adaptive stop: the decks say what ran
+        if step != spec.n_steps or prior is not None:  # the decks say what ran, from t = 0
             for leg in legs:
                 _write_inputs(leg.spec, leg.rd, options, steps=step)
         if _RUNS_IN_PROCESS["pid"] != os.getpid():
             _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
         process = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
+        metas = []
+        for k, leg in enumerate(legs):
+            before = prior if k == 0 or prior is None else leg.rd.meta()
+            metas.append({**_meta(leg.spec, step, wall, started,
+                                  {**counters[k], "process": process}, leg.adaptive, command,
+                                  len(legs), before, start), "restart": restarts[k]})
         if len(legs) > 1:  # the companion is committed first: the run's record names it
-            comp = legs[1]
-            comp.rd.commit({**_meta(comp.spec, step, wall, started,
-                                    {**counters[1], "process": process}, comp.adaptive,
-                                    command, len(legs)),
-                            "companion_of": ".."})
-        meta = _meta(spec, step, wall, started, {**counters[0], "process": process},
-                     legs[0].adaptive, command, len(legs))
+            legs[1].rd.commit({**metas[1], "companion_of": ".."})
+        meta = metas[0]
         if len(legs) > 1:
             meta["companion"] = {"start": spec.companion, "dir": COMPANION,
                                  "gap_at_stop": legs[0].adaptive.companion_gap
                                  if legs[0].adaptive is not None else None}
         result = RunResult(Path(out), rd.commit(meta))
+        for d, name in zip(dirs, restarts):
+            d.end_continuation(keep=name)
         _RUNS_IN_PROCESS["runs"] += 1
         return result
 
 
+def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
+    """The completion record of the finished run in ``rd`` that ``spec`` continues, or None:
+    the same run (every parameter but the length, and the companion's too) that ran fewer
+    steps than ``spec`` asks for, and did not stop by its own rule, with its restart files.
+    A longer run then continues from where it stopped and never simulates again what it has:
+    its series are appended to, and it is the very run a longer request would have made (bit
+    for bit on the fused path, whose restart is exact; its stop rule checked at the same
+    steps)."""
+    legs = [rd] + ([rd.companion()] if spec.companion is not None else [])
+    for d in legs:  # a continuation cut short: the finished run as it was
+        d.undo_continuation()
+    if not rd.is_complete() or rd.problem() is not None:
+        return None
+    meta = rd.meta()
+    try:
+        before = RunSpec.from_dict(meta["requested"])
+        done = int(meta["derived"]["n_steps"])
+    except Exception:  # a record of another version: not continued
+        return None
+    if before.replace(t_end=spec.t_end) != spec or spec.n_steps <= done:
+        return None
+    if before.adaptive and (meta.get("adaptive") or {}).get("reached"):
+        return None   # it stopped by its own rule: a longer cap changes nothing
+    if not all((d.meta() or {}).get("restart") and d.file(d.meta()["restart"]).is_file()
+               for d in legs):
+        return None
+    return meta
+
+
 def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
-          adaptive: AdaptiveStop | None, command: str | None, legs: int = 1) -> dict:
+          adaptive: AdaptiveStop | None, command: str | None, legs: int = 1,
+          before: dict | None = None, start: int = 0) -> dict:
     """meta.json of a run that ran ``step`` steps (an adaptive run that met its target is a
     run of that length); ``legs``: the LAMMPS runs that shared the wall time (2 with a
-    companion)."""
+    companion); ``before``: the record of the run this one continued from step ``start``
+    (its wall time and counters add up, ``continued`` lists the parts)."""
+    meta = _meta_fresh(requested, step, wall, started, counters, adaptive, command, legs,
+                       step - start)
+    if before is None:
+        return meta
+    meta["wall_time_s"] = before.get("wall_time_s", 0.0) + wall
+    for key in ("slip_snapshots", "fronts"):   # the output fixes count from their restart
+        if meta.get(key) and before.get(key):
+            meta[key] = {k: v + before[key].get(k, 0) for k, v in meta[key].items()}
+    meta["continued"] = before.get("continued", [{"to_step": start,
+                                                   "command": before.get("command")}]) + [
+        {"to_step": step, "command": command, "wall_time_s": wall}]
+    meta["started"] = before.get("started", meta["started"])
+    return meta
+
+
+def _meta_fresh(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
+                adaptive: AdaptiveStop | None, command: str | None, legs: int,
+                steps_run: int) -> dict:
+    """meta.json of a run of ``step`` steps, ``steps_run`` of them in ``wall`` seconds."""
     stopped_early = step < requested.n_steps
     spec = requested.replace(t_end=step * requested.dt) if stopped_early else requested
     return {
@@ -553,7 +625,7 @@ def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: 
         "scene": spec.scene,
         "seed": spec.seed,
         "wall_time_s": wall,
-        "atom_steps_per_s": legs * spec.N * step / wall if wall > 0 else None,
+        "atom_steps_per_s": legs * spec.N * steps_run / wall if wall > 0 else None,
         **counters,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
         "host": platform.node(),

@@ -120,9 +120,12 @@ def _nearest(values, target) -> float:
 
 
 def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
-    """Standard errors over the seeds; where a point has one seed (no spread), the run's own
-    standard error when the runs record one (tables.WITHIN_RUN_ERRORS)."""
-    sem = g[f"{field}_sem"].to_numpy(dtype=float)
+    """The point's error: for the fields whose runs carry their own error
+    (tables.WITHIN_RUN_ERRORS) the larger of the seeds' standard error and the runs' errors
+    combined (``<field>_err``, covering the switching between states); for the others the
+    seeds' standard error; where a point has one seed, the run's own error."""
+    sem = (g[f"{field}_err"] if f"{field}_err" in g else g[f"{field}_sem"]).to_numpy(
+        dtype=float)
     own = f"{field}_err_within_run"
     if own in g:
         sem = np.where(np.isfinite(sem), sem, g[own].to_numpy(dtype=float))
@@ -307,16 +310,21 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
 
 
 #: how a point's state (results.csv ``state``, docs/model.md "Steady state") is drawn: its
-#: marker filled (every seed's run steady), open (some drifting) or half-filled, left half (some
+#: marker filled (every seed's run steady), open (some drifting), half-filled, left half (some
 #: metastable: a flat stress that still remembers its start; split vertically, so that the
-#: curve through the marker does not hide the split)
-STATE_FILL = {"steady": "full", "drifting": "none", "metastable": "left"}
+#: curve through the marker does not hide the split), or bottom half (switching between
+#: states: the error bar covers the switching)
+STATE_FILL = {"steady": "full", "switching": "bottom", "drifting": "none", "metastable": "left"}
 
 
 def _point_states(g: pd.DataFrame) -> np.ndarray:
-    if "state" in g:
-        return g["state"].fillna("drifting").astype(str).to_numpy()
-    return np.full(len(g), "drifting")
+    """The points' states as STATE_FILL names them (the states visited: ``switching``)."""
+    from .states import SWITCHING
+
+    if "state" not in g:
+        return np.full(len(g), "drifting")
+    states = g["state"].fillna("drifting").astype(str)
+    return np.where(states.isin(SWITCHING), "switching", states.to_numpy())
 
 
 def _smooth(t, x, width: float):
@@ -402,7 +410,8 @@ def state_handles(present=tuple(STATE_FILL)) -> tuple[list, list[str]]:
     from matplotlib.lines import Line2D
 
     words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
-             "metastable": "metastable (some seed)"}
+             "metastable": "metastable (some seed)",
+             "switching": "switching between states (some seed)"}
     shown = [(name, fill) for name, fill in STATE_FILL.items() if name in present]
     return ([Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
                     mfc="grey" if fill != "none" else "white", mfcalt="white")

@@ -16,6 +16,7 @@ a file of a run.
 | ``slips.lammpstrj`` | positions at every slip's maximum and minimum (+ first breaks) |
 | ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
 | ``log.lammps`` | LAMMPS's log |
+| ``restart.STEP.bk`` | LAMMPS's restart file of the last step: a longer run continues from it |
 | ``meta.json`` | the completion record: parameters, versions, counters, sizes |
 | ``summary.json`` | the analysis: every observable, the settings it was made under |
 | ``events.csv`` | the event catalogue, one row per slip (bkflow.catalogue) |
@@ -54,6 +55,13 @@ SLIPS = "slips.lammpstrj"
 FRONTS = "fronts.bin"
 LOG = "log.lammps"
 META = "meta.json"
+#: LAMMPS's restart file of the run's last step (named by that step; meta.json's "restart"
+#: names it): a longer run of the same parameters continues from it (bkflow.engine), never
+#: simulating again what the run has
+RESTART = "restart.{}.bk"
+#: written while a finished run is being continued (the sizes of its files before): an
+#: interrupted continuation is undone to the finished run (``undo_continuation``)
+CONTINUING = ".bkflow-continuing"
 SUMMARY = "summary.json"
 EVENTS = "events.csv"
 #: the event catalogue as Parquet (typed, columnar): events.csv's rows and columns
@@ -199,13 +207,51 @@ class RunDir:
                 return f"its companion run ({COMPANION}/) is damaged: {why}"
         return None
 
+    def restart_files(self) -> list[Path]:
+        """Every restart file in the directory (the run's, and any left by a continuation
+        that did not finish)."""
+        return sorted(self.path.glob(RESTART.format("*")))
+
+    def begin_continuation(self) -> None:
+        """Note that the finished run here is being continued (its record stays as it is)."""
+        self.file(CONTINUING).touch()
+
+    def end_continuation(self, keep: str | None) -> None:
+        """After the new record is committed: remove the continuation's note and every
+        restart file but ``keep``."""
+        for p in self.restart_files():
+            if p.name != keep:
+                p.unlink(missing_ok=True)
+        self.file(CONTINUING).unlink(missing_ok=True)
+
+    def undo_continuation(self) -> bool:
+        """A continuation interrupted before it committed: cut every recorded file back to
+        the size the record gives it (what the continuation appended goes), remove the restart
+        files it left, and the note; the finished run is as it was. Returns whether there was
+        one to undo."""
+        if not self.file(CONTINUING).exists():
+            return False
+        meta = self.meta() or {}
+        sizes = meta.get("file_bytes", {})
+        for name, size in sizes.items():
+            p = self.file(name)
+            if name not in MAY_CHANGE and p.is_file() and p.stat().st_size > size:
+                os.truncate(p, size)
+        keep = meta.get("restart")
+        for p in self.restart_files():
+            if p.name != keep:
+                p.unlink(missing_ok=True)
+        self.file(CONTINUING).unlink(missing_ok=True)
+        return True
+
     def companion(self) -> RunDir:
         """The run directory of this run's companion (RunSpec.companion)."""
         return RunDir(self.path / COMPANION)
 
     def commit(self, meta: dict) -> dict:
         """Write meta.json last: the files' sizes and ``"status": "complete"`` with it."""
-        files = sorted(p.name for p in self.path.iterdir() if p.name in RUN_FILES)
+        files = sorted(p.name for p in self.path.iterdir()
+                       if p.name in RUN_FILES or p.name == meta.get("restart"))
         meta = {**meta, "status": "complete", "files": sorted(set(files) | {META})}
         # sizes let a later check tell a finished run from one whose files were cut or lost
         meta["file_bytes"] = {f: self.file(f).stat().st_size for f in files if f != META}
@@ -216,8 +262,10 @@ class RunDir:
     def clear(self) -> None:
         """Remove what a run, its analysis and its movies wrote (before a run is redone:
         nothing drawn from the old run stays behind looking current)."""
-        for name in RUN_FILES + ANALYSIS_FILES:
+        for name in RUN_FILES + ANALYSIS_FILES + (CONTINUING,):
             self.file(name).unlink(missing_ok=True)
+        for p in self.restart_files():
+            p.unlink(missing_ok=True)
         comp = self.companion()
         if comp.path.is_dir() and comp.foreign() is None:
             import shutil

@@ -12,7 +12,7 @@ import pandas as pd
 
 from . import io
 from .params import RunSpec
-from .phases import STATES
+from .states import STATE_NAMES, SWITCHING
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
@@ -28,10 +28,17 @@ FIGURES_RECORD = "figures.json"
 RESULT_FIELDS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_over_ly",
                  "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent",
                  "n_slips", "n_slips_large", "drift", "t_equil", "t_run", "phase_coherence",
-                 "phase_fluctuation")
-#: result fields whose runs carry their own standard error (``<field>_err``): results.csv gives
-#: the mean of those as ``<field>_err_within_run``, the error bar of a point with one seed
+                 "phase_fluctuation", "time_quiet", "time_coherent", "mean_stress_ratio_quiet",
+                 "mean_stress_ratio_coherent", "mu_bar_quiet", "mu_bar_coherent")
+#: result fields whose runs carry their own standard error (``<field>_err``, covering the
+#: switching between states: bkflow.states): results.csv gives the mean of those as
+#: ``<field>_err_within_run``, and the point's error ``<field>_err``, the larger of the seeds'
+#: standard error and the runs' own errors combined, sqrt(sum err_i^2) / n: three seeds that
+#: happen to sit in one state agree closely, and their scatter alone would understate it
 WITHIN_RUN_ERRORS = ("mu_bar", "mu_bar_large", "mean_stress_ratio")
+#: what results.csv counts of its seeds' runs: each verdict, and those switching between
+#: states (any of bkflow.states.SWITCHING)
+STATE_COUNTS = ("steady", "drifting", "metastable", "switching")
 #: state-point keys that are not physics: averaged over
 _NOT_GROUPED = ("seed",)
 #: summary entries that are not results (nested parameters and settings, bookkeeping)
@@ -93,8 +100,11 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
         for f in WITHIN_RUN_ERRORS:
             err = pd.to_numeric(g[f"{f}_err"], errors="coerce").to_numpy(dtype=float) \
                 if f"{f}_err" in g else np.full(1, math.nan)
-            row[f"{f}_err_within_run"] = float(np.nanmean(err)) if np.isfinite(err).any() \
-                else math.nan
+            ok = err[np.isfinite(err)]
+            row[f"{f}_err_within_run"] = float(ok.mean()) if len(ok) else math.nan
+            combined = math.sqrt((ok ** 2).sum()) / len(ok) if len(ok) else math.nan
+            row[f"{f}_err"] = float(np.nanmax([row[f"{f}_sem"], combined])) \
+                if math.isfinite(row[f"{f}_sem"]) or math.isfinite(combined) else math.nan
         regimes = g["regime"].dropna()
         row["regime"] = regimes.mode().iloc[0] if len(regimes) else None
         stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
@@ -102,8 +112,9 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
         row["n_stationary"] = int(stationary.sum())
         states = g["state"].fillna("drifting") if "state" in g \
             else pd.Series("drifting", index=g.index)
-        for name in STATES:
-            row[f"n_{name}"] = int((states == name).sum())
+        for name in STATE_COUNTS:
+            row[f"n_{name}"] = int(states.isin(SWITCHING).sum()) if name == "switching" \
+                else int((states == name).sum())
         row["state"] = point_state(states)
         rows.append(row)
     first = ["phi", "Lx", "Ly", "N", "n_seeds"]
@@ -113,13 +124,19 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def point_state(states) -> str:
-    """The state of a point of the grid from its seeds' runs: steady when all are steady,
-    metastable when any run is (a flat stress that still remembers its start: the warning
-    that a trend test alone would miss), drifting otherwise."""
+    """The state of a point of the grid from its seeds' runs: metastable when any run is (it
+    still remembers its start), else drifting when any is, else the states the switching runs
+    visited together (``quiet+coherent`` when they saw both between them), else steady (every
+    run is); a point without runs is drifting."""
     states = list(states)
-    if states and all(s == "steady" for s in states):
-        return "steady"
-    return "metastable" if "metastable" in states else "drifting"
+    if not states or "metastable" in states:
+        return "metastable" if states else "drifting"
+    if "drifting" in states:
+        return "drifting"
+    seen = {s for v in states if v in SWITCHING for s in v.split("+")}
+    if seen:
+        return "+".join(s for s in STATE_NAMES if s in seen)
+    return "steady"
 
 
 def _key(value):

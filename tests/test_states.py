@@ -1,0 +1,110 @@
+"""The states of a layer and the error that covers its switching (bkflow.states), on synthetic
+series whose truth is known: a slow two-state component (a telegraph process between a quiet
+and a coherent level, residence times longer than the windows) under fast noise."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bkflow import states
+from bkflow.stationarity import mean_error
+
+QUIET, COHERENT = 0.1030, 0.1048     # the two levels (stress ratio), as at phi = 1000
+TAU_Q, TAU_C = 40, 40                # mean residence (blocks of 1000 time units)
+NOISE, RHO = 3e-4, 0.6               # fast noise of a block mean: AR(1)
+TRUTH = (QUIET * TAU_Q + COHERENT * TAU_C) / (TAU_Q + TAU_C)
+
+
+def telegraph(rng, n_blocks):
+    """Block means of the synthetic layer: (means, in the quiet state)."""
+    quiet = np.empty(n_blocks, bool)
+    state, k = rng.random() < TAU_Q / (TAU_Q + TAU_C), 0
+    while k < n_blocks:
+        stay = 1 + rng.geometric(1 / (TAU_Q if state else TAU_C))
+        quiet[k:k + stay] = state
+        k += stay
+        state = not state
+    e = np.empty(n_blocks)
+    e[0] = rng.standard_normal() * NOISE
+    for i in range(1, n_blocks):
+        e[i] = RHO * e[i - 1] + math.sqrt(1 - RHO ** 2) * NOISE * rng.standard_normal()
+    return np.where(quiet, QUIET, COHERENT) + e, quiet
+
+
+WINDOWS = [4e3, 1e4, 2e4, 5e4, 1e5, 2e5]
+
+
+def _calibration(rng):
+    """A calibration made as benchmarks/stiff_states.py makes it: three layers, four long runs
+    each, the truth of each layer its runs' pooled mean."""
+    layers = []
+    for _ in range(3):
+        runs = [telegraph(rng, 2000)[0] for _ in range(4)]
+        layers.append((float(np.mean(np.concatenate(runs))), runs))
+    cal = states.calibrate({1000.0: layers}, WINDOWS)
+    return {"phi": cal["phi"], "windows": cal["windows"], "stress": cal["table"]}
+
+
+@pytest.mark.parametrize("W", [5e3, 2e4, 8e4])
+def test_the_calibrated_error_covers_the_switching(W):
+    """Fresh windows of W time units (W / tau from 0.06 to 1): the interval mean +- 1.96
+    (the calibrated error) holds the long-run mean at least 90% of the time, where the
+    window's own error (mean_error of its block means) does not."""
+    rng = np.random.default_rng(7)
+    size = _calibration(rng)
+    var = states.window_variance("stress", 1000.0, 100, W, size=size)
+    k = int(W / 1000)
+    hit_cal = hit_own = 0
+    trials = 400
+    for _ in range(trials):
+        x = telegraph(rng, k + 200)[0][200:]   # a window from a random moment
+        m = x.mean()
+        hit_cal += abs(m - TRUTH) <= 1.96 * math.sqrt(var) * m
+        own = mean_error(x).error if k >= 3 else 0.0
+        hit_own += abs(m - TRUTH) <= 1.96 * (own if math.isfinite(own) else 0.0)
+    assert hit_cal / trials >= 0.90, (W, hit_cal / trials)
+    assert hit_own / trials < 0.80, "the window's own error should miss the switching"
+
+
+def test_windows_much_longer_than_the_switching_need_no_calibration():
+    """Far beyond the residence times the window's own error is right (and the calibration
+    falls as 1 / W), so the verdict's test of dominance says the window averaged over it."""
+    rng = np.random.default_rng(11)
+    size = _calibration(rng)
+    x = telegraph(rng, 4000)[0]
+    own = mean_error(x).error
+    var = states.window_variance("stress", 1000.0, 100, 4e6, size=size)
+    assert math.sqrt(var) * x.mean() < 2 * own
+    assert abs(x.mean() - TRUTH) <= 1.96 * own * 1.5
+
+
+def test_blocks_name_the_state_by_the_independent_phases_level():
+    n = 100
+    t = np.arange(0.0, 4000.0)
+    R = np.where(t < 2000, 0.04, 0.25)     # quiet, then coherent
+    ratio = np.where(t < 2000, QUIET, COHERENT)
+    b = states.blocks(t, R, t, ratio, 0.0, n, block_t=1000.0)
+    assert list(b.state) == ["quiet", "quiet", "coherent", "coherent"]
+    c = states.composition(b, t_fail=[100.0, 3500.0], sigma_fail_ratio=[0.106, 0.112])
+    assert c.name == "quiet+coherent" and c.fraction["quiet"] == pytest.approx(0.5, abs=0.01)
+    assert c.mean_stress["quiet"] == pytest.approx(QUIET)
+    assert (c.mu_bar["quiet"], c.mu_bar["coherent"]) == (0.106, 0.112)
+    assert states.r_independent(n) == pytest.approx(math.sqrt(math.pi / 400))
+
+
+@pytest.mark.parametrize("stationary, chi, seen, dominating, pair, want", [
+    (True, 0.8, ("coherent",), False, False, "steady"),
+    (False, 0.8, ("coherent",), False, False, "drifting"),
+    (True, 50.0, ("coherent",), False, False, "metastable"),
+    (True, 0.8, ("coherent",), False, True, "metastable"),
+    (True, 0.5, ("quiet",), True, False, "quiet"),
+    (False, 2.0, ("quiet", "coherent"), False, False, "quiet+coherent"),
+    (False, 2.0, ("coherent",), True, False, "coherent"),
+])
+def test_the_verdict(stationary, chi, seen, dominating, pair, want):
+    comp = states.Composition({s: (1.0 / len(seen) if s in seen else 0.0)
+                               for s in states.STATE_NAMES}, {}, {})
+    assert states.verdict(stationary, chi, comp, 100, dominating, pair) == want
