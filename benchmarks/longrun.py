@@ -99,7 +99,8 @@ class LongRun:
         st = self._state()
         self.work.mkdir(parents=True, exist_ok=True)
         self.record.parent.mkdir(parents=True, exist_ok=True)
-        if st.get("spec", spec.to_dict()) != spec.to_dict():
+        was, now = st.get("spec", spec.to_dict()), spec.to_dict()
+        if any(was[k] != now[k] for k in set(was) & set(now)):  # fields added since: ignored
             raise SystemExit(f"{self.record}: recorded with other parameters")
         target_blocks = int(math.ceil(t_end / (self.block_steps * spec.dt) - 1e-9))
         while st["blocks"] < target_blocks:

@@ -34,12 +34,55 @@ def analysed(out, spec: RunSpec, settings: AnalysisSettings) -> bool:
 def simulate(spec: RunSpec, out, command: str | None = None, force: bool = False) -> bool:
     """Run ``spec`` into ``out`` unless it is there; True when LAMMPS ran. ``force``: above
     the cost limits too."""
+    from .engine import continuation
+
     rd = RunDir(out)
     with rd.lock():
         if simulated(out, spec):
             return False
-        run(spec, out, overwrite=True, progress=False, command=command, force=force)
+        # a shorter run of the same parameters goes on from where it stopped; anything else
+        # there (a stale or damaged run) is redone
+        run(spec, out, overwrite=continuation(rd, spec) is None, progress=False,
+            command=command, force=force)
         return True
+
+
+def seed(out, donors, spec: RunSpec) -> str | None:
+    """A directory without a run that one of ``donors`` (run directories of finished runs)
+    continues: the longest of them that ``spec`` continues (``bkflow.engine.continuation``)
+    copied into ``out``, so that the run goes on from its restart file rather than simulating
+    again what it has. Returns the donor copied, or None."""
+    import shutil
+    from pathlib import Path
+
+    from .engine import continuation
+    from .rundir import ANALYSIS_FILES, COMPANION, LOCK, META
+
+    rd = RunDir(out)
+    if rd.meta() is not None:
+        return None
+    best, steps = None, -1
+    for d in donors:
+        meta = continuation(RunDir(d), spec)
+        if meta is not None and meta["derived"]["n_steps"] > steps:
+            best, steps = Path(d), meta["derived"]["n_steps"]
+    if best is None:
+        return None
+
+    def copy(src: Path, dst: Path) -> None:
+        dst.mkdir(exist_ok=True)
+        for p in sorted(src.iterdir(), key=lambda p: p.name == META):  # the record last
+            if p.name in ANALYSIS_FILES or p.name == LOCK or p.name.startswith("signac_"):
+                continue
+            if p.name == COMPANION and p.is_dir() and not p.is_symlink():
+                copy(p, dst / p.name)
+            elif p.is_file() and not p.is_symlink():
+                shutil.copy2(p, dst / p.name)
+
+    # (until its record is copied, the directory holds no finished run: a copy cut short is
+    # redone from the start)
+    copy(best, rd.path)
+    return str(best)
 
 
 def analyze(spec: RunSpec, out, settings: AnalysisSettings) -> dict:

@@ -108,6 +108,13 @@ def _record_failure(job, exc: Exception) -> None:
         job.document["error"] = (f"{type(exc).__name__}: {exc} ({spec.label}; see {job.path})")
 
 
+def _shorter(job) -> list:
+    """The run directories of the project's other jobs with the same parameters but the
+    length (t_end): the runs a longer one may continue."""
+    same = {k: v for k, v in job.cached_statepoint.items() if k != "t_end"}
+    return [j.path for j in job.project.find_jobs(same) if j.id != job.id]
+
+
 #: the job document's key saying its run may go above the cost limits (``--force``)
 FORCE = "force"
 
@@ -122,6 +129,7 @@ def simulate(job):
     _die_with_parent()
     try:
         spec = spec_of(job)
+        one.seed(job.path, _shorter(job), spec)
         one.simulate(spec, job.path, command=f"bkflow sweep ({SIMULATE})",
                      force=bool(job.document.get(FORCE, False)))
         one.analyze(spec, job.path, settings_of(job.project))

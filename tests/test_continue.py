@@ -1,0 +1,94 @@
+"""A longer run continues a shorter one from its restart file (bkflow.engine.continuation):
+never simulating again what it has, and the very run a longer request makes from the start,
+bit for bit on the fused path; a continuation cut short is undone; a sweep with a longer
+--t-end continues its shorter runs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import pytest
+
+from bkflow.engine import continuation, run
+from bkflow.params import RunSpec, protocol_fields
+from bkflow.rundir import CONTINUING, RunDir
+from tests.support import tool
+
+pytestmark = pytest.mark.usefixtures("lammps")
+
+SERIES = ("stress.csv", "phase.csv", "in.bk")
+
+
+def _spec(protocol="paper", **kw):
+    fields = {**protocol_fields(protocol), **kw}
+    return RunSpec(**{"phi": 1000.0, "Lx": 12, "Ly": 3, "seed": 2, "scene": "friction",
+                      **fields})
+
+
+def _same(a, b, names=SERIES):
+    for name in names:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+def test_a_longer_fixed_run_continues_the_shorter_one(tmp_path):
+    short = _spec(t_end=1000.0)
+    run(short, tmp_path / "c", progress=False)
+    first = RunDir(tmp_path / "c").meta()
+    meta = run(short.replace(t_end=2500.0), tmp_path / "c", progress=False).meta
+    assert [c["to_step"] for c in meta["continued"]] == [first["derived"]["n_steps"],
+                                                         meta["derived"]["n_steps"]]
+    run(short.replace(t_end=2500.0), tmp_path / "fresh", progress=False)
+    _same(tmp_path / "c", tmp_path / "fresh")
+    # one restart file, the last step's, named in the record
+    assert [p.name for p in RunDir(tmp_path / "c").restart_files()] == [meta["restart"]]
+    assert RunDir(tmp_path / "c").problem() is None
+
+
+def test_a_capped_pair_continued_is_the_pair_with_the_larger_cap(tmp_path):
+    capped = _spec("steady", t_end=1500.0, target_error=1e-6)
+    first = run(capped, tmp_path / "c", progress=False).meta
+    assert not first["adaptive"]["reached"]
+    longer = capped.replace(t_end=3000.0)
+    meta = run(longer, tmp_path / "c", progress=False).meta
+    fresh = run(longer, tmp_path / "fresh", progress=False).meta
+    assert meta["adaptive"]["t_run"] == fresh["adaptive"]["t_run"]
+    _same(tmp_path / "c", tmp_path / "fresh")
+    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion")
+
+
+def test_a_continuation_cut_short_is_undone(tmp_path):
+    short = _spec(t_end=1000.0)
+    run(short, tmp_path / "c", progress=False)
+    rd = RunDir(tmp_path / "c")
+    before = {p.name: p.read_bytes() for p in rd.path.iterdir() if p.is_file()}
+    # what an interrupted continuation leaves: its note, appended series, a restart file
+    rd.begin_continuation()
+    with open(rd.file("stress.csv"), "a") as f:
+        f.write("1000.1,0.5\n1000.2,0.5")
+    rd.file("restart.99999.bk").write_bytes(b"half")
+    assert rd.problem() is not None
+    assert continuation(rd, short.replace(t_end=2000.0)) is not None
+    after = {p.name: p.read_bytes() for p in rd.path.iterdir() if p.is_file()}
+    assert after == before and not rd.file(CONTINUING).exists()
+
+
+def test_nothing_is_continued_from_another_run(tmp_path):
+    run(_spec(t_end=1000.0), tmp_path / "c", progress=False)
+    rd = RunDir(tmp_path / "c")
+    for other in (_spec(t_end=2000.0, seed=3), _spec(t_end=2000.0, k_e=11.0),
+                  _spec(t_end=500.0), _spec(t_end=1000.0)):
+        assert continuation(rd, other) is None
+
+
+def test_a_sweep_with_a_longer_t_end_continues_its_runs(tmp_path):
+    args = [tool("bkflow"), "sweep", "--phi", "1000", "--seeds", "1", "--sizes", "12x3",
+            "--aspect", "any", "--protocol", "paper", "--scene", "friction", "--jobs", "1",
+            "--out", str(tmp_path / "s")]
+    for t in ("1000", "2000"):
+        proc = subprocess.run(args + ["--t-end", t], capture_output=True, text=True,
+                              timeout=600)
+        assert proc.returncode == 0, proc.stderr
+    metas = [json.loads(p.read_text()) for p in (tmp_path / "s").glob("workspace/*/meta.json")]
+    longer = next(m for m in metas if m["params"]["t_end"] == 2000.0)
+    assert len(longer["continued"]) == 2
