@@ -155,7 +155,7 @@ class LongRun:
 
     def _reduce(self, st: dict, nb: int):
         spec, w = self.spec, self.work
-        dt, N = spec.dt, spec.N
+        dt = spec.dt
         s = pd.read_csv(w / "stress.csv").to_numpy()
         p = pd.read_csv(w / "phase.csv").to_numpy()
         step0 = st["step"]

@@ -29,6 +29,7 @@ import pandas as pd
 
 from bkflow import states
 from bkflow.states import BLOCK_T, CALIBRATION, r_independent
+from bkflow.stationarity import Stationarity
 
 #: the share of each run left out as the start's transient
 TRANSIENT = 0.2
@@ -47,7 +48,8 @@ def load(root) -> pd.DataFrame:
         n, phi, start, seed, c = m.groups()
         keep = rec.iloc[int(TRANSIENT * len(rec)):].reset_index(drop=True)
         rows.append({"N": int(n), "phi": float(phi), "start": start, "seed": int(seed),
-                     "C": float(c), "t": float(rec.t1.iloc[-1]), "blocks": keep})
+                     "C": float(c), "t": float(rec.t1.iloc[-1]), "blocks": keep,
+                     "whole": rec})
     return pd.DataFrame(rows)
 
 
@@ -111,7 +113,6 @@ def window_table(runs: pd.DataFrame, means: dict, exclude_seed=None) -> dict:
 
 def coverage(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
     """Leave-one-seed-out coverage of mean +- 1.96 sqrt(V) mean, per (N, phi, W)."""
-    from bkflow import states
 
     rows = []
     seeds = sorted(runs.seed.unique())
@@ -200,6 +201,153 @@ def window_chi(runs: pd.DataFrame) -> dict:
     return out
 
 
+#: the run lengths of the steady protocol's windows tested for the verdict (the product's
+#: window [0.2 T, T] of a run from t = 0), and how far off the long-run mean a window called
+#: steady may be before it is a false steady
+VERDICT_T = (8e3, 16e3, 32e3, 64e3)
+FALSE_STEADY_OFF = 0.005
+
+
+def verdicts(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
+    """The verdict of bkflow.states on windows [0.2 T, T] of the runs from the steady
+    protocol's starts (random, partial) for T in VERDICT_T, read from the blocks (the trend
+    test over 10 groups of blocks, chi from the blocks' moments, the composition, the
+    calibrated switching against the blocks' own error); per (N, phi, T): the windows, the
+    share of each verdict, the false-steady rate (windows called steady whose mean is more than
+    FALSE_STEADY_OFF off the layer's long-run mean), and the coverage of the interval mean
+    +- 1.96 err (err the larger of the blocks' own and the calibrated) of the long-run mean."""
+    rows = []
+    for _, r in runs[runs.start.isin(["random", "partial"])].iterrows():
+        lm = means[(r.N, r.phi, r.seed)]
+        rec = r.whole
+        for T in VERDICT_T:
+            kT = int(round(T / BLOCK_T))
+            # the run's own first window, then windows as if runs began every T further on
+            for a in range(0, len(rec) - kT + 1, kT):
+                k0, k1 = a + int(round(0.2 * kT)), a + kT
+                if k1 - k0 < 10:
+                    continue
+                rows.append(_verdict_row(r, lm, rec.iloc[k0:k1], T, a == 0))
+    return _verdict_table(pd.DataFrame(rows))
+
+
+def _verdict_row(r, lm, b: pd.DataFrame, T: float, first: bool) -> dict:
+    """The verdict of one window (blocks ``b``) of run ``r`` of the layer ``lm``, as
+    bkflow.states.window gives it, from the blocks."""
+    from scipy import stats
+
+    w = b.n.to_numpy(float)
+    mean = float(np.average(b.s, weights=w))
+    groups = np.array_split(np.arange(len(b)), 10)
+    gm = np.array([np.average(b.s.iloc[g], weights=w[g]) for g in groups])
+    gt = np.array([0.5 * (b.t0.iloc[g[0]] + b.t1.iloc[g[-1]]) for g in groups])
+    fit = stats.linregress(gt, gm)
+    span, level = float(b.t1.iloc[-1] - b.t0.iloc[0]), float(gm.mean())
+    trend = Stationarity(float(b.t0.iloc[0]), float(b.t1.iloc[-1]), gt, gm,
+                         fit.slope * span / level, fit.stderr * span / level,
+                         fit.slope / fit.stderr, fit.pvalue, fit.pvalue >= 0.05, 0.05)
+    trend = states.trend_within_fluctuations(trend, states.window_variance(
+        "stress", r.phi, r.N, span / 10))
+    err_block = gm.std(ddof=1) / math.sqrt(len(gm))
+    chi = r.N * (np.average(b.R2abs, weights=w) - np.average(b.Zre, weights=w) ** 2
+                 - np.average(b.Zim, weights=w) ** 2)
+    q = b.R.to_numpy() < r_independent(r.N)
+    comp = states.Composition({"quiet": q.mean(), "coherent": 1 - q.mean()}, {}, {})
+    var = states.window_variance("stress", r.phi, r.N, span)
+    dom = states.dominates(var, err_block, mean) and bool(states.two_states(r.phi, r.N))
+    v = states.verdict(trend.stationary, chi, comp, r.N, dom)
+    err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
+    return {"N": r.N, "phi": r.phi, "T": T, "verdict": v, "first": first,
+            "off": abs(mean / lm["stress"] - 1),
+            "covered": abs(mean - lm["stress"]) <= 1.96 * err}
+
+
+def _verdict_table(df: pd.DataFrame) -> pd.DataFrame:
+    out = []
+    for (n, phi, T), g in df.groupby(["N", "phi", "T"]):
+        steady = g[g.verdict == "steady"]
+        out.append({"N": n, "phi": phi, "T": T, "windows": len(g),
+                    "steady": len(steady) / len(g),
+                    "switching": g.verdict.isin(states.SWITCHING).mean(),
+                    "drifting": (g.verdict == "drifting").mean(),
+                    "metastable": (g.verdict == "metastable").mean(),
+                    "false_steady": float((~steady.covered).mean())
+                    if len(steady) else math.nan,
+                    "steady_off_05": float((steady.off > FALSE_STEADY_OFF).mean())
+                    if len(steady) else math.nan,
+                    "coverage": float(g.covered.mean())})
+    return pd.DataFrame(out)
+
+
+def ergodicity(runs: pd.DataFrame) -> pd.DataFrame:
+    """The Thirumalai-Mountain fluctuation metric of each layer: the variance over its starts
+    of their running time averages of the stress, d(t) (Thirumalai, Mountain and Kirkpatrick,
+    PRA 39, 3563 (1989)); an ergodic layer's falls as 1/t. Per (N, phi): d at t / 4 and at t
+    (t the shortest of the starts' kept lengths), their ratio (1/4 when ergodic), averaged
+    over the layers (seeds) with all four starts."""
+    rows = []
+    for (n, phi, seed), g in runs.groupby(["N", "phi", "seed"]):
+        if len(g) < 4:
+            continue
+        k = min(len(b) for b in g.blocks)
+        if k < 8:
+            continue
+        avg = np.array([np.cumsum(b.s.to_numpy()[:k]) / np.arange(1, k + 1) for b in g.blocks])
+        d = avg.var(axis=0, ddof=1)
+        rows.append({"N": n, "phi": phi, "seed": seed, "t": k * BLOCK_T,
+                     "d_quarter": d[k // 4 - 1], "d_end": d[-1]})
+    df = pd.DataFrame(rows)
+    if df.empty:
+        return df
+    g = df.groupby(["N", "phi"])
+    out = g[["t", "d_quarter", "d_end"]].mean().reset_index()
+    out["ratio"] = (g.apply(lambda x: (x.d_end / x.d_quarter).mean(),
+                            include_groups=False)).to_numpy()
+    return out
+
+
+#: the paper's run lengths (its protocol: the synchronized start, a fixed length)
+PAPER_T = (4e3, 16e3, 64e3)
+
+
+def paper_points(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
+    """What the paper's stiff points are: per (N, phi >= 215, T), the window [0.2 T, T] of the
+    synchronized start (its protocol) beside the states of the same layers: its mean stress and
+    chi over the seeds, the long-run mean, each state's mean (blocks of every start after
+    their transient), and the 99th percentile of a coherent block of the runs from the other
+    starts (what the coherent state reaches). A window above that percentile, with chi above
+    the memory threshold, is the synchronized start's transient, not a state of the layer."""
+    rows = []
+    for (n, phi), g in runs[runs.phi >= 215].groupby(["N", "phi"]):
+        kept = pd.concat(list(g.blocks), ignore_index=True)
+        quiet = kept.R < r_independent(n)
+        others = pd.concat(list(g[g.start != "synchronized"].blocks), ignore_index=True)
+        coh = others[others.R >= r_independent(n)].s
+        for T in PAPER_T:
+            vals, chis = [], []
+            for _, r in g[g.start == "synchronized"].iterrows():
+                k1 = int(round(T / BLOCK_T))
+                b = r.whole.iloc[int(round(0.2 * k1)):k1]
+                if len(b) < 1 or k1 > len(r.whole):
+                    continue
+                w = b.n.to_numpy(float)
+                vals.append(float(np.average(b.s, weights=w)))
+                chis.append(float(n * (np.average(b.R2abs, weights=w)
+                                       - np.average(b.Zre, weights=w) ** 2
+                                       - np.average(b.Zim, weights=w) ** 2)))
+            if not vals:
+                continue
+            long_run = float(np.mean([means[(n, phi, s)]["stress"] for s in g.seed.unique()]))
+            rows.append({"N": n, "phi": phi, "T": T, "seeds": len(vals),
+                         "paper_mean": float(np.mean(vals)), "paper_chi": float(np.mean(chis)),
+                         "long_run": long_run,
+                         "quiet": float(kept.s[quiet].mean()) if quiet.any() else math.nan,
+                         "coherent": float(kept.s[~quiet].mean()),
+                         "coherent_p99": float(coh.quantile(0.99)) if len(coh) else math.nan,
+                         "memory_chi": states.memory_chi(n)})
+    return pd.DataFrame(rows)
+
+
 def report(root) -> None:
     runs = load(root)
     means = layer_means(runs)
@@ -222,3 +370,64 @@ def report(root) -> None:
     lm = pd.DataFrame([{"N": k[0], "phi": k[1], "seed": k[2], **v} for k, v in means.items()])
     print(lm.round(5).to_string(index=False))
     print(coverage(runs, means).round(3).to_string(index=False))
+    print(verdicts(runs, means).round(3).to_string(index=False))
+    print(ergodicity(runs).to_string(index=False))
+    print(paper_points(runs, means).round(5).to_string(index=False))
+    print(f"wrote {figure(root)}")
+
+
+FIGURE = Path(__file__).with_name("stiff_states.png")
+
+
+def figure(root, out=FIGURE) -> Path:
+    """Stress and coherence against time at the stiff end: for each (N, phi) of FIG_CASES,
+    every start of seed 1 over its whole run (blocks of 1000 time units), the quiet blocks
+    shaded, the independent-phase level of R drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = {}
+    for f in sorted(glob.glob(str(Path(root) / "*.parquet"))):
+        m = NAME.search(f)
+        if m:
+            n, phi, start, seed, _ = m.groups()
+            runs[(int(n), float(phi), start, int(seed))] = pd.read_parquet(f)
+    cases = [(n, phi) for n, phi in FIG_CASES if any(k[:2] == (n, phi) for k in runs)]
+    starts = ("synchronized", "random", "stratified", "partial")
+    colours = {"synchronized": "tab:red", "random": "tab:blue", "stratified": "tab:green",
+               "partial": "tab:orange"}
+    fig, axes = plt.subplots(2, len(cases), figsize=(3.4 * len(cases), 4.6), sharex="col",
+                             squeeze=False)
+    for j, (n, phi) in enumerate(cases):
+        top, bottom = axes[0, j], axes[1, j]
+        for start in starts:
+            rec = runs.get((n, phi, start, 1))
+            if rec is None:
+                continue
+            t = 0.5 * (rec.t0 + rec.t1) / 1e6
+            top.plot(t, rec.s, lw=0.6, color=colours[start], label=start)
+            bottom.plot(t, rec.R, lw=0.6, color=colours[start])
+        bottom.axhline(r_independent(n), color="k", lw=0.8, ls="--",
+                       label=r"$\sqrt{\pi/4N}$ (independent phases)")
+        top.set_title(f"N = {n}, $\\phi$ = {phi:g}, seed 1", fontsize=8)
+        bottom.set_xlabel(r"$t$ ($10^6\,\sqrt{m/k_d}$)", fontsize=8)
+        lo = min(float(r.s.quantile(0.001)) for k, r in runs.items() if k[:2] == (n, phi))
+        hi = max(float(r.s.quantile(0.995)) for k, r in runs.items() if k[:2] == (n, phi))
+        top.set_ylim(lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo))
+        for ax in (top, bottom):
+            ax.tick_params(labelsize=7)
+    axes[0, 0].set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$ (blocks of $10^3$)", fontsize=8)
+    axes[1, 0].set_ylabel(r"coherence $R=|Z|$ (blocks of $10^3$)", fontsize=8)
+    axes[0, 0].legend(fontsize=6, title="start", title_fontsize=6, loc="upper right")
+    axes[1, 0].legend(fontsize=6, loc="upper right")
+    fig.suptitle("The stiff end over long runs: quiet (R below the dashed line) and coherent "
+                 "stretches", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=150)
+    plt.close(fig)
+    return out
+
+
+FIG_CASES = ((100, 215.0), (100, 1000.0), (400, 1000.0))

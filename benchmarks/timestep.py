@@ -22,7 +22,6 @@ report
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 

@@ -214,6 +214,20 @@ class Reference:
         return s
 
 
+def step_watching_the_box(ref: Reference, s: ReferenceState, n: int, every: int = 50):
+    """``ref.step(s, n)`` in pieces of ``every`` steps; (the state, whether some atom stood
+    outside the box [0, L) after some piece): a window that crossed the periodic boundary,
+    even if the atom came back by its end."""
+    crossed = False
+    done = 0
+    while done < n:
+        k = min(every, n - done)
+        ref.step(s, k)
+        done += k
+        crossed = crossed or bool(np.any((s.x < 0) | (s.x >= ref.L)))
+    return s, crossed
+
+
 def phase_statistics(dr, k_e, f_max) -> dict:
     """The contacts' load-phase statistics of docs/model.md ("Contact phase") from their
     displacements ``dr`` (N, 2): u_i = k_e |dr_i| / f_max, Z = <exp(2 pi i u)>, R = |Z|, R2 the

@@ -275,7 +275,7 @@ def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, target, s
     itself: it stops at once, its workers with it, as after Ctrl-C. The same command
     finishes."""
     out = tmp_path / "s"
-    cmd = [tool("bkflow"), "sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "300",
+    cmd = [tool("bkflow"), "sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "3000",
            "--dt-factor", "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2",
            "--quiet", "--out", str(out)]
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

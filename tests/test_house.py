@@ -21,10 +21,11 @@ ROOT = Path(__file__).resolve().parents[1]
 #: the data flow of the package, bottom to top: a module imports only modules before it
 #: (docs/develop.md, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
-ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "stress",
+ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "states",
+         "stress",
          "order", "clusters", "catalogue", "io", "rundir", "deck", "plugin", "engine",
          "analysis", "grid", "job", "flowcompat", "project", "cluster", "tables", "sweep", "plot",
-         "fronts", "api", "cli")
+         "fronts", "api", "report", "cli")
 
 
 def _bkflow_imports(path: Path) -> set[str]:

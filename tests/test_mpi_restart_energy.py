@@ -109,7 +109,7 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
 @pytest.mark.slow
 def test_energy_is_conserved_to_second_order(workdir):
     """gamma = 0, no drive, no friction, phi = 1000: bounded energy error, O(dt^2)."""
-    spec = RunSpec(phi=1000.0, Lx=6, Ly=6, seed=1, gamma=0.0)
+    spec = RunSpec(phi=1000.0, Lx=6, Ly=6, seed=1, gamma=0.0, dt_factor=0.1)
     from bkflow.lattice import lattice_for
 
     lattice = lattice_for(spec)

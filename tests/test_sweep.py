@@ -146,7 +146,8 @@ def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
     assert np.isfinite(runs.mu_bar).all() and np.isfinite(runs.psi_inf).all()
     # the table printed is the table written
     for phi, mu in zip(res.phi, res.mu_bar):
-        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+(steady|(drifting|metastable) \d/1)"
+        assert re.search(rf"\n\s+{phi:g}\s+20x5\s+1\s+(steady|(drifting|metastable|quiet|"
+                         rf"coherent|quiet\+coherent) \d/1)"
                          rf"\s+{mu:.4f}", proc.stdout), proc.stdout
     for d in job_dirs(out):
         assert run_problem(d) is None
@@ -371,7 +372,7 @@ def test_a_runs_cost_counts_its_companion(tmp_path):
     from bkflow.params import protocol_fields
 
     spec = RunSpec(phi=1000, Lx=240, Ly=60, seed=1, **{**protocol_fields("steady"),
-                                                       "t_end": 16000.0, "scene": "friction"})
+                                                       "t_end": 240000.0, "scene": "friction"})
     alone = spec.replace(companion=None)
     assert cost(spec).atom_steps == 2 * cost(alone).atom_steps == 2 * 14400 * spec.n_steps
     assert cost(spec).memory_bytes > cost(alone).memory_bytes

@@ -336,7 +336,7 @@ def _sweep(a) -> int:
     from .project import check_sweep_dir
 
     check_sweep_dir(a.out)
-    check_sweep(specs, a.out, jobs, available_cores(), a.force)
+    total = check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         from .project import init_jobs
 
@@ -348,6 +348,7 @@ def _sweep(a) -> int:
     print(f"sweep: {len(phis)} phi x {len(sizes)} size(s){extra} x {a.seeds} seed(s) = "
           f"{len(specs)} runs into {a.out}, {jobs} at a time", flush=True)
     print(f"  phi = {', '.join(f'{p:g}' for p in phis)}", flush=True)
+    print("  " + report.cost_line(total, jobs, any(s.adaptive for s in specs)), flush=True)
     for k, v in axes.items():
         print(f"  {k} = {', '.join(map(str, v))}", flush=True)
     rep = sweep(specs, a.out, jobs=jobs, progress=False if a.quiet else None,

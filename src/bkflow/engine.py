@@ -427,7 +427,7 @@ def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> in
     step, n_total = start, spec.n_steps
     piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / (spec.N * len(legs)))))
     while step < n_total:
-        end = min((step // chunk + 1) * chunk, n_total)
+        end = min(next_check(step, chunk), n_total)
         while step < end:
             n = min(piece, end - step)
             t0 = time.perf_counter()
@@ -440,6 +440,23 @@ def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> in
         if legs[0].adaptive is not None and _stop(legs, step):
             break
     return step
+
+
+#: an adaptive run's checks grow apart with its length: the next one comes after
+#: max(chunk, CHECK_GROWTH x the steps so far) (in whole chunks), so that a long run checks a
+#: few hundred times, not once every 100 time units (each check reads the whole window), and
+#: stops at most CHECK_GROWTH later than a check at every chunk would have
+CHECK_GROWTH = 0.05
+
+
+def next_check(step: int, chunk: int) -> int:
+    """The first step after ``step`` at which an adaptive run checks its stop rule: the
+    checks are c_0 = 0, c_k+1 = c_k + max(chunk, chunk floor(CHECK_GROWTH c_k / chunk)), the
+    same for a run and for its continuation."""
+    c = 0
+    while c <= step:
+        c += max(chunk, chunk * int(CHECK_GROWTH * c // chunk))
+    return c
 
 
 def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:

@@ -56,6 +56,7 @@ def seed(out, donors, spec: RunSpec) -> str | None:
     from pathlib import Path
 
     from .engine import continuation
+    from .io import atomic_file
     from .rundir import ANALYSIS_FILES, COMPANION, LOCK, META
 
     rd = RunDir(out)
@@ -77,7 +78,8 @@ def seed(out, donors, spec: RunSpec) -> str | None:
             if p.name == COMPANION and p.is_dir() and not p.is_symlink():
                 copy(p, dst / p.name)
             elif p.is_file() and not p.is_symlink():
-                shutil.copy2(p, dst / p.name)
+                with open(p, "rb") as src_f, atomic_file(dst / p.name, binary=True) as out:
+                    shutil.copyfileobj(src_f, out)
 
     # (until its record is copied, the directory holds no finished run: a copy cut short is
     # redone from the start)

@@ -93,7 +93,7 @@ def _free_disk(path) -> float:
         return float("inf")
 
 
-def _fmt(b: float) -> str:
+def fmt_bytes(b: float) -> str:
     for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if b >= f:
             return f"{b / f:.3g} {unit}"
@@ -109,15 +109,15 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
     if c.memory_bytes > MAX_MEMORY_SHARE * mem:
         fix = ("choose --scene friction or shorten --t-end (the analysis reads the frames at "
                "once)" if c.frame_memory > c.memory_bytes / 2 else "use a smaller lattice")
-        raise CostError(f"{what} needs about {_fmt(c.memory_bytes)} of memory, more than half "
-                        f"of the {_fmt(mem)} available: {fix}{hint}")
+        raise CostError(f"{what} needs about {fmt_bytes(c.memory_bytes)} of memory, more than half "
+                        f"of the {fmt_bytes(mem)} available: {fix}{hint}")
     free = _free_disk(out)
     if c.disk_bytes > min(MAX_BYTES, MAX_DISK_SHARE * free):
         fix = ("choose --scene friction (no frames)" if c.frame_bytes > c.disk_bytes / 2 else
                "shorten --t-end or sample the stress less often (--set stress_every=...)")
-        raise CostError(f"{what} would write about {_fmt(c.disk_bytes)}, more than "
-                        f"{_fmt(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
-                        f"at {out}, at most {_fmt(MAX_BYTES)}): {fix}, or another --out{hint}")
+        raise CostError(f"{what} would write about {fmt_bytes(c.disk_bytes)}, more than "
+                        f"{fmt_bytes(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
+                        f"at {out}, at most {fmt_bytes(MAX_BYTES)}): {fix}, or another --out{hint}")
     if c.atom_steps > MAX_ATOM_STEPS:
         hours = c.atom_steps / ATOM_STEPS_PER_SECOND / 3600
         hours = f"{hours:.2g}" if hours < 100 else f"{hours:,.0f}"

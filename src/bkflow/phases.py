@@ -42,14 +42,6 @@ import numpy as np
 
 from .stationarity import Stationarity, stationarity
 
-#: the phase fluctuation chi above which the contacts count as still sharing a phase (the
-#: start's memory): calibrated on long runs from every start (benchmarks/stationarity.py
-#: "verdict", benchmarks/RESULTS.md "The contacts' verdict")
-COHERENT_FLUCTUATION = 3.0
-
-#: the states of a run over its analysed window (docs/model.md "Steady state")
-STATES = ("steady", "drifting", "metastable")
-
 
 @dataclass(frozen=True)
 class Coherence:
@@ -69,12 +61,6 @@ class Coherence:
     u_std: float
     n: int
     trend: Stationarity
-
-    @property
-    def coherent(self) -> bool:
-        """The contacts still move together (the start's memory): chi above
-        ``COHERENT_FLUCTUATION``, or not measurable."""
-        return not (self.fluctuation <= COHERENT_FLUCTUATION)
 
 
 def coherence(t, Z, t0: float, n_contacts: int, R2=None, u_std=None,
@@ -101,16 +87,3 @@ def coherence(t, Z, t0: float, n_contacts: int, R2=None, u_std=None,
     chi = float(n_contacts * np.mean(np.abs(z - zbar) ** 2))
     return Coherence(float(t0), t1, float(np.abs(z).mean()), float(abs(zbar)), chi, mean(R2),
                      mean(u_std), int(len(z)), trend)
-
-
-def state(stress_trend: Stationarity, contacts: Coherence | None) -> str:
-    """The state of a run over its analysed window (docs/model.md "Steady state"):
-    ``drifting`` when the stress trends (or its window is too short to test), ``metastable``
-    when it is flat but the contacts still move together, ``steady`` otherwise. Without a
-    phase series (``contacts`` None: a run made before bkflow recorded one) only the stress
-    speaks, and a flat stress counts as steady."""
-    if not stress_trend.stationary:
-        return "drifting"
-    if contacts is not None and contacts.coherent:
-        return "metastable"
-    return "steady"

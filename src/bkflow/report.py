@@ -196,6 +196,19 @@ def summary_lines(s: dict) -> list[str]:
 
 
 # ------------------------------------------------------------------------- a sweep's table
+def cost_line(total, jobs: int, adaptive: bool) -> str:
+    """What a sweep will cost (``bkflow.limits.Cost`` of all its runs), before it starts."""
+    from .limits import ATOM_STEPS_PER_SECOND, fmt_bytes
+    from .sweep import fmt_duration
+
+    seconds = total.atom_steps / ATOM_STEPS_PER_SECOND / max(1, jobs)
+    return (f"cost: {total.atom_steps:.3g} atom-steps, at most {fmt_duration(seconds)} on "
+            f"{jobs} core(s) at {ATOM_STEPS_PER_SECOND:.0e} atom-steps/s"
+            + (" if every run goes to its cap (a run stops earlier once its rule is met)"
+               if adaptive else "") + f", about {fmt_bytes(total.disk_bytes)} on disk")
+
+
+
 def states_line(res) -> str:
     """How many runs of a results table are steady, switching, drifting, metastable, and what
     to do."""

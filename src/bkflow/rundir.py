@@ -570,16 +570,15 @@ class CsvTail:
             chunk = f.read()
         end = chunk.rfind(b"\n") + 1
         self.offset += end
-        rows = []
-        for line in chunk[:end].decode().splitlines():
-            parts = line.split(",")
-            if len(parts) < self.n_columns:
-                continue
-            try:
-                rows.append([float(v) for v in parts[:self.n_columns]])
-            except ValueError:  # the header
-                continue
-        return np.array(rows, dtype=float).reshape(-1, self.n_columns)
+        body = chunk[:end]
+        if body[:1].isalpha():  # the header
+            body = body[body.find(b"\n") + 1:]
+        if not body.strip():
+            return np.empty((0, self.n_columns))
+        import io as _io
+
+        return np.loadtxt(_io.BytesIO(body), delimiter=",", ndmin=2,
+                          usecols=range(self.n_columns))
 
 
 def sweep_run_dir(root, job_id: str) -> RunDir:

@@ -84,11 +84,12 @@ def blocks(t_phase, R, t_stress, ratio, t_start: float, n_contacts: int,
     edges = np.linspace(t_start, t_end, n + 1)
 
     def means(t, x):
-        keep = (t >= t_start) & (t <= t_end)
-        k = np.clip(np.searchsorted(edges, t[keep], side="right") - 1, 0, max(n - 1, 0))
-        cnt = np.bincount(k, minlength=n)
+        # samples in time order: block k is the slice [edge k, edge k + 1), the last closed
+        cut = np.searchsorted(t, edges, side="left")
+        cut[-1] = np.searchsorted(t, t_end, side="right")
+        c = np.concatenate([[0.0], np.cumsum(x[cut[0]:cut[-1]])])
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.bincount(k, x[keep], n) / cnt
+            return (c[cut[1:] - cut[0]] - c[cut[:-1] - cut[0]]) / np.diff(cut)
 
     r = means(t_phase, R) if n else np.array([])
     s = means(t_stress, ratio) if n else np.array([])
@@ -323,11 +324,14 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     mean = float(ratio[late].mean()) if late.any() else math.nan
     err_run = mean_error(ratio[late]).error if own_error else math.nan
     trend = stationarity(t, sigma, t0, n_blocks, alpha)
+    why = calibrated(spec)
+    t1 = float(t[-1]) if len(t) else t0
+    if why is None:
+        trend = trend_within_fluctuations(trend, window_variance(
+            "stress", spec.phi, spec.N, (t1 - t0) / n_blocks))
     bm = np.asarray(trend.block_means, float) / spec.sigma_n
     err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
-    t1 = float(t[-1]) if len(t) else t0
-    why = calibrated(spec)
     var = None if why is not None else window_variance("stress", spec.phi, spec.N, t1 - t0)
     contacts = comp = None
     if phase is not None and len(phase["t"]):
@@ -343,6 +347,35 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     state = verdict(bool(trend.stationary), chi, comp, spec.N, switching)
     return Window(float(t0), t1, mean, err_run, err_block, var, why, trend, contacts, comp,
                   state, spec.N)
+
+
+def trend_within_fluctuations(trend, block_var: float | None):
+    """The trend test with the drift's error no smaller than the calibrated fluctuations of
+    its block means imply: a layer whose stress wanders on times longer than a block (10^3-10^4
+    time units at phi >= 30) gives block means that scatter more, and more alike, than the
+    test's independent-blocks error says, so the test alone calls such a window drifting far
+    more often than its 5%. With ``block_var`` the calibrated relative variance of a block's
+    mean, the slope's error is at least sqrt(block_var) mean / sqrt(sum (t_i - t_mean)^2); a
+    drift within it is not one. None: the test as it is."""
+    import dataclasses
+
+    from scipy import stats
+
+    if block_var is None or not math.isfinite(trend.drift):
+        return trend
+    tc = np.asarray(trend.block_t, float)
+    level = float(np.mean(trend.block_means))
+    sxx = float(((tc - tc.mean()) ** 2).sum())
+    span = trend.t1 - trend.t0
+    err = math.sqrt(block_var) * abs(level) / math.sqrt(sxx) * span / abs(level) \
+        if sxx > 0 and level else math.nan
+    if not err > trend.drift_err:
+        return trend
+    dof = len(tc) - 2
+    z = trend.drift / err
+    p = float(2 * stats.t.sf(abs(z), dof))
+    return dataclasses.replace(trend, drift_err=err, drift_z=z, p_value=p,
+                               stationary=bool(p >= trend.alpha))
 
 
 def pair_disagrees(a: Window, b: Window, agreement: float) -> bool:
@@ -410,8 +443,10 @@ def calibrate(layers: dict, windows, block_t: float = BLOCK_T) -> dict:
     """The window-variance table of ``window_variance`` for one size: ``layers`` maps phi to
     a list of layers (one disorder each), each a pair (long-run mean, [each of its runs: block
     means, or (block sums, block counts) of a ratio]); for each phi and window W (time
-    units), the mean over the layers of the mean relative squared deviation of W-window means
-    from their layer's long-run mean. A window
+    units), the largest over the layers of the mean relative squared deviation of W-window
+    means from their layer's long-run mean: the disorder changes how a layer switches (one
+    seed's layer spends more of its time coherent than another's), and the error must cover
+    the layer that switches most. A window
     longer than every run takes the last one's value times W_last / W (the 1/W of a window
     much longer than the switching)."""
     phis = sorted(layers)
@@ -422,7 +457,7 @@ def calibrate(layers: dict, windows, block_t: float = BLOCK_T) -> dict:
             k = max(1, int(round(W / block_t)))
             per_layer = [window_deviations(runs, truth, k) for truth, runs in layers[phi]]
             per_layer = [d.mean() for d in per_layer if len(d)]
-            row.append(float(np.mean(per_layer)) if per_layer else math.nan)
+            row.append(float(np.max(per_layer)) if per_layer else math.nan)
         for j in range(1, len(row)):
             if not math.isfinite(row[j]):
                 row[j] = row[j - 1] * windows[j - 1] / windows[j]

