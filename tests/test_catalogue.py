@@ -295,3 +295,30 @@ def test_a_run_without_slips_has_every_column(lammps, tmp_path):
     header = (tmp_path / "events.csv").read_text().splitlines()[0].split(",")
     for c in (*catalogue.SIZE_COLUMNS, *catalogue.BREAK_COLUMNS, *catalogue.ENERGY_COLUMNS):
         assert c in header, c
+
+
+def test_all_slips_at_once_are_each_slip_alone():
+    """catalogue.slip_rows (vectorised over the slips) gives slip_row's columns for every slip,
+    to rounding: random slips of a 12x5 layer, several clusters each, across the periodic
+    edges, unwrapped positions far from the box (a long run's)."""
+    from bkflow.lattice import square_lattice
+
+    rng = np.random.default_rng(4)
+    lat = square_lattice(12, 5)
+    S = 60
+    base = lat.positions[None] + np.array([3e4, 0.0]) + 0.2 * rng.standard_normal((S, 60, 2))
+    moved = rng.random((S, 60)) < rng.uniform(0.1, 0.9, (S, 1))
+    step = np.where(moved, rng.uniform(0.02, 0.5, (S, 60)), rng.uniform(-0.01, 0.005, (S, 60)))
+    end = base.copy()
+    end[..., 0] += step
+    end[..., 1] += 0.01 * rng.standard_normal((S, 60))
+    rows, per = catalogue.slip_rows(base, end, lat, 0.01, 10.0)
+    want = [catalogue.slip_row(base[k], end[k], lat, 0.01, 10.0) for k in range(S)]
+    assert per["slip_index"].tolist() == [k for k, (_, p) in enumerate(want) for _ in p["n_c"]]
+    assert sum(len(p["n_c"]) for _, p in want) > 2 * S   # several clusters a slip
+    for c in catalogue.SIZE_COLUMNS:
+        np.testing.assert_allclose(rows[c], [r[c] for r, _ in want], rtol=1e-12, atol=1e-12)
+    for c in ("label", "n_c", "l_x", "l_y", "n_x", "n_y", "slip", "bond_change",
+              "eq2_estimate"):
+        np.testing.assert_allclose(per[c], np.concatenate([p[c] for _, p in want]), rtol=1e-9,
+                                   atol=1e-12)

@@ -450,7 +450,7 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
                               "damaged; run the run again")
     columns = catalogue.SIZE_COLUMNS + (catalogue.BREAK_COLUMNS[1:] if with_breaks else ())
     table = {c: np.full(len(events), np.nan) for c in columns}
-    matched = 0
+    pairs, evs = [], []   # the frame pairs that are slips of this analysis, and their events
     for k in range(0, len(steps), 2):
         ev = index.get(int(steps[k]))
         if ev is None or events.t_max[ev] < t_transient:
@@ -467,20 +467,28 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
                     f"{SLIPS}: a first break (column brk) outside its slip, steps "
                     f"{int(steps[k])}..{int(steps[k + 1])}: the file is damaged; run the run "
                     "again")
-        matched += 1
-        row, per = catalogue.slip_row(positions[k], positions[k + 1], lat, settings.s_x,
-                                      spec.k_b, shifts)
+        pairs.append(k)
+        evs.append(ev)
+    matched = len(pairs)
+    if matched:  # every slip at once (catalogue.slip_rows)
+        k = np.asarray(pairs)
+        slips_, per = catalogue.slip_rows(np.asarray(positions)[k], np.asarray(positions)[k + 1],
+                                          lat, settings.s_x, spec.k_b, shifts)
+        ev = np.asarray(evs)
+        for c in catalogue.SIZE_COLUMNS:
+            table[c][ev] = slips_[c]
         if with_breaks:
-            row.update(zip(catalogue.BREAK_COLUMNS[1:], catalogue.nucleation_and_front(
-                breaks[k + 1], lat.positions, lat.box, spec.dt, row["slipping"])))
-        for c in columns:
-            table[c][ev] = row[c]
-        n = len(per["n_c"])
-        rows["event"] += [ev] * n
-        rows["t"] += [float(events.t_max[ev])] * n
+            for j, (kk, e) in enumerate(zip(pairs, evs)):
+                found = catalogue.nucleation_and_front(breaks[kk + 1], lat.positions, lat.box,
+                                                       spec.dt, slips_["slipping"][j])
+                for c, v in zip(catalogue.BREAK_COLUMNS[1:], found):
+                    table[c][e] = v
+        at = per.pop("slip_index")
+        rows["event"] = ev[at].tolist()
+        rows["t"] = events.t_max[ev[at]].astype(float).tolist()
         for c in rows:
             if c not in ("event", "t"):
-                rows[c] += per[c]
+                rows[c] = np.asarray(per[c]).tolist()
     shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, psi_inf,
                                    settings.span_fraction, settings.psi_crystal)
     big = np.zeros(len(rows["event"]), bool) if large is None else \

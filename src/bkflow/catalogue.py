@@ -148,6 +148,133 @@ def slip_row(x_max, x_min, lattice, s_x: float, k_b: float, shifts=None):
     return row, per
 
 
+def _components(mask, bonds) -> np.ndarray:
+    """Per slip and particle (S, N), the smallest particle index of its connected component
+    through the bonds joining two slipping particles (-1: not slipping), all slips at once:
+    minima passed along the bonds, then each label replaced by its own label (pointer
+    jumping), until nothing changes."""
+    S, N = mask.shape
+    bi, bj = np.asarray(bonds)[:, 0], np.asarray(bonds)[:, 1]
+    big = np.int64(N)
+    lab = np.where(mask, np.arange(N, dtype=np.int64)[None, :], big)
+    active = mask[:, bi] & mask[:, bj]
+    rows = np.broadcast_to(np.arange(S)[:, None], active.shape)[active]
+    ii, jj = np.broadcast_to(bi, active.shape)[active], np.broadcast_to(bj, active.shape)[active]
+    flat = lab.reshape(-1)
+    while True:
+        m = np.minimum(flat[rows * N + ii], flat[rows * N + jj])
+        before = flat.copy()
+        np.minimum.at(flat, rows * N + ii, m)
+        np.minimum.at(flat, rows * N + jj, m)
+        inside = flat < big
+        idx = np.flatnonzero(inside)
+        flat[idx] = flat[(idx // N) * N + flat[idx]]   # jump to the label's own label
+        if np.array_equal(flat, before):
+            break
+    lab = flat.reshape(S, N)
+    return np.where(mask, lab, -1)
+
+
+def slip_rows(x_max, x_min, lattice, s_x: float, k_b: float, shifts=None):
+    """``slip_row`` of many slips at once, vectorised over the slips: positions (S, N, 2) at
+    their maxima and minima. Returns (rows: the size and shape columns, arrays of S, with
+    ``slipping`` (S, N); clusters: the columns of every cluster of two or more particles, in
+    slip then label order, with ``slip_index``), the same numbers as ``slip_row`` on each slip
+    (its sums in another order: to rounding)."""
+    x_max, x_min = np.asarray(x_max, float), np.asarray(x_min, float)
+    S, N = x_max.shape[:2]
+    Lx, Ly = float(lattice.box[0]), float(lattice.box[1])
+    slip = x_min[:, :, 0] - x_max[:, :, 0]
+    mask = slip > s_x
+    root = _components(mask, lattice.bonds)
+    # clusters numbered in slip order, then by their first particle (slip_clusters' order)
+    sel = np.flatnonzero(mask.reshape(-1))
+    slip_of = sel // N
+    key = slip_of * N + root.reshape(-1)[sel]
+    uniq, cid = np.unique(key, return_inverse=True)
+    n_c = np.bincount(cid, minlength=len(uniq))
+    c_slip = uniq // N
+    keep = n_c >= 2
+    # the extents: sum over unordered pairs of minimum-image distances, per cluster, from
+    # coordinates sorted within each cluster and prefix sums (clusters.periodic_pair_sum)
+    onset = x_max.reshape(S * N, 2)[sel]
+
+    def pair_sums(coord, length):
+        x = np.mod(coord, length)
+        span = 2 * length + 1
+        order_ = np.lexsort((x, cid))
+        xs, cs = x[order_], cid[order_]
+        keys = cs * span + xs
+        start = np.searchsorted(cs, np.arange(len(uniq)))
+        end = np.append(start[1:], len(cs))
+        seg_end = end[cs]
+        prefix = np.concatenate([[0.0], np.cumsum(xs)])
+        i = np.arange(len(xs))
+        h = np.searchsorted(keys, keys + 0.5 * length, side="right")
+        h = np.minimum(np.maximum(h, i + 1), seg_end)
+        near = (prefix[h] - prefix[i + 1]) - (h - (i + 1)) * xs
+        far = (seg_end - h) * (length + xs) - (prefix[seg_end] - prefix[h])
+        return np.bincount(cs, near + far, minlength=len(uniq))
+
+    pairs = n_c * (n_c - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        l_x = np.where(n_c >= 2, 8.0 * pair_sums(onset[:, 0], Lx) / pairs, np.nan)
+        l_y = np.where(n_c >= 2, 8.0 * pair_sums(onset[:, 1], Ly) / pairs, np.nan)
+    # columns and rows each cluster's lattice sites occupy
+    site = np.floor(np.asarray(lattice.positions, float)).astype(np.int64)[sel % N]
+    nx = np.bincount(np.unique(cid * (int(Lx) + 1) + site[:, 0]) // (int(Lx) + 1),
+                     minlength=len(uniq))
+    ny = np.bincount(np.unique(cid * (int(Ly) + 1) + site[:, 1]) // (int(Ly) + 1),
+                     minlength=len(uniq))
+    delta = np.bincount(cid, slip.reshape(-1)[sel], minlength=len(uniq)) / n_c
+    # the bond energy change of the bonds touching each cluster
+    if shifts is None:
+        shifts = order.lattice_shifts(lattice.positions, lattice.bonds, lattice.box)
+    def energies(x):                                                   # (S, Nb)
+        d = order.bond_vectors(x, lattice.bonds, shifts=shifts)
+        return 0.5 * k_b * (np.hypot(d[..., 0], d[..., 1]) - 1.0) ** 2
+
+    change = energies(x_min) - energies(x_max)
+    c_of = np.full(S * N, -1, dtype=np.int64)
+    c_of[sel] = cid
+    bonds = np.asarray(lattice.bonds)
+    ends = c_of.reshape(S, N)[:, bonds]                                # (S, Nb, 2)
+    a, b = ends[..., 0], ends[..., 1]
+    touch = np.zeros(len(uniq))
+    np.add.at(touch, a[a >= 0], change[a >= 0])
+    other = (b >= 0) & (b != a)
+    np.add.at(touch, b[other], change[other])
+    # per slip
+    rows = {"slipping": mask, "n_slipped": mask.sum(axis=1),
+            "potency": np.where(mask, slip, 0.0).sum(axis=1)}
+    with np.errstate(invalid="ignore"):
+        rows["slip_mean"] = np.where(rows["n_slipped"] > 0,
+                                     rows["potency"] / np.maximum(rows["n_slipped"], 1), np.nan)
+    rows["slip_max"] = np.where(rows["n_slipped"] > 0,
+                                np.where(mask, slip, -np.inf).max(axis=1), np.nan)
+    rows["n_clusters"] = np.bincount(c_slip[keep], minlength=S)
+    # the largest cluster of each slip (the first of equal ones, in label order)
+    big = np.full(S, -1)
+    kept = np.flatnonzero(keep)
+    ranked = kept[np.lexsort((kept, -n_c[kept], c_slip[kept]))]
+    firsts = np.unique(c_slip[ranked], return_index=True)[1]
+    big[c_slip[ranked[firsts]]] = ranked[firsts]
+    has = big >= 0
+    rows["cluster_n"] = np.where(has, n_c[big], 0)
+    rows["cluster_nx"] = np.where(has, nx[big], 0)
+    rows["cluster_ny"] = np.where(has, ny[big], 0)
+    rows["cluster_lx"] = np.where(has, l_x[big], np.nan)
+    rows["cluster_ly"] = np.where(has, l_y[big], np.nan)
+    first_of = np.searchsorted(c_slip, np.arange(S))    # each slip's first cluster
+    per = {"slip_index": c_slip[keep],
+           "label": (np.arange(len(uniq)) - first_of[c_slip])[keep],
+           "n_c": n_c[keep], "l_x": l_x[keep], "l_y": l_y[keep], "n_x": nx[keep],
+           "n_y": ny[keep], "slip": delta[keep], "bond_change": touch[keep],
+           "eq2_estimate": eq2_estimate(k_b, nx[keep], ny[keep], delta[keep], lattice.Lx,
+                                        lattice.Ly)}
+    return rows, per
+
+
 #: the elastic and kinetic energies of a ledger (the names of bkflow.rundir.LEDGER_COLUMNS and
 #: of fix bk/substrate's slots, bkflow.deck.LEDGER_SLOTS)
 ENERGIES = ("e_bond", "e_drive", "e_contact", "e_kinetic")
