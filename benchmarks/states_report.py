@@ -247,7 +247,7 @@ def _verdict_row(r, lm, b: pd.DataFrame, T: float, first: bool) -> dict:
                          fit.slope * span / level, fit.stderr * span / level,
                          fit.slope / fit.stderr, fit.pvalue, fit.pvalue >= 0.05, 0.05)
     trend = states.trend_within_fluctuations(trend, states.window_variance(
-        "stress", r.phi, r.N, span / 10))
+        "stress", r.phi, r.N, span / 2))
     err_block = gm.std(ddof=1) / math.sqrt(len(gm))
     chi = r.N * (np.average(b.R2abs, weights=w) - np.average(b.Zre, weights=w) ** 2
                  - np.average(b.Zim, weights=w) ** 2)
@@ -348,9 +348,8 @@ def paper_points(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def report(root) -> None:
-    runs = load(root)
-    means = layer_means(runs)
+def calibration(runs: pd.DataFrame, means: dict) -> dict:
+    """The switching calibration that bkflow.states reads (src/bkflow/switching.json)."""
     sizes = window_table(runs, means)
     occ = occupancy(runs)
     for n, size in sizes.items():
@@ -359,11 +358,22 @@ def report(root) -> None:
     for n, worst in window_chi(runs).items():
         sizes[n]["memory_chi"] = round(CHI_MARGIN * worst, 2)
         sizes[n]["memory_chi_observed"] = round(worst, 3)
-    table = {"comment": "written by benchmarks/stiff_states.py report: the relative mean-square "
-                        "deviation of window means from the layer's long-run mean "
-                        "(bkflow.states.window_variance), and the memory threshold of chi",
-             "transient": TRANSIENT, "block_t": BLOCK_T, "sizes": sizes}
-    CALIBRATION.write_text(json.dumps(table, indent=1) + "\n")
+    return {"comment": "written by benchmarks/stiff_states.py report: the relative mean-square "
+                       "deviation of window means from the layer's long-run mean "
+                       "(bkflow.states.window_variance), and the memory threshold of chi",
+            "transient": TRANSIENT, "block_t": BLOCK_T, "sizes": sizes}
+
+
+def calibration_text(runs: pd.DataFrame, means: dict) -> str:
+    return json.dumps(calibration(runs, means), indent=1) + "\n"
+
+
+def report(root) -> None:
+    runs = load(root)
+    means = layer_means(runs)
+    occ = occupancy(runs)
+    CALIBRATION.write_text(calibration_text(runs, means))
+    states.calibration.cache_clear()
     print(f"wrote {CALIBRATION}")
     pd.set_option("display.width", 200)
     print(occ.round(5).to_string(index=False))

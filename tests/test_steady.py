@@ -104,15 +104,16 @@ def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path)
 
 @pytest.mark.slow
 def test_the_default_protocol_from_the_cli_and_the_sweep(lammps, tmp_path):
-    """The default protocol in the default scene (full: stress.csv carries the energy ledger's
-    columns, which the adaptive stop reads past), then a sweep."""
+    """The default protocol in the default scene (figures: the table's and the figures'
+    observables, Psi's snapshots and the slips' frames, no energy ledger), then a sweep."""
     out = tmp_path / "r"
     proc = subprocess.run([tool("bkflow"), "run", "--phi", "10", "--size", "12x3",
                            "--target-error", "2e-3", "--out", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "and steady (drift bound" in proc.stdout and "\n  steady over t = " in proc.stdout
-    assert "  energy: the balance" in proc.stdout and (out / "events.parquet").is_file()
+    assert "  energy: the balance" not in proc.stdout and "  Psi(inf) = " in proc.stdout
+    assert (out / "snapshots.lammpstrj").is_file() and (out / "slips.lammpstrj").is_file()
     assert "(steady)" in proc.stdout and f"companion run from the {STEADY_COMPANION}" \
         in proc.stdout
     meta = json.loads((out / "meta.json").read_text())

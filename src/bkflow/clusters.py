@@ -31,8 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .params import PSI_CRYSTAL as DEFAULT_PSI_CRYSTAL
 from .params import S_X as DEFAULT_S_X
@@ -47,6 +45,9 @@ def slipping(x_onset, x_end, s_x: float = DEFAULT_S_X) -> np.ndarray:
 def slip_clusters(mask, bonds) -> np.ndarray:
     """Cluster label per particle (0, 1, ... in order of first particle; -1 = not slipping):
     connected components of the masked particles through the bonds joining two of them."""
+    import scipy.sparse as sp  # (here: a run without slips never pays for scipy.sparse)
+    from scipy.sparse.csgraph import connected_components
+
     mask = np.asarray(mask, dtype=bool)
     bonds = np.asarray(bonds)
     n = len(mask)

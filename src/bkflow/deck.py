@@ -256,6 +256,8 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
               of every particle at every sample from each slip's maximum to its minimum
               (float32, binary), to follow rupture fronts; only one event is held in memory.
+    figures:  order and clusters together: what the sweep's table and bkflow plot's figures
+              show (the default).
     full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only).
     """
     lines = []

@@ -25,7 +25,6 @@ Everything is vectorised over bonds and over frames; no Python loop over atoms.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from .params import PSI_LATE_FRACTION as DEFAULT_LATE_FRACTION
 
@@ -61,7 +60,9 @@ def bond_vectors(positions, bonds, box=None, shifts=None) -> np.ndarray:
     return minimum_image(d, box)
 
 
-def _incidence(bonds, n_atoms: int) -> sp.csr_matrix:
+def _incidence(bonds, n_atoms: int):
+    import scipy.sparse as sp  # (here: a run without snapshots never pays for scipy.sparse)
+
     bonds = np.asarray(bonds)
     nb = len(bonds)
     rows = np.concatenate([bonds[:, 0], bonds[:, 1]])

@@ -143,7 +143,10 @@ STEADY_T_MIN = ADAPTIVE_T_MIN
 
 #: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
-SCENES = ("friction", "order", "clusters", "events", "fronts", "full")
+SCENES = ("friction", "order", "clusters", "figures", "events", "fronts", "full")
+#: the default scene: what bkflow sweep's table and bkflow plot's figures show (the stress and
+#: phase series, Psi(t)'s snapshots, the slips' frames), nothing more
+DEFAULT_SCENE = "figures"
 
 #: rupture fronts recorded by the full scene (the first slips after the transient; the fronts
 #: scene records them all): the slip rate of every particle at every stress sample through a
@@ -392,9 +395,10 @@ class RunSpec:
     #: a whole number of stress samples): a load cycle of a contact lasts about
     #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves
     phase_every: float = checked(1.0, number(gt=0))
-    #: observables to record: friction (sigma_x only), order (+ snapshots for Psi(t)),
-    #: clusters (+ positions at every slip's maximum and minimum), full (all)
-    scene: str = checked("full", choice(SCENES))
+    #: observables to record: friction (sigma_x and the phases only), order (+ snapshots for
+    #: Psi(t)), clusters (+ positions at every slip's maximum and minimum), figures (order and
+    #: clusters: the default), events, fronts, full (all; bkflow.deck's _outputs)
+    scene: str = checked(DEFAULT_SCENE, choice(SCENES))
     #: interval of the snapshots of the order scene (time units, rounded to whole steps)
     snapshot_every: float = checked(20.0, number(gt=0))
     #: slips that fix bk/slips records: drops above this fraction of mu_s sigma_n
@@ -633,11 +637,11 @@ class RunSpec:
 
     @property
     def writes_snapshots(self) -> bool:
-        return self.scene in ("order", "full")
+        return self.scene in ("order", "figures", "full")
 
     @property
     def writes_slips(self) -> bool:
-        return self.scene in ("clusters", "events", "full")
+        return self.scene in ("clusters", "figures", "events", "full")
 
     @property
     def writes_energy(self) -> bool:

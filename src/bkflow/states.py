@@ -328,7 +328,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     t1 = float(t[-1]) if len(t) else t0
     if why is None:
         trend = trend_within_fluctuations(trend, window_variance(
-            "stress", spec.phi, spec.N, (t1 - t0) / n_blocks))
+            "stress", spec.phi, spec.N, (t1 - t0) / 2))
     bm = np.asarray(trend.block_means, float) / spec.sigma_n
     err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
@@ -349,29 +349,26 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
                   state, spec.N)
 
 
-def trend_within_fluctuations(trend, block_var: float | None):
-    """The trend test with the drift's error no smaller than the calibrated fluctuations of
-    its block means imply: a layer whose stress wanders on times longer than a block (10^3-10^4
-    time units at phi >= 30) gives block means that scatter more, and more alike, than the
-    test's independent-blocks error says, so the test alone calls such a window drifting far
-    more often than its 5%. With ``block_var`` the calibrated relative variance of a block's
-    mean, the slope's error is at least sqrt(block_var) mean / sqrt(sum (t_i - t_mean)^2); a
-    drift within it is not one. None: the test as it is."""
+def trend_within_fluctuations(trend, half_var: float | None):
+    """The trend test with the drift's error no smaller than the layer's calibrated
+    fluctuations imply. A layer whose stress wanders on times longer than a block of the test
+    (10^3-10^4 time units at phi >= 30) gives block means that scatter more, and more alike,
+    than the test's independent-blocks error says, and the test alone calls such a window
+    drifting far more often than its 5%. With ``half_var`` the calibrated relative variance of
+    the mean of half the window about the long-run mean: the two halves' means differ by half
+    the drift (a straight line's), and by chance with a variance of at most 2 half_var (their
+    fluctuations alike or independent), so the drift's error is at least 2 sqrt(2 half_var);
+    a drift within it is not one. None: the test as it is."""
     import dataclasses
 
     from scipy import stats
 
-    if block_var is None or not math.isfinite(trend.drift):
+    if half_var is None or not math.isfinite(trend.drift):
         return trend
-    tc = np.asarray(trend.block_t, float)
-    level = float(np.mean(trend.block_means))
-    sxx = float(((tc - tc.mean()) ** 2).sum())
-    span = trend.t1 - trend.t0
-    err = math.sqrt(block_var) * abs(level) / math.sqrt(sxx) * span / abs(level) \
-        if sxx > 0 and level else math.nan
+    err = 2.0 * math.sqrt(2.0 * half_var)
     if not err > trend.drift_err:
         return trend
-    dof = len(tc) - 2
+    dof = len(trend.block_t) - 2
     z = trend.drift / err
     p = float(2 * stats.t.sf(abs(z), dof))
     return dataclasses.replace(trend, drift_err=err, drift_z=z, p_value=p,

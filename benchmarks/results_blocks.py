@@ -1,0 +1,205 @@
+"""The generated blocks of benchmarks/RESULTS.md and workflows/paper/REPRODUCTION.md: every
+number there that comes from a benchmark's records is written by a function here from those
+records, between ``<!-- generated: NAME -->`` and ``<!-- end -->``.
+
+    python benchmarks/results_blocks.py            # check: exit 1 when a block differs
+    python benchmarks/results_blocks.py --write    # (re)write every block
+
+``tests/test_results_blocks.py`` makes the same check, so that a document cannot drift from
+its records.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+ROOT = HERE.parent
+DOCUMENTS = (HERE / "RESULTS.md", ROOT / "workflows" / "paper" / "REPRODUCTION.md")
+BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(<!-- end -->)", re.S)
+
+
+def _pct(v, digits=2) -> str:
+    return "n/a" if v is None or not math.isfinite(v) else f"{100 * v:+.{digits}f}%"
+
+
+def _g(v, fmt=".4f") -> str:
+    return "n/a" if v is None or not math.isfinite(v) else format(v, fmt)
+
+
+# ------------------------------------------------------------------------- the stiff end
+@lru_cache(maxsize=1)
+def _states():
+    import states_report as sr
+
+    runs = sr.load(sr_root())
+    means = sr.layer_means(runs)
+    return sr, runs, means
+
+
+def sr_root():
+    from stiff_states import OUT
+
+    return OUT
+
+
+def states_occupancy() -> str:
+    sr, runs, _ = _states()
+    occ = sr.occupancy(runs)
+    out = ["| N | phi | runs | time (10^6) | quiet share | residence quiet | residence "
+           "coherent | <sigma_x>/sigma_n quiet / coherent | mu_bar quiet / coherent |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for _, r in occ.iterrows():
+        out.append(f"| {r.N} | {r.phi:g} | {r.runs} | {r['T'] / 1e6:.1f} | {r.quiet:.3f} | "
+                   f"{_g(r.residence_quiet, '.3g')} | {_g(r.residence_coherent, '.3g')} | "
+                   f"{_g(r.stress_quiet)} / {_g(r.stress_coherent)} | "
+                   f"{_g(r.mu_bar_quiet)} / {_g(r.mu_bar_coherent)} |")
+    return "\n".join(out) + "\n"
+
+
+def states_longrun() -> str:
+    sr, runs, means = _states()
+    out = ["| N | phi | seed | runs | time (10^6) | <sigma_x>/sigma_n (long run) | +- | "
+           "mu_bar (long run) |", "|---|---|---|---|---|---|---|---|"]
+    for (n, phi, seed), m in sorted(means.items()):
+        out.append(f"| {n} | {phi:g} | {seed} | {m['runs']} | {m['T'] / 1e6:.1f} | "
+                   f"{m['stress']:.5f} | {_g(m['stress_se'], '.1e')} | {m['mu_bar']:.5f} |")
+    return "\n".join(out) + "\n"
+
+
+def states_coverage() -> str:
+    sr, runs, means = _states()
+    cov = sr.coverage(runs, means)
+    ws = sorted(cov.W.unique())
+    out = ["| N | phi | " + " | ".join(f"W = {w:g}" for w in ws) + " |",
+           "|---|---|" + "---|" * len(ws)]
+    for (n, phi), g in cov.groupby(["N", "phi"]):
+        cells = []
+        for w in ws:
+            r = g[g.W == w]
+            cells.append("n/a" if r.empty else
+                         f"{r.stress.iloc[0]:.2f} / {r.mu_bar.iloc[0]:.2f}")
+        out.append(f"| {n} | {phi:g} | " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
+def states_verdict() -> str:
+    sr, runs, means = _states()
+    v = sr.verdicts(runs, means)
+    out = ["| N | phi | T | windows | steady | switching | drifting | metastable | "
+           "false steady | coverage |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for _, r in v.iterrows():
+        out.append(f"| {r.N} | {r.phi:g} | {r['T']:g} | {r.windows} | {r.steady:.2f} | "
+                   f"{r.switching:.2f} | {r.drifting:.2f} | {r.metastable:.2f} | "
+                   f"{_g(r.false_steady, '.3f')} | {r.coverage:.3f} |")
+    return "\n".join(out) + "\n"
+
+
+def states_ergodicity() -> str:
+    sr, runs, _ = _states()
+    e = sr.ergodicity(runs)
+    out = ["| N | phi | t | d(t/4) | d(t) | d(t) / d(t/4) |", "|---|---|---|---|---|---|"]
+    for _, r in e.iterrows():
+        out.append(f"| {r.N} | {r.phi:g} | {r.t:.3g} | {r.d_quarter:.2e} | {r.d_end:.2e} | "
+                   f"{r.ratio:.2f} |")
+    return "\n".join(out) + "\n"
+
+
+def states_paper() -> str:
+    sr, runs, means = _states()
+    p = sr.paper_points(runs, means)
+    out = ["| N | phi | T | seeds | paper's window: <sigma_x>/sigma_n | its chi | long run | "
+           "quiet | coherent | coherent, 99th percentile | memory chi |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for _, r in p.iterrows():
+        out.append(f"| {r.N} | {r.phi:g} | {r['T']:g} | {r.seeds} | {r.paper_mean:.4f} | "
+                   f"{r.paper_chi:.1f} | {r.long_run:.4f} | {_g(r.quiet)} | {r.coherent:.4f} | "
+                   f"{_g(r.coherent_p99)} | {r.memory_chi:.1f} |")
+    return "\n".join(out) + "\n"
+
+
+# ------------------------------------------------------------------------- the time step
+@lru_cache(maxsize=1)
+def _timestep():
+    import timestep_report as tr
+    from timestep import OUT
+
+    runs = tr.load(OUT)
+    return tr, runs, tr.bias(runs)
+
+
+def timestep_bias() -> str:
+    tr, runs, table = _timestep()
+    out = ["| N | phi | C = dt omega_max | omega_c dt | seeds | bias of <sigma_x>/sigma_n | "
+           "bias of mu_bar | steps per time unit |", "|---|---|---|---|---|---|---|---|"]
+    for _, r in table.iterrows():
+        if r.reference:
+            out.append(f"| {r.N} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {r.seeds} | "
+                       "(reference) | (reference) | " f"{r.steps_per_t:.0f} |")
+            continue
+        out.append(f"| {r.N} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {r.seeds} | "
+                   f"{_pct(r.stress_bias)} +- {_pct(r.stress_se)[1:]} | "
+                   f"{_pct(r.mu_bar_bias)} +- {_pct(r.mu_bar_se)[1:]} | {r.steps_per_t:.0f} |")
+    return "\n".join(out) + "\n"
+
+
+def timestep_presets() -> str:
+    tr, runs, table = _timestep()
+    pr = tr.presets(table)
+    out = ["| preset | target | N | phi | C | omega_c dt | bias <sigma_x>/sigma_n | bias mu_bar "
+           "| within target | steps per time unit (before) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for _, r in pr.iterrows():
+        out.append(f"| {r.preset} | {100 * r.target:g}% | {r.N} | {r.phi:g} | {r.C:.3g} | "
+                   f"{r.wc_dt:.3f} | {_pct(r.stress_bias)} | {_pct(r.mu_bar_bias)} | "
+                   f"{'yes' if r.meets else 'NO'} | {r.steps_per_t:.0f} "
+                   f"({r.old_steps_per_t:.0f}) |")
+    return "\n".join(out) + "\n"
+
+
+BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
+          "states-coverage": states_coverage, "states-verdict": states_verdict,
+          "states-ergodicity": states_ergodicity, "states-paper": states_paper,
+          "timestep-bias": timestep_bias, "timestep-presets": timestep_presets}
+
+
+def render(text: str) -> str:
+    """``text`` with every generated block it holds made anew."""
+    def fill(m):
+        name = m.group(2)
+        if name not in BLOCKS:
+            return m.group(0)
+        return m.group(1) + BLOCKS[name]() + m.group(4)
+
+    return BLOCK.sub(fill, text)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--write", action="store_true")
+    a = ap.parse_args(argv)
+    stale = []
+    for doc in DOCUMENTS:
+        old = doc.read_text()
+        new = render(old)
+        if new != old:
+            if a.write:
+                doc.write_text(new)
+                print(f"wrote {doc}")
+            else:
+                stale.append(str(doc))
+    for s in stale:
+        print(f"{s}: a generated block differs from its records; run "
+              "python benchmarks/results_blocks.py --write", file=sys.stderr)
+    return 1 if stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
