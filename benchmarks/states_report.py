@@ -29,7 +29,6 @@ import pandas as pd
 
 from bkflow import states
 from bkflow.states import BLOCK_T, CALIBRATION, r_independent
-from bkflow.stationarity import Stationarity
 
 #: the share of each run left out as the start's transient
 TRANSIENT = 0.2
@@ -233,30 +232,9 @@ def verdicts(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
 
 def _verdict_row(r, lm, b: pd.DataFrame, T: float, first: bool) -> dict:
     """The verdict of one window (blocks ``b``) of run ``r`` of the layer ``lm``, as
-    bkflow.states.window gives it, from the blocks."""
-    from scipy import stats
-
-    w = b.n.to_numpy(float)
-    mean = float(np.average(b.s, weights=w))
-    groups = np.array_split(np.arange(len(b)), 10)
-    gm = np.array([np.average(b.s.iloc[g], weights=w[g]) for g in groups])
-    gt = np.array([0.5 * (b.t0.iloc[g[0]] + b.t1.iloc[g[-1]]) for g in groups])
-    fit = stats.linregress(gt, gm)
-    span, level = float(b.t1.iloc[-1] - b.t0.iloc[0]), float(gm.mean())
-    trend = Stationarity(float(b.t0.iloc[0]), float(b.t1.iloc[-1]), gt, gm,
-                         fit.slope * span / level, fit.stderr * span / level,
-                         fit.slope / fit.stderr, fit.pvalue, fit.pvalue >= 0.05, 0.05)
-    trend = states.trend_within_fluctuations(trend, states.window_variance(
-        "stress", r.phi, r.N, span / 2))
-    err_block = gm.std(ddof=1) / math.sqrt(len(gm))
-    chi = r.N * (np.average(b.R2abs, weights=w) - np.average(b.Zre, weights=w) ** 2
-                 - np.average(b.Zim, weights=w) ** 2)
-    q = b.R.to_numpy() < r_independent(r.N)
-    comp = states.Composition({"quiet": q.mean(), "coherent": 1 - q.mean()}, {}, {})
-    var = states.window_variance("stress", r.phi, r.N, span)
-    dom = states.dominates(var, err_block, mean) and bool(states.two_states(r.phi, r.N))
-    v = states.verdict(trend.stationary, chi, comp, r.N, dom)
-    err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
+    bkflow.states gives it from the blocks (``block_verdict``)."""
+    v, mean, err = states.block_verdict(b.t0, b.t1, b.s, b.R, b.R2abs, b.Zre, b.Zim, b.n,
+                                        r.phi, r.N)
     return {"N": r.N, "phi": r.phi, "T": T, "verdict": v, "first": first,
             "off": abs(mean / lm["stress"] - 1),
             "covered": abs(mean - lm["stress"]) <= 1.96 * err}
