@@ -748,6 +748,7 @@ def _main(argv=None) -> int:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     from .engine import RunDiskError, RunError, RunExistsError
+    from .io import OutsideError
     from .plugin import PluginError
     from .rundir import AnalysisError, DamagedRunError, RunBusyError
 
@@ -762,7 +763,7 @@ def _main(argv=None) -> int:
         print(f"bkflow: error: cannot analyse {a.dir if a.cmd == 'analyze' else a.out}: {exc}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (SpecError, RunExistsError, PluginError) as exc:  # one line, whatever it quotes
+    except (SpecError, RunExistsError, PluginError, OutsideError) as exc:  # one line
         print(f"bkflow: error: {' '.join(str(exc).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except RunBusyError as exc:

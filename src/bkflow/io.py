@@ -228,6 +228,38 @@ def json_ready(obj):
     return obj
 
 
+def within(root, name) -> Path | None:
+    """``root / name`` when it stays inside ``root`` (a directory bkflow was given, or made):
+    ``name`` relative and made of plain names (not absolute, no '..'), and no component of
+    the path below ``root`` a symbolic link, so that nothing is followed out of it; None
+    otherwise. Every path bkflow reads from a file, or finds in a directory it did not make,
+    and then deletes, replaces or writes through, passes here first."""
+    p = Path(name)
+    if p.is_absolute() or not p.parts or any(part in ("", ".", "..") for part in p.parts):
+        return None
+    here = Path(root)
+    for part in p.parts:
+        here = here / part
+        if here.is_symlink():
+            return None
+    return here
+
+
+class OutsideError(ValueError):
+    """A path that would take bkflow out of the directory it was given (a symbolic link, an
+    absolute path or '..' where bkflow deletes, replaces or writes)."""
+
+
+def inside(root, name, what: str) -> Path:
+    """``within``, or an OutsideError naming ``what`` and why it is refused."""
+    p = within(root, name)
+    if p is None:
+        raise OutsideError(f"{Path(root) / name}: {what} is a symbolic link or leads out of "
+                           f"{root}; bkflow deletes, replaces and writes only inside the "
+                           "directory it was given: remove it or move the directory")
+    return p
+
+
 @contextlib.contextmanager
 def atomic_file(path, binary: bool = False):
     """Open a uniquely named temporary file beside ``path`` for writing; when the block ends

@@ -857,9 +857,11 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     recorded with the tables they were drawn from (``figures.json``): a sweep or collect that
     changes the tables removes them (``bkflow.tables.retire_figures``).
     Returns (paths written, {figure: why it was skipped})."""
+    from .io import inside
     from .tables import FIGURES_RECORD, record_figures, tables_digest
 
-    out = Path(out) if out is not None else Path(root) / FIGURES_DIR
+    # the sweep's own figures directory is written and emptied by bkflow: never through a link
+    out = Path(out) if out is not None else inside(root, FIGURES_DIR, "the figures directory")
     data = SweepData(root, where)  # refuses before anything is written (mixed analyses...)
     _check_formats(formats)
     try:

@@ -261,10 +261,15 @@ def workspace_problem(path) -> str | None:
                     "analysis settings, which bkflow collect --analysis NAME=VALUE sets again")
     bad = []
     workspace = path / "workspace"
+    if workspace.is_symlink():
+        return (f"{workspace} is a symbolic link: bkflow writes a sweep's runs only inside its "
+                "directory; replace it with the folder itself")
     for job in sorted(workspace.iterdir()) if workspace.is_dir() else []:
         sp = job / "signac_statepoint.json"
         try:
-            if not job.is_dir():
+            if job.is_symlink():
+                why = "is a symbolic link (bkflow writes runs only inside the sweep)"
+            elif not job.is_dir():
                 why = "is not a folder"
             elif not sp.exists():
                 why = "has no signac_statepoint.json"

@@ -193,6 +193,8 @@ class RunDir:
         if not isinstance(meta, dict) or meta.get("status") != "complete":
             return "meta.json does not say complete"
         for name, size in meta.get("file_bytes", {}).items():
+            if self.file(name).is_symlink():   # not the run's file (and not to be written)
+                return f"{name} is a symbolic link"
             if name in MAY_CHANGE:
                 continue
             try:
@@ -202,9 +204,15 @@ class RunDir:
             if actual != size:
                 return f"{name} has {actual} bytes, the run wrote {size}"
         if meta.get("companion"):
-            why = self.companion().problem()
+            comp = self.companion()
+            if comp.path.is_symlink():
+                return f"its companion ({COMPANION}/) is a symbolic link, not this run's"
+            why = comp.problem()
             if why is not None:
                 return f"its companion run ({COMPANION}/) is damaged: {why}"
+            why = self._foreign_companion(meta, comp.meta() or {})
+            if why is not None:
+                return why
         return None
 
     def restart_files(self) -> list[Path]:
@@ -243,6 +251,21 @@ class RunDir:
                 p.unlink(missing_ok=True)
         self.file(CONTINUING).unlink(missing_ok=True)
         return True
+
+    @staticmethod
+    def _foreign_companion(meta: dict, comp: dict) -> str | None:
+        """Why the finished companion run is not this run's (the same model and seed from the
+        companion's start, as long), or None."""
+        try:
+            spec = RunSpec.from_dict(meta["params"])
+            want = spec.companion_spec
+            got = RunSpec.from_dict(comp["params"])
+        except Exception:   # a record without parameters: not a companion of bkflow's
+            return f"its companion ({COMPANION}/) has no readable parameters"
+        if want is None or got != want:
+            return (f"its companion ({COMPANION}/) is not this run's (another model, seed, start "
+                    "or length): it was replaced")
+        return None
 
     def companion(self) -> RunDir:
         """The run directory of this run's companion (RunSpec.companion)."""
@@ -283,7 +306,11 @@ class RunDir:
 
     def mark(self) -> None:
         """Claim the directory as bkflow's run (a partial run of ours can be redone)."""
-        self.file(MARK).touch()
+        from .io import inside
+
+        fd = os.open(inside(self.path, MARK, "the run's mark"),
+                     os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+        os.close(fd)
 
     def foreign(self) -> str | None:
         """What makes this directory not bkflow's to write a run into (None: it is empty,
@@ -318,7 +345,16 @@ class RunDir:
         if key in _HELD:
             yield self
             return
-        fd = os.open(self.file(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        try:  # never through a link: it could create or touch a file anywhere
+            fd = os.open(self.file(LOCK), os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+        except OSError as exc:
+            if exc.errno != errno.ELOOP:
+                raise
+            from .io import OutsideError
+
+            raise OutsideError(f"{self.file(LOCK)} is a symbolic link: bkflow locks, deletes "
+                               "and writes only inside the directory it was given; remove it"
+                               ) from None
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

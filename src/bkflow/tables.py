@@ -249,7 +249,11 @@ def retire_figures(root) -> list[str]:
     current that is not; the user's own files there are left. Returns the files removed."""
     import json
 
-    out = Path(root) / FIGURES_DIR
+    from .io import within
+
+    out = within(root, FIGURES_DIR)
+    if out is None:   # a link: what it holds is not the sweep's to remove
+        return []
     try:
         record = json.loads((out / FIGURES_RECORD).read_text())
         if record["tables_sha256"] == tables_digest(root):
@@ -259,10 +263,12 @@ def retire_figures(root) -> list[str]:
         return []
     removed = []
     for name in files:
-        p = out / name
-        if ".." in Path(name).parts or not p.is_file():
+        p = within(out, name)   # absolute, '..' or through a link: not one of ours
+        if p is None or not p.is_file():
             continue
         p.unlink()
         removed.append(name)
-    (out / FIGURES_RECORD).unlink(missing_ok=True)
+    record = within(out, FIGURES_RECORD)
+    if record is not None:
+        record.unlink(missing_ok=True)
     return removed
