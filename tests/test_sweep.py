@@ -316,6 +316,39 @@ def _fake_scheduler(tmp_path, scripts: dict) -> dict:
             "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
 
 
+def slurm_directives(script: str) -> dict:
+    """The #SBATCH options of a job script as sbatch reads them: directive lines before the
+    first command (blank lines and comments may come between them), each option after
+    ``#SBATCH``, up to a second ``#`` (the rest of the line is a comment); ``--opt=value``,
+    ``--opt value`` and ``-t value`` alike. A repeated option is an error here."""
+    options = {}
+    for line in script.splitlines()[1:]:   # after the shebang
+        text = line.strip()
+        if not text:
+            continue
+        if not text.startswith("#"):
+            break                          # the first command: sbatch stops reading
+        if not text.startswith("#SBATCH"):
+            continue                       # a comment
+        words = text[len("#SBATCH"):].split("#", 1)[0].split()
+        while words:
+            word = words.pop(0)
+            name, eq, value = word.partition("=")
+            if not eq:
+                value = words.pop(0) if words and not words[0].startswith("-") else ""
+            assert name not in options, f"{name} given twice in {line!r}"
+            options[name] = value
+    return options
+
+
+def test_slurm_directives_are_read_as_sbatch_reads_them():
+    script = "\n".join(['#!/bin/bash', '#SBATCH --job-name="x"', '', '# a comment',
+                         '#SBATCH -t 01:00:00', '#SBATCH --cpus-per-task=1#SBATCH --nodes=1',
+                         'echo hi', '#SBATCH --mem=1G'])
+    assert slurm_directives(script) == {"--job-name": '"x"', "-t": "01:00:00",
+                                        "--cpus-per-task": "1"}
+
+
 @pytest.mark.slow
 def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(lammps, tmp_path):
     out = tmp_path / "grid"
@@ -331,8 +364,10 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
     scripts = sub.stdout.split("#!/bin/bash")[1:]
     assert len(scripts) == 2
     for s in scripts:
-        assert "#SBATCH --ntasks=2" in s and "#SBATCH -t " in s
-        assert "#SBATCH --nodes=1" in s  # the bundle's runs share the script's node
+        d = slurm_directives("#!/bin/bash" + s)
+        assert d["--ntasks"] == "2" and "-t" in d
+        assert d["--nodes"] == "1"  # the bundle's runs share the script's node
+        assert d["--cpus-per-task"] == "1"
         assert "export OMP_NUM_THREADS=1" in s  # our template, not only flow's
         assert len(re.findall(rf"{re.escape(sys.executable)} -m bkflow.cluster run -o simulate "
                               r"-j \w+ &", s)) == 2

@@ -1,15 +1,19 @@
 {#- bkflow's job script: flow's template for the detected scheduler (SLURM on a cluster with
     sbatch; see `python project.py submit --help`), extended for bkflow. Edit here to add
     #SBATCH lines your site needs (account, QOS) or `module load` lines; the run commands
-    themselves are flow's: `<python> -m bkflow.cluster run -o simulate -j <job id>`. -#}
+    themselves are flow's: `<python> -m bkflow.cluster run -o simulate -j <job id>`.
+    Comments inside the header are shell comments: a Jinja comment there that trims
+    whitespace ({#- ... #} style) joins the #SBATCH line before it with the next, and Slurm
+    reads everything after a second # on a line as a comment (tests/test_sweep.py parses the
+    scripts as Slurm does). -#}
 {% extends base_script %}
 {% block header %}
 {{- super() }}
 {% if 'slurm' in base_script %}
 #SBATCH --cpus-per-task=1
-{#- a bundle's runs are started side by side (`&`) by this one script, on its node: they must
-    all be given cores of that node, not tasks spread over several #}
 #SBATCH --nodes=1
+# (one node: a bundle's runs are started side by side, `&`, by this one script, and must all be
+# given cores of its node, not tasks spread over several)
 {% endif %}
 {% endblock header %}
 {% block custom_content %}
