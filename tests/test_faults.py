@@ -65,7 +65,7 @@ def digest(d: Path) -> dict:
 @pytest.fixture(scope="module")
 def finished(lammps, tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("finished") / "run"
-    p = bk("run", "--phi", "10", "--t-end", "200", "--out", d, "--quiet")
+    p = bk("run", "--phi", "10", "--t-end", "200", "--scene", "full", "--out", d, "--quiet")
     assert p.returncode == 0, p.stderr
     return d
 
@@ -789,3 +789,38 @@ def test_cluster_bad_input_is_exit_2(tmp_path, small_sweep, args):
                        env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
     assert p.returncode == EXIT_BAD_INPUT, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+
+
+# --------------------------------------------------------------------------- third round
+def _small_sweep(root: Path) -> Path:
+    p = bk("sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3", "--aspect", "any",
+           "--t-end", "300", "--protocol", "paper", "--jobs", "2", "--out", root, "--quiet")
+    assert p.returncode == 0, p.stderr
+    return root
+
+
+def test_a_plot_and_a_collect_exclude_each_other_and_the_record_is_of_what_was_read(
+        lammps, tmp_path):
+    """A plot under way and a collect that changes the tables: one of them waits its turn
+    (busy, exit 3); figures.json then names the tables its figures were drawn from, and every
+    file it lists is there."""
+    import json
+
+    from bkflow.tables import tables_digest
+
+    s = _small_sweep(tmp_path / "s")
+    plot = subprocess.Popen([tool("bkflow"), "plot", str(s)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not (s / "figures" / "figures.json").exists():
+        time.sleep(0.05)
+    collect = bk("collect", s, "--analysis", "slip_threshold=0.02")
+    plot.communicate(timeout=300)
+    assert plot.returncode == 0
+    assert collect.returncode == 3 and "busy" in collect.stderr, collect.stderr
+    record = json.loads((s / "figures" / "figures.json").read_text())
+    assert record["complete"] and record["tables_sha256"] == tables_digest(s)
+    assert all((s / "figures" / f).is_file() for f in record["files"])
+    # and the collect, once the plot is done, retires the figures of the old tables
+    assert bk("collect", s, "--analysis", "slip_threshold=0.02").returncode == 0
+    assert not (s / "figures" / "figures.json").exists()

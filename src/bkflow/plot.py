@@ -858,27 +858,34 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     changes the tables removes them (``bkflow.tables.retire_figures``).
     Returns (paths written, {figure: why it was skipped})."""
     from .io import inside
+    from .rundir import RunDir
     from .tables import FIGURES_RECORD, record_figures, tables_digest
 
     # the sweep's own figures directory is written and emptied by bkflow: never through a link
     out = Path(out) if out is not None else inside(root, FIGURES_DIR, "the figures directory")
-    data = SweepData(root, where)  # refuses before anything is written (mixed analyses...)
-    _check_formats(formats)
-    try:
-        old = json.loads((out / FIGURES_RECORD).read_text())
-        recorded = {str(f) for f in old["files"]}
-        same = (old.get("tables_sha256") == tables_digest(root)
-                and old.get("where") == (where or None))
-        kept = [out / f for f in recorded] if same else []
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        kept, recorded = [], set()
-    targets = _check_targets(out, formats, recorded)
-    out.mkdir(parents=True, exist_ok=True)
-    # while figures are being written the record says so: an interrupted plot leaves
-    # complete = false, and a later change of the tables still retires what it wrote
-    record_figures(root, out, sorted({*kept, *targets}), where, complete=False)
-    written, skipped = _plot(data, out, formats, where, recorded)
-    record_figures(root, out, sorted({*kept, *written}), where, complete=True)
+    # the sweep's lock: no collect or sweep (the tables' writers) rewrites the tables while a
+    # plot draws from them, and the record names the tables as they were read
+    SweepData(root, where)  # refuses before anything, a lock file too, is written
+    with RunDir(root).lock():
+        digest = tables_digest(root)
+        data = SweepData(root, where)
+        _check_formats(formats)
+        try:
+            old = json.loads((out / FIGURES_RECORD).read_text())
+            recorded = {str(f) for f in old["files"]}
+            same = (old.get("tables_sha256") == digest and old.get("where") == (where or None))
+            kept = [out / f for f in recorded] if same else []
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            kept, recorded = [], set()
+        targets = _check_targets(out, formats, recorded)
+        out.mkdir(parents=True, exist_ok=True)
+        # while figures are being written the record says so: an interrupted plot leaves
+        # complete = false, and a later change of the tables still retires what it wrote
+        record_figures(root, out, sorted({*kept, *targets}), where, complete=False,
+                       digest=digest)
+        written, skipped = _plot(data, out, formats, where, recorded)
+        record_figures(root, out, sorted({*kept, *written}), where, complete=True,
+                       digest=digest)
     return written, skipped
 
 

@@ -234,12 +234,15 @@ def tables_digest(root) -> str:
     return h.hexdigest()
 
 
-def record_figures(root, out, paths, where=None, complete: bool = True) -> None:
-    """Note in ``out`` which figures were drawn from which tables, of which runs (``where``),
-    and whether the plot finished (``retire_figures``)."""
+def record_figures(root, out, paths, where=None, complete: bool = True,
+                   digest: str | None = None) -> None:
+    """Note in ``out`` which figures were drawn from which tables (``digest``: of the tables
+    as they were read, which the caller took before reading them; default: as they are now),
+    of which runs (``where``), and whether the plot finished (``retire_figures``)."""
     out = Path(out)
     io.write_json_atomic(out / FIGURES_RECORD, {
-        "tables_sha256": tables_digest(root), "where": where or None, "complete": complete,
+        "tables_sha256": digest or tables_digest(root), "where": where or None,
+        "complete": complete,
         "files": sorted(str(Path(p).relative_to(out)) for p in paths)})
 
 
