@@ -276,17 +276,24 @@ def test_a_ledger_row_missing_columns_is_refused(events_run, tmp_path):
         analyze(d)
 
 
-def test_the_catalogue_reads_from_either_file(events_run, tmp_path):
+def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_path):
+    """events.csv and events.parquet are one set with summary.json (its record of their
+    sizes and digests): either one gone, cut or replaced, and the catalogue is refused with
+    the repair named (DamagedRunError), never read half or from the other copy; bkflow
+    analyze makes them again."""
     from bkflow.api import load_run
+    from bkflow.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     whole = load_run(d).events
-    (d / "events.csv").unlink()
-    assert load_run(d).events.equals(whole)  # the Parquet copy alone
-    analyze(d)
-    (d / "events.parquet").write_bytes(b"not parquet")
-    back = load_run(d).events  # a damaged Parquet copy: the CSV
-    assert list(back.columns) == list(whole.columns) and len(back) == len(whole)
+    for damage in (lambda: (d / "events.csv").unlink(),
+                   lambda: (d / "events.parquet").write_bytes(b"not parquet"),
+                   lambda: (d / "clusters.csv").write_text("event,t\n0,1")):
+        damage()
+        with pytest.raises(DamagedRunError, match="bkflow analyze"):
+            load_run(d).events
+        analyze(d)
+        assert load_run(d).events.equals(whole)
 
 
 def test_a_run_without_slips_has_every_column(lammps, tmp_path):

@@ -824,3 +824,54 @@ def test_a_plot_and_a_collect_exclude_each_other_and_the_record_is_of_what_was_r
     # and the collect, once the plot is done, retires the figures of the old tables
     assert bk("collect", s, "--analysis", "slip_threshold=0.02").returncode == 0
     assert not (s / "figures" / "figures.json").exists()
+
+
+def test_a_collect_cut_short_leaves_no_mixed_set_that_reads(lammps, tmp_path):
+    """runs.csv, results.csv and the catalogue are one set with analysis.json, their record,
+    written last: tables from two collects (one cut short, here its first table written over
+    the set before) are refused by every reader, one line and the repair; collect repairs."""
+    from bkflow.api import load_sweep
+    from bkflow.tables import StaleTablesError
+
+    s = _small_sweep(tmp_path / "s")
+    runs = (s / "runs.csv").read_text()
+    (s / "runs.csv").write_text(runs.replace("\n", "\n", 1) + "")   # the same bytes: fine
+    assert load_sweep(s).runs is not None
+    (s / "runs.csv").write_text(runs.rsplit("\n", 2)[0] + "\n")       # the last row cut
+    with pytest.raises(StaleTablesError, match="bkflow collect"):
+        load_sweep(s).events
+    p = bk("plot", s)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "bkflow collect")
+    assert bk("collect", s).returncode == 0
+    assert (s / "runs.csv").read_text() == runs
+    assert load_sweep(s).events is not None
+
+
+@pytest.mark.parametrize("damage", ["clusters cut", "events gone"])
+def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps, tmp_path,
+                                                                          damage):
+    """A run's clusters.csv cut mid-line, or its events.parquet cut beside an empty events.csv:
+    Run.clusters / Run.events refuse them (DamagedRunError), and collect, or the sweep's own
+    command again, makes the analysis again (exit 0) rather than drawing from half a table."""
+    from bkflow.api import load_sweep
+    from bkflow.rundir import DamagedRunError
+
+    s = _small_sweep(tmp_path / "s")
+    before = (s / "results.csv").read_text()
+    job = next(p for p in (s / "workspace").iterdir() if (p / "clusters.csv").exists())
+    if damage == "clusters cut":
+        text = (job / "clusters.csv").read_text()
+        (job / "clusters.csv").write_text(text[: len(text) // 2])
+    else:
+        data = (job / "events.parquet").read_bytes()
+        (job / "events.parquet").write_bytes(data[: len(data) // 2])
+        (job / "events.csv").write_text("")
+    with pytest.raises(DamagedRunError):
+        run = load_sweep(s).run(job.name)
+        run.clusters if damage == "clusters cut" else run.events
+    p = bk("sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3", "--aspect", "any",
+           "--t-end", "300", "--protocol", "paper", "--jobs", "2", "--out", s, "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert (s / "results.csv").read_text() == before
+    assert bk("plot", s).returncode == 0

@@ -24,8 +24,8 @@ import pandas as pd
 from .fronts import front_figure, front_movie
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
-from .rundir import AnalysisError, RunDir, sweep_run_dir
-from .tables import CATALOGUE_PARQUET
+from .rundir import AnalysisError, DamagedRunError, RunDir, sweep_run_dir
+from .tables import CATALOGUE_PARQUET, StaleTablesError
 
 
 class Run:
@@ -54,10 +54,26 @@ class Run:
         """meta.json: parameters, versions, the path and kernel that ran, wall time."""
         return self._rd.meta()
 
+    def _intact(self) -> RunDir:
+        """The run directory, after checking that the run is the one its record says
+        (DamagedRunError otherwise, as the command line reports it: never a stale result)."""
+        if self._rd.is_complete():
+            why = self._rd.problem()
+            if why is not None:
+                raise DamagedRunError(f"{self.path}: {why}: the run is damaged; run it again "
+                                      "(bkflow run --overwrite, or the sweep redoes it)")
+        return self._rd
+
     @property
     def summary(self) -> dict | None:
-        """summary.json (None before the analysis); ``analyze`` makes it."""
-        return self._rd.summary()
+        """summary.json (None before the analysis); ``analyze`` makes it. A summary whose
+        tables are not the ones it made, or of a damaged run, raises DamagedRunError."""
+        rd = self._intact()
+        s = rd.summary()
+        if s is not None and rd.table_problem(s) is not None:
+            raise DamagedRunError(f"{self.path}: {rd.table_problem(s)}; bkflow analyze "
+                                  f"{self.path} makes the analysis again")
+        return s
 
     def analyze(self, **settings) -> dict:
         """Analyse the run (``bkflow analyze``) under these analysis settings, e.g.
@@ -69,31 +85,31 @@ class Run:
     @property
     def stress(self) -> pd.DataFrame:
         """``t``, ``sigma_x``: the shear-stress series."""
-        t, sigma = self._rd.read_stress()
+        t, sigma = self._intact().read_stress()
         return pd.DataFrame({"t": t, "sigma_x": sigma})
 
     @property
     def phase(self) -> pd.DataFrame | None:
         """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases (phase.csv;
         None for a run made before bkflow recorded them)."""
-        p = self._rd.read_phase()
+        p = self._intact().read_phase()
         return None if p is None else pd.DataFrame(p)
 
     @property
     def events(self) -> pd.DataFrame | None:
         """The event catalogue, one row per slip, typed (events.parquet, or events.csv; None
         before the analysis): docs/model.md "The event catalogue"."""
-        return self._rd.read_events() if self._rd.has_events() else None
+        return self._intact().read_events() if self._rd.has_events() else None
 
     @property
     def psi(self) -> pd.DataFrame | None:
         """Psi(t) (scenes order, full; None otherwise)."""
-        return self._rd.read_psi()
+        return self._intact().read_psi()
 
     @property
     def clusters(self) -> pd.DataFrame | None:
         """One row per slip cluster (scenes clusters, full; None otherwise)."""
-        return self._rd.read_clusters()
+        return self._intact().read_clusters()
 
     @functools.cached_property
     def fronts(self):
@@ -197,10 +213,16 @@ class Sweep:
     def events(self) -> pd.DataFrame | None:
         """The sweep's event catalogue (catalogue.parquet): one row per slip of every run,
         the run's job id and parameters first (None when no run has events)."""
+        from .tables import check_tables
+
         path = self.path / CATALOGUE_PARQUET
         if not path.exists():
             return None
+        check_tables(self.path)   # the catalogue the last collect wrote, or a typed error
         df = pd.read_parquet(path, engine="pyarrow")
+        if "job" not in df:
+            raise StaleTablesError(f"{path} has no column job: not a catalogue of bkflow's; "
+                                   f"bkflow collect {self.path} writes it again")
         return df[df.job.isin(set(self.runs.job))].reset_index(drop=True)
 
     #: the figures ``figure`` draws (short names work too: fig2a, drops)

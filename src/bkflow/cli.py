@@ -760,10 +760,11 @@ def _main(argv=None) -> int:
             return _run(a, argv)
         return commands[a.cmd](a)
     except (AnalysisError, DamagedRunError) as exc:
-        print(f"bkflow: error: cannot analyse {a.dir if a.cmd == 'analyze' else a.out}: {exc}",
-              file=sys.stderr)
+        where = (f"cannot analyse {a.dir}: " if a.cmd == "analyze" else
+                 f"cannot analyse {a.out}: " if a.cmd == "run" else "")
+        print(f"bkflow: error: {where}{' '.join(str(exc).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (SpecError, RunExistsError, PluginError, OutsideError) as exc:  # one line
+    except (SpecError, RunExistsError, PluginError, OutsideError) as exc:
         print(f"bkflow: error: {' '.join(str(exc).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except RunBusyError as exc:

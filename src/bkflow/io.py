@@ -228,6 +228,20 @@ def json_ready(obj):
     return obj
 
 
+def file_record(path) -> dict:
+    """{"bytes", "sha256"} of a file: what a record of a set of files keeps of each, so that a
+    member cut, emptied or replaced since is known."""
+    import hashlib
+
+    h = hashlib.sha256()
+    n = 0
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+            n += len(block)
+    return {"bytes": n, "sha256": h.hexdigest()}
+
+
 def within(root, name) -> Path | None:
     """``root / name`` when it stays inside ``root`` (a directory bkflow was given, or made):
     ``name`` relative and made of plain names (not absolute, no '..'), and no component of

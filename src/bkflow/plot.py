@@ -198,9 +198,11 @@ class SweepData:
 
         advice = (f"(an interrupted bkflow collect?): run bkflow collect {self.root} to bring "
                   "them together, then plot")
+        from .tables import settings_in
+
         try:
-            tables = AnalysisSettings.from_dict(json.loads(
-                (self.root / SETTINGS_FILE).read_text()))
+            tables = AnalysisSettings.from_dict(settings_in(json.loads(
+                (self.root / SETTINGS_FILE).read_text())))
         except FileNotFoundError:
             tables = AnalysisSettings()
         except (ValueError, TypeError, SpecError) as exc:
@@ -214,11 +216,13 @@ class SweepData:
         if sweep != tables:
             raise PlotError(f"{self.root}: the sweep's analysis settings are not those its "
                             f"tables were made under {advice}")
+        from .tables import StaleTablesError
+
         for job in self.runs["job"]:
             rd = sweep_run_dir(self.root, job)
             if rd.problem() is None and rd.analysis_problem(tables) is not None:
-                raise PlotError(f"{rd.path}: {rd.analysis_problem(tables)}, not the tables' "
-                                f"{advice}")
+                raise StaleTablesError(f"{rd.path}: {rd.analysis_problem(tables)}, not the "
+                                       f"tables' {advice}")
 
     def run_dir(self, row) -> RunDir:
         """The run directory of a runs.csv row, checked against its completion record (a

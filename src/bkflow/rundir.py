@@ -257,8 +257,10 @@ class RunDir:
         """Why the finished companion run is not this run's (the same model and seed from the
         companion's start, as long), or None."""
         try:
-            spec = RunSpec.from_dict(meta["params"])
-            want = spec.companion_spec
+            want = RunSpec.from_dict(meta["params"]).companion_spec
+        except Exception:   # the run's own record is what is damaged: said where it is read
+            return None
+        try:
             got = RunSpec.from_dict(comp["params"])
         except Exception:   # a record without parameters: not a companion of bkflow's
             return f"its companion ({COMPANION}/) has no readable parameters"
@@ -528,10 +530,7 @@ class RunDir:
             return f"summary.json made under other analysis settings ({', '.join(changed)})"
         if s["params"] != io.json_ready(spec.to_dict()):
             return "summary.json belongs to other parameters"
-        for name in s.get("tables", []):
-            if not self.file(name).is_file():
-                return f"{name} is missing"
-        return None
+        return self.table_problem(s)
 
     def only_analysis_left(self, spec: RunSpec) -> bool:
         """Whether this directory holds the finished, intact run of ``spec`` (as requested)
@@ -553,9 +552,40 @@ class RunDir:
 
             io.write_parquet(self.file(EVENTS_PARQUET), typed(tables[EVENTS]))
             tables = {**tables, EVENTS_PARQUET: None}
-        summary = {**summary, "tables": sorted(tables), "analysis_revision": ANALYSIS_REVISION}
+        # the record last, with the size and digest of every table it made: a table cut, emptied
+        # or replaced since is known (``table_problem``), and redone by whichever command needs
+        # it (analyze, collect, sweep)
+        summary = {**summary, "tables": sorted(tables), "analysis_revision": ANALYSIS_REVISION,
+                   "table_files": {name: io.file_record(self.file(name)) for name in tables}}
         io.write_json_atomic(self.file(SUMMARY), summary)
         return io.json_ready(summary)
+
+    def table_problem(self, summary: dict | None = None) -> str | None:
+        """Why the analysis's tables are not the ones its summary.json made (None: they are):
+        one missing, cut, emptied or replaced (its size or digest changed), or a summary
+        without the record of them (made by an older bkflow)."""
+        s = summary if summary is not None else self.summary()
+        if s is None:
+            return "no summary.json"
+        record = s.get("table_files")
+        if not isinstance(record, dict):
+            return "summary.json does not record its tables"
+        for name in s.get("tables", []):
+            p = self.file(name)
+            if p.is_symlink() or not p.is_file():
+                return f"{name} is missing"
+            if io.file_record(p) != record.get(name):
+                return f"{name} is not the table the analysis wrote (cut, emptied or replaced)"
+        return None
+
+    def _checked(self, name: str) -> Path:
+        """The path of the analysis's table ``name``, after checking it is the one its summary
+        recorded (DamagedRunError otherwise, naming the repair)."""
+        why = self.table_problem()
+        if why is not None:
+            raise DamagedRunError(f"{self.path}: {why}; bkflow analyze {self.path} (or bkflow "
+                                  "collect, for a sweep) makes the analysis again")
+        return self.file(name)
 
     def read_events(self):
         """The event catalogue as a typed DataFrame (events.parquet; events.csv where there is
@@ -566,14 +596,8 @@ class RunDir:
         from .catalogue import typed
 
         if self.file(EVENTS_PARQUET).exists():
-            try:
-                return pd.read_parquet(self.file(EVENTS_PARQUET), engine="pyarrow")
-            except Exception as exc:  # pyarrow's errors for a cut or foreign file vary
-                if not self.file(EVENTS).exists():
-                    raise DamagedRunError(f"{self.file(EVENTS_PARQUET)} is damaged "
-                                          f"({type(exc).__name__}); run bkflow analyze "
-                                          "again") from None
-        return typed(io.read_table(self.file(EVENTS)))
+            return pd.read_parquet(self._checked(EVENTS_PARQUET), engine="pyarrow")
+        return typed(io.read_table(self._checked(EVENTS)))
 
     def has_events(self) -> bool:
         """Whether the analysis wrote the event catalogue (events.csv or events.parquet)."""
@@ -581,11 +605,11 @@ class RunDir:
 
     def read_psi(self):
         """psi.csv as a DataFrame, or None when the run recorded no snapshots."""
-        return io.read_table(self.file(PSI)) if self.file(PSI).exists() else None
+        return io.read_table(self._checked(PSI)) if self.file(PSI).exists() else None
 
     def read_clusters(self):
         """clusters.csv as a DataFrame, or None when the run recorded no slip frames."""
-        return io.read_table(self.file(CLUSTERS)) if self.file(CLUSTERS).exists() else None
+        return io.read_table(self._checked(CLUSTERS)) if self.file(CLUSTERS).exists() else None
 
 
 class CsvTail:

@@ -37,7 +37,7 @@ from .project import (
     spec_of,
 )
 from .rundir import RunDir
-from .tables import retire_figures, write_catalogue, write_tables
+from .tables import retire_figures, write_tables
 
 
 @dataclass
@@ -305,8 +305,7 @@ def _collect(project, settings, jobs) -> Collection:
     done = [j for j in all_jobs if finished(j)]
     runs, results = write_tables(
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
-        settings.to_dict())
-    write_catalogue(project.path, [(j.id, j.cached_statepoint, _events_of(j)) for j in done])
+        settings.to_dict(), [(j.id, j.cached_statepoint, _events_of(j)) for j in done])
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
     retired = retire_figures(project.path)
     return Collection(len(all_jobs), len(done), failed,

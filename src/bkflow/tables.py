@@ -12,6 +12,7 @@ import pandas as pd
 
 from . import io
 from .params import RunSpec
+from .rundir import DamagedRunError
 from .states import STATE_NAMES, SWITCHING
 
 RUNS_FILE = "runs.csv"
@@ -173,15 +174,74 @@ def varied_parameters(results: pd.DataFrame) -> list[str]:
             and results[f].astype(str).nunique(dropna=False) > 1]
 
 
-def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Write runs.csv, results.csv and the settings they were made under into ``root``."""
+def write_tables(root, finished_runs, settings: dict,
+                 run_events=None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Write the sweep's tables into ``root`` as one set: runs.csv, results.csv and the event
+    catalogue (``write_catalogue``, from ``run_events``) first, then analysis.json, the
+    record of the set: the settings they were made under and the size and digest of each. A
+    collect cut short (a full disk, Ctrl-C) leaves the record of the set before, which the
+    new tables no longer match: readers refuse them (``tables_problem``), and the next
+    collect writes the set again."""
     runs = runs_table(finished_runs)
     results = results_table(runs)
     root = Path(root)
     io.write_table(root / RUNS_FILE, runs)
     io.write_table(root / RESULTS_FILE, results)
-    io.write_json_atomic(root / SETTINGS_FILE, settings)
+    if run_events is not None:
+        write_catalogue(root, run_events)
+    members = [n for n in (RUNS_FILE, RESULTS_FILE, CATALOGUE_FILE, CATALOGUE_PARQUET)
+               if (root / n).is_file()]
+    io.write_json_atomic(root / SETTINGS_FILE, {
+        **settings, TABLES_KEY: {n: io.file_record(root / n) for n in members}})
     return runs, results
+
+
+#: analysis.json's entry for the record of the sweep's tables (not an analysis setting)
+TABLES_KEY = "tables"
+
+
+def settings_in(record: dict) -> dict:
+    """The analysis settings of an analysis.json (without its record of the tables)."""
+    return {k: v for k, v in record.items() if k != TABLES_KEY}
+
+
+def tables_problem(root) -> str | None:
+    """Why the sweep's tables are not the set its last collect wrote (None: they are): a
+    member missing, cut or replaced since, or no record of them (analysis.json of an older
+    bkflow, or none)."""
+    import json
+
+    root = Path(root)
+    try:
+        record = json.loads((root / SETTINGS_FILE).read_text()).get(TABLES_KEY)
+    except (OSError, ValueError, AttributeError):
+        record = None
+    if not isinstance(record, dict) or RUNS_FILE not in record:
+        return f"{SETTINGS_FILE} does not record the tables it belongs with"
+    for name, want in record.items():
+        p = root / name
+        if p.is_symlink() or not p.is_file():
+            return f"{name} is missing"
+        if io.file_record(p) != want:
+            return f"{name} is not the one the last collect wrote (cut, or written apart)"
+    for name in (CATALOGUE_FILE, CATALOGUE_PARQUET):
+        if name not in record and (root / name).exists():
+            return f"{name} is not one the last collect wrote"
+    return None
+
+
+class StaleTablesError(DamagedRunError):
+    """The sweep's tables, or its runs' analyses, are not one collect's (``tables_problem``;
+    a run re-analysed apart): what bkflow collect repairs. A DamagedRunError, as the command
+    line reports it."""
+
+
+def check_tables(root) -> None:
+    """Raise StaleTablesError naming the repair when the sweep's tables are not one set."""
+    why = tables_problem(root)
+    if why is not None:
+        raise StaleTablesError(f"{root}: {why}; bkflow collect {root} writes the sweep's "
+                               "tables again")
 
 
 def catalogue_table(run_events) -> pd.DataFrame | None:
@@ -217,9 +277,13 @@ def write_catalogue(root, run_events) -> pd.DataFrame | None:
 
 
 def read_tables(root) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """runs.csv and results.csv of a sweep directory (FileNotFoundError when absent,
-    pandas' EmptyDataError when empty)."""
+    """runs.csv and results.csv of a sweep directory, checked to be the set its last collect
+    wrote (StaleTablesError otherwise; FileNotFoundError when absent, pandas' EmptyDataError
+    when empty)."""
     root = Path(root)
+    if not (root / RUNS_FILE).exists():
+        raise FileNotFoundError(2, "No such file or directory", str(root / RUNS_FILE))
+    check_tables(root)
     return io.read_table(root / RUNS_FILE), io.read_table(root / RESULTS_FILE)
 
 
