@@ -57,7 +57,7 @@ def states_occupancy() -> str:
            "coherent | <sigma_x>/sigma_n quiet / coherent | mu_bar quiet / coherent |",
            "|---|---|---|---|---|---|---|---|---|"]
     for _, r in occ.iterrows():
-        out.append(f"| {r.N} | {r.phi:g} | {r.runs} | {r['T'] / 1e6:.1f} | {r.quiet:.3f} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {int(r.runs)} | {r['T'] / 1e6:.1f} | {r.quiet:.3f} | "
                    f"{_g(r.residence_quiet, '.3g')} | {_g(r.residence_coherent, '.3g')} | "
                    f"{_g(r.stress_quiet)} / {_g(r.stress_coherent)} | "
                    f"{_g(r.mu_bar_quiet)} / {_g(r.mu_bar_coherent)} |")
@@ -96,7 +96,7 @@ def states_verdict() -> str:
     out = ["| N | phi | T | windows | steady | switching | drifting | metastable | "
            "false steady | coverage |", "|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in v.iterrows():
-        out.append(f"| {r.N} | {r.phi:g} | {r['T']:g} | {r.windows} | {r.steady:.2f} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {r['T']:g} | {int(r.windows)} | {r.steady:.2f} | "
                    f"{r.switching:.2f} | {r.drifting:.2f} | {r.metastable:.2f} | "
                    f"{_g(r.false_steady, '.3f')} | {r.coverage:.3f} |")
     return "\n".join(out) + "\n"
@@ -107,7 +107,7 @@ def states_ergodicity() -> str:
     e = sr.ergodicity(runs)
     out = ["| N | phi | t | d(t/4) | d(t) | d(t) / d(t/4) |", "|---|---|---|---|---|---|"]
     for _, r in e.iterrows():
-        out.append(f"| {r.N} | {r.phi:g} | {r.t:.3g} | {r.d_quarter:.2e} | {r.d_end:.2e} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {r.t:.3g} | {r.d_quarter:.2e} | {r.d_end:.2e} | "
                    f"{r.ratio:.2f} |")
     return "\n".join(out) + "\n"
 
@@ -119,7 +119,7 @@ def states_paper() -> str:
            "quiet | coherent | coherent, 99th percentile | memory chi |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in p.iterrows():
-        out.append(f"| {r.N} | {r.phi:g} | {r['T']:g} | {r.seeds} | {r.paper_mean:.4f} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {r['T']:g} | {int(r.seeds)} | {r.paper_mean:.4f} | "
                    f"{r.paper_chi:.1f} | {r.long_run:.4f} | {_g(r.quiet)} | {r.coherent:.4f} | "
                    f"{_g(r.coherent_p99)} | {r.memory_chi:.1f} |")
     return "\n".join(out) + "\n"
@@ -141,33 +141,55 @@ def timestep_bias() -> str:
            "bias of mu_bar | steps per time unit |", "|---|---|---|---|---|---|---|---|"]
     for _, r in table.iterrows():
         if r.reference:
-            out.append(f"| {r.N} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {r.seeds} | "
+            out.append(f"| {int(r.N)} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {int(r.seeds)} | "
                        "(reference) | (reference) | " f"{r.steps_per_t:.0f} |")
             continue
-        out.append(f"| {r.N} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {r.seeds} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {int(r.seeds)} | "
                    f"{_pct(r.stress_bias)} +- {_pct(r.stress_se)[1:]} | "
                    f"{_pct(r.mu_bar_bias)} +- {_pct(r.mu_bar_se)[1:]} | {r.steps_per_t:.0f} |")
     return "\n".join(out) + "\n"
 
 
 def timestep_presets() -> str:
+    """Each preset before (one C for every phi) and after (the rule), side by side: its step,
+    cost and measured bias, and the verdict against its target."""
     tr, runs, table = _timestep()
     pr = tr.presets(table)
-    out = ["| preset | target | N | phi | C | omega_c dt | bias <sigma_x>/sigma_n | bias mu_bar "
-           "| within target | steps per time unit (before) |",
+    out = ["| preset (target) | N | phi | rule | C = dt omega_max | omega_c dt | steps per time "
+           "unit | bias <sigma_x>/sigma_n | bias mu_bar | verdict |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in pr.iterrows():
-        out.append(f"| {r.preset} | {100 * r.target:g}% | {r.N} | {r.phi:g} | {r.C:.3g} | "
-                   f"{r.wc_dt:.3f} | {_pct(r.stress_bias)} | {_pct(r.mu_bar_bias)} | "
-                   f"{'yes' if r.meets else 'NO'} | {r.steps_per_t:.0f} "
-                   f"({r.old_steps_per_t:.0f}) |")
+        how = "" if r.measured else " (interpolated)"
+        out.append(f"| {r.preset} ({100 * r.target:g}%) | {int(r.N)} | {r.phi:g} | {r.rule} | "
+                   f"{r.C:.3g} | {r.wc_dt:.3f} | {r.steps_per_t:.0f} | "
+                   f"{_pct(r.stress_bias)} +- {_pct(r.stress_se)[1:]} | "
+                   f"{_pct(r.mu_bar_bias)} +- {_pct(r.mu_bar_se)[1:]} | {r.verdict}{how} |")
+    return "\n".join(out) + "\n"
+
+
+def timestep_cost() -> str:
+    """Per preset and N: the cost of the rule against the one C before, over the phi measured
+    (steps per time unit, after / before), and the worst verdict."""
+    tr, runs, table = _timestep()
+    pr = tr.presets(table)
+    rank = {"meets": 0, "within noise": 1, "fails": 2}
+    out = ["| preset (target) | N | phi | steps per time unit before -> after | "
+           "worst verdict before | worst verdict after |", "|---|---|---|---|---|---|"]
+    for (name, n), g in pr.groupby(["preset", "N"], sort=False):
+        b, a = g[g.rule == "before"], g[g.rule == "after"]
+        steps = ", ".join(f"{x:.0f} -> {y:.0f}" for x, y in
+                          zip(b.steps_per_t, a.steps_per_t))
+        worst = [max(x.verdict, key=rank.get) for x in (b, a)]
+        out.append(f"| {name} ({100 * g.target.iloc[0]:g}%) | {n} | "
+                   f"{', '.join(f'{v:g}' for v in a.phi)} | {steps} | {worst[0]} | {worst[1]} |")
     return "\n".join(out) + "\n"
 
 
 BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-paper": states_paper,
-          "timestep-bias": timestep_bias, "timestep-presets": timestep_presets}
+          "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
+          "timestep-cost": timestep_cost}
 
 
 def render(text: str) -> str:

@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from longrun import RECORDS, LongRun, case_name  # noqa: E402
 
-from bkflow.params import RunSpec, SpecError, size_from_n  # noqa: E402
+from bkflow.params import ACCURACY, RunSpec, SpecError, size_from_n  # noqa: E402
 
 OUT = RECORDS / "timestep"
 PHI = (0.1, 0.464, 2.15, 10.0, 46.4, 215.0, 1000.0)
@@ -45,11 +45,24 @@ def run_length(phi: float) -> float:
     return T_STIFF if phi > PHI_STIFF else T_SOFT
 
 
-def cases(n: int, phis, cs, seeds):
+def _c_of(spec: RunSpec) -> float:
+    return spec.dt * spec.omega_max
+
+
+def preset_cs(n: int, phi: float) -> list[float]:
+    """The C = omega_max dt of each accuracy preset's rule at (N, phi), to 4 digits: run beside
+    the grid, so that each preset is measured at its own step, not interpolated."""
+    Lx, Ly = size_from_n(n)
+    return sorted({round(_c_of(RunSpec(phi=phi, Lx=Lx, Ly=Ly, accuracy=name)), 4)
+                   for name in ACCURACY})
+
+
+def cases(n: int, phis, cs, seeds, presets: bool = True):
     Lx, Ly = size_from_n(n)
     for seed in seeds:
         for phi in phis:
-            for c in cs:
+            extra = [c for c in preset_cs(n, phi) if presets and c not in cs]
+            for c in sorted([*cs, *extra]):
                 if phi > PHI_STIFF and c < C_REF_STIFF:
                     continue
                 try:
@@ -73,13 +86,15 @@ def main(argv=None):
     r.add_argument("--c", type=_floats, default=list(C_VALUES))
     r.add_argument("--seeds", default="1,2,3,4")
     r.add_argument("--shard", default="0/1")
+    r.add_argument("--no-presets", dest="presets", action="store_false",
+                   help="only the grid of C, not each preset's own step")
     rep = sub.add_parser("report")
     rep.add_argument("--n", default="100,400")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         seeds = [int(s) for s in a.seeds.split(",")]
         i, k = (int(v) for v in a.shard.split("/"))
-        todo = list(cases(a.n, a.phi, a.c, seeds))[i::k]
+        todo = list(cases(a.n, a.phi, a.c, seeds, a.presets))[i::k]
         for spec in todo:
             LongRun(spec, OUT / f"{case_name(spec)}.parquet", 1000.0,
                     chunk_t=min(1e5, run_length(spec.phi))).advance_to(

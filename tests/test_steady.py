@@ -82,6 +82,31 @@ def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
     assert s["phase_fluctuation"] > memory_chi(spec.N)
 
 
+def test_a_switching_layer_stops_on_its_states_error_and_says_so(lammps, tmp_path):
+    """At phi = 1000, N = 100 the layer switches between a quiet and a coherent state on
+    scales of 10^4-10^5 time units (benchmarks/RESULTS.md "The stiff end"): no affordable run
+    averages over that, so the steady protocol stops once the mean of the states visited is
+    within the target (the run's own error), names them, and reports the long-run mean's
+    error that covers the switching, larger, with the run length that would need."""
+    from bkflow.report import stop_line
+    from bkflow.states import SWITCHING
+
+    fields = protocol_fields("steady")
+    spec = RunSpec(phi=1000.0, scene="friction", **fields)
+    assert spec.N == 100
+    ad = run(spec, tmp_path, progress=False).meta["adaptive"]
+    assert ad["reached"] and ad["t_run"] < spec.t_end
+    assert ad["state_at_stop"] in SWITCHING
+    assert ad["mu_bar_own_err_at_stop"] <= spec.target_error < ad["mu_bar_err_at_stop"]
+    assert ad["t_needed"] > spec.t_end
+    line = stop_line(ad, spec.companion)
+    assert f"in the states it visited ({ad['state_at_stop']})" in line
+    assert "the long-run mean's error, covering the switching" in line
+    s = analyze(tmp_path)
+    assert s["state"] in SWITCHING
+    assert s["mu_bar_err"] >= ad["mu_bar_err_at_stop"] * 0.5 > s["mu_bar_err_run"]
+
+
 def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path):
     run(RunSpec(phi=1000.0, t_end=1500.0, scene="clusters"), tmp_path, progress=False)
     s = analyze(tmp_path)

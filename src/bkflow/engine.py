@@ -110,6 +110,7 @@ class AdaptiveStop:
         self.met, self.checks = False, 0
         self.last: states.Window | None = None
         self.last_error = None      # mu_bar's error at the last check (covering the switching)
+        self.own_error = None       # ... the run's own (the states' means it visited)
         self.companion_gap = None   # the pair's gap at the last check (the main run's rule)
         self.pair_disagrees = False
 
@@ -135,15 +136,21 @@ class AdaptiveStop:
         self.last = win = states.window(spec, self.stat.t, self.stat.sigma, self._phase(), t0,
                                         own_error=False)
         met = True
+        switching = spec.until_steady and win.state in states.SWITCHING
         if spec.target_error is not None:
             est = self.stat.error(t0)
             if est.n < 2:
                 return False
             self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N)
-            met &= bool(est.reliable and self.last_error <= spec.target_error)
+            self.own_error = est.error
+            # a layer that switches between states: what a run can give is the mean of the
+            # states it visits (their own error), not the long-run mean, whose error falls
+            # only as the switching is averaged over (states.needed_length; reported)
+            err = est.error if switching else self.last_error
+            met &= bool(est.reliable and err <= spec.target_error)
         if spec.until_steady:
-            met &= bool(win.state == "steady"
-                        and win.trend.drift_bound <= STEADY_DRIFT_BOUND)
+            met &= bool(switching or (win.state == "steady"
+                                      and win.trend.drift_bound <= STEADY_DRIFT_BOUND))
         self.met = met
         return met
 
@@ -163,6 +170,7 @@ class AdaptiveStop:
                 "t_cap": requested.t_end, "t_run": t_run,
                 "reached": bool(stopped_early or self.met),
                 "mu_bar_err_at_stop": self.last_error,
+                "mu_bar_own_err_at_stop": self.own_error,
                 "state_at_stop": None if w is None else w.state,
                 "states_visited_at_stop": None if comp is None else comp.name,
                 "drift_at_stop": None if trend is None else trend.drift,
