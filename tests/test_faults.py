@@ -875,3 +875,90 @@ def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps,
     assert p.returncode == 0, p.stderr
     assert (s / "results.csv").read_text() == before
     assert bk("plot", s).returncode == 0
+
+
+@pytest.fixture(scope="module")
+def pair(lammps, tmp_path_factory) -> Path:
+    """A finished run of the steady protocol (with its companion) and two other runs whose
+    directories can stand in for the companion: the same layer from the random start, and
+    another seed from the partial start."""
+    d = tmp_path_factory.mktemp("pair")
+    base = ["--phi", "10", "--size", "12x3", "--scene", "friction", "--quiet"]
+    for args in ((*base, "--t-end", "600", "--out", d / "run"),
+                 (*base, "--t-end", "600", "--protocol", "paper", "--start", "random",
+                  "--out", d / "random"),
+                 (*base, "--t-end", "600", "--protocol", "paper", "--start", "partial",
+                  "--seed", "2", "--out", d / "seed2")):
+        p = bk("run", *args)
+        assert p.returncode == 0, p.stderr
+    return d
+
+
+@pytest.mark.parametrize("stand_in", ["random", "seed2", "the run itself", "longer"])
+def test_a_companion_that_is_not_the_runs_is_refused(pair, tmp_path, stand_in):
+    """Class 7: a run's companion/ replaced by a copy of another run (the same layer from the
+    main run's start, another seed, the main run itself, or its own companion made to claim
+    another length) is not this run's: analyze and the API refuse it in one line, never a
+    gap of zero and 'steady'."""
+    from bkflow.api import load_run
+    from bkflow.rundir import DamagedRunError
+
+    run = tmp_path / "run"
+    shutil.copytree(pair / "run", run)
+    comp = run / "companion"
+    if stand_in == "longer":
+        meta = json.loads((comp / META).read_text())
+        meta["params"]["t_end"] *= 2
+        (comp / META).write_text(json.dumps(meta))
+    else:
+        shutil.rmtree(comp)
+        src = pair / stand_in if stand_in != "the run itself" else pair / "run"
+        shutil.copytree(src, comp, ignore=shutil.ignore_patterns("companion"))
+    p = bk("analyze", run)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "not this run's")
+    with pytest.raises(DamagedRunError, match="not this run's"):
+        load_run(run).summary
+
+
+@pytest.mark.parametrize("option, setting", [
+    (["--start", "partial"], ["--set", "start=partial"]),
+    (["--t-end", "100"], ["--set", "t_end=100"]),
+    (["--accuracy", "fast"], ["--set", "accuracy=fast"]),
+    (["--dt-factor", "0.5"], ["--set", "dt_factor=0.5"]),
+    (["--companion", "partial"], ["--set", "companion=partial"]),
+    (["--until-steady"], ["--set", "until_steady=true"]),
+    (["--target-error", "1e-3"], ["--set", "target_error=1e-3"]),
+    (["--dt-factor", "2.5"], ["--set", "dt_factor=2.5"]),
+])
+def test_set_goes_through_the_options_checks(tmp_path, option, setting):
+    """Class 9: a --set of a setting with an option of its own means what the option means
+    and is checked as it is: the same deck, or the same refusal (a deck is one fixed run: no
+    companion, no adaptive length; a step past the stability bound)."""
+    got = []
+    for i, args in enumerate((option, setting)):
+        p = bk("deck", "--phi", "10", *args, "--out", tmp_path / str(i))
+        params = (json.loads((tmp_path / str(i) / "params.json").read_text())
+                  if p.returncode == 0 else None)
+        got.append((p.returncode, params, p.stderr.replace("--set", "").strip()[:40]))
+    assert got[0][0] == got[1][0]
+    if got[0][0] == 0:
+        assert got[0][1] == got[1][1]
+    else:
+        assert got[0][0] == EXIT_BAD_INPUT
+        for i in (0, 1):
+            assert len(bk("deck", "--phi", "10", *(option, setting)[i], "--out",
+                          tmp_path / f"x{i}").stderr.strip().splitlines()) == 1
+
+
+def test_a_sweep_varies_the_start_as_the_option_does(tmp_path):
+    """--vary start=random,partial under the steady protocol: each start gets the protocol's
+    companion from the other side (as --start partial does), not a refusal."""
+    from bkflow.project import open_project, spec_of
+
+    p = bk("sweep", "--phi", "10", "--seeds", "1", "--vary", "start=random,partial",
+           "--scene", "friction", "--out", tmp_path / "s", "--init")
+    assert p.returncode == 0, p.stderr
+    pairs = sorted((spec_of(j).start, spec_of(j).companion)
+                   for j in open_project(tmp_path / "s", create=False))
+    assert pairs == [("partial", "random"), ("random", "partial")]

@@ -15,6 +15,7 @@ import math
 import os
 import shlex
 import sys
+from pathlib import Path
 
 # every bkflow process is one single-threaded run (a sweep runs one process per core): the
 # idle threads of NumPy's OpenBLAS spin, and on a small machine they steal LAMMPS's core
@@ -148,13 +149,25 @@ def _state_args(p: argparse.ArgumentParser) -> None:
                         "both hold (the steady protocol always does)")
 
 
-def _accuracy(a) -> dict:
+#: RunSpec fields that the protocol's rule sets from options of their own (--start,
+#: --companion, --t-end, ...): given with --set, they take the option's place in that rule,
+#: so that every check of the option applies to them too
+PROTOCOL_SETTINGS = ("start", "companion", "t_end", "dt_factor", "until_steady",
+                     "target_error", "accuracy")
+
+
+def _accuracy(a, settings: dict | None = None) -> dict:
     """The run's start, length rule, dt_factor and target_error: the protocol's, from the
-    preset and the explicit options (bkflow.params.protocol_fields)."""
-    companion = "" if a.companion is None else None if a.companion == "none" else a.companion
-    return protocol_fields(a.protocol, a.accuracy, start=a.start, t_end=a.t_end,
-                           dt_factor=a.dt_factor, until_steady=a.until_steady,
-                           target_error=a.target_error, companion=companion)
+    preset and the explicit options (bkflow.params.protocol_fields); ``settings`` (of --set)
+    override the options they name."""
+    given = {"start": a.start, "t_end": a.t_end, "dt_factor": a.dt_factor,
+             "until_steady": a.until_steady, "target_error": a.target_error,
+             "accuracy": a.accuracy,
+             "companion": "" if a.companion is None else None if a.companion == "none"
+             else a.companion}
+    given.update(settings or {})
+    accuracy = given.pop("accuracy")
+    return protocol_fields(a.protocol, accuracy, **given)
 
 
 def _set_arg(p: argparse.ArgumentParser) -> None:
@@ -200,11 +213,17 @@ def _spec(a, deck: bool = False) -> RunSpec:
         Lx, Ly = parse_size(a.size)
     else:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
-    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a)}
-    if deck and a.protocol == "steady" and not a.until_steady:
-        fields.update(until_steady=False, companion=None, target_error=a.target_error,
-                      t_end=ACCURACY[a.accuracy].t_end if a.t_end is None else a.t_end)
-    fields.update(RunSpec.assignments(a.set))
+    sets = RunSpec.assignments(a.set)
+    routed = {k: sets.pop(k) for k in PROTOCOL_SETTINGS if k in sets}
+    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a, routed)}
+    if deck and a.protocol == "steady" and not (a.until_steady or routed.get("until_steady")):
+        accuracy = routed.get("accuracy", a.accuracy)
+        t_end = routed.get("t_end", a.t_end)
+        fields.update(until_steady=False, companion=routed.get(
+                          "companion", None if a.companion in (None, "none") else a.companion),
+                      target_error=routed.get("target_error", a.target_error),
+                      t_end=ACCURACY[accuracy].t_end if t_end is None else t_end)
+    fields.update(sets)
     return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
 
 
@@ -320,17 +339,24 @@ def _sweep(a) -> int:
     sizes = parse_sizes(a.sizes, parse_aspect(a.aspect))
     if a.jobs is not None and a.jobs < 1:
         raise SpecError(f"--jobs must be >= 1, got {a.jobs}")
-    common = {"contact_rule": a.contact_rule, "scene": a.scene, **_accuracy(a),
-              **RunSpec.assignments(a.set)}
+    sets = RunSpec.assignments(a.set)
     axes = RunSpec.variations(a.vary)
-    both = set(axes) & set(RunSpec.assignments(a.set))
+    both = set(axes) & set(sets)
     if both:
         raise SpecError(f"--vary and --set both give {', '.join(sorted(both))}: choose one")
+    routed = {k: sets.pop(k) for k in PROTOCOL_SETTINGS if k in sets}
+
+    def fields(extra: dict) -> dict:
+        """A grid point's fields: the protocol's rule fed by --set and this point's --vary
+        values of the settings it takes (start, companion, t_end, ...), as the options."""
+        own = {k: v for k, v in extra.items() if k in PROTOCOL_SETTINGS}
+        return {"contact_rule": a.contact_rule, "scene": a.scene,
+                **_accuracy(a, {**routed, **own}), **sets}
     from .limits import check_run_count, check_sweep
 
     check_run_count(math.prod([len(phis), len(sizes), a.seeds, *map(len, axes.values())]),
                     a.force)
-    specs = sweep_specs(phis, sizes, a.seeds, axes=axes, **common)
+    specs = sweep_specs(phis, sizes, a.seeds, axes=axes, fields=fields)
     settings = AnalysisSettings().with_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
     from .project import check_sweep_dir
@@ -551,11 +577,12 @@ def _deck(a) -> int:
     from .deck import DeckOptions, write_deck, written_by_bkflow
     from .rundir import RunDir
 
-    if getattr(a, "companion", None) not in (None, "none"):
-        raise SpecError(f"--companion {a.companion}: a deck is one run, and a companion is a "
-                        "second run beside it, which bkflow run runs; write the companion's "
-                        f"own deck with --start {a.companion} --out ANOTHER_DIR")
     spec = _spec(a, deck=True)
+    if spec.companion is not None:
+        raise SpecError(f"companion {spec.companion} (--companion or --set): a deck is one run, "
+                        "and a companion is a second run beside it, which bkflow run runs; "
+                        f"write the companion's own deck with --start {spec.companion} --out "
+                        "ANOTHER_DIR")
     if spec.adaptive:
         raise SpecError("an adaptive run (--until-steady, --target-error) needs the engine, "
                         "which checks between chunks (bkflow run); a deck runs exactly "
@@ -760,9 +787,13 @@ def _main(argv=None) -> int:
             return _run(a, argv)
         return commands[a.cmd](a)
     except (AnalysisError, DamagedRunError) as exc:
-        where = (f"cannot analyse {a.dir}: " if a.cmd == "analyze" else
-                 f"cannot analyse {a.out}: " if a.cmd == "run" else "")
-        print(f"bkflow: error: {where}{' '.join(str(exc).splitlines())}", file=sys.stderr)
+        target = a.dir if a.cmd == "analyze" else a.out if a.cmd == "run" else None
+        text = " ".join(str(exc).splitlines())
+        named = target is not None and any(
+            text.startswith(str(p)) for p in (target, Path(target).absolute(),
+                                              Path(target).resolve()))
+        where = f"cannot analyse {target}: " if target is not None and not named else ""
+        print(f"bkflow: error: {where}{text}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except (SpecError, RunExistsError, PluginError, OutsideError) as exc:
         print(f"bkflow: error: {' '.join(str(exc).splitlines())}", file=sys.stderr)

@@ -117,12 +117,15 @@ def parse_sizes(text: str, aspect: float | None = ASPECT) -> list[tuple[int, int
     return list(dict.fromkeys(sizes))
 
 
-def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[RunSpec]:
+def sweep_specs(phis, sizes, seeds, axes: dict | None = None, fields=None,
+                **common) -> list[RunSpec]:
     """Every (phi, size, other axes, seed) as a validated RunSpec (a SpecError before anything
     runs).
 
     ``seeds``: a count K (seeds 1..K) or an explicit list; ``axes``: {parameter: [values]},
-    further axes of the grid (the CLI's ``--vary``), every combination taken."""
+    further axes of the grid (the CLI's ``--vary``), every combination taken; ``fields``: a
+    function of one combination giving the fields common to its runs (where an axis feeds a
+    rule, as the protocol's start and companion), else ``common``."""
     if isinstance(seeds, int):
         if seeds < 1:
             raise SpecError(f"--seeds must be >= 1, got {seeds}")
@@ -130,7 +133,10 @@ def sweep_specs(phis, sizes, seeds, axes: dict | None = None, **common) -> list[
     axes = axes or {}
     combos = [dict(zip(axes, values)) for values in itertools.product(*axes.values())]
     # an axis overrides the value the options gave (a preset's t_end, the default start)
-    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **{**common, **extra})
+    def of(extra):
+        return {**(fields(extra) if fields is not None else common), **extra}
+
+    return [RunSpec(phi=phi, Lx=lx, Ly=ly, seed=s, **of(extra))
             for (lx, ly) in sizes for extra in combos for phi in phis for s in seeds]
 
 

@@ -207,12 +207,17 @@ class RunDir:
             comp = self.companion()
             if comp.path.is_symlink():
                 return f"its companion ({COMPANION}/) is a symbolic link, not this run's"
+            try:
+                comp_meta = io.read_json(comp.file(META))
+            except (OSError, ValueError):
+                comp_meta = None
+            if isinstance(comp_meta, dict):   # whose run it is, before whether it is whole
+                why = self._foreign_companion(meta, comp_meta)
+                if why is not None:
+                    return why
             why = comp.problem()
             if why is not None:
                 return f"its companion run ({COMPANION}/) is damaged: {why}"
-            why = self._foreign_companion(meta, comp.meta() or {})
-            if why is not None:
-                return why
         return None
 
     def restart_files(self) -> list[Path]:
