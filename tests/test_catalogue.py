@@ -291,7 +291,7 @@ def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_p
                    lambda: (d / "clusters.csv").write_text("event,t\n0,1")):
         damage()
         with pytest.raises(DamagedRunError, match="bkflow analyze"):
-            load_run(d).events
+            _ = load_run(d).events
         analyze(d)
         assert load_run(d).events.equals(whole)
 

@@ -8,6 +8,7 @@ import errno
 import hashlib
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -161,7 +162,7 @@ def test_damaged_inputs_are_one_line(lammps, tmp_path, finished):
     (deck / "params.json").write_text("[1, 2]")
     p = bk("analyze", deck)
     assert p.returncode == EXIT_BAD_INPUT
-    one_line(p, "holds no run parameters")
+    one_line(p, "params.json is not the one bkflow deck wrote beside in.bk")
     pipe = subprocess.run(f"'{tool('bkflow')}' run --help | head -1", shell=True,
                           capture_output=True, text=True)
     assert "usage" in pipe.stdout and pipe.stderr == ""
@@ -577,6 +578,7 @@ def _first_job(d: Path) -> Path:
     ("cut job document", "has a cut signac_job_document.json"),
     ("cut project document", "signac_project_document.json is cut or damaged"),
     ("junk config", "is not a signac config"),
+    ("rehashed, no run", "holds a state point that is no run (phi must be > 0"),
 ])
 @pytest.mark.slow
 def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep, edit, needle):
@@ -599,6 +601,13 @@ def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep,
         sp.write_text(sp.read_text()[:40])
     elif edit == "cut job document":
         (job / "signac_job_document.json").write_text('{"err')
+    elif edit == "rehashed, no run":   # edited and renamed to its hash: consistent, no run
+        from signac.job import calc_id
+
+        point = json.loads(sp.read_text())
+        point["phi"] = -1.0
+        sp.write_text(json.dumps(point))
+        job = job.rename(job.with_name(calc_id(point)))
     elif edit == "cut project document":
         (d / "signac_project_document.json").write_text('{"ana')
     else:
@@ -776,19 +785,47 @@ def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
     assert not (tmp_path / "r").exists()
 
 
-@pytest.mark.parametrize("args", [["status", "-j", "nosuchjob"], ["run", "-j", "deadbeef"],
-                                  ["exec", "simulate", "nosuchjob"],
-                                  ["submit", "--bundle", "-1", "--pretend"]])
-def test_cluster_bad_input_is_exit_2(tmp_path, small_sweep, args):
-    """python -m bkflow.cluster: a job that does not exist or a bad option value is bad input
-    (exit 2, one line), not "a run failed" (exit 1) with a scheduler hint."""
+@pytest.mark.parametrize("args, env", [
+    (["status", "-j", "nosuchjob"], "StandardEnvironment"),
+    (["run", "-j", "deadbeef"], "StandardEnvironment"),
+    (["exec", "simulate", "nosuchjob"], "StandardEnvironment"),
+    (["submit", "--bundle", "-1", "--pretend"], "StandardEnvironment"),
+    (["status"], "NoSuchEnvironment"),
+    (["submit", "--pretend"], "slurm"),
+])
+def test_cluster_bad_input_is_exit_2(tmp_path, small_sweep, args, env):
+    """python -m bkflow.cluster: a job that does not exist, a bad option value or an
+    environment signac-flow does not know is bad input (exit 2, one line), not "a run failed"
+    (exit 1) with a scheduler hint, nor a traceback."""
     d = tmp_path / "s"
     shutil.copytree(small_sweep, d)
     p = subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=d,
                        capture_output=True, text=True, timeout=120,
-                       env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
+                       env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": env})
     assert p.returncode == EXIT_BAD_INPUT, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+    assert "no working scheduler" not in p.stderr
+    if env != "StandardEnvironment":
+        assert f"SIGNAC_FLOW_ENVIRONMENT={env} is no environment" in p.stderr
+
+
+def test_the_advice_names_the_file_that_was_changed(tmp_path):
+    """Class 10: a deck directory whose in.bk was edited after bkflow deck wrote it: the
+    advice is about the deck (write it again with the change), not params.json; with params.json
+    changed instead, about params.json."""
+    for changed in ("in.bk", "params.json"):
+        d = tmp_path / changed
+        assert bk("deck", "--phi", "10", "--t-end", "50", "--out", d).returncode == 0
+        f = d / changed
+        text = f.read_text()
+        f.write_text(re.sub(r"(?m)^run( +)\d+", r"run\g<1>100", text) if changed == "in.bk"
+                     else text.replace('"seed": 1', '"seed": 2'))
+        assert f.read_text() != text
+        (d / "stress.csv").write_text("t,sigma_x\n")
+        p = bk("analyze", d)
+        assert p.returncode == EXIT_BAD_INPUT
+        one_line(p, f"{changed} was edited after bkflow deck wrote it" if changed == "in.bk"
+                 else "params.json is not the one bkflow deck wrote")
 
 
 # --------------------------------------------------------------------------- third round
@@ -839,7 +876,7 @@ def test_a_collect_cut_short_leaves_no_mixed_set_that_reads(lammps, tmp_path):
     assert load_sweep(s).runs is not None
     (s / "runs.csv").write_text(runs.rsplit("\n", 2)[0] + "\n")       # the last row cut
     with pytest.raises(StaleTablesError, match="bkflow collect"):
-        load_sweep(s).events
+        _ = load_sweep(s).events
     p = bk("plot", s)
     assert p.returncode == EXIT_BAD_INPUT
     one_line(p, "bkflow collect")
@@ -869,7 +906,7 @@ def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps,
         (job / "events.csv").write_text("")
     with pytest.raises(DamagedRunError):
         run = load_sweep(s).run(job.name)
-        run.clusters if damage == "clusters cut" else run.events
+        _ = run.clusters if damage == "clusters cut" else run.events
     p = bk("sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3", "--aspect", "any",
            "--t-end", "300", "--protocol", "paper", "--jobs", "2", "--out", s, "--quiet")
     assert p.returncode == 0, p.stderr
@@ -918,7 +955,7 @@ def test_a_companion_that_is_not_the_runs_is_refused(pair, tmp_path, stand_in):
     assert p.returncode == EXIT_BAD_INPUT
     one_line(p, "not this run's")
     with pytest.raises(DamagedRunError, match="not this run's"):
-        load_run(run).summary
+        _ = load_run(run).summary
 
 
 @pytest.mark.parametrize("option, setting", [
@@ -962,3 +999,50 @@ def test_a_sweep_varies_the_start_as_the_option_does(tmp_path):
     pairs = sorted((spec_of(j).start, spec_of(j).companion)
                    for j in open_project(tmp_path / "s", create=False))
     assert pairs == [("partial", "random"), ("random", "partial")]
+
+
+@pytest.mark.parametrize("name", ["g $(touch PWNED)", "-x", "a'b; touch PWNED", "sp ace"])
+def test_printed_commands_are_safe_to_paste(tmp_path, name):
+    """Class 11: a command bkflow prints with a path in it (here sweep --init's) does, pasted
+    into a shell, what it says: the path one word (quoted; "./-x" for a name that looks like an
+    option), nothing in it run."""
+    import shlex
+
+    p = subprocess.run([tool("bkflow"), "sweep", "--phi", "10", "--seeds", "1",
+                        f"--out={name}", "--init"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    cd = p.stdout.split("(cd ", 1)[1].split(" && ", 1)[0]
+    assert shlex.split(cd) in ([name], [f"./{name}"])
+    sh = subprocess.run(["bash", "-c", f"cd {cd} && pwd -P"], cwd=tmp_path,
+                        capture_output=True, text=True, timeout=30)
+    assert sh.returncode == 0, sh.stderr
+    assert Path(sh.stdout.strip()) == (tmp_path / name).resolve()
+    assert not list(tmp_path.rglob("PWNED"))
+    from bkflow.io import shell_word
+
+    for word in (name, f"/abs/{name}"):   # and the helper every printed command uses
+        assert shlex.split(shell_word(word)) in ([word], [f"./{word}"])
+
+
+@pytest.mark.parametrize("mark", ["empty", "bkflow's, newer than the file"])
+def test_a_planted_mark_replaces_nothing(lammps, tmp_path, mark):
+    """Class 12: a .bkflow-run mark that bkflow did not write (empty), or one that is newer
+    than the user's stress.csv beside it, proves nothing about that file: bkflow run refuses
+    the directory (exit 2, one line) and the file is as it was. A real interrupted run of
+    bkflow's is still redone (tests of interrupts)."""
+    d = tmp_path / "mine"
+    d.mkdir()
+    (d / "stress.csv").write_text("my measurements\n")
+    old = time.time() - 3600
+    os.utime(d / "stress.csv", (old, old))
+    if mark == "empty":
+        (d / ".bkflow-run").write_text("")
+    else:
+        (d / ".bkflow-run").write_text('{"bkflow": "0", "began": 0}')
+    before = digest(d)
+    p = bk("run", "--phi", "10", *SHORT, "--out", d)
+    assert p.returncode == EXIT_BAD_INPUT
+    one_line(p, "mark that bkflow did not write" if mark == "empty"
+             else "older than its .bkflow-run mark")
+    assert digest(d) == before and (d / "stress.csv").read_text() == "my measurements\n"

@@ -560,18 +560,29 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     rd.check_record_readable()  # unreadable is the file system's refusal, not "not run"
     meta = rd.meta() if rd.is_complete() else None
     if meta is None:
-        why = rd.finished_standalone()
-        if why is not None:
-            raise AnalysisError(why)
         from .deck import SIGNATURE, written_by_bkflow
 
+        # which file was changed since bkflow deck wrote the pair decides the advice: an
+        # edited deck ran something its params.json does not describe; an intact deck with
+        # another params.json ran what the deck says
         deck = rd.file(DECK)
-        if SIGNATURE in deck.read_text(errors="replace")[-400:] and \
-                not written_by_bkflow(rd.file(PARAMS)):
+        try:
+            signed = SIGNATURE in deck.read_text(errors="replace")[-400:]
+        except FileNotFoundError:
+            signed = False
+        if signed and not written_by_bkflow(deck):
+            raise AnalysisError(f"{deck} was edited after bkflow deck wrote it, so {PARAMS} "
+                                "need not describe the run it made, and bkflow analyses a "
+                                f"run by its {PARAMS}: write the deck again with the change "
+                                "(bkflow deck ... --set NAME=VALUE) and run that")
+        if signed and not written_by_bkflow(rd.file(PARAMS)):
             raise AnalysisError(f"{rd.file(PARAMS)} is not the one bkflow deck wrote "
                                 f"beside {deck.name} (its digest on the deck's last line does "
                                 "not match): the run was made with the deck's parameters; "
                                 f"restore {PARAMS}, or write the deck again")
+        why = rd.finished_standalone()
+        if why is not None:
+            raise AnalysisError(why)
         meta = {}
     else:
         why = rd.problem()  # every file as large as the run left it

@@ -22,6 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from .fronts import front_figure, front_movie
+from .io import shell_word
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
 from .rundir import AnalysisError, DamagedRunError, RunDir, sweep_run_dir
@@ -72,7 +73,7 @@ class Run:
         s = rd.summary()
         if s is not None and rd.table_problem(s) is not None:
             raise DamagedRunError(f"{self.path}: {rd.table_problem(s)}; bkflow analyze "
-                                  f"{self.path} makes the analysis again")
+                                  f"{shell_word(self.path)} makes the analysis again")
         return s
 
     def analyze(self, **settings) -> dict:
@@ -222,7 +223,7 @@ class Sweep:
         df = pd.read_parquet(path, engine="pyarrow")
         if "job" not in df:
             raise StaleTablesError(f"{path} has no column job: not a catalogue of bkflow's; "
-                                   f"bkflow collect {self.path} writes it again")
+                                   f"bkflow collect {shell_word(self.path)} writes it again")
         return df[df.job.isin(set(self.runs.job))].reset_index(drop=True)
 
     #: the figures ``figure`` draws (short names work too: fig2a, drops)

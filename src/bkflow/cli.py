@@ -26,6 +26,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 from . import __version__, report  # noqa: E402
 from . import rundir as rd  # noqa: E402
 from .grid import ASPECT, POINTS_PER_DECADE, SEEDS  # noqa: E402
+from .io import shell_word  # noqa: E402
 from .params import (  # noqa: E402
     ACCURACY,
     ADAPTIVE_CHUNK_T,
@@ -368,7 +369,7 @@ def _sweep(a) -> int:
 
         done = init_jobs(specs, a.out, settings, force=a.force)
         print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
-              f"(cd {a.out} && python -m bkflow.cluster run|submit ...)")
+              f"(cd {shell_word(a.out)} && python -m bkflow.cluster run|submit ...)")
         return 0
     extra = "".join(f" x {len(v)} {k}" for k, v in axes.items())
     print(f"sweep: {len(phis)} phi x {len(sizes)} size(s){extra} x {a.seeds} seed(s) = "
@@ -390,7 +391,8 @@ def _sweep(a) -> int:
         print("\n".join(report.results_lines(res, list(axes))))
     if len(res):
         print(report.states_line(res))
-    print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot {a.out}")
+    print(f"wrote {a.out}/{RUNS_FILE} and {a.out}/{RESULTS_FILE}; figures: bkflow plot "
+          f"{shell_word(a.out)}")
     _say_retired(a.out, rep.retired_figures)
     for job_id, msg in rep.failed.items():
         print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
@@ -409,7 +411,8 @@ def _sweep(a) -> int:
 def _say_retired(root, removed) -> None:
     if removed:
         print(f"removed {len(removed)} figure file(s) of {root}/figures drawn from the tables "
-              f"before (they no longer match them): bkflow plot {root} draws them again")
+              "before (they no longer match them): bkflow plot "
+              f"{shell_word(root)} draws them again")
 
 
 def _collect(a) -> int:
@@ -552,7 +555,7 @@ def _run_locked(a, argv, spec) -> int:
             summary = analyze(a.out)
         except KeyboardInterrupt:
             print(f"{_NL()}bkflow: interrupted during the analysis; the run itself is finished: "
-                  f"bkflow analyze {shlex.quote(str(a.out))} (or the same command) analyses it",
+                  f"bkflow analyze {shell_word(a.out)} (or the same command) analyses it",
                   file=sys.stderr)
             return EXIT_INTERRUPTED
         _print_summary(summary)

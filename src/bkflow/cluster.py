@@ -43,6 +43,20 @@ def main(argv=None) -> None:
     if why:  # K copies of one command in one MPI world: they would wait forever
         print(f"bkflow.cluster: error: {why}", file=sys.stderr)
         sys.exit(2)
+    env = os.environ.get("SIGNAC_FLOW_ENVIRONMENT")
+    if env:
+        from flow.environment import get_environment
+
+        try:
+            get_environment()
+        except ValueError:
+            from flow.environment import ComputeEnvironment
+
+            known = sorted(c.__name__ for c in _subclasses(ComputeEnvironment))
+            print(f"bkflow.cluster: error: SIGNAC_FLOW_ENVIRONMENT={env} is no environment "
+                  f"signac-flow knows (it knows {', '.join(known)}): unset it, or name one of "
+                  "those", file=sys.stderr)
+            sys.exit(2)
     try:
         p = project()
     except LookupError:
@@ -75,9 +89,44 @@ def main(argv=None) -> None:
         sys.exit(2)  # bad input, as bkflow's own commands
     except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        print(f"bkflow.cluster: error: {first} (if this machine has no working scheduler, "
-              "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment runs without one)", file=sys.stderr)
+        hint = (" (if this machine has no working scheduler, "
+                "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment runs without one)"
+                if _from_scheduler(exc) else
+                f" ({type(exc).__name__}; bkflow.cluster did not expect it: please report it)")
+        print(f"bkflow.cluster: error: {first}{hint}", file=sys.stderr)
         sys.exit(1)
+
+
+#: the commands of the schedulers signac-flow drives
+SCHEDULER_COMMANDS = ("squeue", "sbatch", "scancel", "sinfo", "qstat", "qsub", "bjobs", "bsub")
+
+
+def _from_scheduler(exc: BaseException) -> bool:
+    """Whether ``exc`` (or what caused it) is a scheduler's failure: one of its commands
+    failed or is missing, or flow says submitting failed."""
+    import subprocess
+
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, subprocess.CalledProcessError):
+            cmd = exc.cmd[0] if isinstance(exc.cmd, (list, tuple)) else str(exc.cmd).split()[0]
+            if os.path.basename(str(cmd)) in SCHEDULER_COMMANDS:
+                return True
+        if isinstance(exc, FileNotFoundError) and os.path.basename(
+                str(exc.filename or "")) in SCHEDULER_COMMANDS:
+            return True
+        if type(exc).__name__ in ("SubmitError", "NoSchedulerError"):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _subclasses(cls) -> list:
+    out = []
+    for sub in cls.__subclasses__():
+        out += [sub, *_subclasses(sub)]
+    return out
 
 
 if __name__ == "__main__":

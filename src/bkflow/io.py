@@ -242,6 +242,22 @@ def file_record(path) -> dict:
     return {"bytes": n, "sha256": h.hexdigest()}
 
 
+def shell_word(path) -> str:
+    """``path`` as one word of a shell command a user may paste: quoted where the shell would
+    read anything in it (spaces, $(...), quotes, ;), and a relative path that starts with "-"
+    written "./-x", so that no command reads it as an option.
+
+    >>> shell_word("runs/a b"), shell_word("g $(touch X)"), shell_word("-x")
+    ("'runs/a b'", "'g $(touch X)'", './-x')
+    """
+    import shlex
+
+    text = str(path)
+    if text.startswith("-"):
+        text = "./" + text
+    return shlex.quote(text)
+
+
 def within(root, name) -> Path | None:
     """``root / name`` when it stays inside ``root`` (a directory bkflow was given, or made):
     ``name`` relative and made of plain names (not absolute, no '..'), and no component of

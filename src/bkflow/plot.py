@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .io import MARK, atomic_file, foreign_file
+from .io import MARK, atomic_file, foreign_file, shell_word
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import FIGURES_DIR, read_tables, varied_parameters
@@ -196,7 +196,8 @@ class SweepData:
         from .params import AnalysisSettings
         from .tables import SETTINGS_FILE
 
-        advice = (f"(an interrupted bkflow collect?): run bkflow collect {self.root} to bring "
+        advice = ("(an interrupted bkflow collect?): run bkflow collect "
+                  f"{shell_word(self.root)} to bring "
                   "them together, then plot")
         from .tables import settings_in
 

@@ -277,6 +277,13 @@ def workspace_problem(path) -> str | None:
                 point = json.loads(sp.read_text())
                 why = (None if calc_id(point) == job.name else
                        "holds a state point whose hash is not its name (edited, or renamed)")
+                if why is None:
+                    try:   # a consistent state point must still be a run bkflow can make
+                        RunSpec.from_dict(point)
+                    except SpecError as exc:
+                        why = f"holds a state point that is no run ({exc})"
+                    except (TypeError, ValueError, KeyError) as exc:
+                        why = f"holds a state point that is no run ({type(exc).__name__}: {exc})"
                 jd = job / "signac_job_document.json"
                 if why is None and jd.exists():
                     try:

@@ -69,7 +69,9 @@ EVENTS_PARQUET = "events.parquet"
 PSI = "psi.csv"
 CLUSTERS = "clusters.csv"
 LOCK = ".bkflow.lock"
-#: written when bkflow claims a directory for a run: it is bkflow's from then on
+#: written when bkflow begins a run in a directory (its version and the time): the run's files
+#: written after it are bkflow's to replace; one older than it, or a mark bkflow did not write,
+#: is not (RunDir.foreign; docs/running.md "What bkflow replaces")
 MARK = ".bkflow-run"
 #: files signac keeps in a sweep's job directory
 SIGNAC_FILES = ("signac_statepoint.json", "signac_job_document.json")
@@ -89,6 +91,9 @@ def listing(names) -> str:
 #: the files of a finished run that may change without damaging it: LAMMPS's log, which
 #: `lmp -in in.bk` in the finished directory rewrites (the rest it writes again bit for bit)
 MAY_CHANGE = (LOG,)
+#: a file of a run's names as much older than the run's mark as this is still the run's
+#: (file systems that keep times in whole or two seconds)
+MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
 RUN_FILES = (DECK, DATA, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
@@ -312,12 +317,50 @@ class RunDir:
         return self.file(FRONT_MAPS_PATTERN.format(slip))
 
     def mark(self) -> None:
-        """Claim the directory as bkflow's run (a partial run of ours can be redone)."""
+        """Claim the directory for a run bkflow begins now (docs/running.md, "What bkflow
+        replaces"): the mark records bkflow's version and the time; the run's files written
+        after it are the ones a later run may replace (a partial run of ours is redone)."""
+        import json
+        import time
+
+        from . import __version__
         from .io import inside
 
         fd = os.open(inside(self.path, MARK, "the run's mark"),
-                     os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW, 0o644)
-        os.close(fd)
+                     os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "w") as f:
+            json.dump({"bkflow": __version__, "began": time.time()}, f)
+
+    def _replaceable(self, names) -> list[str]:
+        """The names among ``names`` that a run (or its clear()) writes or removes."""
+        import fnmatch
+
+        patterns = (RESTART.format("*"), MOVIE_PATTERN.format("*"),
+                    FRONT_MAPS_PATTERN.format("*"))
+        return sorted(n for n in names if n in RUN_FILES + ANALYSIS_FILES + (CONTINUING,)
+                      or any(fnmatch.fnmatch(n, p) for p in patterns))
+
+    def _mark_problem(self, names) -> str | None:
+        """Why the mark does not make the run's files here bkflow's to replace: it is not a
+        record bkflow wrote, or a file of the run's names is older than it (it was there
+        before bkflow began a run here); None when it does."""
+        import json
+
+        mark = self.file(MARK)
+        try:
+            rec = json.loads(mark.read_text()) if not mark.is_symlink() else None
+        except (OSError, ValueError):
+            rec = None
+        if not (isinstance(rec, dict) and "bkflow" in rec):
+            return (f"holds a {MARK} mark that bkflow did not write (an empty or edited file), "
+                    f"beside {listing(self._replaceable(names)) or 'no run files'}")
+        began = mark.lstat().st_mtime
+        older = [n for n in self._replaceable(names)
+                 if self.file(n).lstat().st_mtime < began - MARK_SLACK_S]
+        if older:
+            return (f"holds {listing(older)}, older than its {MARK} mark: not files of the run "
+                    "bkflow began here, so not replaced")
+        return None
 
     def foreign(self) -> str | None:
         """What makes this directory not bkflow's to write a run into (None: it is empty,
@@ -328,8 +371,10 @@ class RunDir:
             names = {p.name for p in self.path.iterdir()}
         except FileNotFoundError:
             return None
-        if MARK in names or META in names:
+        if META in names:
             return None
+        if MARK in names:
+            return self._mark_problem(names)
         names = {n for n in names if n not in SIGNAC_FILES and not bookkeeping(n)}
         if not names:
             return None
@@ -588,7 +633,8 @@ class RunDir:
         recorded (DamagedRunError otherwise, naming the repair)."""
         why = self.table_problem()
         if why is not None:
-            raise DamagedRunError(f"{self.path}: {why}; bkflow analyze {self.path} (or bkflow "
+            raise DamagedRunError(f"{self.path}: {why}; bkflow analyze "
+                                  f"{io.shell_word(self.path)} (or bkflow "
                                   "collect, for a sweep) makes the analysis again")
         return self.file(name)
 

@@ -240,7 +240,8 @@ def check_tables(root) -> None:
     """Raise StaleTablesError naming the repair when the sweep's tables are not one set."""
     why = tables_problem(root)
     if why is not None:
-        raise StaleTablesError(f"{root}: {why}; bkflow collect {root} writes the sweep's "
+        raise StaleTablesError(f"{root}: {why}; bkflow collect {io.shell_word(root)} "
+                               "writes the sweep's "
                                "tables again")
 
 
