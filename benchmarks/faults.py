@@ -18,7 +18,13 @@ worker), [2] work before the limits, [3] a sweep into the user's files, [4] a de
 user's, [5] figures and movies written whole or not at all, [6] parameter domains, [7] the
 environment named, not blamed on the run, [8] one analysis per figure set, [9] lmp -in in a
 finished run, [10] options and counts, [11] a hand-edited workspace, [12] other tracebacks,
-[13] signals, [14] the documented commands.
+[13] signals, [14] the documented commands; and the third round's, [T1] nothing outside the
+directory touched, [T2] job scripts as Slurm reads them, [T3] a stale record marked current,
+[T4] a set changed in part, [T5] cut derived files, [T6] damage the command repairs, [T7] a
+foreign companion, [T8] the API's errors, [T9] --set through the options' checks, [T10] the
+advice, [T11] printed commands safe to paste, [T12] a planted mark.
+
+    python benchmarks/faults.py --only third_round     # one part (a method's name)
 """
 
 from __future__ import annotations
@@ -717,11 +723,235 @@ class Fuzz:
                                     "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
             self.check(f"[14] python -m bkflow.cluster {' '.join(args)}", p, {2})
 
+    # ------------------------------------------------------------------ the third round
+    def _victim(self) -> tuple[Path, str]:
+        """A file outside every directory a case gives bkflow, and its digest."""
+        v = self.scratch() / "victim.txt"
+        v.write_text("the user's file\n")
+        return v, hashlib.sha256(v.read_bytes()).hexdigest()
+
+    def _untouched(self, victim: Path, sha: str) -> None:
+        if not victim.exists() or hashlib.sha256(victim.read_bytes()).hexdigest() != sha:
+            self.results[-1].verdict = "touched a file outside the directory"
+
+    def _sweep_copy(self, full: bool = False) -> Path:
+        d = self.scratch() / "s"
+        shutil.copytree(self.sweep, d, symlinks=True)
+        return d
+
+    def third_round(self):
+        """Issue "Faults, third round": each class [T1]-[T12], several instances."""
+        # [T1] nothing outside the directory is deleted, replaced or written through
+        for how in ("absolute path", "../ path", "symlink in figures/"):
+            d = self._sweep_copy()
+            victim, sha = self._victim()
+            fig = d / "figures"
+            fig.mkdir(exist_ok=True)
+            if how == "symlink in figures/":
+                (fig / "link.png").symlink_to(victim)
+                names = ["link.png"]
+            else:
+                names = [str(victim) if how == "absolute path"
+                         else os.path.relpath(victim, fig)]
+            (fig / "figures.json").write_text(json.dumps({"tables_sha256": "0",
+                                                          "files": names}))
+            self.check(f"[T1] collect with figures.json naming the user's file ({how})",
+                       bk("collect", d), {0, 2})
+            self._untouched(victim, sha)
+        for planted in ("figures -> outside", "workspace -> outside", "a job -> outside"):
+            d = self._sweep_copy()
+            outside = self.scratch() / "outside"
+            outside.mkdir()
+            victim = outside / "keep.txt"
+            victim.write_text("mine\n")
+            sha = hashlib.sha256(victim.read_bytes()).hexdigest()
+            if planted.startswith("figures"):
+                shutil.rmtree(d / "figures", ignore_errors=True)
+                (d / "figures").symlink_to(outside)
+                cmd = ["plot", d]
+            elif planted.startswith("workspace"):
+                shutil.copytree(d / "workspace", outside / "ws")
+                shutil.rmtree(d / "workspace")
+                (d / "workspace").symlink_to(outside / "ws")
+                cmd = ["collect", d]
+            else:
+                job = sorted((d / "workspace").iterdir())[0]
+                shutil.move(str(job), str(outside / job.name))
+                job.symlink_to(outside / job.name)
+                cmd = ["collect", d]
+            before = digest(outside)
+            self.check(f"[T1] {cmd[0]} of a sweep whose {planted}", bk(*cmd), {0, 2})
+            if digest(outside) != before:
+                self.results[-1].verdict = "changed a file outside the directory"
+            self._untouched(victim, sha)
+        d = self.scratch() / "run"
+        shutil.copytree(self.base, d)
+        victim, sha = self._victim()
+        (d / "stress.csv").unlink()
+        (d / "stress.csv").symlink_to(victim)
+        self.check("[T1] run --overwrite of a run whose stress.csv links out",
+                   bk("run", "--phi", "10", "--t-end", "200", "--overwrite", "--quiet",
+                      "--out", d), {0, 2})
+        self._untouched(victim, sha)
+        # [T2] the job script as Slurm reads it: one option per #SBATCH line
+        d = self.scratch() / "g"
+        bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene", "friction",
+           "--out", d, "--init")
+        fake = self.scratch()   # a scheduler with an empty queue: what submit asks first
+        (fake / "squeue").write_text("#!/bin/sh\nexit 0\n")
+        (fake / "squeue").chmod(0o755)
+        env = {**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment",
+               "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}"}
+        for extra in ([], ["--bundle", "2", "--parallel"]):
+            p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--pretend",
+                                *extra], cwd=d, capture_output=True, text=True, timeout=120,
+                               env=env)
+            # sbatch reads a directive up to a second "#": an option after it is lost
+            lines = [ln for ln in p.stdout.splitlines() if ln.startswith("#SBATCH")]
+            bad = [ln for ln in lines if "#" in ln[len("#SBATCH"):]
+                   or len(ln[len("#SBATCH"):].split()) > 2]
+            options = {ln[len("#SBATCH"):].split()[0].split("=")[0] for ln in lines}
+            self.check(f"[T2] submit --pretend {' '.join(extra)}: one option per #SBATCH",
+                       subprocess.CompletedProcess(p.args, p.returncode, p.stdout, ""), {0})
+            if bad or not {"--nodes", "--cpus-per-task"} <= options:
+                self.results[-1].verdict = f"directives lost: {bad[:1] or sorted(options)}"
+        # [T3] a plot under way and a collect that changes the tables exclude each other
+        d = self._sweep_copy()
+        plot = subprocess.Popen([BKFLOW, "plot", str(d)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        time.sleep(1.0)
+        coll = bk("collect", d, "--analysis", "slip_threshold=0.02")
+        plot.communicate(timeout=600)
+        self.check("[T3] collect --analysis while a plot draws", coll, {0, 3})
+        rec = d / "figures" / "figures.json"
+        if rec.exists():
+            r = json.loads(rec.read_text())
+            from bkflow.tables import tables_digest
+
+            if r.get("complete") and r.get("tables_sha256") == tables_digest(d) and not all(
+                    (d / "figures" / f).is_file() for f in r.get("files", [])):
+                self.results[-1].verdict = "figures.json current, its files missing"
+        # [T4]-[T6] a set changed in part, cut derived files, damage the command repairs
+        d = self._sweep_copy()
+        (d / "runs.csv").write_text((d / "runs.csv").read_text().rsplit("\n", 2)[0] + "\n")
+        self.check("[T4] plot of a sweep whose runs.csv is from another collect",
+                   bk("plot", d), {2})
+        self.check("[T4] the collect it names repairs it", bk("collect", d), {0})
+        for damage in ("clusters.csv cut", "events.parquet cut, events.csv empty",
+                       "summary.json of another analysis"):
+            d = self._sweep_copy()
+            job = sorted((d / "workspace").iterdir())[0]
+            if damage.startswith("clusters"):
+                f = job / "clusters.csv"
+                if not f.exists():
+                    f.write_text("event,t\n1,")
+                else:
+                    f.write_text(f.read_text()[: len(f.read_text()) // 2])
+            elif damage.startswith("events"):
+                data = (job / "events.parquet").read_bytes()
+                (job / "events.parquet").write_bytes(data[: len(data) // 2])
+                (job / "events.csv").write_text("")
+            else:
+                s = json.loads((job / "summary.json").read_text())
+                s["mu_bar"] = 0.5
+                (job / "summary.json").write_text(json.dumps(s))
+            self.check(f"[T5/T6] collect of a sweep with a job's {damage}", bk("collect", d),
+                       {0})
+        # [T7] a companion that is not the run's
+        pair = self.scratch()
+        bk("run", "--phi", "10", "--size", "12x3", "--t-end", "600", "--scene", "friction",
+           "--quiet", "--out", pair / "run")
+        bk("run", "--phi", "10", "--size", "12x3", "--t-end", "600", "--scene", "friction",
+           "--protocol", "paper", "--start", "random", "--quiet", "--out", pair / "other")
+        for stand_in in ("a run from the main run's start", "the main run itself",
+                         "a symbolic link to another run"):
+            d = self.scratch() / "run"
+            shutil.copytree(pair / "run", d)
+            shutil.rmtree(d / "companion")
+            if stand_in.startswith("a symbolic"):
+                (d / "companion").symlink_to(pair / "other")
+            else:
+                src = pair / "other" if stand_in.startswith("a run") else pair / "run"
+                shutil.copytree(src, d / "companion", ignore=shutil.ignore_patterns("companion"))
+            self.check(f"[T7] analyze with companion/ replaced by {stand_in}",
+                       bk("analyze", d), {2})
+        # [T8] the API's errors are the CLI's
+        d = self._sweep_copy()
+        cat = d / "catalogue.parquet"
+        if cat.exists():
+            cat.write_bytes(cat.read_bytes()[:100])
+        code = ("import sys\nfrom bkflow.api import load_sweep\ntry:\n"
+                f"    load_sweep({str(d)!r}).events\nexcept Exception as e:\n"
+                "    print(type(e).__name__, file=sys.stderr); sys.exit(2)")
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        self.check("[T8] load_sweep().events of a cut catalogue.parquet", p, {2})
+        if p.stderr.strip() not in ("StaleTablesError", "DamagedRunError"):
+            self.results[-1].verdict = f"raised {p.stderr.strip()[:60]}"
+        # [T9] --set goes through the option's checks
+        for args in (["--set", "companion=partial"], ["--set", "until_steady=true"],
+                     ["--set", "target_error=1e-3"], ["--set", "dt_factor=5"]):
+            out = self.scratch() / "deck"
+            self.check(f"[T9] deck {' '.join(args)}", bk("deck", "--phi", "10", *args,
+                                                         "--out", out), {2})
+        # [T10] the advice names what was changed
+        d = self.scratch() / "deck"
+        bk("deck", "--phi", "10", "--t-end", "50", "--out", d)
+        text = (d / "in.bk").read_text()
+        import re
+
+        (d / "in.bk").write_text(re.sub(r"(?m)^run( +)\d+", r"run\g<1>100", text))
+        (d / "stress.csv").write_text("t,sigma_x\n")
+        p = bk("analyze", d)
+        self.check("[T10] analyze after in.bk was edited", p, {2})
+        if "in.bk was edited" not in p.stderr:
+            self.results[-1].verdict = "advice not about in.bk"
+        d = self._sweep_copy()
+        from signac.job import calc_id
+
+        job = sorted((d / "workspace").iterdir())[0]
+        point = json.loads((job / "signac_statepoint.json").read_text())
+        point["phi"] = -1.0
+        (job / "signac_statepoint.json").write_text(json.dumps(point))
+        job.rename(job.with_name(calc_id(point)))
+        for env in ("StandardEnvironment", "NoSuchEnvironment"):
+            p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=d,
+                               capture_output=True, text=True, timeout=120,
+                               env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": env})
+            self.check(f"[T10] cluster status of a rehashed state point phi = -1 ({env})", p,
+                       {2})
+            if "no working scheduler" in p.stderr:
+                self.results[-1].verdict = "blamed the scheduler"
+        # [T11] printed commands safe to paste
+        for name in ("g $(touch PWNED)", "-x", "a'b; touch PWNED"):
+            d = self.scratch()
+            p = subprocess.run([BKFLOW, "sweep", "--phi", "10", "--seeds", "1",
+                                f"--out={name}", "--init"], cwd=d, capture_output=True,
+                               text=True, timeout=120)
+            self.check(f"[T11] sweep --init into {name!r}: the printed cd, pasted", p, {0})
+            if "(cd " in p.stdout:
+                cd = p.stdout.split("(cd ", 1)[1].split(" && ", 1)[0]
+                sh = subprocess.run(["bash", "-c", f"cd {cd} && pwd -P"], cwd=d,
+                                    capture_output=True, text=True)
+                if sh.stdout.strip() != str((d / name).resolve()) or list(d.rglob("PWNED")):
+                    self.results[-1].verdict = f"pasted, it did something else: {cd}"
+        # [T12] a planted mark replaces nothing
+        for mark in ("", '{"bkflow": "0", "began": 0}'):
+            d = self.scratch() / "mine"
+            d.mkdir()
+            (d / "stress.csv").write_text("my measurements\n")
+            os.utime(d / "stress.csv", (time.time() - 3600,) * 2)
+            (d / ".bkflow-run").write_text(mark)
+            kind = "empty" if not mark else "older stress.csv"
+            self.check(f"[T12] run into a directory with a planted mark ({kind})",
+                       bk("run", "--phi", "10", *SHORT, "--out", d), {2})
+            if (d / "stress.csv").read_text() != "my measurements\n":
+                self.results[-1].verdict = "replaced the user's stress.csv"
+
     def run_all(self):
         for part in (self.arguments, self.paths, self.directories, self.damaged, self.writers,
                      self.disk_full, self.interrupts, self.pipes, self.hangs, self.users_files,
                      self.misread, self.options, self.workspace, self.tracebacks, self.signals,
-                     self.docs, self.cluster):
+                     self.docs, self.cluster, self.third_round):
             part()
         return self.results
 
@@ -745,11 +975,13 @@ def _whole_figure(path: Path) -> bool:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--keep", default=None, help="scratch directory to keep (default: a temp)")
+    ap.add_argument("--only", default=None, help="run only this part (e.g. third_round)")
     a = ap.parse_args(argv)
     root = Path(a.keep or tempfile.mkdtemp(prefix="bkflow-faults-"))
     root.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
-    results = Fuzz(root).run_all()
+    fuzz = Fuzz(root)
+    results = fuzz.run_all() if a.only is None else (getattr(fuzz, a.only)(), fuzz.results)[1]
     print("| # | case | exit | last line of stderr (or first of stdout) | verdict |")
     print("|---|---|---|---|---|")
     for k, r in enumerate(results, 1):

@@ -581,15 +581,15 @@ def _deck(a) -> int:
     from .rundir import RunDir
 
     spec = _spec(a, deck=True)
+    if spec.adaptive:
+        raise SpecError("an adaptive run (--until-steady, --target-error) needs the engine, "
+                        "which checks between chunks (bkflow run); a deck runs exactly "
+                        "--t-end")
     if spec.companion is not None:
         raise SpecError(f"companion {spec.companion} (--companion or --set): a deck is one run, "
                         "and a companion is a second run beside it, which bkflow run runs; "
                         f"write the companion's own deck with --start {spec.companion} --out "
                         "ANOTHER_DIR")
-    if spec.adaptive:
-        raise SpecError("an adaptive run (--until-steady, --target-error) needs the engine, "
-                        "which checks between chunks (bkflow run); a deck runs exactly "
-                        "--t-end")
     d = RunDir(a.out)
     if d.meta() is not None or d.file(rd.STRESS).exists():
         raise SpecError(f"{a.out} holds a run ({rd.META if d.meta() is not None else rd.STRESS}"
