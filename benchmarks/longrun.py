@@ -63,7 +63,10 @@ class LongRun:
         self.spec = spec.replace(scene="friction", companion=None, target_error=None,
                                  until_steady=False)
         self.record = Path(record)
-        self.work = Path(work or WORK) / self.record.stem
+        # one scratch directory per record: two benchmarks may record runs of the same name
+        # (benchmarks/records/<benchmark>/<case>), and must never share one
+        self.work = Path(work or WORK) / self.record.parent.name / self.record.stem
+        self.legacy = Path(work or WORK) / self.record.stem
         dt = self.spec.dt
         ns = self.spec.stress_nevery
         self.block_steps = max(1, round(block_t / dt / ns)) * ns
@@ -71,6 +74,19 @@ class LongRun:
         self.state_file = self.work / "state.json"
 
     # ------------------------------------------------------------------ state on disk
+    def _adopt(self, legacy: Path) -> None:
+        """Take over the scratch directory of the layout before (one per record name) when
+        its state is this record's (its spec, and as many blocks as the record holds)."""
+        try:
+            st = json.loads((legacy / "state.json").read_text())
+            same = (self.record.exists() and st.get("spec") == self.spec.to_dict()
+                    and len(pd.read_parquet(self.record)) == st["blocks"])
+        except (OSError, ValueError):
+            same = False
+        if same:
+            self.work.parent.mkdir(parents=True, exist_ok=True)
+            shutil.move(str(legacy), str(self.work))
+
     def _state(self) -> dict:
         if self.record.exists() and self.state_file.exists():
             st = json.loads(self.state_file.read_text())
@@ -80,7 +96,12 @@ class LongRun:
             if len(rec) > st["blocks"]:  # the record was written, the state was not
                 pd.DataFrame(rec.iloc[:st["blocks"]]).to_parquet(self.record, index=False)
                 return st
-        # nothing consistent: start again
+        if self.record.exists() and len(pd.read_parquet(self.record)):
+            # a record whose run state is gone cannot be extended, and is never thrown away
+            raise SystemExit(f"{self.record}: its run's state ({self.work}) is gone or is "
+                             "another run's, so it cannot go on; it is kept as it is (move it "
+                             "away to run the case again from the start)")
+        # nothing recorded yet: start
         if self.work.exists():
             shutil.rmtree(self.work)
         self.record.unlink(missing_ok=True)
@@ -96,13 +117,19 @@ class LongRun:
     def advance_to(self, t_end: float, log=print) -> pd.DataFrame:
         """Run until the record holds every block up to ``t_end``; the record."""
         spec = self.spec
+        target_blocks = int(math.ceil(t_end / (self.block_steps * spec.dt) - 1e-9))
+        if self.record.exists() and not self.state_file.exists():
+            rec = pd.read_parquet(self.record)
+            if len(rec) >= target_blocks:   # as long as asked: nothing to run, nothing to check
+                return rec
+        if not self.work.exists() and (self.legacy / "state.json").exists():
+            self._adopt(self.legacy)
         st = self._state()
         self.work.mkdir(parents=True, exist_ok=True)
         self.record.parent.mkdir(parents=True, exist_ok=True)
         was, now = st.get("spec", spec.to_dict()), spec.to_dict()
         if any(was[k] != now[k] for k in set(was) & set(now)):  # fields added since: ignored
             raise SystemExit(f"{self.record}: recorded with other parameters")
-        target_blocks = int(math.ceil(t_end / (self.block_steps * spec.dt) - 1e-9))
         while st["blocks"] < target_blocks:
             nb = min(self.chunk_blocks, target_blocks - st["blocks"])
             t0 = time.perf_counter()

@@ -72,14 +72,29 @@ def _run(cmd: str, cwd: Path) -> tuple[str, float]:
     return p.stdout, wall
 
 
-def measure_sweep() -> dict:
+def measure_sweep(command: str = SWEEP) -> dict:
     with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
-        out, wall = _run(SWEEP, Path(d))
+        out, wall = _run(command, Path(d))
         size = disk_bytes(Path(d) / "runs" / "sweep")
     runs = int(re.search(r"= (\d+) runs into", out).group(1))
     jobs = int(re.search(r", (\d+) at a time", out).group(1))
-    return {"command": SWEEP, "wall_s": wall, "bytes": size, "runs": runs, "jobs": jobs,
+    return {"command": command, "wall_s": wall, "bytes": size, "runs": runs, "jobs": jobs,
             "cores": os.cpu_count(), "output": out.rstrip("\n")}
+
+
+#: the steady protocol at the paper's larger sizes (REPRODUCTION): the main command's grid
+SIZES = (400, 900)
+
+
+def measure_sizes() -> dict:
+    """The main command's grid under the steady protocol at N = SIZES: {N: measure_sweep}."""
+    return {str(n): measure_sweep(f"{SWEEP} --sizes {n}") for n in SIZES}
+
+
+def _commit() -> str:
+    p = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                       text=True)
+    return p.stdout.strip() or "unknown"
 
 
 #: the event catalogue's columns the README shows, with their headers
@@ -151,7 +166,9 @@ def blocks(record: dict) -> dict[str, str]:
     if s:
         out["sweep-cost"] = (
             f"The sweep runs 13 phi from 0.1 to 1000 x 3 seeds on the paper's 20x5 lattice, each "
-            f"run beside\na companion from another start until both are steady and agree: "
+            f"run beside\na companion from another start until both are steady and agree, or, "
+            "where a stiff layer\nswitches between states, until the mean of the states it "
+            f"visited is within the target: "
             f"{s['runs']} pairs of runs in\n{duration(s['wall_s'])} on a {s['cores']}-core "
             f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
             "(`benchmarks/readme_numbers.py` measured it; `--scene friction` writes only the "
@@ -202,18 +219,24 @@ def main(argv=None) -> int:
     p.add_argument("--sweep", action="store_true")
     p.add_argument("--run", action="store_true")
     p.add_argument("--tests", action="store_true")
+    p.add_argument("--sizes", action="store_true",
+                   help=f"the main command at N = {', '.join(map(str, SIZES))} (REPRODUCTION)")
     p.add_argument("--write-readme", action="store_true")
     a = p.parse_args(argv)
     record = load()
     machine = {"machine": platform.machine(), "python": platform.python_version(),
                "date": time.strftime("%Y-%m-%d")}
     for flag, key, fn in ((a.run, "run", measure_run), (a.sweep, "sweep", measure_sweep),
-                          (a.tests, "tests", measure_tests)):
+                          (a.tests, "tests", measure_tests), (a.sizes, "sizes", measure_sizes)):
         if flag:
             print(f"measuring {key} ...", flush=True)
-            record[key] = {**fn(), **machine}
+            record[key] = {**fn(), **machine, "commit": _commit()}
+            if key == "sweep":   # every measurement of the main command, for RESULTS
+                s = record[key]
+                record.setdefault("sweep_history", []).append(
+                    {k: s[k] for k in ("date", "commit", "wall_s", "bytes", "runs", "jobs")})
             RECORD.write_text(json.dumps(record, indent=1) + "\n")
-            print(f"  {key}: {duration(record[key]['wall_s'])}", flush=True)
+            print(f"  {key}: done", flush=True)
     text = README.read_text()
     new = render(text, record, _synopses())
     if a.write_readme:

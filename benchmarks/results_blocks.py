@@ -57,7 +57,8 @@ def states_occupancy() -> str:
            "coherent | <sigma_x>/sigma_n quiet / coherent | mu_bar quiet / coherent |",
            "|---|---|---|---|---|---|---|---|---|"]
     for _, r in occ.iterrows():
-        out.append(f"| {int(r.N)} | {r.phi:g} | {int(r.runs)} | {r['T'] / 1e6:.1f} | {r.quiet:.3f} | "
+        out.append(f"| {int(r.N)} | {r.phi:g} | {int(r.runs)} | {r['T'] / 1e6:.1f} | "
+                   f"{r.quiet:.3f} | "
                    f"{_g(r.residence_quiet, '.3g')} | {_g(r.residence_coherent, '.3g')} | "
                    f"{_g(r.stress_quiet)} / {_g(r.stress_coherent)} | "
                    f"{_g(r.mu_bar_quiet)} / {_g(r.mu_bar_coherent)} |")
@@ -105,10 +106,50 @@ def states_verdict() -> str:
 def states_ergodicity() -> str:
     sr, runs, _ = _states()
     e = sr.ergodicity(runs)
-    out = ["| N | phi | t | d(t/4) | d(t) | d(t) / d(t/4) |", "|---|---|---|---|---|---|"]
+    out = ["| N | phi | t | d(t/4) | d(t) | d(t) / d(t/4) (ergodic: 0.25) | the starts' time "
+           "averages at t: relative spread |", "|---|---|---|---|---|---|---|"]
     for _, r in e.iterrows():
         out.append(f"| {int(r.N)} | {r.phi:g} | {r.t:.3g} | {r.d_quarter:.2e} | {r.d_end:.2e} | "
-                   f"{r.ratio:.2f} |")
+                   f"{r.ratio:.2f} | {100 * r.spread:.3f}% |")
+    return "\n".join(out) + "\n"
+
+
+def _needed(obs: str, phi: float, n: int, rel: float) -> float:
+    """The window length (time units) whose calibrated relative error of ``obs`` is ``rel``
+    (bkflow.states.window_variance, falling as 1/W beyond the longest window measured)."""
+    from bkflow.states import window_variance
+
+    lo, hi = math.log(1e2), math.log(1e13)
+    if window_variance(obs, phi, n, 1e2) <= rel ** 2:
+        return 1e2
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if window_variance(obs, phi, n, math.exp(mid)) > rel ** 2 \
+            else (lo, mid)
+    return math.exp(hi)
+
+
+def _length(obs: str, phi: float, n: int, rel: float, shortest: float) -> str:
+    t = _needed(obs, phi, n, rel)
+    return f"<= {shortest:.0e}" if t <= shortest else f"{t:.2g}"
+
+
+def states_needed() -> str:
+    """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
+    long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
+    0.2% on <sigma_x>/sigma_n and on mu_bar."""
+    from bkflow.states import calibration, window_variance
+
+    out = ["| N | phi | error of <sigma_x>/sigma_n at T = 1e4 / 1e5 / 1e6 | of mu_bar | T for "
+           "1% / 0.2% on <sigma_x>/sigma_n | on mu_bar |", "|---|---|---|---|---|---|"]
+    for n, size in calibration().get("sizes", {}).items():
+        for phi in size["phi"]:
+            errs = {o: " / ".join(f"{100 * math.sqrt(window_variance(o, phi, int(n), T)):.2g}%"
+                                  for T in (1e4, 1e5, 1e6)) for o in ("stress", "mu_bar")}
+            need = {o: " / ".join(_length(o, phi, int(n), r, size["windows"][0])
+                                  for r in (0.01, 0.002)) for o in ("stress", "mu_bar")}
+            out.append(f"| {n} | {phi:g} | {errs['stress']} | {errs['mu_bar']} | "
+                       f"{need['stress']} | {need['mu_bar']} |")
     return "\n".join(out) + "\n"
 
 
@@ -185,11 +226,72 @@ def timestep_cost() -> str:
     return "\n".join(out) + "\n"
 
 
+# ------------------------------------------------------------------------- the main command
+def _readme_record() -> dict:
+    import json
+
+    return json.loads((HERE / "readme_numbers.json").read_text())
+
+
+def main_command() -> str:
+    """Every measurement of the main command (benchmarks/readme_numbers.py --sweep)."""
+    from readme_numbers import duration, human
+
+    out = ["| date | commit | `bkflow sweep --phi 1e-1:1e3` | on disk | runs (pairs) | at a time |",
+           "|---|---|---|---|---|---|"]
+    for h in _readme_record().get("sweep_history", []):
+        out.append(f"| {h['date']} | {h['commit']} | {duration(h['wall_s'])} | "
+                   f"{human(h['bytes'])} | {h['runs']} | {h['jobs']} |")
+    return "\n".join(out) + "\n"
+
+
+def steady_sizes() -> str:
+    """The main command's grid under the steady protocol at N = 400 and 900
+    (benchmarks/readme_numbers.py --sizes): time, bytes and what its runs were."""
+    from readme_numbers import duration, human
+
+    rec = _readme_record().get("sizes")
+    if not rec:
+        return "(not measured yet: python benchmarks/readme_numbers.py --sizes)\n"
+    out = ["| N | command | time | on disk | runs | their states |", "|---|---|---|---|---|---|"]
+    for n, m in rec.items():
+        if not isinstance(m, dict) or "wall_s" not in m:
+            continue
+        states = next((ln for ln in m["output"].splitlines() if " runs are steady" in ln), "")
+        out.append(f"| {n} | `{m['command']}` | {duration(m['wall_s'])} | "
+                   f"{human(m['bytes'])} | {m['runs']} | {states.split(';')[0]} |")
+    return "\n".join(out) + "\n"
+
+
+def fixed_cost() -> str:
+    """The fixed cost of a run, piece by piece (benchmarks/fixed_cost.py)."""
+    import json
+
+    f = HERE / "records" / "fixed_cost.json"
+    if not f.exists():
+        return "(not measured yet: python benchmarks/fixed_cost.py)\n"
+    rec = json.loads(f.read_text())
+    m = rec["median_s"]
+    out = ["| piece | whole process (median of "
+           f"{rec['rounds']}, {rec['date']}) |", "|---|---|"]
+    for name, t in m.items():
+        out.append(f"| {name} | {t:.2f} s |")
+    out.append(f"| the 8000-unit run's own simulation | {rec['simulation_8000_s']:.2f} s |")
+    out.append("")
+    out.append(f"A run's fixed cost (run 10 without its analysis, less the interpreter) is "
+               f"{m['run 10'] - m['python']:.2f} s; the analysis of an 8000-unit run takes "
+               f"{m['analyze 8000']:.2f} s, {m['analyze 8000'] / rec['simulation_8000_s']:.2f}x "
+               "its simulation's time.")
+    return "\n".join(out) + "\n"
+
+
 BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
-          "states-ergodicity": states_ergodicity, "states-paper": states_paper,
+          "states-ergodicity": states_ergodicity, "states-needed": states_needed,
+          "states-paper": states_paper,
           "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
-          "timestep-cost": timestep_cost}
+          "timestep-cost": timestep_cost, "main-command": main_command,
+          "steady-sizes": steady_sizes, "fixed-cost": fixed_cost}
 
 
 def render(text: str) -> str:

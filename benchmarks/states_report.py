@@ -32,7 +32,7 @@ from bkflow.states import BLOCK_T, CALIBRATION, r_independent
 
 #: the share of each run left out as the start's transient
 TRANSIENT = 0.2
-WINDOWS = (2e3, 5e3, 1e4, 2e4, 5e4, 1e5, 2e5, 5e5)
+WINDOWS = (2e3, 5e3, 1e4, 2e4, 5e4, 1e5, 2e5, 5e5, 1e6, 2e6)
 NAME = re.compile(r"N(\d+)_phi([\d.]+)_(\w+?)_s(\d+)_C([\d.]+)\.parquet$")
 
 
@@ -273,12 +273,13 @@ def ergodicity(runs: pd.DataFrame) -> pd.DataFrame:
         avg = np.array([np.cumsum(b.s.to_numpy()[:k]) / np.arange(1, k + 1) for b in g.blocks])
         d = avg.var(axis=0, ddof=1)
         rows.append({"N": n, "phi": phi, "seed": seed, "t": k * BLOCK_T,
-                     "d_quarter": d[k // 4 - 1], "d_end": d[-1]})
+                     "d_quarter": d[k // 4 - 1], "d_end": d[-1],
+                     "spread": math.sqrt(d[-1]) / float(avg[:, -1].mean())})
     df = pd.DataFrame(rows)
     if df.empty:
         return df
     g = df.groupby(["N", "phi"])
-    out = g[["t", "d_quarter", "d_end"]].mean().reset_index()
+    out = g[["t", "d_quarter", "d_end", "spread"]].mean().reset_index()
     out["ratio"] = (g.apply(lambda x: (x.d_end / x.d_quarter).mean(),
                             include_groups=False)).to_numpy()
     return out

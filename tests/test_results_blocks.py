@@ -1,0 +1,67 @@
+"""One source for every number: the generated blocks of benchmarks/RESULTS.md and
+workflows/paper/REPRODUCTION.md are what benchmarks/results_blocks.py makes from the recorded
+benchmarks (benchmarks/records/), and the switching calibration bkflow installs
+(src/bkflow/switching.json) is what benchmarks/stiff_states.py report makes from the same
+records. A document or a calibration edited by hand, or records changed without the documents
+regenerated, fail here."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "benchmarks"
+
+
+@pytest.fixture(scope="module")
+def blocks():
+    sys.path.insert(0, str(BENCH))
+    try:
+        import results_blocks
+    finally:
+        sys.path.remove(str(BENCH))
+    return results_blocks
+
+
+def test_every_generated_block_is_its_records(blocks):
+    for doc in blocks.DOCUMENTS:
+        text = doc.read_text()
+        names = {m[1] for m in blocks.BLOCK.findall(text)}
+        assert names, f"{doc} has no generated block"
+        assert not names - set(blocks.BLOCKS), f"{doc}: blocks no generator makes"
+        assert blocks.render(text) == text, (
+            f"{doc}: a generated block differs from its records; run python "
+            "benchmarks/results_blocks.py --write")
+
+
+def test_a_block_edited_by_hand_is_caught(blocks):
+    doc = blocks.DOCUMENTS[0].read_text()
+    m = blocks.BLOCK.search(doc)
+    edited = doc[:m.start(3)] + m.group(3).replace("|", "| 9", 1) + doc[m.end(3):]
+    assert blocks.render(edited) != edited
+
+
+def _close(a, b) -> bool:
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(
+            _close(a[k], b[k]) for k in a)
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(map(_close, a, b))
+    if isinstance(a, float) or isinstance(b, float):
+        return bool(np.isclose(a, b, rtol=1e-9, atol=0))
+    return a == b
+
+
+def test_the_installed_switching_calibration_is_the_records(blocks):
+    from bkflow.states import CALIBRATION
+
+    sr, runs, means = blocks._states()
+    made = json.loads(sr.calibration_text(runs, means))
+    installed = json.loads(CALIBRATION.read_text())
+    assert _close(made, installed), ("src/bkflow/switching.json differs from the records: run "
+                                     "python benchmarks/stiff_states.py report")
