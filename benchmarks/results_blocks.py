@@ -153,6 +153,44 @@ def states_needed() -> str:
     return "\n".join(out) + "\n"
 
 
+def states_curve() -> str:
+    """The long-run curve: per (N, phi) the mean over the seeds of each layer's long-run
+    <sigma_x>/sigma_n and mu_bar with their standard error over the seeds (the disorder's
+    spread and each layer's own uncertainty together), and per N whether it is monotonic: a
+    rise from one phi to the next of more than twice their combined error."""
+    sr, runs, means = _states()
+    df = pd_frame(means)
+    out = ["| N | phi | seeds | <sigma_x>/sigma_n | mu_bar |", "|---|---|---|---|---|"]
+    verdicts = []
+    for n, g in df.groupby("N"):
+        rows = []
+        for phi, h in g.groupby("phi"):
+            k = len(h)
+            r = {"phi": phi, "k": k}
+            for obs in ("stress", "mu_bar"):
+                r[obs] = float(h[obs].mean())
+                r[obs + "_se"] = float(h[obs].std(ddof=1) / math.sqrt(k)) if k > 1 else math.nan
+            rows.append(r)
+            out.append(f"| {int(n)} | {phi:g} | {k} | {r['stress']:.4f} +- "
+                       f"{_g(r['stress_se'], '.4f')} | {r['mu_bar']:.4f} +- "
+                       f"{_g(r['mu_bar_se'], '.4f')} |")
+        for obs, name in (("stress", "<sigma_x>/sigma_n"), ("mu_bar", "mu_bar")):
+            rises = [f"{a['phi']:g} -> {b['phi']:g} ({b[obs] - a[obs]:+.4f} +- "
+                     f"{math.hypot(a[obs + '_se'], b[obs + '_se']):.4f})"
+                     for a, b in zip(rows, rows[1:])
+                     if b[obs] - a[obs] > 2 * math.hypot(a[obs + "_se"], b[obs + "_se"])]
+            verdicts.append(f"- N = {int(n)}, {name}: " + (
+                "falls or stays level from each phi to the next within 2 errors"
+                if not rises else "rises beyond 2 errors at " + ", ".join(rises)))
+    return "\n".join(out) + "\n\n" + "\n".join(verdicts) + "\n"
+
+
+def pd_frame(means: dict):
+    import pandas as pd
+
+    return pd.DataFrame([{"N": k[0], "phi": k[1], "seed": k[2], **v} for k, v in means.items()])
+
+
 def states_paper() -> str:
     sr, runs, means = _states()
     p = sr.paper_points(runs, means)
@@ -288,7 +326,7 @@ def fixed_cost() -> str:
 BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
-          "states-paper": states_paper,
+          "states-paper": states_paper, "states-curve": states_curve,
           "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
           "timestep-cost": timestep_cost, "main-command": main_command,
           "steady-sizes": steady_sizes, "fixed-cost": fixed_cost}
