@@ -30,6 +30,11 @@ def _pct(v, digits=2) -> str:
     return "n/a" if v is None or not math.isfinite(v) else f"{100 * v:+.{digits}f}%"
 
 
+def _se(v, digits=2) -> str:
+    """A standard error as a percentage without its sign (n/a where there is none)."""
+    return "n/a" if v is None or not math.isfinite(v) else f"{100 * v:.{digits}f}%"
+
+
 def _g(v, fmt=".4f") -> str:
     return "n/a" if v is None or not math.isfinite(v) else format(v, fmt)
 
@@ -224,8 +229,8 @@ def timestep_bias() -> str:
                        "(reference) | (reference) | " f"{r.steps_per_t:.0f} |")
             continue
         out.append(f"| {int(r.N)} | {r.phi:g} | {r.C:g} | {r.wc_dt:.3f} | {int(r.seeds)} | "
-                   f"{_pct(r.stress_bias)} +- {_pct(r.stress_se)[1:]} | "
-                   f"{_pct(r.mu_bar_bias)} +- {_pct(r.mu_bar_se)[1:]} | {r.steps_per_t:.0f} |")
+                   f"{_pct(r.stress_bias)} +- {_se(r.stress_se)} | "
+                   f"{_pct(r.mu_bar_bias)} +- {_se(r.mu_bar_se)} | {r.steps_per_t:.0f} |")
     return "\n".join(out) + "\n"
 
 
@@ -241,8 +246,8 @@ def timestep_presets() -> str:
         how = "" if r.measured else " (interpolated)"
         out.append(f"| {r.preset} ({100 * r.target:g}%) | {int(r.N)} | {r.phi:g} | {r.rule} | "
                    f"{r.C:.3g} | {r.wc_dt:.3f} | {r.steps_per_t:.0f} | "
-                   f"{_pct(r.stress_bias)} +- {_pct(r.stress_se)[1:]} | "
-                   f"{_pct(r.mu_bar_bias)} +- {_pct(r.mu_bar_se)[1:]} | {r.verdict}{how} |")
+                   f"{_pct(r.stress_bias)} +- {_se(r.stress_se)} | "
+                   f"{_pct(r.mu_bar_bias)} +- {_se(r.mu_bar_se)} | {r.verdict}{how} |")
     return "\n".join(out) + "\n"
 
 
@@ -251,7 +256,7 @@ def timestep_cost() -> str:
     (steps per time unit, after / before), and the worst verdict."""
     tr, runs, table = _timestep()
     pr = tr.presets(table)
-    rank = {"meets": 0, "within noise": 1, "fails": 2}
+    rank = {"meets": 0, "within noise": 1, "unresolved": 1, "fails": 2}
     out = ["| preset (target) | N | phi | steps per time unit before -> after | "
            "worst verdict before | worst verdict after |", "|---|---|---|---|---|---|"]
     for (name, n), g in pr.groupby(["preset", "N"], sort=False):

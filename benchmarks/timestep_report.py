@@ -86,15 +86,18 @@ def at_step(table: pd.DataFrame, n: int, phi: float, dt: float, obs: str) -> tup
     if dt > g.dt.iloc[-1]:
         return math.nan, math.nan, False
     b = float(np.interp(dt, g.dt, g[f"{obs}_bias"]))
-    se = float(np.interp(dt, g.dt, g[f"{obs}_se"].fillna(0.0)))
+    se = float(np.interp(dt, g.dt, g[f"{obs}_se"]))   # NaN where a neighbour has none
     return b, se, False
 
 
 def verdict(bias: float, se: float, target: float) -> str:
     """Whether a measured bias meets a target: "meets" (|bias| <= target), "within noise"
-    (|bias| - 2 se <= target: not shown to exceed it, but the runs cannot tell), "fails"."""
+    (|bias| - 2 se <= target: not shown to exceed it, but the runs cannot tell), "unresolved"
+    (beyond the target with no standard error: one seed), "fails"."""
     if abs(bias) <= target:
         return "meets"
+    if not math.isfinite(se):
+        return "unresolved"   # one seed: no error to tell noise from bias
     if abs(bias) - 2 * se <= target:
         return "within noise"
     return "fails"
@@ -105,7 +108,7 @@ def presets(table: pd.DataFrame) -> pd.DataFrame:
     dt as C and omega_c dt, the cost in steps per time unit, the bias of each observable at
     that step (its standard error; measured or interpolated) and the verdict against the
     preset's target (``verdict``, the worse of the two observables)."""
-    rank = {"meets": 0, "within noise": 1, "fails": 2}
+    rank = {"meets": 0, "within noise": 1, "unresolved": 1, "fails": 2}
     rows = []
     for name, p in ACCURACY.items():
         for (n, phi), _ in table.groupby(["N", "phi"]):

@@ -73,7 +73,7 @@ class Preset(NamedTuple):
 #: work-precision of benchmarks/timestep.py, errors and costs in benchmarks/RESULTS.md
 ACCURACY = {"fast": Preset(0.01, 0.2, 1.5, 2000.0, 16000.0, 5e-4),
             "default": Preset(0.002, 0.1, 1.5, 8000.0, 64000.0, 2e-4),
-            "precise": Preset(0.0005, 0.05, 1.0, 16000.0, 64000.0, 1e-4)}
+            "precise": Preset(0.001, 0.05, 1.0, 16000.0, 64000.0, 1e-4)}
 
 
 def omega_max(k_b: float, k_e: float, k_d: float, dk_d: float, mass: float) -> float:
