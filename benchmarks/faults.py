@@ -813,7 +813,10 @@ class Fuzz:
             options = {ln[len("#SBATCH"):].split()[0].split("=")[0] for ln in lines}
             self.check(f"[T2] submit --pretend {' '.join(extra)}: one option per #SBATCH",
                        subprocess.CompletedProcess(p.args, p.returncode, p.stdout, ""), {0})
-            if bad or not {"--nodes", "--cpus-per-task"} <= options:
+            scripts = p.stdout.split("#!/bin/bash")
+            if scripts[0].strip():   # text in front of the #!: sbatch refuses the script
+                self.results[-1].verdict = f"text before #!: {scripts[0].strip()[:60]}"
+            elif bad or not {"--nodes", "--cpus-per-task"} <= options:
                 self.results[-1].verdict = f"directives lost: {bad[:1] or sorted(options)}"
         # [T3] a plot under way and a collect that changes the tables exclude each other
         d = self._sweep_copy()
@@ -947,11 +950,54 @@ class Fuzz:
             if (d / "stress.csv").read_text() != "my measurements\n":
                 self.results[-1].verdict = "replaced the user's stress.csv"
 
+    def fresh_attack(self):
+        """What a fresh attack (a helper who had not read the change) found, each a case."""
+        d = self._sweep_copy()
+        fig = d / "figures"
+        bk("plot", d)
+        rec = json.loads((fig / "figures.json").read_text())
+        rec["files"].append("/tmp/x")
+        (fig / "figures.json").write_text(json.dumps(rec))
+        self.check("[F] plot past a figures.json naming an absolute path", bk("plot", d), {0})
+        d = self._sweep_copy()
+        (d / ".signac" / "config").unlink()
+        self.check("[F] collect of a sweep without .signac/config", bk("collect", d), {2})
+        for name in ("summary.json", "meta.json"):
+            d = self._sweep_copy()
+            job = sorted((d / "workspace").iterdir())[0]
+            (job / name).unlink()
+            os.mkfifo(job / name)
+            try:
+                p = bk("collect", d, timeout=60)
+            except subprocess.TimeoutExpired:
+                self.results.append(Result(f"[F] collect with a FIFO as a run's {name}", None,
+                                           "", "hung"))
+                continue
+            self.check(f"[F] collect with a FIFO as a run's {name}", p, {0, 2})
+        m = self.scratch() / "m"
+        m.mkdir()
+        (m / "stress.csv").write_text("MY DATA\n")
+        shutil.copy(self.base / ".bkflow-run", m / ".bkflow-run")
+        self.check("[F] run into a folder with a copied .bkflow-run mark",
+                   bk("run", "--phi", "10", *SHORT, "--out", m), {2})
+        if (m / "stress.csv").read_text() != "MY DATA\n":
+            self.results[-1].verdict = "replaced the user's stress.csv"
+        out = self.scratch() / "v"
+        self.check("[F] sweep --vary until_steady=true,false (steady protocol)",
+                   bk("sweep", "--phi", "1", "--vary", "until_steady=true,false", "--out", out),
+                   {2})
+        self.check("[F] run --protocol paper --companion partial --target-error 1e-3",
+                   bk("run", "--phi", "1", "--size", "12x3", "--protocol", "paper",
+                      "--companion", "partial", "--target-error", "1e-3", "--t-end", "300",
+                      "--scene", "friction", "--quiet", "--out", self.scratch() / "r"), {0})
+        self.check("[F] run --out /proc/x", bk("run", "--phi", "10", *SHORT, "--out",
+                                              "/proc/x"), {4})
+
     def run_all(self):
         for part in (self.arguments, self.paths, self.directories, self.damaged, self.writers,
                      self.disk_full, self.interrupts, self.pipes, self.hangs, self.users_files,
                      self.misread, self.options, self.workspace, self.tracebacks, self.signals,
-                     self.docs, self.cluster, self.third_round):
+                     self.docs, self.cluster, self.third_round, self.fresh_attack):
             part()
         return self.results
 

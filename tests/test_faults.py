@@ -579,6 +579,7 @@ def _first_job(d: Path) -> Path:
     ("cut project document", "signac_project_document.json is cut or damaged"),
     ("junk config", "is not a signac config"),
     ("rehashed, no run", "holds a state point that is no run (phi must be > 0"),
+    ("no config", ".signac/config is missing from a sweep directory"),
 ])
 @pytest.mark.slow
 def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep, edit, needle):
@@ -608,6 +609,8 @@ def test_a_hand_edited_workspace_is_named_with_its_repair(tmp_path, small_sweep,
         point["phi"] = -1.0
         sp.write_text(json.dumps(point))
         job = job.rename(job.with_name(calc_id(point)))
+    elif edit == "no config":
+        (d / ".signac" / "config").unlink()
     elif edit == "cut project document":
         (d / "signac_project_document.json").write_text('{"ana')
     else:
@@ -1025,8 +1028,9 @@ def test_printed_commands_are_safe_to_paste(tmp_path, name):
         assert shlex.split(shell_word(word)) in ([word], [f"./{word}"])
 
 
-@pytest.mark.parametrize("mark", ["empty", "bkflow's, newer than the file"])
-def test_a_planted_mark_replaces_nothing(lammps, tmp_path, mark):
+@pytest.mark.parametrize("mark", ["empty", "bkflow's, newer than the file",
+                                  "copied from a run", "copied with its times (cp -p)"])
+def test_a_planted_mark_replaces_nothing(lammps, tmp_path, mark, finished):
     """Class 12: a .bkflow-run mark that bkflow did not write (empty), or one that is newer
     than the user's stress.csv beside it, proves nothing about that file: bkflow run refuses
     the directory (exit 2, one line) and the file is as it was. A real interrupted run of
@@ -1038,11 +1042,108 @@ def test_a_planted_mark_replaces_nothing(lammps, tmp_path, mark):
     os.utime(d / "stress.csv", (old, old))
     if mark == "empty":
         (d / ".bkflow-run").write_text("")
+        needle = "mark that bkflow did not write"
+    elif mark.startswith("copied"):
+        (d / "stress.csv").touch()   # the user's file as new as can be: the copy is later
+        (shutil.copy2 if "cp -p" in mark else shutil.copy)(finished / ".bkflow-run",
+                                                            d / ".bkflow-run")
+        needle = "mark that bkflow wrote in another directory"
     else:
-        (d / ".bkflow-run").write_text('{"bkflow": "0", "began": 0}')
+        rec = json.loads((finished / ".bkflow-run").read_text())
+        os.stat(d)
+        rec["directory"] = [os.stat(d).st_dev, os.stat(d).st_ino]
+        (d / ".bkflow-run").write_text(json.dumps(rec))
+        needle = "older than its .bkflow-run mark"
     before = digest(d)
     p = bk("run", "--phi", "10", *SHORT, "--out", d)
     assert p.returncode == EXIT_BAD_INPUT
-    one_line(p, "mark that bkflow did not write" if mark == "empty"
-             else "older than its .bkflow-run mark")
+    one_line(p, needle)
     assert digest(d) == before and (d / "stress.csv").read_text() == "my measurements\n"
+
+
+@pytest.mark.parametrize("damage", ["an absolute path listed", "files not a list"])
+def test_a_damaged_figures_record_is_drawn_past(tmp_path, small_sweep, damage):
+    """Classes 1 and 6: figures.json naming a path outside (or not a list of names) is no
+    record of bkflow's figures: plot draws them again (exit 0), touching nothing outside."""
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    victim = tmp_path / "victim.png"
+    victim.write_bytes(b"mine")
+    assert bk("plot", d).returncode == 0
+    rec = d / "figures" / "figures.json"
+    r = json.loads(rec.read_text())
+    r["files"] = [*r["files"], str(victim)] if damage.startswith("an absolute") \
+        else "../../victim.png"
+    rec.write_text(json.dumps(r))
+    for _ in range(2):
+        p = bk("plot", d)
+        assert p.returncode == 0, p.stderr
+    assert victim.read_bytes() == b"mine"
+    assert all(not Path(f).is_absolute() for f in json.loads(rec.read_text())["files"])
+
+
+def test_figures_of_another_selection_do_not_stay_beside_the_new_record(tmp_path, small_sweep):
+    """Class 3: figures.json of another --where (or other tables) lists a figure this plot
+    does not draw: it is removed, so that the directory holds only the record's figures."""
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    assert bk("plot", d, "--where", "phi=1").returncode == 0
+    fig = d / "figures"
+    old = fig / "fig_old.png"
+    shutil.copy(fig / "fig2a_friction.png", old)     # a bkflow figure no plot draws now
+    rec = json.loads((fig / "figures.json").read_text())
+    rec["files"].append("fig_old.png")
+    (fig / "figures.json").write_text(json.dumps(rec))
+    assert bk("plot", d).returncode == 0
+    assert not old.exists()
+    now = json.loads((fig / "figures.json").read_text())
+    assert now["complete"] and now["where"] is None
+    assert {p.name for p in fig.iterdir() if p.name != "figures.json"} == set(now["files"])
+
+
+@pytest.mark.parametrize("where", ["a run's summary.json", "a run's meta.json",
+                                   "a deck's stress.csv"])
+def test_a_fifo_where_a_file_belongs_is_refused_never_waited_on(tmp_path, small_sweep, where):
+    """Class 10: a FIFO in place of a file bkflow reads would block a read forever: every
+    command refuses it in one line (or, where the file is bkflow's to write, replaces it) and
+    none waits; a sweep calls such a run refused (exit 2), not 'retried'."""
+    if where == "a deck's stress.csv":
+        d = tmp_path / "deck"
+        assert bk("deck", "--phi", "10", "--t-end", "50", "--out", d).returncode == 0
+        os.mkfifo(d / "stress.csv")
+        p = bk("analyze", d, timeout=60)
+        assert p.returncode == EXIT_BAD_INPUT
+        one_line(p, "is not a regular file")
+        return
+    d = tmp_path / "s"
+    shutil.copytree(small_sweep, d)
+    job = _first_job(d)
+    name = "summary.json" if "summary" in where else "meta.json"
+    (job / name).unlink()
+    os.mkfifo(job / name)
+    for cmd in (["collect", d], ["plot", d], ["analyze", job]):
+        p = bk(*cmd, timeout=60)   # a hang fails here, by the timeout
+        assert p.returncode in (0, EXIT_BAD_INPUT), p.stderr
+        assert "Traceback" not in p.stderr
+    if name == "meta.json":
+        p = bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "200", "--scene", "clusters",
+               "--protocol", "paper", "--jobs", "1", "--quiet", "--out", d, timeout=120)
+        assert p.returncode == EXIT_BAD_INPUT
+        assert "refused" in p.stderr and "retries them" not in p.stderr
+
+
+def test_a_companion_beside_a_run_with_only_an_error_target(lammps, tmp_path):
+    """A fixed-length protocol's run with an error target and a companion (the companion has
+    no rule of its own): the run's own rule decides, no internal error; and until_steady=false
+    under the steady protocol, which always runs until steady, is refused before anything."""
+    p = bk("run", "--phi", "1", "--size", "12x3", "--protocol", "paper", "--companion",
+           "partial", "--target-error", "1e-3", "--t-end", "300", "--scene", "friction",
+           "--quiet", "--out", tmp_path / "r")
+    assert p.returncode == 0, p.stderr
+    for args in (["run", "--phi", "1", "--set", "until_steady=false", "--out", tmp_path / "a"],
+                 ["sweep", "--phi", "1", "--vary", "until_steady=true,false", "--out",
+                  tmp_path / "b"]):
+        q = bk(*args)
+        assert q.returncode == EXIT_BAD_INPUT
+        one_line(q, "until_steady=false under the steady protocol")
+        assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()

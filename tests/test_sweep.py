@@ -349,6 +349,31 @@ def test_slurm_directives_are_read_as_sbatch_reads_them():
                                         "--cpus-per-task": "1"}
 
 
+def test_the_script_sbatch_is_given_is_a_job_script(tmp_path):
+    """What sbatch receives, saved by a fake sbatch: a script whose first line is its #!, then
+    its #SBATCH directives as Slurm reads them (nothing of the template's own comments leaks
+    in front: a Jinja comment holding its own closing delimiter once did)."""
+    out = tmp_path / "grid"
+    assert main(["sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "100", "--init",
+                 "--out", str(out)]) == 0
+    saved = tmp_path / "saved"
+    saved.mkdir()
+    env = _fake_scheduler(tmp_path, {
+        "squeue": "exit 0",
+        "sbatch": f'n=$(ls {saved} | wc -l); for a in "$@"; do [ -f "$a" ] && '
+                  f'cp "$a" {saved}/$n.sh; done; [ -t 0 ] || cat > {saved}/stdin$n.sh; '
+                  'echo "Submitted batch job 1$n"'})
+    sub = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--bundle", "2"],
+                         cwd=out, env=env, capture_output=True, text=True, timeout=300)
+    assert sub.returncode == 0, sub.stderr
+    scripts = [p.read_text() for p in saved.iterdir() if p.stat().st_size]
+    assert scripts, "sbatch was given no script"
+    for text in scripts:
+        assert text.startswith("#!/bin/bash\n"), text[:200]
+        d = slurm_directives(text)
+        assert d["--nodes"] == "1" and d["--cpus-per-task"] == "1" and "-t" in d
+
+
 @pytest.mark.slow
 def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operation(lammps, tmp_path):
     out = tmp_path / "grid"

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, catalogue, clusters, order, phases, states, stationarity, stress
+from . import __version__, catalogue, clusters, io, order, phases, states, stationarity, stress
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
@@ -567,7 +567,7 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
         # another params.json ran what the deck says
         deck = rd.file(DECK)
         try:
-            signed = SIGNATURE in deck.read_text(errors="replace")[-400:]
+            signed = SIGNATURE in io.read_text(deck, errors="replace")[-400:]
         except FileNotFoundError:
             signed = False
         if signed and not written_by_bkflow(deck):

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from . import io
 from .fronts import front_figure, front_movie
 from .io import shell_word
 from .params import AnalysisSettings, RunSpec
@@ -220,7 +221,7 @@ class Sweep:
         if not path.exists():
             return None
         check_tables(self.path)   # the catalogue the last collect wrote, or a typed error
-        df = pd.read_parquet(path, engine="pyarrow")
+        df = pd.read_parquet(io.regular(path), engine="pyarrow")
         if "job" not in df:
             raise StaleTablesError(f"{path} has no column job: not a catalogue of bkflow's; "
                                    f"bkflow collect {shell_word(self.path)} writes it again")

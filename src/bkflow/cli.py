@@ -167,6 +167,10 @@ def _accuracy(a, settings: dict | None = None) -> dict:
              "companion": "" if a.companion is None else None if a.companion == "none"
              else a.companion}
     given.update(settings or {})
+    if a.protocol == "steady" and (settings or {}).get("until_steady") is False:
+        raise SpecError("until_steady=false under the steady protocol, which runs until the "
+                        "run is steady: for a fixed length give --protocol paper (with --start "
+                        "and --companion as wanted)")
     accuracy = given.pop("accuracy")
     return protocol_fields(a.protocol, accuracy, **given)
 
@@ -368,8 +372,11 @@ def _sweep(a) -> int:
         from .project import init_jobs
 
         done = init_jobs(specs, a.out, settings, force=a.force)
-        print(f"{a.out}: {len(specs)} jobs ({done} finished); run them with "
-              f"(cd {shell_word(a.out)} && python -m bkflow.cluster run|submit ...)")
+        where = shell_word(a.out)
+        print(f"{a.out}: {len(specs)} jobs ({done} finished); run them here with\n"
+              f"  (cd {where} && python -m bkflow.cluster run)\n"
+              f"or submit them to the cluster's scheduler with\n"
+              f"  (cd {where} && python -m bkflow.cluster submit)")
         return 0
     extra = "".join(f" x {len(v)} {k}" for k, v in axes.items())
     print(f"sweep: {len(phis)} phi x {len(sizes)} size(s){extra} x {a.seeds} seed(s) = "
@@ -395,15 +402,23 @@ def _sweep(a) -> int:
           f"{shell_word(a.out)}")
     _say_retired(a.out, rep.retired_figures)
     for job_id, msg in rep.failed.items():
-        print(f"bkflow: run failed: {msg} (job {job_id})", file=sys.stderr)
+        what = "refused" if job_id in rep.refused else "run failed"
+        print(f"bkflow: {what}: {msg} (job {job_id})", file=sys.stderr)
     if rep.busy and not rep.failed and len(rep.busy) == len(rep.unfinished):
         print(f"bkflow: busy: {len(rep.busy)} run(s) are being written by another process "
               "(e.g. python -m bkflow.cluster run); run the same command once it is done",
               file=sys.stderr)
         return EXIT_BUSY
+    if rep.refused and len(rep.refused) == len(rep.failed) and not rep.unfinished:
+        print(f"bkflow: {len(rep.refused)} run(s) refused: their directories hold what bkflow "
+              "does not replace or read (the lines above name it); move that away, then the "
+              "same command runs them", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if rep.failed or rep.unfinished:
         print(f"bkflow: {len(rep.failed) + len(rep.unfinished)} run(s) did not finish; the "
-              "same command retries them", file=sys.stderr)
+              "same command retries them"
+              + (f" ({len(rep.refused)} of them refused: move away what the lines above name)"
+                 if rep.refused else ""), file=sys.stderr)
         return EXIT_RUN_FAILED
     return 0
 
@@ -439,6 +454,10 @@ def _collect(a) -> int:
     _say_retired(a.dir, c.retired_figures)
     for j in c.failed:
         print(f"  failed {j.id}: {j.document['error']}", file=sys.stderr)
+    for job_id, why in c.damaged:
+        print(f"bkflow: warning: run {job_id} is damaged ({why}) and left out of the tables: "
+              f"collect does not run LAMMPS; the sweep's own command (bkflow sweep ... --out "
+              f"{shell_word(a.dir)}) runs it again", file=sys.stderr)
     return 0
 
 
@@ -778,7 +797,7 @@ def _main(argv=None) -> int:
         print(f"bkflow: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     from .engine import RunDiskError, RunError, RunExistsError
-    from .io import OutsideError
+    from .io import NotRegularFileError, OutsideError
     from .plugin import PluginError
     from .rundir import AnalysisError, DamagedRunError, RunBusyError
 
@@ -789,6 +808,9 @@ def _main(argv=None) -> int:
         if a.cmd == "run":
             return _run(a, argv)
         return commands[a.cmd](a)
+    except NotRegularFileError as exc:
+        print(f"bkflow: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except (AnalysisError, DamagedRunError) as exc:
         target = a.dir if a.cmd == "analyze" else a.out if a.cmd == "run" else None
         text = " ".join(str(exc).splitlines())

@@ -22,6 +22,7 @@ import contextlib
 import logging
 import os
 import sys
+from pathlib import Path
 
 
 def project(path=None):
@@ -60,6 +61,13 @@ def main(argv=None) -> None:
     try:
         p = project()
     except LookupError:
+        if Path(".signac").is_dir():   # a sweep directory whose signac records are damaged
+            from bkflow.project import workspace_problem
+
+            why = workspace_problem(Path.cwd())
+            if why is not None:
+                print(f"bkflow.cluster: error: {why}", file=sys.stderr)
+                sys.exit(2)
         if {"-h", "--help"} & set(sys.argv[1:]):
             with contextlib.suppress(BrokenPipeError):
                 print(__doc__)

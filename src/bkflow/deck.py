@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from . import __version__
+from . import __version__, io
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
 from .rundir import DATA, DECK, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
@@ -390,13 +390,13 @@ def written_by_bkflow(path) -> bool:
 
     path = Path(path)
     try:
-        text = path.read_text()
+        text = io.read_text(path)
     except (OSError, UnicodeDecodeError):
         return False
     if path.name == PARAMS:  # its digest is on in.bk's signature line
         deck = path.with_name(DECK)
         if deck.exists():
-            return (written_by_bkflow(deck) and deck.read_text().rstrip("\n").endswith(
+            return (written_by_bkflow(deck) and io.read_text(deck).rstrip("\n").endswith(
                 f" {PARAMS}:{_digest(text)}"))
         import json
 

@@ -410,9 +410,11 @@ def _stop(legs: list[_Leg], step: int) -> bool:
     """The stop rule of an adaptive run at ``step``: its own (AdaptiveStop), and with a
     companion, the companion's too and the agreement of their mean stresses (within
     STEADY_AGREEMENT, or their errors: ``bkflow.states.pair_disagrees``)."""
+    if len(legs) == 1 or legs[1].adaptive is None:
+        # alone, or beside a companion with no rule of its own (a fixed-length protocol's run
+        # with only an error target): the run's own rule decides
+        return legs[0].adaptive.reached(step)
     reached = [leg.adaptive.reached(step) for leg in legs]  # every leg reads its new samples
-    if len(legs) == 1:
-        return reached[0]
     main, comp = legs[0].adaptive, legs[1].adaptive
     if main.last is None or comp.last is None:
         return False

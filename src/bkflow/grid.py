@@ -57,8 +57,9 @@ def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[fl
             raise SpecError(f"--phi {text}: a range is A:B (e.g. 1e-1:1e3)")
         a, b = number(parts[0]), number(parts[1])
         if not b > a:
-            raise SpecError(f"--phi {text}: the range must increase (A < B), e.g. "
-                            f"--phi {parts[1]}:{parts[0]}")
+            example = (f"--phi {parts[1]}:{parts[0]}" if b < a
+                       else f"--phi {parts[0]} for the one value")
+            raise SpecError(f"--phi {text}: the range must increase (A < B), e.g. {example}")
         decades = math.log10(b) - math.log10(a)  # b / a may overflow
         n = int(math.floor(decades * points_per_decade + 1e-9))
         if n > MAX_PHI_VALUES:
@@ -69,9 +70,11 @@ def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[fl
         if b / vals[-1] > 1 + 1e-9:
             vals.append(b)  # the end of the range is always swept
         return sorted({_sig(v) for v in vals})
-    vals = [number(s) for s in text.split(",") if s.strip()]
-    if not vals:
-        raise SpecError("--phi: give a range A:B or a list a,b,c")
+    items = text.split(",")
+    if not text or any(not s.strip() for s in items):
+        raise SpecError(f"--phi {text}: an empty item; give a range A:B or a list a,b,c" if text
+                        else "--phi: give a range A:B or a list a,b,c")
+    vals = [number(s) for s in items]
     return sorted({_sig(v) for v in vals})
 
 

@@ -44,11 +44,38 @@ class Frames:
         return len(self.steps)
 
 
+class NotRegularFileError(ValueError):
+    """A path bkflow reads that is not a regular file (a FIFO, a device, a socket, a
+    directory): reading a FIFO would wait forever for a writer."""
+
+
+def regular(path) -> Path:
+    """``path``, once it is known to be a regular file (or a link to one); FileNotFoundError
+    where there is none, NotRegularFileError where it is something else. Every file bkflow
+    reads passes here first (a stat, which does not block)."""
+    import stat
+
+    p = Path(path)
+    if not stat.S_ISREG(os.stat(p).st_mode):
+        raise NotRegularFileError(f"{p} is not a regular file (a FIFO, device or directory "
+                                  "where bkflow keeps a file): bkflow reads only regular files; "
+                                  "remove it (the command that makes it makes it again)")
+    return p
+
+
+def read_text(path, **kw) -> str:
+    return regular(path).read_text(**kw)
+
+
+def read_bytes(path) -> bytes:
+    return regular(path).read_bytes()
+
+
 def read_columns(path, columns) -> dict[str, np.ndarray]:
     """The named float columns of a CSV file (pandas); a clear ValueError when one is absent."""
     import pandas as pd
 
-    df = pd.read_csv(path)
+    df = pd.read_csv(regular(path))
     missing = set(columns) - set(df.columns)
     if missing:
         raise ValueError(f"{path}: no column(s) {', '.join(sorted(missing))}")
@@ -59,7 +86,7 @@ def read_table(path):
     """A CSV table as a pandas DataFrame."""
     import pandas as pd
 
-    return pd.read_csv(path)
+    return pd.read_csv(regular(path))
 
 
 def read_frames(path, n_atoms: int | None = None) -> Frames:
@@ -69,7 +96,7 @@ def read_frames(path, n_atoms: int | None = None) -> Frames:
     bkflow's own dumps (every frame the same atoms, the same columns) are read by
     ``read_regular_frames``; anything else, a cut file included, by MDAnalysis.
     """
-    path = Path(path)
+    path = regular(path)
     if path.stat().st_size == 0:
         return Frames(np.empty(0, dtype=np.int64), np.empty((0, n_atoms or 0, 2)))
     frames = read_regular_frames(path)
@@ -98,7 +125,7 @@ def read_regular_frames(path) -> Frames | None:
     tests/test_analysis.py checks the two agree on every frame."""
     import pandas as pd
 
-    lines = Path(path).read_bytes().split(b"\n")
+    lines = read_bytes(path).split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()
     if len(lines) < 9 or lines[0] != _HEAD[0] or lines[2] != _HEAD[2] \
@@ -191,7 +218,7 @@ _FRONTS_MAGIC = b"BKFRONT1"
 def read_fronts(path) -> list[Front]:
     """The events of a fix bk/fronts file (plugins/fix_bk_fronts.cpp documents the format);
     a ValueError when the file is cut or is not one."""
-    data = Path(path).read_bytes()
+    data = read_bytes(path)
     if len(data) < 16 or data[:8] != _FRONTS_MAGIC:
         raise ValueError(f"{path}: not a fix bk/fronts file")
     n = int(np.frombuffer(data, "<i8", 1, 8)[0])
@@ -212,7 +239,7 @@ def read_fronts(path) -> list[Front]:
 
 
 def read_json(path) -> dict:
-    return json.loads(Path(path).read_text())
+    return json.loads(read_text(path))
 
 
 def json_ready(obj):
@@ -235,7 +262,7 @@ def file_record(path) -> dict:
 
     h = hashlib.sha256()
     n = 0
-    with open(path, "rb") as f:
+    with open(regular(path), "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
             n += len(block)
@@ -324,7 +351,7 @@ def made_by_bkflow(path, recorded=()) -> bool:
     if path.name in recorded:
         return True
     try:
-        with open(path, "rb") as f:
+        with open(regular(path), "rb") as f:
             head = f.read(65536)
             f.seek(max(0, f.seek(0, os.SEEK_END) - 65536))
             tail = f.read()

@@ -112,6 +112,11 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
         raise CostError(f"{what} needs about {fmt_bytes(c.memory_bytes)} of memory, more than half "
                         f"of the {fmt_bytes(mem)} available: {fix}{hint}")
     free = _free_disk(out)
+    if free == 0:   # a full or pseudo file system (/proc): the file system's refusal
+        import errno
+
+        raise OSError(errno.ENOSPC, "no space left on its file system (nothing can be "
+                      "written there)", str(out))
     if c.disk_bytes > min(MAX_BYTES, MAX_DISK_SHARE * free):
         fix = ("choose --scene friction (no frames)" if c.frame_bytes > c.disk_bytes / 2 else
                "shorten --t-end or sample the stress less often (--set stress_every=...)")

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import io
 from .io import MARK, atomic_file, foreign_file, shell_word
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
@@ -203,14 +204,14 @@ class SweepData:
 
         try:
             tables = AnalysisSettings.from_dict(settings_in(json.loads(
-                (self.root / SETTINGS_FILE).read_text())))
+                io.read_text(self.root / SETTINGS_FILE))))
         except FileNotFoundError:
             tables = AnalysisSettings()
         except (ValueError, TypeError, SpecError) as exc:
             raise PlotError(f"{self.root / SETTINGS_FILE} is unreadable ({exc}) {advice}") \
                 from None
         try:
-            doc = json.loads((self.root / "signac_project_document.json").read_text())
+            doc = json.loads(io.read_text(self.root / "signac_project_document.json"))
             sweep = AnalysisSettings.from_dict(dict(doc.get("analysis_settings", {})))
         except (OSError, ValueError, TypeError, AttributeError, SpecError):
             sweep = tables
@@ -231,7 +232,8 @@ class SweepData:
         rd = sweep_run_dir(self.root, row["job"])
         why = rd.problem()
         if why is not None:
-            raise PlotError(f"{rd.path}: {why}: run bkflow sweep (or collect) again to redo it")
+            raise PlotError(f"{rd.path}: {why}: the sweep's own command (bkflow sweep ... --out "
+                            f"{shell_word(self.root)}) redoes it")
         return rd
 
     def runs_of(self, lx, ly, phi=None) -> pd.DataFrame:
@@ -862,7 +864,7 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     recorded with the tables they were drawn from (``figures.json``): a sweep or collect that
     changes the tables removes them (``bkflow.tables.retire_figures``).
     Returns (paths written, {figure: why it was skipped})."""
-    from .io import inside
+    from .io import inside, within
     from .rundir import RunDir
     from .tables import FIGURES_RECORD, record_figures, tables_digest
 
@@ -870,25 +872,43 @@ def plot(root, out=None, formats=FORMATS, where: dict | None = None) -> tuple[li
     out = Path(out) if out is not None else inside(root, FIGURES_DIR, "the figures directory")
     # the sweep's lock: no collect or sweep (the tables' writers) rewrites the tables while a
     # plot draws from them, and the record names the tables as they were read
-    SweepData(root, where)  # refuses before anything, a lock file too, is written
+    try:
+        SweepData(root, where)  # refuses before anything, a lock file too, is written
+    except PlotError:
+        if RunDir(root).busy():   # a collect under way: its tables are half made, not wrong
+            from .rundir import RunBusyError
+
+            raise RunBusyError(f"another bkflow process (a collect or sweep) is writing "
+                               f"{root}'s tables now; plot once it is done") from None
+        raise
     with RunDir(root).lock():
         digest = tables_digest(root)
         data = SweepData(root, where)
         _check_formats(formats)
         try:
-            old = json.loads((out / FIGURES_RECORD).read_text())
-            recorded = {str(f) for f in old["files"]}
+            old = json.loads(io.read_text(out / FIGURES_RECORD))
+            if not isinstance(old, dict) or not isinstance(old["files"], list):
+                raise TypeError("not a record of figures")
+            # only plain names inside the figures directory are the record's (an absolute
+            # path, '..' or a name through a link is nobody's to keep, replace or remove)
+            recorded = {f for f in old["files"] if isinstance(f, str) and within(out, f)}
             same = (old.get("tables_sha256") == digest and old.get("where") == (where or None))
-            kept = [out / f for f in recorded] if same else []
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            kept, recorded = [], set()
+            recorded, same = set(), False
+        kept = [out / f for f in sorted(recorded)] if same else []
+        # figures of other tables, or of another --where: not what this plot shows; those it
+        # does not draw again are removed, so that the directory holds one record's figures
+        stale = [] if same else [out / f for f in sorted(recorded)]
         targets = _check_targets(out, formats, recorded)
         out.mkdir(parents=True, exist_ok=True)
         # while figures are being written the record says so: an interrupted plot leaves
         # complete = false, and a later change of the tables still retires what it wrote
-        record_figures(root, out, sorted({*kept, *targets}), where, complete=False,
+        record_figures(root, out, sorted({*kept, *targets, *stale}), where, complete=False,
                        digest=digest)
         written, skipped = _plot(data, out, formats, where, recorded)
+        for p in stale:
+            if p not in written and p.is_file() and not p.is_symlink():
+                p.unlink()
         record_figures(root, out, sorted({*kept, *written}), where, complete=True,
                        digest=digest)
     return written, skipped

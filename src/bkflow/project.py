@@ -19,6 +19,7 @@ from pathlib import Path
 
 from flow import FlowProject
 
+from . import io
 from . import job as one
 from .grid import run_cost
 from .params import AnalysisSettings, RunSpec, SpecError
@@ -96,12 +97,18 @@ def _die_with_parent() -> None:
 
 
 def _record_failure(job, exc: Exception) -> None:
-    from .engine import RunError
+    from .engine import RunError, RunExistsError
+    from .io import NotRegularFileError, OutsideError
     from .rundir import RunBusyError
 
     spec = spec_of(job)
     if isinstance(exc, RunBusyError):  # not a failure: another process (a cluster job) has it
         job.document["busy"] = str(exc)
+    elif isinstance(exc, (RunExistsError, OutsideError, NotRegularFileError)):
+        # refused, not failed: the job's directory holds what bkflow does not replace or read,
+        # and running again changes nothing until it is moved away
+        job.document["error"] = str(exc)
+        job.document["refused"] = True
     elif isinstance(exc, RunError):
         job.document["error"] = str(exc)
     else:  # one run's surprise must not take the sweep's other runs down
@@ -136,7 +143,7 @@ def simulate(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    for key in ("error", "busy"):
+    for key in ("error", "busy", "refused"):
         if key in job.document:
             del job.document[key]
 
@@ -153,7 +160,7 @@ def analyze(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    for key in ("error", "busy"):
+    for key in ("error", "busy", "refused"):
         if key in job.document:
             del job.document[key]
 
@@ -169,7 +176,7 @@ def _project_document(path: Path) -> dict:
     import json
 
     try:
-        doc = json.loads((path / "signac_project_document.json").read_text())
+        doc = json.loads(io.read_text(path / "signac_project_document.json"))
     except (OSError, ValueError):
         return {}
     return doc if isinstance(doc, dict) else {}
@@ -182,7 +189,7 @@ def _jobs_are_runs(path: Path) -> bool:
     found = list((path / "workspace").glob("*/signac_statepoint.json"))[:3]
     for sp in found:
         try:
-            if not {"phi", "Lx", "Ly", "seed"} <= set(json.loads(sp.read_text())):
+            if not {"phi", "Lx", "Ly", "seed"} <= set(json.loads(io.read_text(sp))):
                 return False
         except (OSError, ValueError, TypeError):
             return False
@@ -241,12 +248,21 @@ def workspace_problem(path) -> str | None:
 
     path = Path(path)
     config = path / ".signac" / "config"
+    restore = ("remove it and write a file in its place whose whole content is "
+               "`schema_version = 2`")
+    if config.is_symlink():
+        return f"{config} is a symbolic link, not the sweep's own config: {restore}"
+    if not config.exists():
+        if (path / ".signac").is_dir() and (
+                (path / "workspace").is_dir()
+                or (path / "signac_project_document.json").exists()):
+            return (f"{config} is missing from a sweep directory: write it: its whole content "
+                    "is `schema_version = 2`")
     try:
         from signac._config import _read_config_file
 
-        _read_config_file(str(config))
-    except FileNotFoundError:
-        pass
+        if config.exists():
+            _read_config_file(str(config))
     except Exception as exc:  # configobj's errors, an unreadable file
         return (f"{config} is not a signac config ({' '.join(str(exc).split())}); restore "
                 "it: its whole content is "
@@ -254,7 +270,7 @@ def workspace_problem(path) -> str | None:
     doc = path / "signac_project_document.json"
     if doc.exists():
         try:
-            if not isinstance(json.loads(doc.read_text()), dict):
+            if not isinstance(json.loads(io.read_text(doc)), dict):
                 raise ValueError("not a JSON object")
         except (ValueError, OSError) as exc:
             return (f"{doc} is cut or damaged ({exc}); delete it: it holds the sweep's "
@@ -274,7 +290,7 @@ def workspace_problem(path) -> str | None:
             elif not sp.exists():
                 why = "has no signac_statepoint.json"
             else:
-                point = json.loads(sp.read_text())
+                point = json.loads(io.read_text(sp))
                 why = (None if calc_id(point) == job.name else
                        "holds a state point whose hash is not its name (edited, or renamed)")
                 if why is None:
@@ -287,7 +303,7 @@ def workspace_problem(path) -> str | None:
                 jd = job / "signac_job_document.json"
                 if why is None and jd.exists():
                     try:
-                        json.loads(jd.read_text())
+                        json.loads(io.read_text(jd))
                     except ValueError:
                         why = "has a cut signac_job_document.json (delete that file: it holds " \
                               "only the run's last error)"

@@ -175,7 +175,7 @@ class RunDir:
         for d in (self, self.companion()):
             meta = d.file(META)
             if os.path.lexists(meta):
-                with open(meta, "rb"):
+                with open(io.regular(meta), "rb"):
                     pass
 
     def is_complete(self) -> bool:
@@ -329,7 +329,14 @@ class RunDir:
         fd = os.open(inside(self.path, MARK, "the run's mark"),
                      os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
         with os.fdopen(fd, "w") as f:
-            json.dump({"bkflow": __version__, "began": time.time()}, f)
+            json.dump({"bkflow": __version__, "began": time.time(),
+                       "directory": self._identity()}, f)
+
+    def _identity(self) -> list[int]:
+        """The directory's identity on its file system (device, inode): a mark copied into
+        another directory, or a directory copied whole, carries another's."""
+        st = os.stat(self.path)
+        return [st.st_dev, st.st_ino]
 
     def _replaceable(self, names) -> list[str]:
         """The names among ``names`` that a run (or its clear()) writes or removes."""
@@ -348,13 +355,20 @@ class RunDir:
 
         mark = self.file(MARK)
         try:
-            rec = json.loads(mark.read_text()) if not mark.is_symlink() else None
+            rec = json.loads(io.read_text(mark)) if not mark.is_symlink() else None
         except (OSError, ValueError):
             rec = None
         if not (isinstance(rec, dict) and "bkflow" in rec):
             return (f"holds a {MARK} mark that bkflow did not write (an empty or edited file), "
                     f"beside {listing(self._replaceable(names)) or 'no run files'}")
-        began = mark.lstat().st_mtime
+        if rec.get("directory") != self._identity():
+            return (f"holds a {MARK} mark that bkflow wrote in another directory (copied here, "
+                    f"or this directory is a copy), beside "
+                    f"{listing(self._replaceable(names)) or 'no run files'}")
+        try:
+            began = min(float(rec["began"]), mark.lstat().st_mtime)
+        except (KeyError, TypeError, ValueError):
+            began = mark.lstat().st_mtime
         older = [n for n in self._replaceable(names)
                  if self.file(n).lstat().st_mtime < began - MARK_SLACK_S]
         if older:
@@ -384,6 +398,23 @@ class RunDir:
             deck = ", ".join(sorted(names & {DECK, DATA, PARAMS}))
             return f"holds a deck written by bkflow deck ({deck})"
         return f"holds files that are not a bkflow run ({listing(names)})"
+
+    def busy(self) -> bool:
+        """Whether another process holds the directory's lock now (a run, an analysis, a
+        collect), without taking it or creating a lock file."""
+        import fcntl
+
+        try:
+            fd = os.open(self.file(LOCK), os.O_RDONLY | os.O_NOFOLLOW)
+        except OSError:
+            return False
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError as exc:
+            return exc.errno in (errno.EAGAIN, errno.EACCES)
+        finally:
+            os.close(fd)
+        return False
 
     @contextlib.contextmanager
     def lock(self):

@@ -237,6 +237,25 @@ def two_states(phi: float, n: int) -> bool | None:
     return min(q, 1 - q) >= TWO_STATES
 
 
+#: a window's mean is taken for the long-run mean (steady) only where the layer's slow
+#: fluctuations over a window of its length move the mean by less than this, relative (a 95%
+#: band of 0.5%: the false-steady tolerance the verdict is calibrated for); beyond it the
+#: window names the states it visited even in a layer with one state (N = 400's stiff end
+#: wanders in its coherent state)
+SLOW_FLUCTUATION = 0.0025
+
+
+def not_averaged(calibrated_var: float | None, own_err: float, mean: float, phi: float,
+                 n: int) -> bool:
+    """Whether a window has not averaged over the layer's slow dynamics, so that its numbers
+    are those of the states it visited: the calibrated switching error dominates its own
+    (``dominates``), and the layer has two states (``two_states``) or its slow fluctuations
+    alone exceed SLOW_FLUCTUATION."""
+    if not dominates(calibrated_var, own_err, mean):
+        return False
+    return bool(two_states(phi, n)) or math.sqrt(calibrated_var) > SLOW_FLUCTUATION
+
+
 def dominates(calibrated_var: float | None, own_err: float, mean: float) -> bool:
     """Whether the calibrated relative variance of a window's mean says more than the window's
     own error does: the window has not averaged over the layer's switching."""
@@ -251,9 +270,9 @@ def verdict(stationary: bool, chi: float | None, comp: Composition | None, n: in
     """The verdict of a window (``VERDICTS``), in this order: the start's memory shown
     (``metastable``: the contacts' phase fluctuation above ``memory_chi``, or a companion run
     from another start whose mean differs beyond both errors); the states visited, where
-    the window saw both, or where the layer has two states (``two_states``) and the
-    calibrated switching dominates the window's error (``switching_dominates``: the caller
-    asks both); ``drifting`` where the stress trends; else ``steady``."""
+    the window saw both, or where it has not averaged over the layer's slow dynamics
+    (``switching_dominates``: ``not_averaged``); ``drifting`` where the stress trends; else
+    ``steady``."""
     if (chi is not None and chi > memory_chi(n)) or pair_disagrees:
         return "metastable"
     if comp is not None and (len(comp.visited) == 2 or switching_dominates):
@@ -343,7 +362,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
             comp = composition(b, t_fail, fail)
     chi = None if contacts is None or not math.isfinite(contacts.fluctuation) \
         else contacts.fluctuation
-    switching = dominates(var, err_block, mean) and bool(two_states(spec.phi, spec.N))
+    switching = not_averaged(var, err_block, mean, spec.phi, spec.N)
     state = verdict(bool(trend.stationary), chi, comp, spec.N, switching)
     return Window(float(t0), t1, mean, err_run, err_block, var, why, trend, contacts, comp,
                   state, spec.N)
@@ -491,7 +510,7 @@ def block_verdict(t0, t1, stress, R, R2abs, Zre, Zim, samples, phi: float, n: in
     quiet = float(np.mean(np.asarray(R, float) < r_independent(n)))
     comp = Composition({QUIET: quiet, COHERENT: 1 - quiet}, {}, {})
     var = window_variance("stress", phi, n, span)
-    switching = dominates(var, err_block, mean) and bool(two_states(phi, n))
+    switching = not_averaged(var, err_block, mean, phi, n)
     state = verdict(bool(trend.stationary), float(chi), comp, n, switching)
     err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
     return state, mean, err

@@ -46,6 +46,7 @@ class SweepReport:
     finished_before: int
     finished: list = field(default_factory=list)     # jobs finished by this sweep
     failed: dict = field(default_factory=dict)       # job id -> message
+    refused: list = field(default_factory=list)      # of the failed, those refused (exit 2)
     unfinished: list = field(default_factory=list)   # neither (interrupted)
     reanalysed: list = field(default_factory=list)   # of those, the ones only analysed again
     busy: list = field(default_factory=list)         # of the unfinished, those another process had
@@ -240,7 +241,7 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
         set_settings(project, settings)
     selected = [project.open_job(s.to_dict()).init() for s in specs]
     for job in selected:  # a previous failure is retried
-        for key in ("error", "busy"):
+        for key in ("error", "busy", "refused"):
             if key in job.document:
                 del job.document[key]
         permit_above_limits(job, force)
@@ -263,6 +264,8 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
                 report.reanalysed.append(job.id)
         elif "error" in job.document:
             report.failed[job.id] = job.document["error"]
+            if job.document.get("refused"):
+                report.refused.append(job.id)
         else:  # interrupted, or busy in another process (e.g. a cluster job)
             report.unfinished.append(job.id)
             if "busy" in job.document:
@@ -283,6 +286,7 @@ class Collection:
     runs: pd.DataFrame
     results: pd.DataFrame
     retired_figures: list = field(default_factory=list)  # drawn from the tables before
+    damaged: list = field(default_factory=list)  # (job id, why): runs once finished, now not
 
 
 def collect(project, settings: AnalysisSettings | None = None,
@@ -307,9 +311,16 @@ def _collect(project, settings, jobs) -> Collection:
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
         settings.to_dict(), [(j.id, j.cached_statepoint, _events_of(j)) for j in done])
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
+    damaged = []
+    for j in all_jobs:
+        rd = RunDir(j.path)
+        if not finished(j) and rd.is_complete():   # it finished once: say what broke it
+            why = rd.problem()
+            if why is not None:
+                damaged.append((j.id, why))
     retired = retire_figures(project.path)
     return Collection(len(all_jobs), len(done), failed,
-                      [j.id for j in stale if finished(j)], runs, results, retired)
+                      [j.id for j in stale if finished(j)], runs, results, retired, damaged)
 
 
 def _events_of(job):

@@ -213,7 +213,7 @@ def tables_problem(root) -> str | None:
 
     root = Path(root)
     try:
-        record = json.loads((root / SETTINGS_FILE).read_text()).get(TABLES_KEY)
+        record = json.loads(io.read_text(root / SETTINGS_FILE)).get(TABLES_KEY)
     except (OSError, ValueError, AttributeError):
         record = None
     if not isinstance(record, dict) or RUNS_FILE not in record:
@@ -294,8 +294,7 @@ def tables_digest(root) -> str:
 
     h = hashlib.sha256()
     for name in (RUNS_FILE, RESULTS_FILE):
-        with open(Path(root) / name, "rb") as f:
-            h.update(f.read())
+        h.update(io.read_bytes(Path(root) / name))
     return h.hexdigest()
 
 
@@ -323,10 +322,11 @@ def retire_figures(root) -> list[str]:
     if out is None:   # a link: what it holds is not the sweep's to remove
         return []
     try:
-        record = json.loads((out / FIGURES_RECORD).read_text())
+        record = json.loads(io.read_text(out / FIGURES_RECORD))
         if record["tables_sha256"] == tables_digest(root):
             return []
-        files = [str(f) for f in record["files"]]
+        files = [f for f in record["files"] if isinstance(f, str)] \
+            if isinstance(record["files"], list) else []
     except (OSError, ValueError, KeyError, TypeError):
         return []
     removed = []

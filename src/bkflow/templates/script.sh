@@ -3,9 +3,10 @@
     #SBATCH lines your site needs (account, QOS) or `module load` lines; the run commands
     themselves are flow's: `<python> -m bkflow.cluster run -o simulate -j <job id>`.
     Comments inside the header are shell comments: a Jinja comment there that trims
-    whitespace ({#- ... #} style) joins the #SBATCH line before it with the next, and Slurm
-    reads everything after a second # on a line as a comment (tests/test_sweep.py parses the
-    scripts as Slurm does). -#}
+    whitespace (one whose delimiters carry a minus sign) joins the #SBATCH line before it with
+    the next, and Slurm reads everything after a second hash on a line as a comment; and no
+    Jinja comment may hold its own closing delimiter, which ends it early and leaks the rest
+    into the script (tests/test_sweep.py parses the scripts as Slurm does). -#}
 {% extends base_script %}
 {% block header %}
 {{- super() }}
