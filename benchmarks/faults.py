@@ -43,6 +43,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 BKFLOW = str(Path(sys.executable).with_name("bkflow"))
+#: the record of the last whole fuzz (benchmarks/RESULTS.md's table is generated from it)
+RECORD = Path(__file__).resolve().parent / "records" / "faults.json"
 SHORT = ["--t-end", "100", "--scene", "friction", "--quiet"]
 
 
@@ -1036,6 +1038,15 @@ def main(argv=None) -> int:
     skipped = sum(r.verdict == "SKIPPED" for r in results)
     print(f"\n{clean} CLEAN, {skipped} SKIPPED, {len(results) - clean - skipped} not clean, "
           f"of {len(results)} cases in {time.time() - t0:.0f} s")
+    if a.only is None:   # the whole fuzz is the record RESULTS.md's table is made from
+        RECORD.parent.mkdir(parents=True, exist_ok=True)
+        scratch = str(root)
+        RECORD.write_text(json.dumps({
+            "date": time.strftime("%Y-%m-%d"), "seconds": round(time.time() - t0),
+            "cases": [{"case": r.case, "exit": r.code,
+                       "line": r.first.replace(scratch, "SCRATCH"), "verdict": r.verdict}
+                      for r in results]}, indent=1) + "\n")
+        print(f"wrote {RECORD}")
     if not a.keep:
         shutil.rmtree(root, ignore_errors=True)
     return 0 if clean + skipped == len(results) else 1

@@ -99,12 +99,14 @@ def states_coverage() -> str:
 def states_verdict() -> str:
     sr, runs, means = _states()
     v = sr.verdicts(runs, means)
-    out = ["| N | phi | T | windows | steady | switching | drifting | metastable | "
-           "false steady | coverage |", "|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| N | phi | T | windows | steady | states named | drifting | metastable | "
+           "false steady (> 0.5% off) | steady, interval misses | coverage (all) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in v.iterrows():
         out.append(f"| {int(r.N)} | {r.phi:g} | {r['T']:g} | {int(r.windows)} | {r.steady:.2f} | "
                    f"{r.switching:.2f} | {r.drifting:.2f} | {r.metastable:.2f} | "
-                   f"{_g(r.false_steady, '.3f')} | {r.coverage:.3f} |")
+                   f"{_g(r.steady_off_05, '.3f')} | {_g(r.false_steady, '.3f')} | "
+                   f"{r.coverage:.3f} |")
     return "\n".join(out) + "\n"
 
 
@@ -328,13 +330,49 @@ def fixed_cost() -> str:
     return "\n".join(out) + "\n"
 
 
+def faults() -> str:
+    """The fault fuzz's cases and verdicts (benchmarks/faults.py's record)."""
+    import json
+
+    f = HERE / "records" / "faults.json"
+    if not f.exists():
+        return "(not measured yet: python benchmarks/faults.py)\n"
+    rec = json.loads(f.read_text())
+    cases = rec["cases"]
+    clean = sum(c["verdict"] == "CLEAN" for c in cases)
+    skipped = sum(c["verdict"] == "SKIPPED" for c in cases)
+    out = [f"Measured {rec['date']}, {rec['seconds']} s: **{clean} CLEAN of {len(cases)}**"
+           + (f" ({skipped} skipped)" if skipped else "") + ".", "",
+           "| # | case | exit | last line of stderr (or first of stdout) | verdict |",
+           "|---|---|---|---|---|"]
+    for k, c in enumerate(cases, 1):
+        line = c["line"].replace("|", "/")
+        out.append(f"| {k} | {c['case']} | {c['exit']} | {line} | {c['verdict']} |")
+    return "\n".join(out) + "\n"
+
+
+def fresh_attack() -> str:
+    """What the fresh attack found (benchmarks/records/fresh_attack.json: its report)."""
+    import json
+
+    rec = json.loads((HERE / "records" / "fresh_attack.json").read_text())
+    out = [f"A fresh attack on {rec['date']} ({rec['who']}): about {rec['cases']} cases, "
+           f"{rec['clean']} clean; {rec['faults']} faults, each fixed and now a case above or a "
+           "test in tests/test_faults.py:", ""]
+    out += [f"- {f}" for f in rec["faults_found"]]
+    out += ["", "Its clean areas: " + "; ".join(f"{n} {what}" for what, n in
+                                                rec["clean_areas"].items()) + "."]
+    return "\n".join(out) + "\n"
+
+
 BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
           "states-paper": states_paper, "states-curve": states_curve,
           "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
           "timestep-cost": timestep_cost, "main-command": main_command,
-          "steady-sizes": steady_sizes, "fixed-cost": fixed_cost}
+          "steady-sizes": steady_sizes, "fixed-cost": fixed_cost,
+          "faults": faults, "fresh-attack": fresh_attack}
 
 
 def render(text: str) -> str:

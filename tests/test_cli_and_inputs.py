@@ -13,7 +13,7 @@ from bkflow.deck import STANDARD_DECKS, write_standard_decks
 from bkflow.engine import RunError, run
 from bkflow.lattice import lattice_for, square_lattice
 from bkflow.params import RunSpec, SpecError
-from bkflow.rundir import LEDGER_COLUMNS, RunDir
+from bkflow.rundir import RunDir
 from tests.support import ROOT, tool
 
 
@@ -48,8 +48,8 @@ def test_cli_run_writes_the_run_directory(lammps, tmp_path, capsys):
     for name in ("in.bk", "data.bk", "stress.csv"):
         assert (out / name).is_file()
     stress = pd.read_csv(out / "stress.csv")
-    # the default scene, full, keeps the energy ledger beside sigma_x
-    assert list(stress.columns) == ["t", "sigma_x", *LEDGER_COLUMNS]
+    # the default scene, figures, keeps no energy ledger: the stress alone (full keeps it)
+    assert list(stress.columns) == ["t", "sigma_x"]
     assert stress["t"].iloc[-1] == pytest.approx(50, abs=0.2)
     # every ~0.1 time units: stress_every rounded to whole steps, as meta.json records
     assert np.diff(stress["t"]).mean() == pytest.approx(meta["derived"]["stress_dt"], rel=1e-6)
