@@ -79,7 +79,9 @@ class LongRun:
         its state is this record's (its spec, and as many blocks as the record holds)."""
         try:
             st = json.loads((legacy / "state.json").read_text())
-            same = (self.record.exists() and st.get("spec") == self.spec.to_dict()
+            was, now = st.get("spec", {}), self.spec.to_dict()
+            same = (self.record.exists() and was
+                    and all(was[k] == now[k] for k in set(was) & set(now))  # fields added: ok
                     and len(pd.read_parquet(self.record)) == st["blocks"])
         except (OSError, ValueError):
             same = False

@@ -123,13 +123,15 @@ def test_the_decks_readme_table_is_the_decks():
 
     text = (ROOT / "lammps_inputs" / "README.md").read_text()
     rows = re.findall(r"^\| `(\w+)/` \| (\d+)x(\d+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \| "
-                      r"(\d+) \|$", text, flags=re.M)
+                      r"([\d.]+) \| (\d+) \|$", text, flags=re.M)
     assert {r[0] for r in rows} == set(STANDARD_DECKS)
-    for name, lx, ly, phi, c, t_end, steps in rows:
+    for name, lx, ly, phi, dt, c, t_end, steps in rows:
         p = json.loads((ROOT / "lammps_inputs" / name / "params.json").read_text())
+        spec = RunSpec.from_dict(p)
         deck = (ROOT / "lammps_inputs" / name / "in.bk").read_text()
-        assert (int(lx), int(ly), float(phi), float(c), float(t_end)) == \
-            (p["Lx"], p["Ly"], p["phi"], p["dt_factor"], p["t_end"]), name
+        assert (int(lx), int(ly), float(phi), float(t_end)) == \
+            (p["Lx"], p["Ly"], p["phi"], p["t_end"]), name
+        assert (dt, c) == (f"{spec.dt:.4g}", f"{spec.dt * spec.omega_max:.4g}"), name
         assert re.search(rf"^run\s+{steps}$", deck, flags=re.M), name
 
 

@@ -56,7 +56,13 @@ def regular(path) -> Path:
     import stat
 
     p = Path(path)
-    if not stat.S_ISREG(os.stat(p).st_mode):
+    mode = os.stat(p).st_mode
+    if stat.S_ISDIR(mode):   # the file system's refusal, as open() gives it
+        import errno
+
+        raise IsADirectoryError(errno.EISDIR, "is a directory, where bkflow keeps a file",
+                                str(p))
+    if not stat.S_ISREG(mode):
         raise NotRegularFileError(f"{p} is not a regular file (a FIFO, device or directory "
                                   "where bkflow keeps a file): bkflow reads only regular files; "
                                   "remove it (the command that makes it makes it again)")

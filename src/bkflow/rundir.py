@@ -320,17 +320,16 @@ class RunDir:
         """Claim the directory for a run bkflow begins now (docs/running.md, "What bkflow
         replaces"): the mark records bkflow's version and the time; the run's files written
         after it are the ones a later run may replace (a partial run of ours is redone)."""
-        import json
         import time
 
         from . import __version__
         from .io import inside
 
-        fd = os.open(inside(self.path, MARK, "the run's mark"),
-                     os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
-        with os.fdopen(fd, "w") as f:
-            json.dump({"bkflow": __version__, "began": time.time(),
-                       "directory": self._identity()}, f)
+        # replaced atomically: a link planted under the mark's name is replaced, never
+        # followed (and no component of the path is a link: ``inside``)
+        io.write_json_atomic(inside(self.path, MARK, "the run's mark"),
+                             {"bkflow": __version__, "began": time.time(),
+                              "directory": self._identity()})
 
     def _identity(self) -> list[int]:
         """The directory's identity on its file system (device, inode): a mark copied into
