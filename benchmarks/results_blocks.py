@@ -141,6 +141,37 @@ def _length(obs: str, phi: float, n: int, rel: float, shortest: float) -> str:
     return f"<= {shortest:.0e}" if t <= shortest else f"{t:.2g}"
 
 
+def states_longest() -> str:
+    """The runs of 10^7 time units, window by window (10^6 each, after the first 20%): the
+    quiet share, <sigma_x>/sigma_n and mu_bar of each window (smallest - largest), and how
+    many stretches in each state the run had: does either state absorb the layer?"""
+    import numpy as np
+
+    from bkflow.states import r_independent
+
+    sr, runs, _ = _states()
+    long = runs[runs.blocks.map(len) >= 4000]
+    out = ["| N | phi | seed | kept (10^6) | windows of 10^6: quiet share | <sigma_x>/sigma_n "
+           "| mu_bar | stretches quiet / coherent |", "|---|---|---|---|---|---|---|---|"]
+    for _, r in long.sort_values(["N", "phi", "seed"]).iterrows():
+        b = r.blocks.reset_index(drop=True)
+        k = 1000
+        q, st, mu = [], [], []
+        for i in range(0, len(b) - k + 1, k):
+            w = b.iloc[i:i + k]
+            q.append(float((w.R < r_independent(int(r.N))).mean()))
+            st.append(float(w.s.mean()))
+            mu.append(float(w["sfail_0.01"].sum() / w["nslip_0.01"].sum()))
+        quiet = (b.R < r_independent(int(r.N))).to_numpy().astype(int)
+        edges = np.flatnonzero(np.diff(quiet)) + 1
+        starts = np.concatenate([[0], edges])
+        nq = int(sum(quiet[a] for a in starts))
+        out.append(f"| {int(r.N)} | {r.phi:g} | {int(r.seed)} | {len(b) / 1000:.1f} | "
+                   f"{min(q):.2f} - {max(q):.2f} | {min(st):.4f} - {max(st):.4f} | "
+                   f"{min(mu):.4f} - {max(mu):.4f} | {nq} / {len(starts) - nq} |")
+    return "\n".join(out) + "\n"
+
+
 def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
@@ -368,6 +399,7 @@ def fresh_attack() -> str:
 BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
+          "states-longest": states_longest,
           "states-paper": states_paper, "states-curve": states_curve,
           "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
           "timestep-cost": timestep_cost, "main-command": main_command,
