@@ -387,32 +387,56 @@ def figure(root, out=FIGURE) -> Path:
     starts = ("synchronized", "random", "stratified", "partial")
     colours = {"synchronized": "tab:red", "random": "tab:blue", "stratified": "tab:green",
                "partial": "tab:orange"}
-    fig, axes = plt.subplots(2, len(cases), figsize=(3.4 * len(cases), 4.6), sharex="col",
-                             squeeze=False)
+    fig, axes = plt.subplots(3, len(cases), figsize=(3.4 * len(cases), 6.6), squeeze=False)
     for j, (n, phi) in enumerate(cases):
-        top, bottom = axes[0, j], axes[1, j]
+        top, mid, low = axes[0, j], axes[1, j], axes[2, j]
         for start in starts:
             rec = runs.get((n, phi, start, 1))
             if rec is None:
                 continue
+            rec = rec[rec.t1 <= 1e6 + 1]   # the four starts over their common 10^6
             t = 0.5 * (rec.t0 + rec.t1) / 1e6
             top.plot(t, rec.s, lw=0.6, color=colours[start], label=start)
-            bottom.plot(t, rec.R, lw=0.6, color=colours[start])
-        bottom.axhline(r_independent(n), color="k", lw=0.8, ls="--",
-                       label=r"$\sqrt{\pi/4N}$ (independent phases)")
+            mid.plot(t, rec.R, lw=0.6, color=colours[start])
+        mid.axhline(r_independent(n), color="k", lw=0.8, ls="--",
+                    label=r"$\sqrt{\pi/4N}$ (independent phases)")
         top.set_title(f"N = {n}, $\\phi$ = {phi:g}, seed 1", fontsize=8)
-        bottom.set_xlabel(r"$t$ ($10^6\,\sqrt{m/k_d}$)", fontsize=8)
+        mid.set_xlabel(r"$t$ ($10^6\,\sqrt{m/k_d}$)", fontsize=8)
         lo = min(float(r.s.quantile(0.001)) for k, r in runs.items() if k[:2] == (n, phi))
         hi = max(float(r.s.quantile(0.995)) for k, r in runs.items() if k[:2] == (n, phi))
         top.set_ylim(lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo))
-        for ax in (top, bottom):
+        # the longest run of the layer: block means of 10^5 and the quiet share
+        longest = max(((k, r) for k, r in runs.items() if k[:2] == (n, phi)),
+                      key=lambda kr: len(kr[1]))
+        (_, _, start, seed), rec = longest
+        if len(rec) >= 4000:
+            g = np.arange(len(rec)) // 100
+            sm = rec.s.groupby(g).mean()
+            qs = (rec.R < r_independent(n)).groupby(g).mean()
+            tt = (rec.t1.groupby(g).max()) / 1e6
+            low.plot(tt, sm, lw=0.7, color="k")
+            twin = low.twinx()
+            twin.fill_between(tt, 0, qs, color="tab:blue", alpha=0.25, lw=0, step="pre")
+            twin.set_ylim(0, 1)
+            twin.set_ylabel("quiet share (blue)", fontsize=7)
+            twin.tick_params(labelsize=6)
+            low.set_title(f"{start} start, seed {seed}: {len(rec) / 1000:.1f} x $10^6$",
+                          fontsize=8)
+            low.set_xlabel(r"$t$ ($10^6\,\sqrt{m/k_d}$)", fontsize=8)
+        else:
+            low.text(0.5, 0.5, "no run of $10^7$ here", ha="center", va="center",
+                     transform=low.transAxes, fontsize=8)
+            low.set_xticks([])
+            low.set_yticks([])
+        for ax in (top, mid, low):
             ax.tick_params(labelsize=7)
     axes[0, 0].set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$ (blocks of $10^3$)", fontsize=8)
     axes[1, 0].set_ylabel(r"coherence $R=|Z|$ (blocks of $10^3$)", fontsize=8)
+    axes[2, 0].set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$ (blocks of $10^5$)", fontsize=8)
     axes[0, 0].legend(fontsize=6, title="start", title_fontsize=6, loc="upper right")
     axes[1, 0].legend(fontsize=6, loc="upper right")
     fig.suptitle("The stiff end over long runs: quiet (R below the dashed line) and coherent "
-                 "stretches", fontsize=9)
+                 "stretches; below, the longest run", fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=150)
     plt.close(fig)
