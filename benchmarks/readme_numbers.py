@@ -171,8 +171,8 @@ def blocks(record: dict) -> dict[str, str]:
             f"visited is within the target: "
             f"{s['runs']} pairs of runs in\n{duration(s['wall_s'])} on a {s['cores']}-core "
             f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
-            "(`benchmarks/readme_numbers.py` measured it; `--scene friction` writes only the "
-            "stress and phase series).")
+            "(`benchmarks/readme_numbers.py` measured it; `--scene friction` records only the "
+            "stress and phase series,\nbeside the analysis' event catalogue).")
         out["sweep-output"] = "```\n" + s["output"] + "\n```"
     r = record.get("run")
     if r and "catalogue" in r:
