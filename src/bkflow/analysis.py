@@ -406,12 +406,6 @@ def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.
                            stationarity.mean_error(events.sigma_fail[large] / spec.sigma_n))
 
 
-def stationarity_result(settings: AnalysisSettings, t, sigma,
-                        t_transient: float, t_equil: float) -> StationarityResult:
-    return StationarityResult(stationarity.stationarity(t, sigma, t_transient, settings.n_blocks,
-                                                        settings.alpha), t_equil)
-
-
 def drop_result(settings: AnalysisSettings, late: stress.SlipEvents) -> DropResult:
     x_min = (None if settings.drop_x_min_over_threshold is None
              else settings.drop_x_min_over_threshold * late.threshold)
@@ -525,8 +519,10 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     t0 = transient_time(spec, settings, t_equil)
     fr = friction_result(spec, settings, t, sigma, t0)
     events = fr.friction.events
-    steady = stationarity_result(settings, t, sigma, t0, t_equil)
     win = run_window(spec, settings, t, sigma, phase, t0, events)
+    # the trend the verdict read (its error widened by the layer's calibrated fluctuations),
+    # not a second test of the same window that the summary would report beside it
+    steady = StationarityResult(win.trend, t_equil)
     comp = None if companion is None else companion_result(
         spec, settings, t0, fr.friction.mean_stress_ratio, *companion)
     verdict = state_result(win, comp)

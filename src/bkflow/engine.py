@@ -1,13 +1,14 @@
 """Run one deck through the LAMMPS Python API, in chunks, with guards and a completion record.
 
 ``run`` is a few named steps: claim the run directory (``bkflow.rundir``: its lock, a
-finished run refused, a partial one cleared), write the deck, advance LAMMPS chunk by chunk
-with the guards and the progress line, and commit meta.json. Between chunks the engine checks
-for the ways a run goes wrong (NaN, lost atoms, a torn bond) and stops with a
-``RunError`` naming phi, the step and the cause. An adaptive run (RunSpec.target_error)
-stops when the error of mu_bar is below its target and/or the run is steady
-(``AdaptiveStop``, on ``bkflow.stress.RunningFriction``,
-``bkflow.stationarity.stationarity`` and ``bkflow.phases.state``).
+finished run refused unless a longer request continues it from its restart file, a partial
+one cleared), write the deck, advance LAMMPS chunk by chunk with the guards and the progress
+line, and commit meta.json. Between chunks the engine checks for the ways a run goes wrong
+(NaN, lost atoms, a torn bond, a step that carries contacts past their whole range) and
+stops with a ``RunError`` naming phi, the step and the cause. An adaptive run
+(RunSpec.target_error, RunSpec.until_steady) stops when the error of mu_bar is below its
+target and/or the run is steady, or names the states it visited (``AdaptiveStop``, on
+``bkflow.stress.RunningFriction`` and ``bkflow.states.window``).
 """
 
 from __future__ import annotations
@@ -228,8 +229,10 @@ def _fix_vector(lmp, fix: str, i: int) -> float:
     return lmp.extract_fix(fix, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i)
 
 
-def _check(lmp, spec: RunSpec, step: int) -> float:
-    """sigma_x now, after checking the state for the ways a run goes wrong."""
+def _check(lmp, spec: RunSpec, step: int, breaks_before: float = 0.0) -> float:
+    """sigma_x now, after checking the state for the ways a run goes wrong. ``breaks_before``:
+    the contact breaks a continued run's restart file carried in (the overshoots count from
+    the restart, the breaks from t = 0)."""
     where = f"{spec.label}, step {step}"
     natoms = lmp.get_natoms()
     if natoms != spec.N:
@@ -241,9 +244,8 @@ def _check(lmp, spec: RunSpec, step: int) -> float:
         raise RunError(f"{where}: positions or sigma_x became NaN/inf; the run blew up, "
                        "try a smaller --dt-factor")
     over = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["overshoot"])
-    if over > OVERSHOOT_ALLOWED * max(_fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"]),
-                                      OVERSHOOT_MIN_BREAKS):
-        breaks = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"])
+    breaks = _fix_vector(lmp, SUBSTRATE_FIX, SLOTS["breaks_total"]) - breaks_before
+    if over > OVERSHOOT_ALLOWED * max(breaks, OVERSHOOT_MIN_BREAKS):
         raise RunError(f"{where}: the time step dt = {spec.dt:.3g} moved {over:.0f} of "
                        f"{breaks:.0f} breaking contacts past their whole range (f_max / k_e = "
                        f"{spec.friction_threshold / spec.k_e:.3g} l) in one step, so that the "
@@ -349,6 +351,7 @@ class _Leg:
     def __init__(self, spec: RunSpec, rd: RunDir, options: DeckOptions):
         self.spec, self.rd, self.options = spec, rd, options
         self.lmp = None
+        self.breaks_before = 0.0
         self.adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
 
     def open(self, resume: str | None = None, step: int = 0) -> None:
@@ -366,6 +369,8 @@ class _Leg:
                         self.spec, resume, self.options.replace(data="", append_from=step)))
             except Exception as exc:
                 raise _lammps_error(self.spec, exc, step, 0, self.rd.file(LOG)) from None
+        self.breaks_before = (0.0 if resume is None else
+                              _fix_vector(self.lmp, SUBSTRATE_FIX, SLOTS["breaks_total"]))
 
     def write_restart(self, step: int) -> str:
         """The restart file of the run's last step (a longer run continues from it): its
@@ -386,7 +391,7 @@ class _Leg:
                 self.lmp.command(f"run {n} pre {'yes' if first else 'no'} post no")
             except Exception as exc:  # LAMMPS errors arrive as plain exceptions
                 raise _lammps_error(self.spec, exc, step, n, self.rd.file(LOG)) from None
-        return _check(self.lmp, self.spec, step + n)
+        return _check(self.lmp, self.spec, step + n, self.breaks_before)
 
     def counters(self) -> dict:
         lmp, spec = self.lmp, self.spec
@@ -431,8 +436,9 @@ def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> in
 
     LAMMPS runs in pieces of about PIECE_WALL_S of wall time (for all legs together), the
     state checked after each (a run shorter than that is one ``run`` command). An adaptive
-    run's stop rule is checked at fixed steps (every multiple of ``chunk``), so that it stops
-    at the same step every time, continued or not; pieces end there too."""
+    run's stop rule is checked at fixed steps (``next_check``: every ``chunk`` steps at first,
+    then ever more sparsely), so that it stops at the same step every time; pieces end there
+    too."""
     spec = legs[0].spec
     step, n_total = start, spec.n_steps
     piece = max(10, min(chunk, int(FIRST_PIECE_RATE * PIECE_WALL_S / (spec.N * len(legs)))))
@@ -506,7 +512,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
 
     ``overwrite``: redo a finished run instead of refusing. A partial run of bkflow's is
     always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
-    steps between checks and progress updates (default: 1% of the run, at least 1000 steps).
+    the first steps between checks (``next_check`` spaces the later ones further apart) and
+    progress updates (default: 1% of the run, at least 1000 steps).
     ``force``: run even when the cost estimate (``bkflow.limits.check_cost``) is above
     the limits. ``path``: the integration path (``bkflow.params.PATHS``): ``auto`` (the
     fused path when it can run, as it always can for bkflow's lattices on the engine's one
@@ -581,9 +588,9 @@ def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
     the same run (every parameter but the length, and the companion's too) that ran fewer
     steps than ``spec`` asks for, and did not stop by its own rule, with its restart files.
     A longer run then continues from where it stopped and never simulates again what it has:
-    its series are appended to, and it is the very run a longer request would have made (bit
-    for bit on the fused path, whose restart is exact; its stop rule checked at the same
-    steps)."""
+    its series are appended to, and its trajectory is the very one a longer request would
+    have made (bit for bit on the fused path, whose restart is exact); its stop rule is
+    checked at the steps of its own schedule, which the longer length may space otherwise."""
     legs = [rd] + ([rd.companion()] if spec.companion is not None else [])
     for d in legs:  # a continuation cut short: the finished run as it was
         d.undo_continuation()
@@ -620,6 +627,9 @@ def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: 
     for key in ("slip_snapshots", "fronts"):   # the output fixes count from their restart
         if meta.get(key) and before.get(key):
             meta[key] = {k: v + before[key].get(k, 0) for k, v in meta[key].items()}
+    # so do the overshoots (the breaks come back with the layer's restart state)
+    meta["contact_overshoots"] = meta.get("contact_overshoots", 0) + before.get(
+        "contact_overshoots", 0)
     meta["continued"] = before.get("continued", [{"to_step": start,
                                                    "command": before.get("command")}]) + [
         {"to_step": step, "command": command, "wall_time_s": wall}]

@@ -45,8 +45,9 @@ class Frames:
 
 
 class NotRegularFileError(ValueError):
-    """A path bkflow reads that is not a regular file (a FIFO, a device, a socket, a
-    directory): reading a FIFO would wait forever for a writer."""
+    """A path bkflow reads that is not a regular file (a FIFO, a device, a socket; a
+    directory is the file system's IsADirectoryError): reading a FIFO would wait forever
+    for a writer."""
 
 
 def regular(path) -> Path:
@@ -63,8 +64,8 @@ def regular(path) -> Path:
         raise IsADirectoryError(errno.EISDIR, "is a directory, where bkflow keeps a file",
                                 str(p))
     if not stat.S_ISREG(mode):
-        raise NotRegularFileError(f"{p} is not a regular file (a FIFO, device or directory "
-                                  "where bkflow keeps a file): bkflow reads only regular files; "
+        raise NotRegularFileError(f"{p} is not a regular file (a FIFO, device or socket where "
+                                  "bkflow keeps a file): bkflow reads only regular files; "
                                   "remove it (the command that makes it makes it again)")
     return p
 

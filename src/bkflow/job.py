@@ -57,34 +57,50 @@ def seed(out, donors, spec: RunSpec) -> str | None:
 
     from .engine import continuation
     from .io import atomic_file
-    from .rundir import ANALYSIS_FILES, COMPANION, LOCK, META
+    from .rundir import ANALYSIS_FILES, COMPANION, CONTINUING, LOCK, MARK, META, RunBusyError
 
     rd = RunDir(out)
-    if rd.meta() is not None:
-        return None
-    best, steps = None, -1
-    for d in donors:
-        meta = continuation(RunDir(d), spec)
-        if meta is not None and meta["derived"]["n_steps"] > steps:
-            best, steps = Path(d), meta["derived"]["n_steps"]
-    if best is None:
-        return None
-
-    def copy(src: Path, dst: Path) -> None:
-        dst.mkdir(exist_ok=True)
-        for p in sorted(src.iterdir(), key=lambda p: p.name == META):  # the record last
-            if p.name in ANALYSIS_FILES or p.name == LOCK or p.name.startswith("signac_"):
+    with rd.lock():   # the job's own run, which another process may be writing
+        if rd.meta() is not None:
+            return None
+        best, steps = None, -1
+        for d in donors:
+            try:
+                # a donor another process is writing (or continuing) now is passed over;
+                # checking one may undo a continuation of it that was cut short
+                with RunDir(d).lock():
+                    meta = continuation(RunDir(d), spec)
+            except RunBusyError:
                 continue
-            if p.name == COMPANION and p.is_dir() and not p.is_symlink():
-                copy(p, dst / p.name)
-            elif p.is_file() and not p.is_symlink():
-                with open(p, "rb") as src_f, atomic_file(dst / p.name, binary=True) as out:
-                    shutil.copyfileobj(src_f, out)
+            if meta is not None and meta["derived"]["n_steps"] > steps:
+                best, steps = Path(d), meta["derived"]["n_steps"]
+        if best is None:
+            return None
 
-    # (until its record is copied, the directory holds no finished run: a copy cut short is
-    # redone from the start)
-    copy(best, rd.path)
-    return str(best)
+        def copy(src: Path, dst: Path) -> None:
+            dst.mkdir(exist_ok=True)
+            for p in sorted(src.iterdir(), key=lambda p: p.name == META):  # the record last
+                if (p.name in ANALYSIS_FILES or p.name in (LOCK, MARK, CONTINUING)
+                        or p.name.startswith("signac_") or p.name.endswith(".tmp")):
+                    continue
+                if p.name == COMPANION and p.is_dir() and not p.is_symlink():
+                    RunDir(dst / p.name).path.mkdir(exist_ok=True)
+                    RunDir(dst / p.name).mark()
+                    copy(p, dst / p.name)
+                elif p.is_file() and not p.is_symlink():
+                    with open(p, "rb") as src_f, atomic_file(dst / p.name, binary=True) as o:
+                        shutil.copyfileobj(src_f, o)
+
+        # the job's own mark first: until the donor's record is copied (last) the directory
+        # holds a run of this job's that did not finish, and a copy cut short is redone from
+        # the start (the donor's mark names the donor's directory, and is not copied)
+        rd.mark()
+        try:
+            with RunDir(best).lock():
+                copy(best, rd.path)
+        except RunBusyError:   # taken between the check and the copy: run from the start
+            return None
+        return str(best)
 
 
 def analyze(spec: RunSpec, out, settings: AnalysisSettings) -> dict:

@@ -93,7 +93,8 @@ def blocks(t_phase, R, t_stress, ratio, t_start: float, n_contacts: int,
 
     r = means(t_phase, R) if n else np.array([])
     s = means(t_stress, ratio) if n else np.array([])
-    state = np.where(r < r_independent(n_contacts), QUIET, COHERENT)
+    # a block without a phase sample (the phase series lags the stress's) has no state
+    state = np.where(np.isnan(r), "", np.where(r < r_independent(n_contacts), QUIET, COHERENT))
     return Blocks(edges[:-1], edges[1:], r, s, state)
 
 
@@ -129,7 +130,7 @@ def composition(b: Blocks, t_fail=None, sigma_fail_ratio=None) -> Composition:
     each state's mu_bar over the slips whose maximum falls in its blocks."""
     frac, stress, mu = {}, {}, {}
     w = b.t1 - b.t0
-    total = w.sum()
+    total = w[b.state != ""].sum()   # the blocks whose state is known
     t_fail = None if t_fail is None else np.asarray(t_fail, float)
     for s in STATE_NAMES:
         m = b.state == s

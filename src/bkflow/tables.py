@@ -79,9 +79,10 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
     ``RESULT_FIELDS``, the seeds' count, the mean within-run errors
     (``WITHIN_RUN_ERRORS``), the regime
     most seeds report, and the states of the seeds' runs (docs/model.md "Steady state"):
-    ``n_steady``, ``n_drifting``, ``n_metastable``, and the point's ``state``: steady when
-    every seed's run is, else metastable when any is, else drifting (``point_state``);
-    ``n_stationary`` counts the runs whose stress alone is trend-free."""
+    ``n_steady``, ``n_switching``, ``n_drifting``, ``n_metastable``, and the point's
+    ``state`` (``point_state``); ``n_stationary`` counts the runs whose stress alone is
+    trend-free; ``<field>_err``: the larger of the seeds' standard error and their runs' own
+    errors combined (each covering the switching)."""
     if runs.empty:
         return pd.DataFrame()
     params = [f for f in RunSpec.__dataclass_fields__ if f not in _NOT_GROUPED]
@@ -219,7 +220,9 @@ def tables_problem(root) -> str | None:
     if not isinstance(record, dict) or RUNS_FILE not in record:
         return f"{SETTINGS_FILE} does not record the tables it belongs with"
     for name, want in record.items():
-        p = root / name
+        p = io.within(root, name)   # a name the record gives: read only inside the sweep
+        if p is None:
+            return f"{SETTINGS_FILE} names {name!r}, which is not a table of the sweep's"
         if p.is_symlink() or not p.is_file():
             return f"{name} is missing"
         if io.file_record(p) != want:
