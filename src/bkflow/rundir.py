@@ -642,8 +642,9 @@ class RunDir:
 
     def table_problem(self, summary: dict | None = None) -> str | None:
         """Why the analysis's tables are not the ones its summary.json made (None: they are):
-        one missing, cut, emptied or replaced (its size or digest changed), or a summary
-        without the record of them (made by an older bkflow)."""
+        one missing, cut, emptied or replaced (its size, then its digest, changed), or a
+        summary without the record of them (made by an older bkflow). The tables are one set
+        with their summary: a reader of one checks them all."""
         s = summary if summary is not None else self.summary()
         if s is None:
             return "no summary.json"
@@ -654,7 +655,8 @@ class RunDir:
             p = self.file(name)
             if p.is_symlink() or not p.is_file():
                 return f"{name} is missing"
-            if io.file_record(p) != record.get(name):
+            want = record.get(name) or {}
+            if p.stat().st_size != want.get("bytes") or io.file_record(p) != want:
                 return f"{name} is not the table the analysis wrote (cut, emptied or replaced)"
         return None
 
