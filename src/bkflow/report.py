@@ -66,10 +66,10 @@ def stop_line(ad: dict, companion: str | None = None) -> str:
             missed.append("mu_bar error not measurable yet (too few slips after the transient)")
         else:
             need = None if switching else ad.get("t_needed")
-            missed.append(f"mu_bar error {err:.2g} > {target:g}" + (
+            missed.append(f"mu_bar error {err:.3g} > {target:g}" + (
                 f" of the states visited ({state})" if switching else "") + (
-                f" (the switching between states alone needs a run of about t = {need:.2g} "
-                "for it)" if need else ""))
+                f" (the layer's slow fluctuations, measured in long runs, alone need a run "
+                f"of about t = {need:.2g} for it)" if need else ""))
     if ad.get("until_steady"):
         if state is None or ad.get("drift_at_stop") is None or \
                 not math.isfinite(ad["drift_at_stop"]):
