@@ -249,8 +249,9 @@ class Fuzz:
                           "--quiet", "--force", "--out", small / "r"), {4}, [small / "r"])
             shutil.rmtree(small / "r", ignore_errors=True)
             # a run that fits, whose analysis does not: fill the disk after the run
+            # (the paper's protocol: one run, no companion, so that it fits the small disk)
             p = bk("run", "--phi", "10", "--t-end", "300", "--scene", "friction", "--quiet",
-                   "--no-analyze", "--out", small / "a")
+                   "--protocol", "paper", "--no-analyze", "--out", small / "a")
             assert p.returncode == 0, p.stderr
             free = shutil.disk_usage(small).free
             (small / "filler").write_bytes(b"\0" * max(0, free - 2048))
@@ -260,7 +261,7 @@ class Fuzz:
                 self.results[-1].verdict = "left a .tmp file"
             (small / "filler").unlink()
             p = bk("run", "--phi", "10", "--t-end", "300", "--scene", "friction", "--quiet",
-                   "--out", small / "a")
+                   "--protocol", "paper", "--out", small / "a")
             self.check("same command after freeing space: analyses only", p, {0})
             if "finished earlier; analysing" not in p.stdout:
                 self.results[-1].verdict = "ran again instead of analysing"

@@ -12,7 +12,9 @@ it by results_blocks.py):
 - ``import``: ``python -c "import bkflow.cli"``;
 - ``version``: ``bkflow --version``;
 - ``run 10``: ``bkflow run --phi 10 --t-end 10 --scene friction --no-analyze`` (MPI and
-  LAMMPS start-up, the plugin's load, the deck, 10 time units);
+  LAMMPS start-up, the plugin's load, the deck, 10 time units; the steady protocol: the run
+  and its companion, two LAMMPS instances);
+- ``run 10, one run (paper)``: the same under ``--protocol paper`` (one LAMMPS instance);
 - ``run 10 + analysis``: the same with its analysis;
 - ``analyze 8000``: ``bkflow analyze`` of a run of 8000 time units at phi = 10 (the default
   scene), beside that run's own simulation time (its meta.json's wall_time_s).
@@ -57,6 +59,10 @@ def measure(rounds: int) -> dict:
             "run 10": lambda k: [BKFLOW, "run", "--phi", "10", "--t-end", "10", "--scene",
                                  "friction", "--no-analyze", "--quiet", "--out",
                                  str(work / f"a{k}")],
+            "run 10, one run (paper)": lambda k: [BKFLOW, "run", "--phi", "10", "--t-end",
+                                                  "10", "--scene", "friction", "--protocol",
+                                                  "paper", "--no-analyze", "--quiet", "--out",
+                                                  str(work / f"p{k}")],
             "run 10 + analysis": lambda k: [BKFLOW, "run", "--phi", "10", "--t-end", "10",
                                             "--scene", "friction", "--quiet", "--out",
                                             str(work / f"b{k}")],

@@ -87,8 +87,10 @@ SIZES = (400, 900)
 
 
 def measure_sizes() -> dict:
-    """The main command's grid under the steady protocol at N = SIZES: {N: measure_sweep}."""
-    return {str(n): measure_sweep(f"{SWEEP} --sizes {n}") for n in SIZES}
+    """The main command's grid under the steady protocol at N = SIZES, recording only the
+    stress and phase series (--scene friction: the frames of a larger layer would take tens
+    of GB, and the protocol's time is the simulation's): {N: measure_sweep}."""
+    return {str(n): measure_sweep(f"{SWEEP} --sizes {n} --scene friction") for n in SIZES}
 
 
 def _commit() -> str:
@@ -115,11 +117,12 @@ def catalogue_table(events, rows: int = 6) -> str:
     """The first ``rows`` slips after the transient of an event catalogue (a DataFrame), as a
     markdown table of ``CATALOGUE_SHOWN``."""
     late = events[events["late"].astype(bool)].head(rows)
-    head = "| " + " | ".join(h for _, h, _ in CATALOGUE_SHOWN) + " |"
-    lines = [head, "|" + "---|" * len(CATALOGUE_SHOWN)]
+    shown = [(c, h, f) for c, h, f in CATALOGUE_SHOWN if c in late.columns]  # the scene's
+    head = "| " + " | ".join(h for _, h, _ in shown) + " |"
+    lines = [head, "|" + "---|" * len(shown)]
     for _, r in late.iterrows():
         cells = ["n/a" if r[c] is None or r[c] != r[c] else format(
-            int(r[c]) if f == "d" else float(r[c]), f) for c, _, f in CATALOGUE_SHOWN]
+            int(r[c]) if f == "d" else float(r[c]), f) for c, _, f in shown]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
