@@ -102,8 +102,6 @@ class AdaptiveStop:
     ``bkflow.report`` words it."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
-        import scipy.stats  # noqa: F401  (the trend test's; imported before the loop is timed)
-
         self.spec, self.tail = spec, run_dir.stress_reader()
         self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
         self.phase_tail = run_dir.phase_reader() if spec.until_steady else None
