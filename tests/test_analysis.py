@@ -402,3 +402,27 @@ def test_bad_stress_input_is_refused():
         stress.slip_events([0, 1, 2], [0, np.nan, 1], 0.01)
     with pytest.raises(ValueError, match="shape"):
         stress.slip_events([0, 1, 2], [0, 1], 0.01)
+
+
+def test_powerlaw_is_imported_without_pyplot_and_pyplot_stays_real():
+    """The analysis imports powerlaw without matplotlib.pyplot (bkflow.stress.import_powerlaw);
+    powerlaw's own plots still work, and a later ``import matplotlib.pyplot`` is the real one."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from bkflow.stress import import_powerlaw\n"
+        "pl = import_powerlaw()\n"
+        "assert 'matplotlib.pyplot' not in sys.modules\n"
+        "import matplotlib\n"
+        "matplotlib.use('Agg')\n"
+        "import matplotlib.pyplot as plt\n"
+        "assert type(plt).__name__ == 'module' and hasattr(plt, 'subplots')\n"
+        "assert pl.fitting.plt.gca() is plt.gca()\n"
+        "import numpy as np\n"
+        "fit = pl.Fit(np.arange(1.0, 200.0) ** 1.5, xmin=1.0, verbose=False)\n"
+        "print(fit.plot_pdf() is plt.gca())\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "True"

@@ -374,6 +374,39 @@ def power_law_p(fit: PowerLawFit, n_boot: int = N_BOOT, seed: int = 0) -> float:
     return worse / n_boot
 
 
+def import_powerlaw():
+    """The ``powerlaw`` package, imported when first needed, without matplotlib.pyplot, which
+    it imports at its top for its plots (a third of a second; bkflow's analysis never plots
+    through it): while it is imported, ``matplotlib.pyplot`` is a stand-in that imports the
+    real pyplot at its first use, and is gone from ``sys.modules`` afterwards, so that any
+    later ``import matplotlib.pyplot`` (bkflow's figures, a user's) is the real one."""
+    import sys
+
+    if "powerlaw" in sys.modules or "matplotlib.pyplot" in sys.modules:
+        import powerlaw
+
+        return powerlaw
+    import types
+
+    class _Pyplot(types.ModuleType):
+        def __getattr__(self, name):
+            import importlib
+
+            return getattr(importlib.import_module("matplotlib.pyplot"), name)
+
+    stand_in = _Pyplot("matplotlib.pyplot")
+    sys.modules["matplotlib.pyplot"] = stand_in
+    try:
+        import powerlaw
+    finally:
+        if sys.modules.get("matplotlib.pyplot") is stand_in:
+            del sys.modules["matplotlib.pyplot"]
+        parent = sys.modules.get("matplotlib")
+        if parent is not None and getattr(parent, "__dict__", {}).get("pyplot") is stand_in:
+            del parent.pyplot
+    return powerlaw
+
+
 def lognormal_comparison(x, x_min: float) -> tuple[float, float]:
     """Normalised log-likelihood ratio of a power law against a lognormal over x >= x_min, and
     its p-value (Clauset et al. Sec. 5; Vuong's test), from the ``powerlaw`` package (Alstott,
@@ -383,8 +416,7 @@ def lognormal_comparison(x, x_min: float) -> tuple[float, float]:
     tail = x[np.isfinite(x) & (x >= x_min)]
     if len(np.unique(tail)) < 2:
         return math.nan, math.nan
-    import powerlaw  # imported here: it loads matplotlib and mpmath, which most runs never need
-
+    powerlaw = import_powerlaw()
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         f = powerlaw.Fit(tail, xmin=x_min, verbose=False)

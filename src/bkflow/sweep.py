@@ -158,8 +158,13 @@ def warm(simulate: bool = True) -> None:
     import importlib
 
     from . import analysis  # noqa: F401
+    from .stress import import_powerlaw
 
-    names = ["pandas", "scipy.stats", "scipy.sparse.csgraph", "powerlaw", "pyarrow.parquet"]
+    try:
+        import_powerlaw()
+    except ImportError:
+        pass
+    names = ["pandas", "scipy.stats", "scipy.sparse.csgraph", "pyarrow.parquet"]
     if simulate:
         from .plugin import PluginError, load_mpi
 
