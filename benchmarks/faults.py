@@ -82,7 +82,9 @@ class Fuzz:
         self.results: list[Result] = []
         self.base = root / "base"          # a finished run nothing may change
         self.sweep = root / "sweep"        # a finished sweep nothing may change
-        p = bk("run", "--phi", "10", "--t-end", "200", "--out", self.base, "--quiet")
+        # the full scene: every derived file (fronts for the movie, the ledger) exists
+        p = bk("run", "--phi", "10", "--t-end", "200", "--scene", "full", "--out", self.base,
+               "--quiet")
         assert p.returncode == 0, p.stderr
         p = bk("sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "100", "--scene", "friction",
                "--jobs", "2", "--out", self.sweep, "--quiet")
@@ -316,12 +318,15 @@ class Fuzz:
 
     def writers(self):
         d = self.scratch()
+        # a run that lasts well beyond the second's start (the small step: at the default
+        # preset's step this run takes less than the 3 s the second waits)
         first = subprocess.Popen([BKFLOW, "run", "--phi", "1000", "--n", "400", "--t-end",
-                                  "1000", "--quiet", "--out", str(d / "r")],
+                                  "1000", "--dt-factor", "0.05", "--quiet", "--out",
+                                  str(d / "r")],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(3)
-        second = bk("run", "--phi", "1000", "--n", "400", "--t-end", "1000", "--quiet",
-                    "--out", d / "r")
+        second = bk("run", "--phi", "1000", "--n", "400", "--t-end", "1000", "--dt-factor",
+                    "0.05", "--quiet", "--out", d / "r")
         out, err = first.communicate(timeout=600)
         self.check("two runs into one --out: the second", second, {3})
         if first.returncode != 0 or not complete(d / "r"):
@@ -340,7 +345,7 @@ class Fuzz:
     def interrupts(self):
         d = self.scratch()
         p = subprocess.Popen([BKFLOW, "run", "--phi", "1000", "--n", "900", "--t-end", "20000",
-                              "--out", str(d / "r"), "--quiet"], stdout=subprocess.PIPE,
+                              "--dt-factor", "0.1", "--out", str(d / "r"), "--quiet"], stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
         time.sleep(5)
         t0 = time.time()
@@ -1026,6 +1031,10 @@ def main(argv=None) -> int:
     ap.add_argument("--keep", default=None, help="scratch directory to keep (default: a temp)")
     ap.add_argument("--only", default=None, help="run only this part (e.g. third_round)")
     a = ap.parse_args(argv)
+    # started in the background (`cmd &` in a script), this process has SIGINT ignored, and so
+    # would every bkflow it starts (an ignored signal stays ignored across exec): the Ctrl-C
+    # cases need it as a terminal would deliver it
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     root = Path(a.keep or tempfile.mkdtemp(prefix="bkflow-faults-"))
     root.mkdir(parents=True, exist_ok=True)
     t0 = time.time()
