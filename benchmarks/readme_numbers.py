@@ -72,8 +72,16 @@ def _run(cmd: str, cwd: Path) -> tuple[str, float]:
     return p.stdout, wall
 
 
+def _scratch() -> Path:
+    """Where the measured commands run: runs/ of the checkout (ignored by git; the same file
+    system as the project, as a user's run would be)."""
+    d = ROOT / "runs"
+    d.mkdir(exist_ok=True)
+    return d
+
+
 def measure_sweep(command: str = SWEEP) -> dict:
-    with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
+    with tempfile.TemporaryDirectory(prefix="readme-numbers-", dir=_scratch()) as d:
         out, wall = _run(command, Path(d))
         size = disk_bytes(Path(d) / "runs" / "sweep")
     runs = int(re.search(r"= (\d+) runs into", out).group(1))
@@ -130,7 +138,7 @@ def catalogue_table(events, rows: int = 6) -> str:
 def measure_run() -> dict:
     import pandas as pd
 
-    with tempfile.TemporaryDirectory(dir=ROOT / "benchmarks") as d:
+    with tempfile.TemporaryDirectory(prefix="readme-numbers-", dir=_scratch()) as d:
         out, wall = _run(RUN, Path(d))
         size = disk_bytes(Path(d) / "runs" / "phi10")
         events = pd.read_parquet(Path(d) / "runs" / "phi10" / "events.parquet")
