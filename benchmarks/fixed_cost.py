@@ -17,7 +17,10 @@ it by results_blocks.py):
 - ``run 10, one run (paper)``: the same under ``--protocol paper`` (one LAMMPS instance);
 - ``run 10 + analysis``: the same with its analysis;
 - ``analyze 8000``: ``bkflow analyze`` of a run of 8000 time units at phi = 10 (the default
-  scene), beside that run's own simulation time (its meta.json's wall_time_s).
+  scene), beside that run's own simulation time (its meta.json's wall_time_s);
+- ``analyze 8000, warm``: the same analysis in a process that has imported what the analysis
+  uses (``bkflow.sweep.warm``, as a sweep's workers have): the analysis' own time, without
+  the imports a cold process pays once (timed inside one process, median of ``--rounds``).
 """
 
 from __future__ import annotations
@@ -42,6 +45,27 @@ def _timed(cmd: list[str], cwd: Path) -> float:
     t0 = time.perf_counter()
     subprocess.run(cmd, cwd=cwd, check=True, capture_output=True)
     return time.perf_counter() - t0
+
+
+WARM = """
+import json, sys, time
+from bkflow.analysis import analyze
+from bkflow.sweep import warm
+warm(simulate=False)
+analyze(sys.argv[1])            # once, as the run's own analysis: what stays is in memory
+times = []
+for _ in range(int(sys.argv[2])):
+    t0 = time.perf_counter()
+    analyze(sys.argv[1])
+    times.append(time.perf_counter() - t0)
+print(json.dumps(times))
+"""
+
+
+def _warm_analysis(run: Path, rounds: int) -> list[float]:
+    p = subprocess.run([sys.executable, "-c", WARM, str(run), str(rounds)], check=True,
+                       capture_output=True, text=True)
+    return json.loads(p.stdout.strip().splitlines()[-1])
 
 
 def measure(rounds: int) -> dict:
@@ -72,6 +96,7 @@ def measure(rounds: int) -> dict:
         for k in range(rounds):
             for name, cmd in pieces.items():
                 times[name].append(_timed(cmd(k), work))
+        times["analyze 8000, warm"] = _warm_analysis(long, rounds)
         return {"rounds": rounds, "median_s": {n: statistics.median(v) for n, v in times.items()},
                 "all_s": times, "simulation_8000_s": simulation,
                 "cores": os.cpu_count(), "date": time.strftime("%Y-%m-%d")}

@@ -348,18 +348,24 @@ def fixed_cost() -> str:
         return "(not measured yet: python benchmarks/fixed_cost.py)\n"
     rec = json.loads(f.read_text())
     m = rec["median_s"]
-    out = ["| piece | whole process (median of "
+    out = ["| piece | time (median of "
            f"{rec['rounds']}, {rec['date']}) |", "|---|---|"]
     for name, t in m.items():
-        out.append(f"| {name} | {t:.2f} s |")
+        shown = name + (" (inside a process that has its imports)" if name.endswith("warm")
+                        else " (a whole process)")
+        out.append(f"| {shown} | {t:.2f} s |")
     out.append(f"| the 8000-unit run's own simulation | {rec['simulation_8000_s']:.2f} s |")
     out.append("")
     one = m.get("run 10, one run (paper)")
+    warm = m.get("analyze 8000, warm")
+    sim = rec["simulation_8000_s"]
     out.append(f"A run's fixed cost (run 10 without its analysis, less the interpreter) is "
                f"{m['run 10'] - m['python']:.2f} s for the steady protocol's pair"
                + (f", {one - m['python']:.2f} s for one run" if one is not None else "")
-               + f"; the analysis of an 8000-unit run takes {m['analyze 8000']:.2f} s, "
-               f"{m['analyze 8000'] / rec['simulation_8000_s']:.2f}x its simulation's time.")
+               + f"; the analysis of an 8000-unit run takes {m['analyze 8000']:.2f} s in a "
+               f"process of its own, {m['analyze 8000'] / sim:.2f}x its simulation's time"
+               + (f", and {warm:.2f} s ({warm / sim:.2f}x) where the imports are paid (a "
+                  "sweep's workers)" if warm is not None else "") + ".")
     return "\n".join(out) + "\n"
 
 
