@@ -345,8 +345,8 @@ class Fuzz:
     def interrupts(self):
         d = self.scratch()
         p = subprocess.Popen([BKFLOW, "run", "--phi", "1000", "--n", "900", "--t-end", "20000",
-                              "--dt-factor", "0.1", "--out", str(d / "r"), "--quiet"], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+                              "--dt-factor", "0.1", "--out", str(d / "r"), "--quiet"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(5)
         t0 = time.time()
         p.send_signal(signal.SIGINT)

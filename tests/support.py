@@ -38,6 +38,18 @@ def tool(name: str) -> str:
     return found
 
 
+def fresh_python(code: str, timeout: float = 120) -> str:
+    """The stdout of ``code`` run by a new interpreter of this environment (what a process
+    sees at its start: signal handlers, ``sys.modules``); the test fails with its stderr when
+    it exits non-zero."""
+    import subprocess
+
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=timeout)
+    assert p.returncode == 0, p.stderr
+    return p.stdout
+
+
 def lively_start(spec: RunSpec, offset=(0.495, 0.49), v_scale=0.3, drift=(0.2, 0.1), seed=7):
     """A lattice shifted so atoms sit near the box edge, random velocities (N, 2) about a
     common drift that carries the edge atoms across the boundary.

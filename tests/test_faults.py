@@ -26,7 +26,7 @@ from bkflow.cli import (
     EXIT_RUN_FAILED,
 )
 from bkflow.rundir import META, SUMMARY, RunDir
-from tests.support import tool
+from tests.support import fresh_python, tool
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -284,9 +284,8 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
         "from bkflow.plugin import load_mpi\n"
         "load_mpi()\n"
         "print(before == [handler(s) for s in (1, 2, 15)], before)\n")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert p.returncode == 0, p.stderr
-    assert p.stdout.startswith("True"), p.stdout
+    out = fresh_python(code, timeout=60)
+    assert out.startswith("True"), out
 
 
 @pytest.mark.slow
