@@ -380,7 +380,8 @@ class Fuzz:
         return [int(x) for x in out.stdout.split()]
 
     def _sweep_args(self, out, *extra):
-        return ["sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "300", "--dt-factor",
+        # runs of several seconds each (the small step), so that the signal meets them running
+        return ["sweep", "--phi", "300,1000", "--seeds", "2", "--t-end", "3000", "--dt-factor",
                 "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2", "--quiet",
                 "--out", str(out), *extra]
 
@@ -396,7 +397,12 @@ class Fuzz:
                 time.sleep(0.1)
             time.sleep(0.5)
             kids = self._children(p.pid)
-            os.kill(kids[0] if target == "worker" and kids else p.pid, sig)
+            if target == "worker" and not kids:   # the case did not happen: say so
+                p.communicate(timeout=600)
+                self.skip(f"[1] {signal.Signals(sig).name} to a worker of a sweep",
+                          "no worker was running when the signal was due")
+                continue
+            os.kill(kids[0] if target == "worker" else p.pid, sig)
             t0 = time.time()
             try:
                 out, err = p.communicate(timeout=60)
