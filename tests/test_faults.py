@@ -270,7 +270,8 @@ def _children(pid: int) -> list[int]:
 def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
     """MPICH's library installs a SIGHUP handler of its own when it is loaded (a sweep loads
     it before forking its workers), which swallowed the signal: a sweep sent SIGHUP ran on
-    and exited 0. Loading it keeps the process' handlers, as the kernel sees them."""
+    and exited 0. Loading it keeps the process' handlers, as the kernel sees them (a C
+    extension's among them), from any thread."""
     code = (
         "import ctypes, signal\n"
         "libc = ctypes.CDLL(None)\n"
@@ -279,10 +280,13 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
         "                ('flags', ctypes.c_int), ('r', ctypes.c_void_p)]\n"
         "def handler(n):\n"
         "    sa = SA(); libc.sigaction(n, None, ctypes.byref(sa)); return sa.h or 0\n"
-        "signal.signal(signal.SIGTERM, lambda *a: None)\n"
+        "import faulthandler, threading\n"
+        "signal.signal(signal.SIGINT, lambda *a: None)\n"
+        "faulthandler.register(signal.SIGTERM)\n"   # a handler Python's signal does not know
         "before = [handler(s) for s in (1, 2, 15)]\n"
         "from bkflow.plugin import load_mpi\n"
-        "load_mpi()\n"
+        "t = threading.Thread(target=load_mpi)\n"   # from a thread, as an API user may
+        "t.start(); t.join()\n"
         "print(before == [handler(s) for s in (1, 2, 15)], before)\n")
     out = fresh_python(code, timeout=60)
     assert out.startswith("True"), out

@@ -181,3 +181,27 @@ def test_the_readmes_scaling_numbers_are_the_measured_and_the_models():
     assert stops
     assert int(stops.group(1)) == sm.stops(mdl, 10**6, 2000, sm.NODE)
     assert int(stops.group(2)) == sm.stops(mdl, 10**6, 2000, 4 * sm.NODE)
+
+
+def test_the_readmes_sweeps_are_within_the_cost_limits(monkeypatch, tmp_path, capsys):
+    """Every ``bkflow sweep`` the README and the docs show is accepted, without --force, by the
+    limits a run or sweep is checked against before it starts (bkflow.limits), on a machine with
+    32 GB of free disk and 8 GB of memory: the estimates follow the presets' caps, and a command
+    a reader copies is not refused (the jobs are only created, --init)."""
+    from bkflow import limits
+    from bkflow.cli import main
+
+    monkeypatch.setattr(limits, "_free_disk", lambda path: 32e9)
+    monkeypatch.setattr(limits, "_available_memory", lambda: 8e9)
+    commands = sorted({ln.split("#")[0].strip() for page in (README, *DOCS)
+                       for block in re.findall(r"```\n(.*?)```", page.read_text(), flags=re.S)
+                       for ln in block.splitlines() if ln.startswith("bkflow sweep --phi")})
+    assert len(commands) >= 2, commands
+    for k, cmd in enumerate(commands):
+        args = shlex.split(cmd)[1:]
+        if "--out" in args:
+            i = args.index("--out")
+            del args[i:i + 2]
+        args += ["--out", str(tmp_path / f"s{k}")] + ([] if "--init" in args else ["--init"])
+        code = main(args)
+        assert code == 0, f"{cmd}: exit {code}: {capsys.readouterr().err}"

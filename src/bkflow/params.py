@@ -72,8 +72,8 @@ class Preset(NamedTuple):
 #: accuracy presets (Preset): the time step's error target and the rule's constants from the
 #: work-precision of benchmarks/timestep.py, errors and costs in benchmarks/RESULTS.md
 ACCURACY = {"fast": Preset(0.01, 0.2, 1.5, 2000.0, 16000.0, 5e-4),
-            "default": Preset(0.002, 0.1, 1.5, 8000.0, 2e5, 2e-4),
-            "precise": Preset(0.001, 0.05, 1.0, 16000.0, 5e5, 1e-4)}
+            "default": Preset(0.002, 0.1, 1.5, 8000.0, 1e5, 2e-4),
+            "precise": Preset(0.001, 0.05, 1.0, 16000.0, 1e5, 1e-4)}
 
 
 def omega_max(k_b: float, k_e: float, k_d: float, dk_d: float, mass: float) -> float:

@@ -107,28 +107,37 @@ def check_plugin() -> Path:
 _MPI = None
 
 
-def _held_handlers() -> dict:
-    """The Python-level handlers of the signals a library's loading may take over (MPICH's
-    constructors install a SIGHUP handler of their own, which swallows the signal)."""
-    import signal
-    import threading
+#: the signals whose handlers a library's loading may take over (MPICH's constructors install
+#: a SIGHUP handler of their own, which swallowed the signal: a sweep sent SIGHUP ran on)
+HELD_SIGNALS = (1, 2, 15)   # SIGHUP, SIGINT, SIGTERM
+#: room for the C library's struct sigaction (152 bytes on Linux x86-64 and aarch64), kept opaque
+_SIGACTION_BYTES = 512
 
-    if threading.current_thread() is not threading.main_thread():
+
+def _held_handlers() -> dict:
+    """The process' handlers of HELD_SIGNALS as the kernel has them (``sigaction``, opaque:
+    Python's own, a C extension's such as faulthandler's, SIG_IGN or SIG_DFL), from any thread;
+    {} where the C library cannot be reached."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        sigaction = libc.sigaction
+    except (OSError, AttributeError):
         return {}
     held = {}
-    for sig in (signal.SIGHUP, signal.SIGTERM, signal.SIGINT):
-        h = signal.getsignal(sig)
-        if h is not None:
-            held[sig] = h
+    for sig in HELD_SIGNALS:
+        buf = ctypes.create_string_buffer(_SIGACTION_BYTES)
+        if sigaction(sig, None, buf) == 0:
+            held[sig] = buf
     return held
 
 
 def _keep_handlers(held: dict) -> None:
-    """Install again the handlers ``_held_handlers`` recorded (the C-level ones included)."""
-    import signal
-
-    for sig, h in held.items():
-        signal.signal(sig, h)
+    """Install again, as they were, the handlers ``_held_handlers`` recorded."""
+    if not held:
+        return
+    sigaction = ctypes.CDLL(None, use_errno=True).sigaction
+    for sig, buf in held.items():
+        sigaction(sig, buf, None)
 
 
 def load_mpi() -> None:

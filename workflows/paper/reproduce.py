@@ -13,7 +13,7 @@ paper        the paper's protocol (bkflow run --protocol paper): the synchronize
              length, and which of their points are metastable.
 steady       the steady protocol (bkflow run, the default): each run from the random start
              beside its companion from the partial start, until both are steady and agree
-             within 0.5%, capped at t_end = 64000 (the main command's default), at N = 100,
+             within 0.5%, capped at the default preset's cap (the main command's), at N = 100,
              400, 900 (--sizes: which of them; at N = 100 the README's sweep).
 steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade, 2 seeds,
              capped at 16000.
