@@ -293,6 +293,28 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
 
 
 @pytest.mark.slow
+def test_a_sweep_under_nohup_outlives_the_hangup(lammps, tmp_path):
+    """Started with SIGHUP ignored (nohup), a sweep and its workers keep ignoring it: a
+    hangup sent to the whole process group (the terminal closed) leaves the sweep to finish."""
+    out = tmp_path / "s"
+    cmd = [tool("bkflow"), "sweep", "--phi", "300,1000", "--seeds", "1", "--t-end", "3000",
+           "--dt-factor", "0.02", "--protocol", "paper", "--scene", "friction", "--jobs", "2",
+           "--quiet", "--out", str(out)]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((out / "workspace").glob("*/stress.csv")):
+        time.sleep(0.1)
+    time.sleep(0.5)
+    assert p.poll() is None, "the sweep ended before the hangup"
+    os.killpg(p.pid, signal.SIGHUP)
+    stdout, stderr = p.communicate(timeout=300)
+    assert p.returncode == 0, stderr
+    assert "2 run(s) done" in stdout
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("target, sig", [("worker", signal.SIGKILL), ("worker", signal.SIGTERM),
                                          ("sweep", signal.SIGTERM), ("sweep", signal.SIGHUP)])
 def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, target, sig, tmp_path):

@@ -639,12 +639,15 @@ def _fs_message(exc: OSError) -> str:
 def main(argv=None) -> int:
     """The command line; returns the exit code (``EXIT_CODES``). SIGTERM and SIGHUP
     (a closed terminal) are taken as Ctrl-C: the command stops within a second, keeps what is
-    finished, and the same command resumes."""
+    finished, and the same command resumes; one started with it ignored (``nohup``) keeps
+    ignoring it."""
     import signal
 
     from . import plugin
 
-    plugin.INTERRUPT_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+    # a signal this process was started with ignored stays ignored (nohup: SIGHUP)
+    plugin.INTERRUPT_SIGNALS = tuple(s for s in (signal.SIGTERM, signal.SIGHUP)
+                                     if signal.getsignal(s) != signal.SIG_IGN)
     plugin.restore_signals()
     short = _process_limit_short()
     if short is not None:

@@ -139,14 +139,16 @@ def _work(path: str, job_id: str, names: list) -> None:
 def _worker_signals() -> None:
     """A worker dies of SIGTERM and SIGHUP as any process does (the sweep sees it die and
     stops; its own handlers, inherited by fork, would turn them into an interrupt of one run
-    only); Ctrl-C, sent to the whole process group, still interrupts it."""
+    only); Ctrl-C, sent to the whole process group, still interrupts it. A signal the sweep
+    ignores (started under nohup) the worker ignores too."""
     import signal
 
     from . import plugin
 
     plugin.INTERRUPT_SIGNALS = ()
     for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, signal.SIG_DFL)
+        if signal.getsignal(sig) != signal.SIG_IGN:
+            signal.signal(sig, signal.SIG_DFL)
 
 
 def warm(simulate: bool = True) -> None:
