@@ -215,7 +215,12 @@ def render(text: str, record: dict, synopses: dict[str, str] | None = None) -> s
                       lambda m: m.group(1) + human(r["bytes"]) + m.group(2), text)
         text = re.sub(rf"(<!-- output: {re.escape(RUN)} -->\n```\n).*?(```)",
                       lambda m: m.group(1) + r["output"] + "\n" + m.group(2), text, flags=re.S)
-    for cmd, syn in (synopses or {}).items():
+    return render_synopses(text, synopses or {})
+
+
+def render_synopses(text: str, synopses: dict[str, str]) -> str:
+    """``text`` (README.md or a page of docs/) with every command's synopsis block filled in."""
+    for cmd, syn in synopses.items():
         text = re.sub(rf"(<!-- synopsis: {cmd} -->\n```\n).*?(```)",
                       lambda m, syn=syn: m.group(1) + syn + "\n" + m.group(2), text, flags=re.S)
     return text
@@ -232,7 +237,8 @@ def main(argv=None) -> int:
     p.add_argument("--tests", action="store_true")
     p.add_argument("--sizes", action="store_true",
                    help=f"the main command at N = {', '.join(map(str, SIZES))} (REPRODUCTION)")
-    p.add_argument("--write-readme", action="store_true")
+    p.add_argument("--write-readme", action="store_true",
+                   help="write README.md from the record, and every synopsis of docs/")
     a = p.parse_args(argv)
     record = load()
     machine = {"machine": platform.machine(), "python": platform.python_version(),
@@ -248,12 +254,18 @@ def main(argv=None) -> int:
                     {k: s[k] for k in ("date", "commit", "wall_s", "bytes", "runs", "jobs")})
             RECORD.write_text(json.dumps(record, indent=1) + "\n")
             print(f"  {key}: done", flush=True)
+    synopses = _synopses()
     text = README.read_text()
-    new = render(text, record, _synopses())
+    new = render(text, record, synopses)
     if a.write_readme:
         if new != text:
             README.write_text(new)
             print(f"rewrote {README}")
+        for page in sorted((ROOT / "docs").glob("*.md")):   # their synopses
+            old = page.read_text()
+            if render_synopses(old, synopses) != old:
+                page.write_text(render_synopses(old, synopses))
+                print(f"rewrote {page}")
         return 0
     if new != text:
         print("README.md differs from the record: run with --write-readme", file=sys.stderr)
