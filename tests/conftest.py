@@ -89,3 +89,19 @@ def workdir(tmp_path, monkeypatch):
 def pure() -> bool:
     """Whether the running test is a pure one (no ``lammps`` fixture)."""
     return os.environ.get(PURE_ENV) == "1"
+
+
+def _signals_as_a_terminal_delivers_them() -> None:
+    """A suite started under nohup or in the background (``cmd &`` in a script) has SIGHUP or
+    SIGINT ignored, and so would every process it starts (an ignored signal stays ignored
+    across exec; bkflow honours it): the tests that send them need them as a terminal
+    delivers them."""
+    import signal
+
+    for sig, handler in ((signal.SIGHUP, signal.SIG_DFL), (signal.SIGINT,
+                                                          signal.default_int_handler)):
+        if signal.getsignal(sig) == signal.SIG_IGN:
+            signal.signal(sig, handler)
+
+
+_signals_as_a_terminal_delivers_them()
