@@ -13,6 +13,7 @@ import importlib.metadata as md
 import importlib.util
 import json
 import os
+import signal
 from pathlib import Path
 
 PLUGIN_FILE = "bkflowplugin.so"
@@ -109,7 +110,7 @@ _MPI = None
 
 #: the signals whose handlers a library's loading may take over (MPICH's constructors install
 #: a SIGHUP handler of their own, which swallowed the signal: a sweep sent SIGHUP ran on)
-HELD_SIGNALS = (1, 2, 15)   # SIGHUP, SIGINT, SIGTERM
+HELD_SIGNALS = (signal.SIGHUP, signal.SIGINT, signal.SIGTERM)
 #: room for the C library's struct sigaction (152 bytes on Linux x86-64 and aarch64), kept opaque
 _SIGACTION_BYTES = 512
 
@@ -179,14 +180,11 @@ INTERRUPT_SIGNALS: tuple = ()
 
 
 def _interrupt(signum, frame):
-    import signal
-
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
 def restore_signals() -> None:
     """(Re)install the handlers of ``INTERRUPT_SIGNALS`` (in the main thread only)."""
-    import signal
     import threading
 
     if threading.current_thread() is threading.main_thread():
