@@ -293,6 +293,31 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("cmd", ["run", "sweep"])
+def test_a_directory_removed_under_a_command_is_said_so(lammps, cmd, tmp_path):
+    """The directory a run or a sweep writes into, removed while it runs (by the user, a
+    cleanup script): one line that says so, the file system's exit code, no traceback (a
+    sweep's worker met it inside flow, which wrapped it: "internal error", exit 70)."""
+    out = tmp_path / "gone"
+    args = (["run", "--phi", "10", "--t-end", "20000", "--dt-factor", "0.05"] if cmd == "run"
+            else ["sweep", "--phi", "300,1000", "--seeds", "1", "--t-end", "3000",
+                  "--dt-factor", "0.02", "--protocol", "paper", "--jobs", "2"])
+    p = subprocess.Popen([tool("bkflow"), *args, "--scene", "friction", "--quiet", "--out",
+                          str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not (list(out.glob("stress.csv"))
+                                          or list(out.glob("workspace/*/stress.csv"))):
+        time.sleep(0.1)
+    time.sleep(0.5)
+    assert p.poll() is None, "the command ended before its directory was removed"
+    shutil.rmtree(out)
+    stdout, stderr = p.communicate(timeout=120)
+    done = subprocess.CompletedProcess(p.args, p.returncode, stdout, stderr)
+    assert p.returncode == EXIT_FILE_SYSTEM, stderr
+    one_line(done, "was removed while bkflow wrote into it")
+
+
+@pytest.mark.slow
 def test_a_sweep_under_nohup_outlives_the_hangup(lammps, tmp_path):
     """Started with SIGHUP ignored (nohup), a sweep and its workers keep ignoring it: a
     hangup sent to the whole process group (the terminal closed) leaves the sweep to finish."""

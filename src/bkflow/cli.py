@@ -69,7 +69,8 @@ EXIT_CODES = {
                     "above the cost limits without --force)",
     EXIT_BUSY: "another bkflow process is writing the same run or sweep",
     EXIT_FILE_SYSTEM: "the file system refused (permissions, full disk, a file where a "
-                      "directory should be, a name too long)",
+                      "directory should be, a name too long, the directory removed while "
+                      "bkflow wrote into it)",
     EXIT_RESOURCES: "out of memory, open files or file size (the machine's, or a limit set "
                     "on the process: ulimit -v, -n, -f)",
     EXIT_INTERNAL: "a bug in bkflow: one line, the traceback saved to a file it names",
@@ -836,6 +837,11 @@ def _main(argv=None) -> int:
         print(f"bkflow: run failed: {exc}", file=sys.stderr)
         return EXIT_RUN_FAILED
     except FileNotFoundError as exc:
+        out = getattr(a, "out", None) if a.cmd in ("run", "sweep") else None
+        if out is not None and not Path(out).exists():   # removed under the command
+            print(f"bkflow: file system: {out} was removed while bkflow wrote into it; the "
+                  "same command starts it again", file=sys.stderr)
+            return EXIT_FILE_SYSTEM
         print(f"bkflow: error: {_fs_message(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:

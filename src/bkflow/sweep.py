@@ -132,8 +132,17 @@ def _work(path: str, job_id: str, names: list) -> None:
     project = _WORKER_PROJECT.get(path)
     if project is None:
         project = _WORKER_PROJECT[path] = open_project(path, create=False)
+    from flow.errors import UserOperationError
+
     with flowcompat.quiet_flow_bars():
-        project.run(jobs=[project.open_job(id=job_id)], names=names)
+        try:
+            project.run(jobs=[project.open_job(id=job_id)], names=names)
+        except UserOperationError as exc:
+            # the file system's refusal reaches the sweep as itself (the command says what
+            # refused and exits as for any file system error), not wrapped as flow's
+            if isinstance(exc.__cause__, OSError):
+                raise exc.__cause__ from None
+            raise
 
 
 def _worker_signals() -> None:
