@@ -302,6 +302,14 @@ def timestep_cost() -> str:
     return "\n".join(out) + "\n"
 
 
+def _record(name: str) -> dict | None:
+    """benchmarks/records/NAME.json, or None where it has not been measured yet."""
+    import json
+
+    f = HERE / "records" / f"{name}.json"
+    return json.loads(f.read_text()) if f.exists() else None
+
+
 # ------------------------------------------------------------------------- the main command
 def _readme_record() -> dict:
     import json
@@ -341,12 +349,9 @@ def steady_sizes() -> str:
 
 def fixed_cost() -> str:
     """The fixed cost of a run, piece by piece (benchmarks/fixed_cost.py)."""
-    import json
-
-    f = HERE / "records" / "fixed_cost.json"
-    if not f.exists():
+    rec = _record("fixed_cost")
+    if rec is None:
         return "(not measured yet: python benchmarks/fixed_cost.py)\n"
-    rec = json.loads(f.read_text())
     m = rec["median_s"]
     out = ["| piece | time (median of "
            f"{rec['rounds']}, {rec['date']}) |", "|---|---|"]
@@ -371,12 +376,9 @@ def fixed_cost() -> str:
 
 def faults() -> str:
     """The fault fuzz's cases and verdicts (benchmarks/faults.py's record)."""
-    import json
-
-    f = HERE / "records" / "faults.json"
-    if not f.exists():
+    rec = _record("faults")
+    if rec is None:
         return "(not measured yet: python benchmarks/faults.py)\n"
-    rec = json.loads(f.read_text())
     cases = rec["cases"]
     clean = sum(c["verdict"] == "CLEAN" for c in cases)
     skipped = sum(c["verdict"] == "SKIPPED" for c in cases)
@@ -392,9 +394,7 @@ def faults() -> str:
 
 def fresh_attack() -> str:
     """What the fresh attack found (benchmarks/records/fresh_attack.json: its report)."""
-    import json
-
-    rec = json.loads((HERE / "records" / "fresh_attack.json").read_text())
+    rec = _record("fresh_attack")
     out = [f"A fresh attack on {rec['date']} ({rec['who']}): about {rec['cases']} cases, "
            f"{rec['clean']} clean; {rec['faults']} faults, each fixed and now a case above or a "
            "test in tests/test_faults.py:", ""]
