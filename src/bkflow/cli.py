@@ -838,7 +838,9 @@ def _main(argv=None) -> int:
         return EXIT_RUN_FAILED
     except FileNotFoundError as exc:
         out = getattr(a, "out", None) if a.cmd in ("run", "sweep") else None
-        if out is not None and not Path(out).exists():   # removed under the command
+        missing = Path(str(exc.filename or "")).absolute()
+        if out is not None and not Path(out).exists() and \
+                Path(out).absolute() in (missing, *missing.parents):   # removed under it
             print(f"bkflow: file system: {out} was removed while bkflow wrote into it; the "
                   "same command starts it again", file=sys.stderr)
             return EXIT_FILE_SYSTEM
