@@ -42,7 +42,8 @@ def stop_line(ad: dict, companion: str | None = None) -> str:
     head = f"ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
     rules = stop_rules(ad, companion)
     state = ad.get("state_at_stop")
-    if ad.get("reached") and ad.get("until_steady") and state in SWITCHING:
+    switching = bool(ad.get("until_steady")) and state in SWITCHING
+    if ad.get("reached") and switching:
         own, err, need = (ad.get(k) for k in ("mu_bar_own_err_at_stop", "mu_bar_err_at_stop",
                                                "t_needed"))
         line = (head + f"stopped at t = {ad['t_run']:g} in the states it visited ({state}): "
@@ -58,7 +59,6 @@ def stop_line(ad: dict, companion: str | None = None) -> str:
     if ad.get("reached"):
         return head + f"stopped because {rules} at t = {ad['t_run']:g}"
     missed = []
-    switching = bool(ad.get("until_steady")) and state in SWITCHING
     err = ad.get("mu_bar_own_err_at_stop" if switching else "mu_bar_err_at_stop")
     target = ad.get("target_error")
     if target is not None and not (err is not None and err <= target):
