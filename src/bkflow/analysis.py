@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__, catalogue, clusters, io, order, phases, states, stationarity, stress
+from . import (__version__, catalogue, clusters, io, order, phases, reduced, states,
+               stationarity, stress)
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
@@ -300,8 +301,8 @@ class RunAnalysis:
     order: OrderResult | None = None
     clusters: ClusterResult | None = None
     extra: dict = field(default_factory=dict)
-    # the breaks and the energy ledger at every stress sample (scenes events, full), or None
-    ledger: dict | None = None
+    # the records with the breaks and the energy ledger (scenes events, full), or None
+    ledger: reduced.Reduced | None = None
 
     def summary(self) -> dict:
         """The summary row: parameters and settings nested, one key per observable."""
@@ -315,7 +316,7 @@ class RunAnalysis:
                 row.update(part.row())
         if self.ledger is not None:
             row["energy_residual"] = catalogue.ledger_residual(
-                self.ledger, self.friction.friction.t_transient)
+                self.ledger.ledger_at_blocks(), self.friction.friction.t_transient)
         row.update(self.extra)
         return row
 
@@ -330,7 +331,9 @@ class RunAnalysis:
         if self.clusters is not None:
             out[EVENTS].update(self.clusters.events_table)
         if self.ledger is not None:
-            out[EVENTS].update(catalogue.energy_rows(self.ledger, ev.i_max, ev.i_min))
+            out[EVENTS].update(catalogue.energy_rows(self.ledger.ledger_at_extrema(),
+                                                     self.ledger.positions(ev.i_max),
+                                                     self.ledger.positions(ev.i_min)))
         if self.order is not None:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
@@ -346,13 +349,17 @@ def transient_time(spec: RunSpec, settings: AnalysisSettings, t_equil: float) ->
     return transient_step(settings.transient, spec.n_steps) * spec.dt
 
 
-def friction_result(spec: RunSpec, settings: AnalysisSettings, t, sigma,
+def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Reduced,
                     t_transient: float) -> FrictionResult:
+    """mu_bar at the run's threshold and at the report thresholds (the slips from the run's
+    extrema), the mean stress ratio and its error (batch means of the blocks)."""
     unit = spec.mu_s * spec.sigma_n
+    t, sigma, _ = red.series()
 
     def at(fraction):
         return stress.macroscopic_friction(t, sigma, spec.sigma_n, fraction * unit,
-                                           t_transient=t_transient)
+                                           t_transient=t_transient,
+                                           events=red.events(fraction * unit))
 
     late = np.asarray(t, dtype=float) >= t_transient
     ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
@@ -380,10 +387,10 @@ def run_window(spec: RunSpec, settings: AnalysisSettings, t, sigma, phase,
 
 
 def companion_result(spec: RunSpec, settings: AnalysisSettings, t_transient: float,
-                     mean_stress_ratio: float, t, sigma, phase) -> CompanionResult:
+                     mean_stress_ratio: float, red: reduced.Reduced) -> CompanionResult:
     """The companion's window over the main run's [t_transient, end], and the gap."""
     comp = spec.companion_spec
-    w = run_window(comp, settings, t, sigma, phase, t_transient)
+    w = run_window(comp, settings, *red.series(), t_transient)
     gap = mean_stress_ratio / w.mean - 1 if w.mean else math.nan
     return CompanionResult(comp.start, w, gap)
 
@@ -496,35 +503,31 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
     return ClusterResult(rows, shape, matched, n_late - matched, shape_large, table, test)
 
 
-def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
-              settings: AnalysisSettings = AnalysisSettings(),
-              phase: dict | None = None, companion=None, ledger: dict | None = None,
+def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=None,
+              settings: AnalysisSettings = AnalysisSettings(), companion=None,
               slip_breaks=None) -> RunAnalysis:
     """The analysis of one run.
 
-    ``t``, ``sigma``: the stress series (stress.csv). ``phase``: the contacts' phase series
-    (phase.csv, columns of ``bkflow.rundir.PHASE_COLUMNS``), or None for a run made
-    before bkflow recorded it. ``companion``: (t, sigma, phase) of the companion run
-    (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
+    ``red``: the run's records of its stress and phases (``bkflow.reduced.Reduced``: the
+    extrema and the block sums of fix bk/reduce, or ``reduced.from_series`` of a raw
+    series); with the energy ledger when its scene kept it. ``companion``: the companion
+    run's records (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
     fix bk/slips, frames in pairs (maximum, minimum), or None; ``slip_breaks`` (frames, N):
-    their column of first breaks (fix bk/slips ``breaks``), or None. ``ledger``: the breaks
-    and the energy ledger at every stress sample (``bkflow.rundir.LEDGER_COLUMNS`` and t),
-    or None.
+    their column of first breaks (fix bk/slips ``breaks``), or None.
     """
     settings = settings.resolved(spec)
-    t = np.asarray(t, dtype=float)
-    sigma = np.asarray(sigma, dtype=float)
+    t, sigma, phase = red.series()
     t_equil = stationarity.equilibration_time(t, sigma)
     t0 = transient_time(spec, settings, t_equil)
-    fr = friction_result(spec, settings, t, sigma, t0)
+    fr = friction_result(spec, settings, red, t0)
     events = fr.friction.events
     win = run_window(spec, settings, t, sigma, phase, t0, events)
     # the trend the verdict read (its error widened by the layer's calibrated fluctuations),
     # not a second test of the same window that the summary would report beside it
     steady = StationarityResult(win.trend, t_equil)
     comp = None if companion is None else companion_result(
-        spec, settings, t0, fr.friction.mean_stress_ratio, *companion)
+        spec, settings, t0, fr.friction.mean_stress_ratio, companion)
     verdict = state_result(win, comp)
     fr = fr.covering(win, spec)
     large = large_drop_result(spec, settings, events, t0).covering(win, spec)
@@ -534,7 +537,7 @@ def summarize(spec: RunSpec, t, sigma, snapshots=None, slip_frames=None,
     clus = None if slip_frames is None else cluster_result(
         spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
     return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus,
-                       ledger=ledger)
+                       ledger=red if red.has_ledger else None)
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
@@ -586,7 +589,7 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
             raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
                                   "(bkflow run --overwrite, or the sweep redoes it)")
     spec = rd.spec()
-    t, sigma = rd.read_stress()
+    red = rd.read_reduced(spec)
     snaps = slips = slip_breaks = None
     if spec.writes_snapshots:
         f = rd.read_snapshots(spec.N)
@@ -596,11 +599,11 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
         slips, slip_breaks = (f.steps, f.positions), f.breaks
     companion = None
     if spec.companion is not None:
-        comp = rd.companion()
-        companion = (*comp.read_stress(), comp.read_phase())
-    ledger = rd.read_ledger() if spec.writes_energy else None
-    res = summarize(spec, t, sigma, snaps, slips, settings, rd.read_phase(), companion, ledger,
-                    slip_breaks)
+        companion = rd.companion().read_reduced(spec.companion_spec)
+    try:
+        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks)
+    except reduced.ReducedError as exc:
+        raise AnalysisError(f"{rd.path}: {exc}") from None
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
     return rd.write_analysis(summary, res.tables())

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from . import __version__, io
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
-from .rundir import DATA, DECK, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
+from .rundir import BLOCKS, DATA, DECK, EXTREMA, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
 
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
@@ -55,6 +55,8 @@ class DeckOptions:
     path: str = "auto"
     fast: bool | None = None
     data: str = DATA
+    extrema: str | None = EXTREMA
+    blocks: str | None = BLOCKS
     stress: str | None = STRESS
     phase: str | None = PHASE
     snapshots: str = SNAPSHOTS
@@ -262,12 +264,20 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     """
     lines = []
     more = " append" if files.append_from is not None else ""
-    if files.stress:
+    if files.extrema:
+        lines += [  # what the analysis reads of sigma_x and the phases, reduced in the run
+            f"fix             reduce all bk/reduce {spec.stress_nevery} {SUBSTRATE_FIX} "
+            f"threshold {_f(spec.extrema_threshold_stress)} block {spec.block_nevery} "
+            f"extrema {files.extrema} blocks {files.blocks}"
+            + (f" phase {spec.phase_nevery}" if contact else "")
+            + (" energy" if _energy(spec, files) else "") + more,
+        ]
+    if files.stress and spec.writes_series:
         lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
             f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"file {files.stress}" + (" energy" if _energy(spec, files) else "") + more,
         ]
-    if files.phase and contact:
+    if files.phase and contact and spec.writes_series:
         lines += [  # the contacts' load phases: what the steady-state verdict reads
             f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
             f"file {files.phase}{more}",

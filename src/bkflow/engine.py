@@ -8,7 +8,7 @@ line, and commit meta.json. Between chunks the engine checks for the ways a run 
 stops with a ``RunError`` naming phi, the step and the cause. An adaptive run
 (RunSpec.target_error, RunSpec.until_steady) stops when the error of mu_bar is below its
 target and/or the run is steady, or names the states it visited (``AdaptiveStop``, on
-``bkflow.stress.RunningFriction`` and ``bkflow.states.window``).
+the run's records, ``bkflow.reduced``, and ``bkflow.states.window``).
 """
 
 from __future__ import annotations
@@ -50,8 +50,8 @@ from .params import (
 )
 from .plugin import ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_version, open_lammps
 from .provenance import record as provenance
-from .rundir import COMPANION, DATA, DECK, LOG, META, PHASE_COLUMNS, RESTART, RunDir
-from .stress import Growing, RunningFriction
+from .rundir import COMPANION, DATA, DECK, LOG, META, RESTART, RunDir
+from .stationarity import mean_error
 
 
 class RunError(RuntimeError):
@@ -95,17 +95,16 @@ class AdaptiveStop:
       start shown, no switching between states that the window has not averaged over, the
       stress trend-free), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
 
-    The stress and phase series are read incrementally and the slips found once, so each
-    check costs what the new samples cost (and one pass over the window); the summary of the
-    finished run finds the very same slips, error, trend and state. What the last check found
-    is ``last`` (a ``bkflow.states.Window``); ``record`` returns it as data, and
-    ``bkflow.report`` words it."""
+    The run's records (fix bk/reduce: the extrema and the block sums, ``bkflow.reduced``)
+    are read at every check, as the summary reads them: the summary of the finished run
+    finds the very same slips, error, trend and state. What the last check found is ``last``
+    (a ``bkflow.states.Window``); ``record`` returns it as data, and ``bkflow.report``
+    words it."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
-        self.spec, self.tail = spec, run_dir.stress_reader()
-        self.stat = RunningFriction(spec.slip_threshold_stress, spec.sigma_n)
-        self.phase_tail = run_dir.phase_reader() if spec.until_steady else None
-        self.phase = Growing(len(PHASE_COLUMNS))
+        self.spec, self.rd = spec, run_dir
+        self.fail = np.array([])    # sigma_fail of the slips so far
+        self.t_fail = np.array([])
         self.met, self.checks = False, 0
         self.last: states.Window | None = None
         self.last_error = None      # mu_bar's error at the last check (covering the switching)
@@ -117,27 +116,27 @@ class AdaptiveStop:
     def last_mean(self) -> float:
         return self.last.mean if self.last is not None else math.nan
 
-    def _phase(self) -> dict | None:
-        if self.phase_tail is None or not self.phase.n:
-            return None
-        return {c: self.phase.column(i) for i, c in enumerate(PHASE_COLUMNS)}
+    def error(self, t_transient: float):
+        """mu_bar's own error over the slips after ``t_transient`` found so far."""
+        return mean_error(self.fail[self.t_fail >= t_transient] / self.spec.sigma_n)
 
     def reached(self, step: int) -> bool:
         spec = self.spec
-        self.stat.feed(self.tail.new())
-        if self.phase_tail is not None:
-            self.phase.extend(self.phase_tail.new())
         t_min = STEADY_T_MIN if spec.until_steady else ADAPTIVE_T_MIN
         if step * spec.dt < min(t_min, spec.t_end):
             return False
         self.checks += 1
+        red = self.rd.read_reduced(spec)
+        ev = red.events(spec.slip_threshold_stress)
+        self.fail, self.t_fail = ev.sigma_fail, ev.t_max
+        t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
-        self.last = win = states.window(spec, self.stat.t, self.stat.sigma, self._phase(), t0,
-                                        own_error=False)
+        self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
+                                        t0, own_error=False)
         met = True
         switching = spec.until_steady and win.state in states.SWITCHING
         if spec.target_error is not None:
-            est = self.stat.error(t0)
+            est = self.error(t0)
             if est.n < 2:
                 return False
             self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N)
@@ -160,8 +159,8 @@ class AdaptiveStop:
         comp = None if w is None else w.comp
         needed = None
         if requested.target_error is not None and self.last_error is not None:
-            needed = states.needed_length(requested, self.stat.error(0.0).mean
-                                          if self.stat.fail else math.nan)
+            needed = states.needed_length(requested, self.error(0.0).mean
+                                          if len(self.fail) else math.nan)
         return {"target_error": requested.target_error,
                 "until_steady": requested.until_steady,
                 "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,

@@ -143,7 +143,7 @@ STEADY_T_MIN = ADAPTIVE_T_MIN
 
 #: what a run records (docs/model.md "Observables"; docs in bkflow.deck): each scene writes only
 #: what its observables need
-SCENES = ("friction", "order", "clusters", "figures", "events", "fronts", "full")
+SCENES = ("friction", "series", "order", "clusters", "figures", "events", "fronts", "full")
 #: the default scene: what bkflow sweep's table and bkflow plot's figures show (the stress and
 #: phase series, Psi(t)'s snapshots, the slips' frames), nothing more
 DEFAULT_SCENE = "figures"
@@ -153,6 +153,11 @@ DEFAULT_SCENE = "figures"
 #: slip costs ~4 bytes x N x samples, ~56 MB for all the slips of an N = 900 run of 8000
 #: time units, so the full scene keeps a sample of them for the figures and the movie
 FRONTS_IN_FULL = 20
+
+#: the blocks fix bk/reduce sums sigma_x and the contacts' phases over (time units, rounded to
+#: whole phase samples): the analysis reads the series as means over these blocks
+#: (bkflow.reduced), so its windows start and end on their edges
+BLOCK_EVERY = 20.0
 
 #: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
@@ -634,6 +639,25 @@ class RunSpec:
         if self.start == "synchronized" and self.target_error is None:
             return "paper"
         return "custom"
+
+    @property
+    def writes_series(self) -> bool:
+        """Whether the run writes its raw stress and phase series (scenes series, full)
+        beside the reduced records every run keeps (bkflow.reduced)."""
+        return self.scene in ("series", "full")
+
+    @property
+    def block_nevery(self) -> int:
+        """Steps per block of fix bk/reduce: BLOCK_EVERY rounded to whole phase samples."""
+        per = max(1, int(round(BLOCK_EVERY / (self.phase_nevery * self.dt))))
+        return per * self.phase_nevery
+
+    @property
+    def extrema_threshold_stress(self) -> float:
+        """The zigzag threshold of the run's recorded extrema (stress units): the smallest any
+        analysis asks for (the run's slip threshold and the summary's REPORT_THRESHOLDS), so
+        that the slips at every one of them are exact (bkflow.reduced)."""
+        return min((self.slip_threshold,) + REPORT_THRESHOLDS) * self.mu_s * self.sigma_n
 
     @property
     def writes_snapshots(self) -> bool:

@@ -64,16 +64,18 @@ class Coherence:
 
 
 def coherence(t, Z, t0: float, n_contacts: int, R2=None, u_std=None,
-              n_blocks: int = 10, alpha: float = 0.05) -> Coherence:
+              n_blocks: int = 10, alpha: float = 0.05, R=None, Z2=None) -> Coherence:
     """The phase statistics of the series Z(t) (complex) over [t0, t[-1]] for a layer of
     ``n_contacts`` contacts; ``R2`` and ``u_std`` (series at the same times) are averaged
-    too when given. Fewer than two samples in the window give NaN."""
+    too when given. Fewer than two samples in the window give NaN. For a series of block
+    means (``bkflow.reduced``), ``R`` and ``Z2`` are the blocks' means of |Z| and |Z|^2
+    (the mean of Z's modulus is not the modulus of its mean)."""
     t = np.asarray(t, dtype=float)
     Z = np.asarray(Z, dtype=complex)
     late = t >= t0
     z = Z[late]
     t1 = float(t[-1]) if len(t) else math.nan
-    R = np.abs(Z)
+    R = np.abs(Z) if R is None else np.asarray(R, float)
     trend = stationarity(t, R, t0, n_blocks, alpha)
 
     def mean(x):
@@ -84,6 +86,9 @@ def coherence(t, Z, t0: float, n_contacts: int, R2=None, u_std=None,
         nan = math.nan
         return Coherence(float(t0), t1, nan, nan, nan, mean(R2), mean(u_std), len(z), trend)
     zbar = z.mean()
-    chi = float(n_contacts * np.mean(np.abs(z - zbar) ** 2))
-    return Coherence(float(t0), t1, float(np.abs(z).mean()), float(abs(zbar)), chi, mean(R2),
+    if Z2 is None:
+        chi = float(n_contacts * np.mean(np.abs(z - zbar) ** 2))
+    else:   # N (<|Z|^2> - |<Z>|^2), the same variance from the blocks' sums
+        chi = float(n_contacts * (np.mean(np.asarray(Z2, float)[late]) - abs(zbar) ** 2))
+    return Coherence(float(t0), t1, float(R[late].mean()), float(abs(zbar)), chi, mean(R2),
                      mean(u_std), int(len(z)), trend)

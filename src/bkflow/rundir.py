@@ -53,6 +53,9 @@ PHASE = "phase.csv"
 SNAPSHOTS = "snapshots.lammpstrj"
 SLIPS = "slips.lammpstrj"
 FRONTS = "fronts.bin"
+#: the records of fix bk/reduce (bkflow.reduced): sigma_x's turning points, the block sums
+EXTREMA = "extrema.npy"
+BLOCKS = "blocks.npy"
 LOG = "log.lammps"
 META = "meta.json"
 #: LAMMPS's restart file of the run's last step (named by that step; meta.json's "restart"
@@ -95,7 +98,7 @@ MAY_CHANGE = (LOG,)
 #: (file systems that keep times in whole or two seconds)
 MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
+RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -230,8 +233,20 @@ class RunDir:
         that did not finish)."""
         return sorted(self.path.glob(RESTART.format("*")))
 
+    #: the records a continuation rewrites in place (their header and the record under way),
+    #: kept as they were until it commits: cutting them back to their size is not enough
+    REWRITTEN = (EXTREMA, BLOCKS)
+
+    def _before(self, name: str) -> Path:
+        return self.file(f".{name}.before-continuing.tmp")
+
     def begin_continuation(self) -> None:
         """Note that the finished run here is being continued (its record stays as it is)."""
+        for name in self.REWRITTEN:
+            if self.file(name).is_file():
+                data = io.read_bytes(self.file(name))
+                with io.atomic_file(self._before(name), binary=True) as f:
+                    f.write(data)
         self.file(CONTINUING).touch()
 
     def end_continuation(self, keep: str | None) -> None:
@@ -240,6 +255,8 @@ class RunDir:
         for p in self.restart_files():
             if p.name != keep:
                 p.unlink(missing_ok=True)
+        for name in self.REWRITTEN:
+            self._before(name).unlink(missing_ok=True)
         self.file(CONTINUING).unlink(missing_ok=True)
 
     def undo_continuation(self) -> bool:
@@ -251,6 +268,9 @@ class RunDir:
             return False
         meta = self.meta() or {}
         sizes = meta.get("file_bytes", {})
+        for name in self.REWRITTEN:
+            if self._before(name).is_file():
+                os.replace(self._before(name), self.file(name))
         for name, size in sizes.items():
             p = self.file(name)
             if name not in MAY_CHANGE and p.is_file() and p.stat().st_size > size:
@@ -486,18 +506,43 @@ class RunDir:
     def finished_standalone(self) -> str | None:
         """For a deck run with ``lmp -in in.bk``: why it is not finished (None when its stress
         series reaches the deck's t_end)."""
-        if not (self.file(PARAMS).exists() and self.file(STRESS).exists()):
+        records = EXTREMA if self.file(EXTREMA).exists() else STRESS
+        if not (self.file(PARAMS).exists() and self.file(records).exists()):
             return (f"{self.path} holds no finished run (no meta.json with status complete, "
-                    f"nor a deck's {PARAMS} with its {STRESS}); run it first with bkflow run")
+                    f"nor a deck's {PARAMS} with its {EXTREMA}); run it first with bkflow run")
         spec = self.spec()
-        t, _ = self.read_stress()
+        red = self.read_reduced(spec)
         last = spec.stress_nevery * (spec.n_steps // spec.stress_nevery) * spec.dt
-        if len(t) == 0 or t[-1] < last - 0.5 * spec.dt:
-            return (f"{self.file(STRESS)} ends at t = {t[-1] if len(t) else 0:g}, before the "
-                    f"run's end ({last:g}): the run did not finish")
+        if red.n_samples == 0 or red.t_end < last - 0.5 * spec.dt:
+            return (f"{self.path}'s records end at t = {red.t_end:g}, before the run's end "
+                    f"({last:g}): the run did not finish")
         return None
 
     # ------------------------------------------------------------------ the run's outputs
+    def read_reduced(self, spec: RunSpec):
+        """The run's records of its stress and phases (``bkflow.reduced.Reduced``): fix
+        bk/reduce's, or the same reduction of the raw series of a run that has no records
+        (one made before bkflow reduced in the run)."""
+        from . import reduced
+
+        args = (spec.stress_nevery, spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
+        if self.file(EXTREMA).exists() or not self.file(STRESS).exists():
+            try:
+                red = reduced.load(self.file(EXTREMA), self.file(BLOCKS), *args)
+            except FileNotFoundError:
+                raise
+            except (ValueError, OSError, EOFError) as exc:
+                if isinstance(exc, OSError) and not isinstance(exc, EOFError) and \
+                        exc.errno is not None:
+                    raise
+                raise DamagedRunError(f"{self.path}: its records ({EXTREMA}, {BLOCKS}) are "
+                                      f"damaged ({exc}); run the run again") from None
+            return red
+        _, sigma = self.read_stress()
+        phase = self.read_phase()
+        ledger = self.read_ledger() if spec.writes_energy else None
+        return reduced.from_series(sigma, *args[:3], args[3], phase, spec.phase_nevery, ledger)
+
     def read_stress(self) -> tuple[np.ndarray, np.ndarray]:
         """The stress series: (t, sigma_x)."""
         try:

@@ -356,7 +356,8 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     contacts = comp = None
     if phase is not None and len(phase["t"]):
         contacts = coherence(phase["t"], np.asarray(phase["Z_re"]) + 1j * np.asarray(
-            phase["Z_im"]), t0, spec.N, phase.get("R2"), phase.get("u_std"), n_blocks, alpha)
+            phase["Z_im"]), t0, spec.N, phase.get("R2"), phase.get("u_std"), n_blocks, alpha,
+            phase.get("R"), phase.get("Z2"))
         if late.any():
             b = blocks(phase["t"], phase["R"], t, ratio, t0, spec.N)
             fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.sigma_n

@@ -153,12 +153,14 @@ class MacroscopicFriction:
 
 def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
                          transient_fraction: float = TRANSIENT,
-                         t_transient: float | None = None) -> MacroscopicFriction:
+                         t_transient: float | None = None,
+                         events: SlipEvents | None = None) -> MacroscopicFriction:
     """mu_bar with its error and the time-averaged stress ratio of one series.
 
     ``threshold`` in stress units (docs/model.md's 1% of mu_s sigma_n is 0.01); the transient is the
     first ``transient_fraction`` of the series' time span, or everything before
-    ``t_transient`` when that is given.
+    ``t_transient`` when that is given. ``events``: the slips at ``threshold`` when the
+    series is not the raw one (block means: ``bkflow.reduced``), found from its records.
     """
     t = np.asarray(t, dtype=float)
     s = np.asarray(sigma, dtype=float)
@@ -167,7 +169,8 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     if len(t) < 2:
         raise ValueError("the stress series has fewer than two samples")
     t0 = t[0] + transient_fraction * (t[-1] - t[0]) if t_transient is None else t_transient
-    events = slip_events(t, s, threshold)
+    if events is None:
+        events = slip_events(t, s, threshold)
     ev = events.after(t0)
     est = mean_error(ev.sigma_fail / sigma_n)
     late = t >= t0

@@ -1,0 +1,238 @@
+"""What a run keeps of its shear stress and of its contacts' phases: the records of fix
+bk/reduce, reduced in the run (plugins/fix_bk_reduce.cpp), and the same reduction of a raw
+series (a run of the ``series`` scene, or one made before bkflow reduced in the run).
+
+Two NumPy files (``numpy.load`` reads them):
+
+- ``extrema.npy``: the turning points of sigma_x by the zigzag rule (``bkflow.stress``) at the
+  run's extrema threshold (``RunSpec.extrema_threshold_stress``, the smallest threshold any
+  analysis asks for), maxima and minima in turn, the last one the extremum under way. The
+  slips at any threshold at or above it are exactly those the same rule finds in these
+  records (a drop larger than the threshold runs from one turning point to another):
+  ``Reduced.events``. With the energy ledger (scenes events, full), each record also holds
+  the breaks and the ledger at its sample.
+- ``blocks.npy``: sums over blocks of ``RunSpec.block_nevery`` steps (BLOCK_EVERY time
+  units): the stress samples and their sum, the phase samples and the sums of R, Z_re, Z_im,
+  |Z|^2, R2, u_mean, u_std; with the ledger, its values at the block's last sample.
+
+The analysis reads the series as block means (``Reduced.series``): the mean stress, its
+trend test, its error (batch means) and the contacts' statistics all come from them, so that
+a raw series and the run's own records give the same numbers (tests/test_reduced.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .stress import SlipEvents, Zigzag
+
+EXTREMA = "extrema.npy"
+BLOCKS = "blocks.npy"
+#: the phase statistics summed over a block (bkflow.rundir.PHASE_COLUMNS but t, and |Z|^2)
+PHASE_SUMS = ("R", "Z_re", "Z_im", "Z2", "R2", "u_mean", "u_std")
+
+
+class ReducedError(ValueError):
+    """Records that cannot give what is asked (a threshold below the recorded one)."""
+
+
+@dataclass(frozen=True)
+class Reduced:
+    """A run's reduced records: ``extrema`` and ``blocks`` (structured arrays, the fields of
+    fix bk/reduce), the steps between stress samples (``nevery``) and per block (``block``),
+    the time step, and the zigzag threshold of the extrema (stress units)."""
+
+    extrema: np.ndarray
+    blocks: np.ndarray
+    nevery: int
+    block: int
+    dt: float
+    threshold: float
+
+    @property
+    def has_phase(self) -> bool:
+        return "n_phase" in (self.blocks.dtype.names or ()) and bool(
+            len(self.blocks) and self.blocks["n_phase"].sum() > 0)
+
+    @property
+    def has_ledger(self) -> bool:
+        return "work" in (self.extrema.dtype.names or ())
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.blocks["n"].sum()) if len(self.blocks) else 0
+
+    @property
+    def t_end(self) -> float:
+        """The time of the last stress sample."""
+        return (self.n_samples - 1) * self.nevery * self.dt if self.n_samples else 0.0
+
+    def sample_index(self) -> np.ndarray:
+        """The stress sample of every extremum (its step / nevery)."""
+        return np.asarray(self.extrema["step"], np.int64) // self.nevery
+
+    def events(self, threshold: float) -> SlipEvents:
+        """The slips of the run at ``threshold`` (stress units, at least the recorded one):
+        what ``bkflow.stress.slip_events`` finds in the whole series."""
+        if not threshold >= self.threshold * (1 - 1e-12):
+            raise ReducedError(
+                f"the run recorded its slips down to a threshold of {self.threshold:.6g} (stress "
+                f"units); {threshold:.6g} is smaller: only the raw series (scene series) can "
+                "give it")
+        s = np.asarray(self.extrema["sigma"], float)
+        maxima, minima = Zigzag(threshold).feed(s.tolist())
+        a, b = np.asarray(maxima, np.int64), np.asarray(minima, np.int64)
+        i = self.sample_index()
+        t = i * self.nevery * self.dt
+        return SlipEvents(i[a], i[b], t[a], t[b], s[a], s[a] - s[b], float(threshold))
+
+    def positions(self, sample) -> np.ndarray:
+        """The rows of ``extrema`` of the stress samples ``sample`` (each one of them)."""
+        i = self.sample_index()
+        k = np.searchsorted(i, np.asarray(sample, np.int64))
+        return k
+
+    def series(self) -> tuple[np.ndarray, np.ndarray, dict | None]:
+        """The block means: (t, sigma_x, phase), t the time of each block's first step,
+        phase a dict of the means of PHASE_SUMS over the blocks with phase samples (and their
+        own t), or None without phase records."""
+        b = self.blocks
+        n = np.asarray(b["n"], float)
+        t = np.arange(len(b)) * self.block * self.dt
+        sigma = np.asarray(b["sigma"], float) / n
+        phase = None
+        if self.has_phase:
+            m = np.asarray(b["n_phase"], float)
+            keep = m > 0
+            phase = {"t": t[keep]}
+            for c in PHASE_SUMS:
+                phase[c] = np.asarray(b[c], float)[keep] / m[keep]
+        return t, sigma, phase
+
+    def ledger_at_extrema(self) -> dict:
+        """The breaks and the ledger at every extremum (``LEDGER_COLUMNS``)."""
+        from .rundir import LEDGER_COLUMNS
+
+        return {c: np.asarray(self.extrema[c], float) for c in LEDGER_COLUMNS}
+
+    def ledger_at_blocks(self) -> dict:
+        """The ledger at each block's last sample, stamped with the next block's first step's
+        time (the window's edges): t and ``LEDGER_COLUMNS``."""
+        from .rundir import LEDGER_COLUMNS
+
+        out = {"t": (np.arange(len(self.blocks)) + 1) * self.block * self.dt}
+        out.update({c: np.asarray(self.blocks[c], float) for c in LEDGER_COLUMNS})
+        return out
+
+
+def _pairs(dtype_fields) -> np.dtype:
+    return np.dtype([(name, kind) for name, kind in dtype_fields])
+
+
+def extrema_dtype(ledger: bool) -> np.dtype:
+    from .rundir import LEDGER_COLUMNS
+
+    return _pairs([("step", "<i8"), ("sigma", "<f8")]
+                  + ([(c, "<f8") for c in LEDGER_COLUMNS] if ledger else []))
+
+
+def blocks_dtype(phase: bool, ledger: bool) -> np.dtype:
+    from .rundir import LEDGER_COLUMNS
+
+    return _pairs([("n", "<i8")] + ([("n_phase", "<i8")] if phase else []) + [("sigma", "<f8")]
+                  + ([(c, "<f8") for c in PHASE_SUMS] if phase else [])
+                  + ([(c, "<f8") for c in LEDGER_COLUMNS] if ledger else []))
+
+
+def from_series(sigma, nevery: int, block: int, dt: float, threshold: float,
+                phase: dict | None = None, phase_nevery: int | None = None,
+                ledger: dict | None = None) -> Reduced:
+    """fix bk/reduce's records of a raw series: ``sigma`` sampled every ``nevery`` steps from
+    step 0, ``phase`` (columns R, Z_re, Z_im, R2, u_mean, u_std) every ``phase_nevery``
+    steps from step 0, ``ledger`` (``LEDGER_COLUMNS``) at every stress sample, or None."""
+    from .rundir import LEDGER_COLUMNS
+
+    s = np.asarray(sigma, float)
+    n = len(s)
+    steps = np.arange(n, dtype=np.int64) * nevery
+    # the turning points, the last the one under way (as the plugin writes them)
+    turns = _turning_points(s, threshold)
+    ext = np.zeros(len(turns), extrema_dtype(ledger is not None))
+    ext["step"] = steps[turns]
+    ext["sigma"] = s[turns]
+    if ledger is not None:
+        for c in LEDGER_COLUMNS:
+            ext[c] = np.asarray(ledger[c], float)[turns]
+    k = steps // block
+    nb = int(k[-1]) + 1 if n else 0
+    with_phase = phase is not None and len(phase["R"]) > 0
+    blk = np.zeros(nb, blocks_dtype(with_phase, ledger is not None))
+    blk["n"] = np.bincount(k, minlength=nb)
+    blk["sigma"] = _block_sums(k, s, nb)
+    if with_phase:
+        m = len(phase["R"])
+        kp = (np.arange(m, dtype=np.int64) * phase_nevery) // block
+        kp = kp[kp < nb]
+        m = len(kp)
+        blk["n_phase"] = np.bincount(kp, minlength=nb)
+        zr, zi = np.asarray(phase["Z_re"], float)[:m], np.asarray(phase["Z_im"], float)[:m]
+        cols = {"R": phase["R"], "Z_re": zr, "Z_im": zi, "Z2": zr * zr + zi * zi,
+                "R2": phase["R2"], "u_mean": phase["u_mean"], "u_std": phase["u_std"]}
+        for c in PHASE_SUMS:
+            blk[c] = _block_sums(kp, np.asarray(cols[c], float)[:m], nb)
+    if ledger is not None and n:
+        last = np.r_[np.flatnonzero(np.diff(k)), n - 1]
+        for c in LEDGER_COLUMNS:
+            blk[c] = np.asarray(ledger[c], float)[last]
+    return Reduced(ext, blk, nevery, block, dt, float(threshold))
+
+
+def _block_sums(k, x, nb: int) -> np.ndarray:
+    """Sums of ``x`` over the blocks ``k`` (non-decreasing), in sample order as the plugin
+    adds them."""
+    out = np.zeros(nb)
+    if len(x):
+        cut = np.r_[0, np.flatnonzero(np.diff(k)) + 1, len(x)]
+        for a, b in zip(cut[:-1], cut[1:]):
+            acc = 0.0
+            for v in x[a:b].tolist():
+                acc += v
+            out[k[a]] = acc
+    return out
+
+
+def _turning_points(s: np.ndarray, threshold: float) -> np.ndarray:
+    """The samples fix bk/reduce records: each maximum once the series fell from it by more
+    than ``threshold``, each minimum once it rose again by more, and the extremum under way."""
+    out = []
+    falling = False
+    imax = imin = 0
+    vmax = vmin = 0.0
+    for i, v in enumerate(s.tolist()):
+        if i == 0:
+            imax, vmax = 0, v
+        elif not falling:
+            if v > vmax:
+                imax, vmax = i, v
+            elif vmax - v > threshold:
+                out.append(imax)
+                falling, imin, vmin = True, i, v
+        else:
+            if v < vmin:
+                imin, vmin = i, v
+            elif v - vmin > threshold:
+                out.append(imin)
+                falling, imax, vmax = False, i, v
+    if len(s):
+        out.append(imin if falling else imax)
+    return np.asarray(out, np.int64)
+
+
+def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
+         threshold: float) -> Reduced:
+    """The records of a run (``numpy.load``; a record cut short raises ValueError)."""
+    ext = np.load(extrema_path, allow_pickle=False)
+    blk = np.load(blocks_path, allow_pickle=False)
+    return Reduced(ext, blk, nevery, block, dt, float(threshold))
