@@ -342,9 +342,9 @@ void FixBKReduce::write_restart(FILE *fp)
   // post_run's write
   s.push_back(static_cast<double>(extrema.nrecords));
   s.push_back(static_cast<double>(blocks.nrecords));
-  int n = static_cast<int>(s.size());
-  fwrite(&n, sizeof(int), 1, fp);
-  fwrite(s.data(), sizeof(double), n, fp);
+  const int bytes = static_cast<int>(s.size() * sizeof(double));    // LAMMPS's convention
+  fwrite(&bytes, sizeof(int), 1, fp);
+  fwrite(s.data(), sizeof(double), s.size(), fp);
 }
 
 void FixBKReduce::restart(char *buf)

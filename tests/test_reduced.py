@@ -1,0 +1,200 @@
+"""The run's records of its stress and phases, reduced in the run (fix bk/reduce,
+bkflow.reduced): the slips at every threshold at or above the recorded one are exactly those
+of the whole series; the records are the reduction of the raw series, bit for bit, on both
+paths, on two ranks and across a continuation; an analysis from the records is the analysis
+from the raw series; block means give the verdicts the raw series gives."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+from bkflow import reduced, stationarity
+from bkflow.analysis import summarize
+from bkflow.deck import DeckOptions, data_text, setup_text
+from bkflow.engine import run
+from bkflow.lattice import square_lattice
+from bkflow.params import RunSpec, protocol_fields
+from bkflow.rundir import LEDGER_COLUMNS, RunDir
+from bkflow.stress import slip_events
+from tests.support import tool
+
+
+def _series(rng, kind: int, n: int) -> np.ndarray:
+    if kind == 0:   # a random walk
+        return np.cumsum(rng.normal(size=n))
+    if kind == 1:   # with ties
+        return np.round(np.cumsum(rng.normal(size=n)), 1)
+    if kind == 2:   # a sawtooth with noise: loading and drops, as sigma_x
+        return np.mod(np.arange(n) * rng.uniform(0.01, 0.2), 1.0) + rng.normal(0, 0.02, n)
+    return np.sin(np.arange(n) * rng.uniform(0.05, 1)) + rng.normal(0, 0.1, n)
+
+
+def test_extrema_give_the_slips_of_every_larger_threshold_exactly():
+    rng = np.random.default_rng(5)
+    for trial in range(400):
+        n = int(rng.integers(1, 500))
+        s = _series(rng, trial % 4, n)
+        th0 = float(rng.uniform(0.005, 0.5))
+        red = reduced.from_series(s, 3, 30, 0.1, th0)
+        t = np.arange(n) * 3 * 0.1
+        for th in (th0, th0 * (1 + 1e-9), th0 * 1.7, th0 * 3, th0 * 10, th0 * 1e3):
+            whole, recs = slip_events(t, s, th), red.events(th)
+            for name in ("i_max", "i_min", "t_max", "t_min", "sigma_fail", "drop"):
+                assert np.array_equal(getattr(whole, name), getattr(recs, name)), (trial, th)
+        # fewer records than samples: a series of n samples has at most n turning points
+        assert len(red.extrema) <= max(n, 1)
+
+
+def test_a_threshold_below_the_recorded_one_is_refused_naming_the_scene_that_keeps_it():
+    red = reduced.from_series(np.sin(np.arange(100) * 0.3), 1, 10, 0.1, 0.05)
+    with pytest.raises(reduced.ReducedError, match="scene series"):
+        red.events(0.01)
+
+
+def test_block_means_give_the_verdict_of_the_raw_series():
+    """The trend test on block means (what the analysis reads) against the raw series: the same
+    verdict on flat series and on drifting ones, with the same drift to a few percent."""
+    rng = np.random.default_rng(11)
+    dt, nevery, block = 0.01, 10, 200          # samples every 0.1, blocks of 2 time units
+    agree = 0
+    for k in range(40):
+        n = 20000
+        noise = np.zeros(n)
+        e = rng.normal(0, 0.01, n)
+        for i in range(1, n):               # AR(1), correlation time ~10 samples
+            noise[i] = 0.9 * noise[i - 1] + e[i]
+        drift = 0.0 if k % 2 == 0 else 0.02
+        s = 1.0 + drift * np.arange(n) / n + noise
+        t = np.arange(n) * nevery * dt
+        raw = stationarity.stationarity(t, s, 200.0)
+        tb, sb, _ = reduced.from_series(s, nevery, block, dt, 0.05).series()
+        blk = stationarity.stationarity(tb, sb, 200.0)
+        agree += raw.stationary == blk.stationary
+        assert blk.stationary == (drift == 0.0) or raw.stationary == blk.stationary
+        assert abs(raw.drift - blk.drift) < 0.1 * max(abs(raw.drift), 2 * raw.drift_err)
+    assert agree >= 38
+
+
+def test_batch_means_error_covers_the_mean_like_the_raw_error():
+    """The mean's error from block means (batch means) against the raw series' (statistical
+    inefficiency): the same to 20% on correlated noise whose correlation time is shorter than a
+    block."""
+    rng = np.random.default_rng(3)
+    ratios = []
+    for _ in range(20):
+        n = 50000
+        x = np.zeros(n)
+        e = rng.normal(size=n)
+        for i in range(1, n):
+            x[i] = 0.8 * x[i - 1] + e[i]
+        raw = stationarity.mean_error(x).error
+        _, xb, _ = reduced.from_series(x, 1, 100, 1.0, 1.0).series()
+        ratios.append(stationarity.mean_error(xb).error / raw)
+    assert 0.8 < np.median(ratios) < 1.2
+
+
+# ------------------------------------------------------------------------------- the plugin
+def _spec(**kw):
+    return RunSpec(**{"phi": 1000.0, "Lx": 8, "Ly": 4, "seed": 3, "scene": "series",
+                      "t_end": 300.0, "stress_every": 0.05, **kw})
+
+
+def _records_and_series(workdir, spec, path="auto", ranks=1):
+    lattice = square_lattice(spec.Lx, spec.Ly)
+    workdir.mkdir(parents=True, exist_ok=True)
+    (workdir / "data.bk").write_text(data_text(spec, lattice))
+    deck = setup_text(spec, DeckOptions(path=path, energy=True))
+    deck += f"\nrun {spec.n_steps // 2} post no\nrun {spec.n_steps - spec.n_steps // 2}\n"
+    (workdir / "in.bk").write_text(deck)
+    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
+    if ranks > 1:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, (workdir / "log.lammps").read_text()[-2000:]
+    rd = RunDir(workdir)
+    recs = reduced.load(workdir / "extrema.npy", workdir / "blocks.npy", spec.stress_nevery,
+                        spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
+    _, sigma = rd.read_stress()
+    series = reduced.from_series(sigma, spec.stress_nevery, spec.block_nevery, spec.dt,
+                                 spec.extrema_threshold_stress, rd.read_phase(),
+                                 spec.phase_nevery, rd.read_ledger())
+    return recs, series
+
+
+#: the ledger's running sums, which each rank accumulates for its atoms: the same to rounding
+#: on any number of ranks, not to the bit (tests/test_fused_ranks.py)
+RUNNING_SUMS = ("work", "diss_break", "diss_damp")
+
+
+def _same_records(a: reduced.Reduced, b: reduced.Reduced, exact=True):
+    for x, y in ((a.extrema, b.extrema), (a.blocks, b.blocks)):
+        assert x.dtype == y.dtype and len(x) == len(y)
+        for name in x.dtype.names:
+            if exact and name not in RUNNING_SUMS:
+                assert np.array_equal(x[name], y[name]), name
+            else:
+                # u_std: the root of a variance that cancels (E[u^2] - E[u]^2), so that a
+                # rounding of 1e-16 in it is 1e-8 in the root (summed over a block)
+                atol = 1e-6 if name == "u_std" else 1e-10
+                assert np.allclose(x[name], y[name], rtol=1e-10, atol=atol), name
+
+
+@pytest.mark.usefixtures("lammps")
+@pytest.mark.parametrize("path,ranks", [("auto", 1), ("general", 1), ("auto", 2)])
+def test_the_records_are_the_reduction_of_the_raw_series(tmp_path, path, ranks):
+    spec = _spec()
+    recs, series = _records_and_series(tmp_path, spec, path, ranks)
+    assert len(recs.extrema) > 10 and len(recs.blocks) == math.ceil(
+        (spec.n_steps // spec.stress_nevery * spec.stress_nevery + 1) / spec.block_nevery)
+    assert recs.has_phase and recs.has_ledger
+    assert set(LEDGER_COLUMNS) <= set(recs.extrema.dtype.names)
+    _same_records(recs, series)
+
+
+@pytest.mark.usefixtures("lammps")
+def test_both_paths_and_two_ranks_record_the_same_run(tmp_path):
+    spec = _spec()
+    one, _ = _records_and_series(tmp_path / "one", spec)
+    two, _ = _records_and_series(tmp_path / "two", spec, ranks=2)
+    general, _ = _records_and_series(tmp_path / "general", spec, path="general")
+    _same_records(one, two)                    # the fused path: the same bits on any ranks
+    # the general path sums the forces in another order: the same run to rounding, the same
+    # slips
+    assert np.array_equal(one.extrema["step"], general.extrema["step"])
+    _same_records(one, general, exact=False)
+
+
+@pytest.mark.usefixtures("lammps")
+def test_a_continued_run_records_what_the_uninterrupted_run_records(tmp_path):
+    base = _spec(**{**protocol_fields("paper"), "scene": "events", "t_end": 400.0})
+    run(base, tmp_path / "c", progress=False)
+    longer = base.replace(t_end=900.0)
+    run(longer, tmp_path / "c", progress=False)
+    run(longer, tmp_path / "fresh", progress=False)
+    for name in ("extrema.npy", "blocks.npy"):
+        assert (tmp_path / "c" / name).read_bytes() == (tmp_path / "fresh" / name).read_bytes()
+    assert RunDir(tmp_path / "c").problem() is None
+
+
+@pytest.mark.usefixtures("lammps")
+def test_the_analysis_of_the_records_is_the_analysis_of_the_raw_series(tmp_path):
+    spec = _spec(**{**protocol_fields("paper"), "t_end": 1500.0})
+    run(spec, tmp_path / "r", progress=False)
+    rd = RunDir(tmp_path / "r")
+    _, sigma = rd.read_stress()
+    series = reduced.from_series(sigma, spec.stress_nevery, spec.block_nevery, spec.dt,
+                                 spec.extrema_threshold_stress, rd.read_phase(),
+                                 spec.phase_nevery)
+    a = summarize(spec, rd.read_reduced(spec)).summary()
+    b = summarize(spec, series).summary()
+    assert a.keys() == b.keys()
+    for k, v in a.items():
+        if isinstance(v, float) and math.isfinite(v):
+            assert v == pytest.approx(b[k], rel=1e-9, abs=1e-12), k
+        else:
+            assert v == b[k] or (isinstance(v, float) and math.isnan(b[k])), k
+    assert a["state"] == b["state"] and a["n_slips"] == b["n_slips"] > 0
