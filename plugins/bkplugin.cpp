@@ -12,6 +12,7 @@
 #include "fix_bk_phase.h"
 #include "fix_bk_slips.h"
 #include "fix_bk_stress.h"
+#include "fix_bk_psi.h"
 #include "fix_bk_reduce.h"
 #include "fix_bk_substrate.h"
 #include "lammps.h"
@@ -107,6 +108,11 @@ static Fix *bk_reduce_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixBKReduce(lmp, argc, argv);
 }
 
+static Fix *bk_psi_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBKPsi(lmp, argc, argv);
+}
+
 extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
 {
   auto *lmp = static_cast<LAMMPS *>(ptr);
@@ -153,5 +159,10 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   plugin.name = "bk/reduce";
   plugin.info = "bkflow: sigma_x's zigzag extrema and block sums (with the phases), in the run";
   plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_reduce_creator);
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "bk/psi";
+  plugin.info = "bkflow: the lattice order Psi(t), computed in the run";
+  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_psi_creator);
   (*register_plugin)(&plugin, lmp);
 }

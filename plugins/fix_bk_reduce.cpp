@@ -52,20 +52,11 @@ const char *LEDGER_NAMES[] = {"breaks", "e_bond",    "e_drive",    "e_contact",
                               "e_kinetic", "work", "diss_break", "diss_damp"};
 const char *PHASE_NAMES[] = {"R", "Z_re", "Z_im", "Z2", "R2", "u_mean", "u_std"};
 constexpr int NPHASE = 7;
-constexpr long HEADER = 512;
 constexpr auto WRITE_EVERY = std::chrono::seconds(1);
-
-std::string field(const char *name, const char *type)
-{
-  return std::string("('") + name + "', '" + type + "'), ";
-}
 
 double as_double(bigint v)
 {
-  double d;
-  int64_t i = v;
-  std::memcpy(&d, &i, sizeof d);
-  return d;
+  return BKNpy::as_double(static_cast<int64_t>(v));
 }
 }    // namespace
 
@@ -98,29 +89,17 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
     error->all(FLERR, "fix bk/reduce: the block B must be a multiple of Nevery (and of Pevery), "
                "got {}", block);
 
-  extrema.descr = field("step", "<i8") + field("sigma", "<f8");
-  extrema.nint = 1;
-  extrema.nfields = 2;
-  blocks.descr = field("n", "<i8");
-  blocks.nint = 1;
-  blocks.nfields = 1;
-  if (with_phase) {
-    blocks.descr += field("n_phase", "<i8");
-    blocks.nint = blocks.nfields = 2;
-  }
-  blocks.descr += field("sigma", "<f8");
-  blocks.nfields += 1;
+  extrema.field("step", "<i8");
+  extrema.field("sigma", "<f8");
+  blocks.field("n", "<i8");
+  if (with_phase) blocks.field("n_phase", "<i8");
+  blocks.field("sigma", "<f8");
   if (with_phase)
-    for (const char *name : PHASE_NAMES) {
-      blocks.descr += field(name, "<f8");
-      blocks.nfields++;
-    }
+    for (const char *name : PHASE_NAMES) blocks.field(name, "<f8");
   if (with_energy)
     for (const char *name : LEDGER_NAMES) {
-      extrema.descr += field(name, "<f8");
-      extrema.nfields++;
-      blocks.descr += field(name, "<f8");
-      blocks.nfields++;
+      extrema.field(name, "<f8");
+      blocks.field(name, "<f8");
     }
   sums.assign(blocks.nfields, 0.0);
 
@@ -139,16 +118,14 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
 
 FixBKReduce::~FixBKReduce()
 {
-  for (BKNpy *f : {&extrema, &blocks})
-    if (f->fp) fclose(f->fp);
+  extrema.close();
+  blocks.close();
 }
 
 void FixBKReduce::open(BKNpy &f, const char *name)
 {
-  f.name = name;
   // appending: the records are positioned by the restart file's state (restart())
-  f.fp = fopen(name, appending ? "r+b" : "w+b");
-  if (!f.fp)
+  if (!f.open(name, appending))
     error->one(FLERR, "{} fix bk/reduce: cannot open {}: {}", BK_ERR_CANNOT_OPEN, name,
                utils::getsyserror());
 }
@@ -192,14 +169,14 @@ void FixBKReduce::sample()
       std::memcpy(ledger_max, ledger_now, sizeof ledger_now);
       break;
     case BKZigzag::FALL:
-      stage_extremum(extrema, zigzag.step_max, zigzag.smax, ledger_max);
+      stage_extremum(zigzag.step_max, zigzag.smax, ledger_max);
       std::memcpy(ledger_min, ledger_now, sizeof ledger_now);
       break;
     case BKZigzag::NEW_MIN:
       std::memcpy(ledger_min, ledger_now, sizeof ledger_now);
       break;
     case BKZigzag::CONFIRMED:
-      stage_extremum(extrema, zigzag.event_min, zigzag.smin, ledger_min);
+      stage_extremum(zigzag.event_min, zigzag.smin, ledger_min);
       std::memcpy(ledger_max, ledger_now, sizeof ledger_now);
       break;
     default:
@@ -230,23 +207,16 @@ void FixBKReduce::sample()
   if (comm->me == 0 && std::chrono::steady_clock::now() - last_write > WRITE_EVERY) write_out();
 }
 
-void FixBKReduce::stage_extremum(BKNpy &f, bigint step, double sigma, const double *ledger)
+void FixBKReduce::stage_extremum(bigint step, double sigma, const double *ledger)
 {
-  f.nrecords++;
-  if (comm->me != 0) return;
-  f.staged.push_back(as_double(step));
-  f.staged.push_back(sigma);
-  if (with_energy) f.staged.insert(f.staged.end(), ledger, ledger + NLEDGER);
+  double rec[2 + NLEDGER] = {as_double(step), sigma};
+  if (with_energy) std::memcpy(rec + 2, ledger, sizeof(double) * NLEDGER);
+  extrema.stage(rec, comm->me == 0);
 }
 
 void FixBKReduce::close_block()
 {
-  blocks.nrecords++;
-  if (comm->me != 0) {
-    sums.assign(blocks.nfields, 0.0);
-    return;
-  }
-  blocks.staged.insert(blocks.staged.end(), sums.begin(), sums.end());
+  blocks.stage(sums.data(), comm->me == 0);
   sums.assign(blocks.nfields, 0.0);
 }
 
@@ -273,36 +243,8 @@ void FixBKReduce::write_out()
     blocks.pending = sums;
   else
     blocks.pending.clear();
-  write_file(extrema);
-  write_file(blocks);
-}
-
-void FixBKReduce::write_file(BKNpy &f)
-{
-  if (!f.fp) return;
-  const std::size_t rec = sizeof(double) * f.nfields;
-  const bigint nstaged = static_cast<bigint>(f.staged.size()) / f.nfields;
-  const bigint total = f.nfinal + nstaged + (f.pending.empty() ? 0 : 1);
-  if (fseek(f.fp, HEADER + static_cast<long>(rec * f.nfinal), SEEK_SET) != 0) failed(f);
-  if (nstaged && fwrite(f.staged.data(), rec, nstaged, f.fp) != static_cast<size_t>(nstaged))
-    failed(f);
-  if (!f.pending.empty() && fwrite(f.pending.data(), rec, 1, f.fp) != 1) failed(f);
-  f.nfinal += nstaged;
-  f.staged.clear();
-  // the header last: a reader never counts a record not yet on disk
-  std::string dict = "{'descr': [" + f.descr.substr(0, f.descr.size() - 2) +
-      "], 'fortran_order': False, 'shape': (" + std::to_string(total) + ",), }";
-  char head[HEADER];
-  std::memset(head, ' ', HEADER);
-  std::memcpy(head, "\x93NUMPY\x01\x00", 8);
-  const uint16_t len = HEADER - 10;
-  head[8] = static_cast<char>(len & 0xff);
-  head[9] = static_cast<char>(len >> 8);
-  std::memcpy(head + 10, dict.data(), dict.size());
-  head[HEADER - 1] = '\n';
-  if (fflush(f.fp) != 0 || fseek(f.fp, 0, SEEK_SET) != 0 || fwrite(head, 1, HEADER, f.fp) != HEADER ||
-      fflush(f.fp) != 0)
-    failed(f);
+  for (BKNpy *f : {&extrema, &blocks})
+    if (!f->write()) failed(*f);
 }
 
 void FixBKReduce::failed(const BKNpy &f)
@@ -318,11 +260,6 @@ double FixBKReduce::compute_vector(int n)
 
 /* the restart state: the settings (checked), the zigzag, the ledger at its running extrema,
    the block under way and how many final records each file holds */
-
-int FixBKReduce::state_size() const
-{
-  return 6 + 6 + 2 * NLEDGER + 1 + blocks.nfields + 2;
-}
 
 void FixBKReduce::write_restart(FILE *fp)
 {
@@ -372,12 +309,8 @@ void FixBKReduce::restart(char *buf)
   extrema.nfinal = extrema.nrecords = static_cast<bigint>(s[j++]);
   blocks.nfinal = blocks.nrecords = static_cast<bigint>(s[j++]);
   if (comm->me == 0)
-    for (BKNpy *f : {&extrema, &blocks}) {
-      if (!f->fp) continue;
-      if (fseek(f->fp, 0, SEEK_END) != 0) failed(*f);
-      const long size = ftell(f->fp);
-      if (size < HEADER + static_cast<long>(sizeof(double) * f->nfields * f->nfinal))
+    for (BKNpy *f : {&extrema, &blocks})
+      if (!f->holds_final())
         error->one(FLERR, "fix bk/reduce: {} holds fewer records than the restart file says "
                    "were written: it is not this run's", f->name);
-    }
 }

@@ -4,6 +4,7 @@
 #ifndef BKFLOW_FIX_BK_REDUCE_H
 #define BKFLOW_FIX_BK_REDUCE_H
 
+#include "bk_npy.h"
 #include "fix_bk_reader.h"
 
 #include <cstdio>
@@ -11,21 +12,6 @@
 #include <vector>
 
 namespace LAMMPS_NS {
-
-/* one NumPy .npy file of fixed-size records: a 512-byte header that says how many, rewritten
-   at every flush, then the records; the last `pending` records are rewritten at every flush
-   (the state of the run so far, not yet final) */
-struct BKNpy {
-  std::string name;
-  std::string descr;       // the structured dtype, NumPy's spelling
-  int nfields = 0;         // doubles per record (int64 fields are stored as such, see put)
-  int nint = 0;            // the first nint fields are int64
-  FILE *fp = nullptr;
-  bigint nfinal = 0;       // final records on disk (rank 0)
-  bigint nrecords = 0;     // final records (every rank)
-  std::vector<double> staged;    // final records not yet written
-  std::vector<double> pending;   // the non-final tail (0 or 1 record)
-};
 
 class FixBKReduce : public FixBKReader {
  public:
@@ -51,12 +37,10 @@ class FixBKReduce : public FixBKReader {
 
   void sample() override;
   void open(BKNpy &f, const char *name);
-  void stage_extremum(BKNpy &f, bigint step, double sigma, const double *ledger);
+  void stage_extremum(bigint step, double sigma, const double *ledger);
   void close_block();
   void write_out();
-  void write_file(BKNpy &f);
   [[noreturn]] void failed(const BKNpy &f);
-  int state_size() const;
 };
 
 }    // namespace LAMMPS_NS

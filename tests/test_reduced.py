@@ -198,3 +198,34 @@ def test_the_analysis_of_the_records_is_the_analysis_of_the_raw_series(tmp_path)
         else:
             assert v == b[k] or (isinstance(v, float) and math.isnan(b[k])), k
     assert a["state"] == b["state"] and a["n_slips"] == b["n_slips"] > 0
+
+
+@pytest.mark.usefixtures("lammps")
+@pytest.mark.parametrize("path,ranks", [("auto", 1), ("general", 1), ("auto", 2)])
+def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
+    """fix bk/psi against bkflow.order.psi of full-precision frames of the same steps (the
+    frames of scene full are written to 9 digits: Psi from them differs by ~1e-8)."""
+    from bkflow import io
+    from bkflow.analysis import order_result
+    from bkflow.params import AnalysisSettings
+
+    spec = _spec(scene="order", snapshot_every=10.0, start="random")
+    lattice = square_lattice(spec.Lx, spec.Ly)
+    (tmp_path / "data.bk").write_text(data_text(spec, lattice))
+    deck = setup_text(spec, DeckOptions(path=path)) + (
+        f"\ndump exact all custom {spec.snapshot_nevery} exact.lammpstrj id type x y z ix iy iz"
+        f"\ndump_modify exact sort id format float %.17g\nrun {spec.n_steps}\n")
+    (tmp_path / "in.bk").write_text(deck)
+    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
+    if ranks > 1:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, (tmp_path / "log.lammps").read_text()[-2000:]
+    steps, psi = RunDir(tmp_path).read_psi_record(spec)
+    frames = io.read_frames(tmp_path / "exact.lammpstrj", spec.N)
+    offline = order_result(spec, AnalysisSettings().resolved(spec), frames.steps,
+                           frames.positions)
+    assert np.array_equal(steps, frames.steps) and len(steps) == spec.n_steps // \
+        spec.snapshot_nevery + 1
+    assert np.allclose(psi, offline.psi, rtol=0, atol=1e-13)
+    assert psi.min() < 0.999    # the layer moved: a test that Psi = 1 throughout would pass

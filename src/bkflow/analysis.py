@@ -230,6 +230,8 @@ class OrderResult:
     t: np.ndarray
     psi: np.ndarray
     psi_inf: float
+    # computed in the run (psi.npy, fix bk/psi): a record of the run, not a table to write
+    recorded: bool = False
 
     def row(self) -> dict:
         return {"psi_inf": self.psi_inf}
@@ -334,7 +336,7 @@ class RunAnalysis:
             out[EVENTS].update(catalogue.energy_rows(self.ledger.ledger_at_extrema(),
                                                      self.ledger.positions(ev.i_max),
                                                      self.ledger.positions(ev.i_min)))
-        if self.order is not None:
+        if self.order is not None and not self.order.recorded:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
             out[CLUSTERS] = self.clusters.table
@@ -427,6 +429,13 @@ def order_result(spec: RunSpec, settings: AnalysisSettings, steps, positions) ->
     return OrderResult(ts, p, order.psi_inf(ts, p, settings.psi_late_fraction))
 
 
+def order_from_record(spec: RunSpec, settings: AnalysisSettings, steps, psi) -> OrderResult:
+    """Psi(t) as the run computed it (fix bk/psi) and its plateau."""
+    ts = np.asarray(steps) * spec.dt
+    p = np.asarray(psi, float)
+    return OrderResult(ts, p, order.psi_inf(ts, p, settings.psi_late_fraction), recorded=True)
+
+
 def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
                    t_transient: float, steps, positions, psi_inf: float,
                    large=None, breaks=None) -> ClusterResult:
@@ -505,7 +514,7 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
 
 def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(), companion=None,
-              slip_breaks=None) -> RunAnalysis:
+              slip_breaks=None, psi=None) -> RunAnalysis:
     """The analysis of one run.
 
     ``red``: the run's records of its stress and phases (``bkflow.reduced.Reduced``: the
@@ -514,7 +523,8 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     run's records (RunSpec.companion), or None. ``snapshots``: (steps (F,), unwrapped
     positions (F, N, 2)) of the order scene, or None. ``slip_frames``: (steps, positions) of
     fix bk/slips, frames in pairs (maximum, minimum), or None; ``slip_breaks`` (frames, N):
-    their column of first breaks (fix bk/slips ``breaks``), or None.
+    their column of first breaks (fix bk/slips ``breaks``), or None. ``psi``: (steps, Psi) as
+    the run computed it (fix bk/psi), or None; it takes the place of ``snapshots``.
     """
     settings = settings.resolved(spec)
     t, sigma, phase = red.series()
@@ -532,7 +542,8 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     fr = fr.covering(win, spec)
     large = large_drop_result(spec, settings, events, t0).covering(win, spec)
     drops = drop_result(settings, events.after(t0))
-    orders = None if snapshots is None else order_result(spec, settings, *snapshots)
+    orders = order_from_record(spec, settings, *psi) if psi is not None else \
+        None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan
     clus = None if slip_frames is None else cluster_result(
         spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
@@ -541,7 +552,7 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
-    """Analyse a finished run directory: write summary.json, events.csv (and psi.csv,
+    """Analyse a finished run directory: write summary.json, events.parquet (and psi.csv,
     clusters.csv when the scene recorded them); return the summary as written (None where
     not measured).
 
@@ -591,7 +602,8 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     spec = rd.spec()
     red = rd.read_reduced(spec)
     snaps = slips = slip_breaks = None
-    if spec.writes_snapshots:
+    psi = rd.read_psi_record(spec) if spec.writes_snapshots else None
+    if spec.writes_snapshots and psi is None:   # a run made before bkflow computed Psi in it
         f = rd.read_snapshots(spec.N)
         snaps = (f.steps, f.positions)
     if spec.writes_slips:
@@ -601,7 +613,7 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     if spec.companion is not None:
         companion = rd.companion().read_reduced(spec.companion_spec)
     try:
-        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks)
+        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks, psi)
     except reduced.ReducedError as exc:
         raise AnalysisError(f"{rd.path}: {exc}") from None
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),

@@ -86,16 +86,30 @@ class Run:
 
     @property
     def stress(self) -> pd.DataFrame:
-        """``t``, ``sigma_x``: the shear-stress series."""
-        t, sigma = self._intact().read_stress()
+        """``t``, ``sigma_x``: the shear stress, the raw series where the run's scene kept it
+        (series, full), else its turning points (every maximum and minimum of the drops above
+        the recorded threshold: extrema.npy)."""
+        t, sigma = self._intact().stress_outline(self.spec)
         return pd.DataFrame({"t": t, "sigma_x": sigma})
 
     @property
     def phase(self) -> pd.DataFrame | None:
-        """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases (phase.csv;
-        None for a run made before bkflow recorded them)."""
-        p = self._intact().read_phase()
+        """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases, the raw series
+        where the run's scene kept it (phase.csv), else their means over the blocks of
+        blocks.npy; None for a run made before bkflow recorded them."""
+        p = self._intact().phase_series(self.spec)
         return None if p is None else pd.DataFrame(p)
+
+    @property
+    def blocks(self) -> pd.DataFrame:
+        """The run's block means (blocks.npy, bkflow.reduced): ``t`` (each block's start),
+        ``sigma_x`` and, where recorded, the contacts' phase statistics: what the analysis
+        reads of the series."""
+        t, sigma, phase = self._intact().read_reduced(self.spec).series()
+        df = pd.DataFrame({"t": t, "sigma_x": sigma})
+        if phase is not None:
+            df = df.merge(pd.DataFrame(phase), on="t", how="left")
+        return df
 
     @property
     def events(self) -> pd.DataFrame | None:

@@ -32,7 +32,7 @@ import numpy as np
 
 from . import clusters, order
 
-#: the catalogue's columns after events.csv's own, by what the scene recorded
+#: the catalogue's columns after events.parquet's own, by what the scene recorded
 SIZE_COLUMNS = ("n_slipped", "potency", "slip_mean", "slip_max", "n_clusters", "cluster_n",
                 "cluster_nx", "cluster_ny", "cluster_lx", "cluster_ly")
 BREAK_COLUMNS = ("breaks", "nucleation_x", "nucleation_y", "t_nucleation", "front_speed")

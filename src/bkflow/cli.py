@@ -198,11 +198,14 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
                    help="seed of the k_d^i draw")
     _contact_rule_arg(p)
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
-                   help="what to record: friction (sigma_x only), order (+ snapshots for "
-                        "Psi(t)), clusters (+ positions at each slip), events (clusters + the "
-                        "energy ledger and each slip's first breaks: the event catalogue), "
-                        "fronts (+ every particle's slip rate through every slip), full "
-                        "(default: all; the fronts of the first slips only)")
+                   help="what to record: friction (sigma_x's turning points and block sums of "
+                        "the stress and the contacts' phases, reduced in the run), series (+ "
+                        "the raw stress and phase series), order (+ snapshots for Psi(t)), "
+                        "clusters (+ positions at each slip), figures (default: order and "
+                        "clusters, what the table and the figures show), events (clusters + "
+                        "the energy ledger and each slip's first breaks: the event "
+                        "catalogue), fronts (+ every particle's slip rate through every "
+                        "slip), full (all; the fronts of the first slips only)")
     _set_arg(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
 
@@ -278,7 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
     _contact_rule_arg(sw)
     _analysis_arg(sw)
     sw.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
-                    help="what each run records (default full: everything the figures need)")
+                    help="what each run records (as bkflow run --scene; default figures: what "
+                         "the table and the figures show)")
     _set_arg(sw)
     sw.add_argument("--vary", action="append", default=[], metavar="NAME=V1,V2,...",
                     help="another axis of the grid (repeatable): any parameter --set takes, "
@@ -304,7 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="plot only the runs with this parameter value (repeatable), e.g. "
                          "t_end=16000 or start=random, when the directory holds several sweeps")
     an = sub.add_parser("analyze", help=f"analyse a finished run: writes DIR/{rd.SUMMARY}, "
-                                        f"{rd.EVENTS} (+ {rd.PSI}, {rd.CLUSTERS})")
+                                        f"{rd.EVENTS_PARQUET} (+ {rd.PSI}, {rd.CLUSTERS})")
     an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {rd.DECK})")
     _analysis_arg(an)
     mv = sub.add_parser("movie", help="a rupture front: an animated GIF of one slip (the layer "

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 from . import __version__, io
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
-from .rundir import BLOCKS, DATA, DECK, EXTREMA, FRONTS, PARAMS, PHASE, SLIPS, SNAPSHOTS, STRESS
+from .rundir import (BLOCKS, DATA, DECK, EXTREMA, FRONTS, PARAMS, PHASE, PSI_RECORD, SLIPS,
+                     SNAPSHOTS, STRESS)
 
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
@@ -59,6 +60,7 @@ class DeckOptions:
     blocks: str | None = BLOCKS
     stress: str | None = STRESS
     phase: str | None = PHASE
+    psi: str | None = PSI_RECORD
     snapshots: str = SNAPSHOTS
     slips: str = SLIPS
     fronts: str = FRONTS
@@ -240,11 +242,16 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
              contact: bool = True) -> list[str]:
     """The outputs of the run's scene, and nothing else.
 
-    friction: sigma_x every stress_nevery steps (``stress.csv``) and the contacts' phase
-              statistics every phase_nevery steps (``phase.csv``), no per-atom output at all;
-              every scene writes these two, which the steady-state verdict reads.
-    order:    + snapshots every snapshot_nevery steps (``snapshots.lammpstrj``, about 200 per
-              run by default), enough for Psi(t) and its late-time plateau.
+    friction: ``fix bk/reduce``: sigma_x sampled every stress_nevery steps and the contacts'
+              phase statistics every phase_nevery steps, reduced in the run to what the
+              analysis reads (``extrema.npy``: sigma_x's turning points at the smallest
+              threshold any analysis asks for; ``blocks.npy``: sums over blocks of
+              block_nevery steps; bkflow.reduced), no per-atom output at all; every scene
+              writes these two, which the steady-state verdict reads.
+    series:   + the raw series: sigma_x every stress_nevery steps (``stress.csv``) and the
+              phase statistics every phase_nevery steps (``phase.csv``).
+    order:    + ``fix bk/psi``: Psi(t) computed in the run every snapshot_nevery steps
+              (``psi.npy``), for its late-time plateau.
     clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples
               of stress.csv, keeps in memory a copy of the positions at the running maximum and
               minimum, and writes the two frames of each slip (maximum, following minimum) once
@@ -254,13 +261,15 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     events:   the clusters scene, with the energy ledger (fix bk/substrate ``energy``; stress.csv
               gets the breaks and the ledger's columns) and each contact's first break in every
               slip (fix bk/slips ``breaks``): what the event catalogue needs
-              (``catalogue.csv``, ``catalogue.parquet``; bkflow.catalogue).
+              (``catalogue.parquet``; bkflow.catalogue).
     fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
               of every particle at every sample from each slip's maximum to its minimum
               (float32, binary), to follow rupture fronts; only one event is held in memory.
     figures:  order and clusters together: what the sweep's table and bkflow plot's figures
               show (the default).
-    full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only).
+    full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only), the raw
+              series with the ledger included, and whole position frames every
+              snapshot_nevery steps (``snapshots.lammpstrj``, for OVITO and the like).
     """
     lines = []
     more = " append" if files.append_from is not None else ""
@@ -282,7 +291,12 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
             f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
             f"file {files.phase}{more}",
         ]
-    if spec.writes_snapshots and files.snapshots:
+    if spec.writes_snapshots and files.psi:
+        lines += [  # Psi(t), computed in the run from the positions every snapshot_nevery
+            f"fix             psi all bk/psi {spec.snapshot_nevery} {spec.Lx} {spec.Ly} "
+            f"file {files.psi}{more}",
+        ]
+    if spec.writes_frames and files.snapshots:
         lines += [
             f"dump            snap all custom {spec.snapshot_nevery} {files.snapshots} "
             "id type x y z ix iy iz",

@@ -661,7 +661,15 @@ class RunSpec:
 
     @property
     def writes_snapshots(self) -> bool:
+        """Whether the run records Psi(t) (fix bk/psi, in the run: scenes order, figures,
+        full)."""
         return self.scene in ("order", "figures", "full")
+
+    @property
+    def writes_frames(self) -> bool:
+        """Whether the run also writes whole position frames every snapshot_every (scene
+        full: snapshots.lammpstrj, for OVITO and the like)."""
+        return self.scene == "full"
 
     @property
     def writes_slips(self) -> bool:

@@ -1,7 +1,7 @@
 """Figures of a sweep directory, one per figure of the paper (``bkflow plot DIR``).
 
 Reads tables only: ``runs.csv``, ``results.csv`` and the tables of each run (stress.csv,
-and what the analysis wrote: events.csv, psi.csv, clusters.csv), through
+and what the analysis wrote: events.parquet, psi.csv, clusters.csv), through
 ``bkflow.tables`` and ``bkflow.rundir``; it never analyses. Writes PNG and PDF into
 ``DIR/figures``:
 
@@ -287,7 +287,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
-        t, sigma = rd.read_stress()
+        t, sigma = rd.stress_outline(rd.spec())   # the turning points, or the raw series
         ev = rd.read_events()
         t0 = t[-1] - window
         keep = t >= t0
@@ -361,14 +361,15 @@ def fig_contacts(data: SweepData, plt):
     for j, phi in enumerate(chosen):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
-        phase = rd.read_phase()
+        spec = rd.spec()
+        phase = rd.phase_series(spec)
         top, bottom = axes[0, j], axes[1, j]
         if phase is None:
             top.text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
                      transform=top.transAxes, ha="center", va="center", fontsize=7)
             continue
         drawn += 1
-        t, sigma = rd.read_stress()
+        t, sigma, _ = rd.read_reduced(spec).series()    # block means
         span = t[-1] - t[0]
         ts, ss = _smooth(t, sigma / row.sigma_n, span / 100)
         top.plot(ts, ss, color="black", lw=0.8)
@@ -390,7 +391,7 @@ def fig_contacts(data: SweepData, plt):
     if not drawn:
         return None
     fig.suptitle("The start's memory: the stress (mean over 1% of the run) and the contacts' "
-                 "phase coherence R (light: every sample; dark: mean over 1%); shaded: the "
+                 "phase coherence R (light: block means; dark: mean over 1%); shaded: the "
                  "analysed window, green if steady", fontsize=7.5)
     return fig
 
@@ -645,7 +646,7 @@ def _log_density(d, bins: int, part=None) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _late_drops(data: SweepData, runs: pd.DataFrame):
-    """The drops after the transient of ``runs`` (events.csv), pooled over the seeds, and
+    """The drops after the transient of ``runs`` (events.parquet), pooled over the seeds, and
     whether each drop's slip moved every particle of the layer (its largest cluster in
     clusters.csv holds all N; None when a run recorded no clusters)."""
     drops, whole = [], []
@@ -702,7 +703,7 @@ def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
 
 
 def fig_drops(data: SweepData, plt):
-    """(a) Density of stress-drop sizes after the transient (events.csv, the seeds pooled)
+    """(a) Density of stress-drop sizes after the transient (events.parquet, the seeds pooled)
     for the four phi of the cluster figure, with the maximum-likelihood power law drawn only
     where the analysis found it plausible in every seed (Clauset et al.'s bootstrap,
     p >= 0.1; runs.csv ``drop_power_law``), else the rejection written in the key.
@@ -775,7 +776,7 @@ def fig_drops(data: SweepData, plt):
 
 def _late_potencies(data: SweepData, runs: pd.DataFrame):
     """(potencies, stress drops) of the slips after the transient that have a potency
-    (events.csv of scenes with slip frames), pooled over the seeds."""
+    (events.parquet of scenes with slip frames), pooled over the seeds."""
     pot, drops = [], []
     for _, r in runs.iterrows():
         e = data.run_dir(r).read_events()
@@ -793,7 +794,7 @@ def _late_potencies(data: SweepData, runs: pd.DataFrame):
 
 def fig_potency(data: SweepData, plt):
     """The magnitude-frequency view, beside fig_drops: (a) the density of the slips'
-    potencies (the sum of the slipping particles' slips, events.csv) after the transient for
+    potencies (the sum of the slipping particles' slips, events.parquet) after the transient for
     the four phi of the cluster figure, the seeds pooled, with the analysis's verdict on a
     power law in the key (runs.csv ``potency_power_law``; the fitted law drawn where it is
     plausible in every seed); (b) each slip's potency against its stress drop."""

@@ -10,26 +10,28 @@ a file of a run.
 |---|---|
 | ``in.bk``, ``data.bk`` | the LAMMPS deck and data file (``lmp -in in.bk`` runs it again) |
 | ``params.json`` | the RunSpec of a deck written by ``bkflow deck`` |
-| ``stress.csv`` | ``t,sigma_x``: the shear stress every stress_nevery steps (+ the ledger) |
-| ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the contacts' load phases |
-| ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scenes order, full) |
+| ``extrema.npy`` | sigma_x's turning points at the extrema threshold (bkflow.reduced) |
+| ``blocks.npy`` | sums of sigma_x and of the contacts' phases over blocks (bkflow.reduced) |
+| ``stress.csv`` | ``t,sigma_x``: the raw shear stress (scenes series, full; + the ledger) |
+| ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the raw load phases (series, full) |
+| ``psi.npy`` | Psi(t) every snapshot_nevery steps, computed in the run (scenes order, figures, full) |
+| ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scene full) |
 | ``slips.lammpstrj`` | positions at every slip's maximum and minimum (+ first breaks) |
 | ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
 | ``log.lammps`` | LAMMPS's log |
 | ``restart.STEP.bk`` | LAMMPS's restart file of the last step: a longer run continues from it |
 | ``meta.json`` | the completion record: parameters, versions, counters, sizes |
 | ``summary.json`` | the analysis: every observable, the settings it was made under |
-| ``events.csv`` | the event catalogue, one row per slip (bkflow.catalogue) |
-| ``events.parquet`` | the same catalogue, typed and columnar (Parquet) |
-| ``psi.csv`` | ``t,psi``: Psi(t) (scenes order, full) |
+| ``events.parquet`` | the event catalogue, one row per slip (bkflow.catalogue), typed |
+| ``psi.csv`` | ``t,psi``: Psi(t) of a run made before bkflow computed it in the run |
 | ``clusters.csv`` | one row per slip cluster (scenes clusters, events, full) |
 | ``companion/`` | the companion run (RunSpec.companion), a run directory itself |
 | ``.bkflow-run`` | the mark that bkflow made the directory (written first) |
 | ``.bkflow.lock`` | the lock a process holds while it writes the run |
 
-The scenes events and full add to stress.csv the contact breaks and the energy ledger
-(``LEDGER_COLUMNS``) and to slips.lammpstrj each contact's first break in the slip (column
-``brk``); events.csv then holds the catalogue's size, shape, nucleation, front and energy
+The scenes events and full add to extrema.npy and blocks.npy (and full to stress.csv) the
+contact breaks and the energy ledger (``LEDGER_COLUMNS``) and to slips.lammpstrj each contact's first break in the slip (column
+``brk``); events.parquet then holds the catalogue's size, shape, nucleation, front and energy
 columns, clusters.csv the paper's energy argument per cluster.
 """
 
@@ -56,6 +58,8 @@ FRONTS = "fronts.bin"
 #: the records of fix bk/reduce (bkflow.reduced): sigma_x's turning points, the block sums
 EXTREMA = "extrema.npy"
 BLOCKS = "blocks.npy"
+#: Psi(t) computed in the run (fix bk/psi): step, psi
+PSI_RECORD = "psi.npy"
 LOG = "log.lammps"
 META = "meta.json"
 #: LAMMPS's restart file of the run's last step (named by that step; meta.json's "restart"
@@ -66,8 +70,10 @@ RESTART = "restart.{}.bk"
 #: interrupted continuation is undone to the finished run (``undo_continuation``)
 CONTINUING = ".bkflow-continuing"
 SUMMARY = "summary.json"
+#: the event catalogue as CSV: what bkflow wrote before 0.5 beside the Parquet (read, removed
+#: when the run is analysed again)
 EVENTS = "events.csv"
-#: the event catalogue as Parquet (typed, columnar): events.csv's rows and columns
+#: the event catalogue (typed, columnar): one row per slip
 EVENTS_PARQUET = "events.parquet"
 PSI = "psi.csv"
 CLUSTERS = "clusters.csv"
@@ -98,7 +104,7 @@ MAY_CHANGE = (LOG,)
 #: (file systems that keep times in whole or two seconds)
 MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
+RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -543,6 +549,25 @@ class RunDir:
         ledger = self.read_ledger() if spec.writes_energy else None
         return reduced.from_series(sigma, *args[:3], args[3], phase, spec.phase_nevery, ledger)
 
+    def stress_outline(self, spec: RunSpec) -> tuple[np.ndarray, np.ndarray]:
+        """sigma_x(t) as the run kept it: the raw series where its scene wrote it (series,
+        full), else its turning points (``EXTREMA``: every maximum and minimum of the drops
+        above the extrema threshold, the stick-slip's outline)."""
+        if self.file(STRESS).exists():
+            return self.read_stress()
+        red = self.read_reduced(spec)
+        return red.sample_index() * spec.stress_nevery * spec.dt, \
+            np.asarray(red.extrema["sigma"], float)
+
+    def phase_series(self, spec: RunSpec) -> dict | None:
+        """The contacts' phase statistics as the run kept them: the raw series where its
+        scene wrote it (phase.csv), else their means over the blocks (``BLOCKS``); None
+        without phases."""
+        if self.file(PHASE).exists() or not self.file(BLOCKS).exists():
+            return self.read_phase()
+        _, _, phase = self.read_reduced(spec).series()
+        return phase
+
     def read_stress(self) -> tuple[np.ndarray, np.ndarray]:
         """The stress series: (t, sigma_x)."""
         try:
@@ -671,12 +696,13 @@ class RunDir:
         for name in (EVENTS, EVENTS_PARQUET, PSI, CLUSTERS):
             self.file(name).unlink(missing_ok=True)
         for name, table in tables.items():
-            io.write_table(self.file(name), table)
-        if EVENTS in tables:
-            from .catalogue import typed
+            if name == EVENTS:   # a table for programs: stored once, as Parquet
+                from .catalogue import typed
 
-            io.write_parquet(self.file(EVENTS_PARQUET), typed(tables[EVENTS]))
-            tables = {**tables, EVENTS_PARQUET: None}
+                io.write_parquet(self.file(EVENTS_PARQUET), typed(table))
+            else:
+                io.write_table(self.file(name), table)
+        tables = {EVENTS_PARQUET if name == EVENTS else name: t for name, t in tables.items()}
         # the record last, with the size and digest of every table it made: a table cut, emptied
         # or replaced since is known (``table_problem``), and redone by whichever command needs
         # it (analyze, collect, sweep)
@@ -731,8 +757,26 @@ class RunDir:
         """Whether the analysis wrote the event catalogue (events.csv or events.parquet)."""
         return self.file(EVENTS).exists() or self.file(EVENTS_PARQUET).exists()
 
+    def read_psi_record(self, spec: RunSpec):
+        """Psi(t) as fix bk/psi computed it in the run: (steps, psi), or None."""
+        if not self.file(PSI_RECORD).exists():
+            return None
+        try:
+            r = np.load(self.file(PSI_RECORD), allow_pickle=False)
+            return np.asarray(r["step"], np.int64), np.asarray(r["psi"], float)
+        except (ValueError, EOFError, KeyError) as exc:
+            raise DamagedRunError(f"{self.file(PSI_RECORD)} is damaged ({exc}); run the run "
+                                  "again") from None
+
     def read_psi(self):
-        """psi.csv as a DataFrame, or None when the run recorded no snapshots."""
+        """Psi(t) as a DataFrame (t, psi): the run's psi.npy, or the psi.csv the analysis of
+        an older run's snapshots wrote; None when the run recorded neither."""
+        import pandas as pd
+
+        if self.file(PSI_RECORD).exists():
+            spec = self.spec()
+            steps, psi = self.read_psi_record(spec)
+            return pd.DataFrame({"t": steps * spec.dt, "psi": psi})
         return io.read_table(self._checked(PSI)) if self.file(PSI).exists() else None
 
     def read_clusters(self):

@@ -17,8 +17,9 @@ from .states import STATE_NAMES, SWITCHING
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
-#: the sweep's event catalogue: every run's events.csv rows, the run's job id and parameters
-#: first (CSV, and typed and columnar as Parquet)
+#: the sweep's event catalogue: every run's events, the run's job id and parameters first
+#: (typed and columnar, Parquet; catalogue.csv is what bkflow wrote before 0.5, removed by
+#: the next collect)
 CATALOGUE_FILE, CATALOGUE_PARQUET = "catalogue.csv", "catalogue.parquet"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"
@@ -267,15 +268,14 @@ def catalogue_table(run_events) -> pd.DataFrame | None:
 
 
 def write_catalogue(root, run_events) -> pd.DataFrame | None:
-    """Write the sweep's event catalogue (``catalogue_table``) as CSV and Parquet into
-    ``root``; remove an old one when there is no event."""
+    """Write the sweep's event catalogue (``catalogue_table``) as Parquet into ``root`` (a
+    table for programs: stored once); remove an old one when there is no event."""
     table = catalogue_table(run_events)
     root = Path(root)
+    (root / CATALOGUE_FILE).unlink(missing_ok=True)
     if table is None:
-        for name in (CATALOGUE_FILE, CATALOGUE_PARQUET):
-            (root / name).unlink(missing_ok=True)
+        (root / CATALOGUE_PARQUET).unlink(missing_ok=True)
         return None
-    io.write_table(root / CATALOGUE_FILE, table)
     io.write_parquet(root / CATALOGUE_PARQUET, table)
     return table
 
