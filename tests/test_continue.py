@@ -17,7 +17,7 @@ from tests.support import tool
 
 pytestmark = pytest.mark.usefixtures("lammps")
 
-SERIES = ("stress.csv", "phase.csv", "in.bk")
+SERIES = ("extrema.npy", "blocks.npy", "in.bk")
 
 
 def _spec(protocol="paper", **kw):
@@ -62,10 +62,15 @@ def test_a_continuation_cut_short_is_undone(tmp_path):
     run(short, tmp_path / "c", progress=False)
     rd = RunDir(tmp_path / "c")
     before = {p.name: p.read_bytes() for p in rd.path.iterdir() if p.is_file()}
-    # what an interrupted continuation leaves: its note, appended series, a restart file
+    # what an interrupted continuation leaves: its note, its records rewritten in place
+    # (the header, the record under way) and added to, a restart file
     rd.begin_continuation()
-    with open(rd.file("stress.csv"), "a") as f:
-        f.write("1000.1,0.5\n1000.2,0.5")
+    for name in ("extrema.npy", "blocks.npy"):
+        with open(rd.file(name), "r+b") as f:
+            f.seek(100)
+            f.write(b"rewritten")
+            f.seek(0, 2)
+            f.write(b"more records")
     rd.file("restart.99999.bk").write_bytes(b"half")
     assert rd.problem() is not None
     assert continuation(rd, short.replace(t_end=2000.0)) is not None

@@ -39,7 +39,7 @@ def bk(*args, cwd=None, timeout=300):
 
 
 def started(*args) -> subprocess.Popen:
-    """``bkflow run ARGS --quiet`` in the background, once its stress series has begun."""
+    """``bkflow run ARGS --quiet`` in the background, once its records have begun."""
     out = Path(args[args.index("--out") + 1])
     # SIGINT at its default, as for a terminal's foreground job: a shell starts a background
     # job (and so this suite, when it runs in one) with SIGINT ignored, which children inherit
@@ -47,7 +47,7 @@ def started(*args) -> subprocess.Popen:
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 60
-    while not (out / "stress.csv").exists() and time.time() < deadline:
+    while not (out / "extrema.npy").exists() and time.time() < deadline:
         time.sleep(0.1)
     return p
 
@@ -85,12 +85,12 @@ def test_paths_of_any_characters_work(lammps, tmp_path, name):
 def test_a_cut_file_is_refused_not_analysed(tmp_path, finished):
     d = tmp_path / "run"
     shutil.copytree(finished, d)
-    data = (d / "stress.csv").read_bytes()
-    (d / "stress.csv").write_bytes(data[:data.rfind(b"\n", 0, len(data) // 2) + 1])
+    data = (d / "extrema.npy").read_bytes()
+    (d / "extrema.npy").write_bytes(data[:len(data) // 2])
     before = (d / SUMMARY).read_bytes()
     p = bk("analyze", d)
     assert p.returncode == EXIT_BAD_INPUT
-    one_line(p, "stress.csv has")
+    one_line(p, "extrema.npy has")
     assert (d / SUMMARY).read_bytes() == before
     d2 = tmp_path / "slips"
     shutil.copytree(finished, d2)
@@ -158,7 +158,7 @@ def test_damaged_inputs_are_one_line(lammps, tmp_path, finished):
     one_line(p, "holds no run parameters")
     deck = tmp_path / "deck"
     bk("deck", "--phi", "10", "--out", deck)
-    (deck / "stress.csv").write_text("t,sigma_x\n0,0\n")
+    (deck / "extrema.npy").write_bytes(b"")
     (deck / "params.json").write_text("[1, 2]")
     p = bk("analyze", deck)
     assert p.returncode == EXIT_BAD_INPUT
@@ -305,8 +305,8 @@ def test_a_directory_removed_under_a_command_is_said_so(lammps, cmd, tmp_path):
     p = subprocess.Popen([tool("bkflow"), *args, "--scene", "friction", "--quiet", "--out",
                           str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while time.time() < deadline and not (list(out.glob("stress.csv"))
-                                          or list(out.glob("workspace/*/stress.csv"))):
+    while time.time() < deadline and not (list(out.glob("extrema.npy"))
+                                          or list(out.glob("workspace/*/extrema.npy"))):
         time.sleep(0.1)
     time.sleep(0.5)
     assert p.poll() is None, "the command ended before its directory was removed"
@@ -329,7 +329,7 @@ def test_a_sweep_under_nohup_outlives_the_hangup(lammps, tmp_path):
                          start_new_session=True,
                          preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
     deadline = time.time() + 120
-    while time.time() < deadline and not list((out / "workspace").glob("*/stress.csv")):
+    while time.time() < deadline and not list((out / "workspace").glob("*/extrema.npy")):
         time.sleep(0.1)
     time.sleep(0.5)
     assert p.poll() is None, "the sweep ended before the hangup"
@@ -353,7 +353,7 @@ def test_a_sweep_whose_worker_dies_stops_by_itself_and_resumes(lammps, target, s
            "--quiet", "--out", str(out)]
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while time.time() < deadline and not list((out / "workspace").glob("*/stress.csv")):
+    while time.time() < deadline and not list((out / "workspace").glob("*/extrema.npy")):
         time.sleep(0.1)
     workers = _children(p.pid)
     assert workers, "no worker process found"
@@ -758,8 +758,8 @@ def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
     p = bk("analyze", d)
     assert p.returncode == 0 and "re-analysed" not in p.stdout
     # a file that did change is still damage
-    (d / "stress.csv").write_bytes((d / "stress.csv").read_bytes()[:-10])
-    one_line(bk("analyze", d), "stress.csv has")
+    (d / "extrema.npy").write_bytes((d / "extrema.npy").read_bytes()[:-10])
+    one_line(bk("analyze", d), "extrema.npy has")
 
 
 @pytest.mark.slow
@@ -896,7 +896,7 @@ def test_the_advice_names_the_file_that_was_changed(tmp_path):
         f.write_text(re.sub(r"(?m)^run( +)\d+", r"run\g<1>100", text) if changed == "in.bk"
                      else text.replace('"seed": 1', '"seed": 2'))
         assert f.read_text() != text
-        (d / "stress.csv").write_text("t,sigma_x\n")
+        (d / "extrema.npy").write_bytes(b"")
         p = bk("analyze", d)
         assert p.returncode == EXIT_BAD_INPUT
         one_line(p, f"{changed} was edited after bkflow deck wrote it" if changed == "in.bk"
@@ -1174,15 +1174,15 @@ def test_figures_of_another_selection_do_not_stay_beside_the_new_record(tmp_path
 
 
 @pytest.mark.parametrize("where", ["a run's summary.json", "a run's meta.json",
-                                   "a deck's stress.csv"])
+                                   "a deck's extrema.npy"])
 def test_a_fifo_where_a_file_belongs_is_refused_never_waited_on(tmp_path, small_sweep, where):
     """Class 10: a FIFO in place of a file bkflow reads would block a read forever: every
     command refuses it in one line (or, where the file is bkflow's to write, replaces it) and
     none waits; a sweep calls such a run refused (exit 2), not 'retried'."""
-    if where == "a deck's stress.csv":
+    if where == "a deck's extrema.npy":
         d = tmp_path / "deck"
         assert bk("deck", "--phi", "10", "--t-end", "50", "--out", d).returncode == 0
-        os.mkfifo(d / "stress.csv")
+        os.mkfifo(d / "extrema.npy")
         p = bk("analyze", d, timeout=60)
         assert p.returncode == EXIT_BAD_INPUT
         one_line(p, "is not a regular file")

@@ -232,7 +232,10 @@ def _turning_points(s: np.ndarray, threshold: float) -> np.ndarray:
 
 def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
          threshold: float) -> Reduced:
-    """The records of a run (``numpy.load``; a record cut short raises ValueError)."""
-    ext = np.load(extrema_path, allow_pickle=False)
-    blk = np.load(blocks_path, allow_pickle=False)
+    """The records of a run (``numpy.load``; a record cut short raises ValueError; a FIFO or
+    device in a record's place is refused, never waited on: ``bkflow.io.regular``)."""
+    from .io import regular
+
+    ext = np.load(regular(extrema_path), allow_pickle=False)
+    blk = np.load(regular(blocks_path), allow_pickle=False)
     return Reduced(ext, blk, nevery, block, dt, float(threshold))

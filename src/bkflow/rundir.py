@@ -762,7 +762,7 @@ class RunDir:
         if not self.file(PSI_RECORD).exists():
             return None
         try:
-            r = np.load(self.file(PSI_RECORD), allow_pickle=False)
+            r = np.load(io.regular(self.file(PSI_RECORD)), allow_pickle=False)
             return np.asarray(r["step"], np.int64), np.asarray(r["psi"], float)
         except (ValueError, EOFError, KeyError) as exc:
             raise DamagedRunError(f"{self.file(PSI_RECORD)} is damaged ({exc}); run the run "

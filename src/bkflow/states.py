@@ -184,9 +184,9 @@ def window_variance(observable: str, phi: float, n: int, window: float,
     None where the calibration has no such size. ``size``: a calibration's entry for one size
     ({"phi", "windows", observable: table}) instead of the installed one's. Interpolated in
     log phi and log window (held at the ends in phi; beyond the longest window it falls as
-    1 / window, below the shortest it is held)."""
+    1 / window, below the shortest it is held); None for an empty window."""
     size = size if size is not None else calibration().get("sizes", {}).get(str(n))
-    if not size:
+    if not size or not window > 0:   # no calibration, or no window (a run shorter than it)
         return None
     windows = np.log(np.asarray(size["windows"], float))
     phis = np.log(np.asarray(size["phi"], float))

@@ -166,7 +166,7 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     s = np.asarray(sigma, dtype=float)
     if not 0 <= transient_fraction < 1:
         raise ValueError(f"transient_fraction must lie in [0, 1), got {transient_fraction!r}")
-    if len(t) < 2:
+    if len(t) < (1 if events is not None else 2):   # block means: one block is a mean
         raise ValueError("the stress series has fewer than two samples")
     t0 = t[0] + transient_fraction * (t[-1] - t[0]) if t_transient is None else t_transient
     if events is None:
