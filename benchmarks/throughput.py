@@ -253,13 +253,14 @@ def compare_output(a) -> None:
     print("|---|---|---|---|---|---|")
     for size in a.sizes:
         lx, ly = parse_size(size)
-        spec = RunSpec(phi=10.0, Lx=lx, Ly=ly)
+        spec = RunSpec(phi=10.0, Lx=lx, Ly=ly, scene="series")   # the raw stress series
         data = _write_data(work, spec)
         steps = max(200, int((a.atom_steps or 2e7) / spec.N))
         stress = str(work / STRESS)
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
-        base = setup_text(spec, DeckOptions(data=data, stress=None, thermo_every=10**7))
+        base = setup_text(spec, DeckOptions(data=data, stress=None, extrema=None, psi=None,
+                                            thermo_every=10**7))
         m = alternated({"none": base,
                         "bk/stress": setup_text(spec, DeckOptions(data=data, stress=stress,
                                                                   thermo_every=10**7)),
@@ -280,10 +281,9 @@ def compare_schemes(a) -> None:
             old = new.replace(contact_rule="reset/step", damping="half")
             data = _write_data(work, new)
             steps = max(200, int((a.atom_steps or 2e7) / new.N))
-            m = alternated({"new": setup_text(new, DeckOptions(data=data, stress=None,
-                                                               thermo_every=10**7)),
-                            "old": setup_text(old, DeckOptions(data=data, stress=None,
-                                                               thermo_every=10**7))},
+            quiet = DeckOptions(data=data, stress=None, extrema=None, psi=None,
+                                thermo_every=10**7)
+            m = alternated({"new": setup_text(new, quiet), "old": setup_text(old, quiet)},
                             steps, a.rounds, work)
             print(f"| {new.N} | {phi:g} | {m['new']:.3e} | {m['old']:.3e} | "
                   f"{m['new'] / m['old']:.3f} |", flush=True)

@@ -286,6 +286,9 @@ void FixBKReduce::write_restart(FILE *fp)
 
 void FixBKReduce::restart(char *buf)
 {
+  // a deck that continues a run without `append` starts its records again, from this step
+  // (their first block is then not block 0 of the run: bkflow's decks always append)
+  if (!appending) return;
   auto *s = reinterpret_cast<double *>(buf);
   // the count LAMMPS stored before the list is not passed on: the settings must match
   if (s[0] != zigzag.threshold || s[1] != static_cast<double>(block) ||

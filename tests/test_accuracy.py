@@ -48,7 +48,6 @@ def test_adaptive_sweep_is_not_redone(lammps, tmp_path):
     rep = sweep([spec], tmp_path, jobs=1, progress=False)
     assert rep.finished_before == 1 and not rep.finished
     (job,) = list(open_project(tmp_path, create=False))
-    import pandas as pd
 
     row = pd.read_csv(tmp_path / "runs.csv").iloc[0]
     assert row.t_end == 20000.0 and ADAPTIVE_T_MIN <= row.t_run < 20000.0

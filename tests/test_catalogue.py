@@ -195,20 +195,28 @@ def test_an_events_run_writes_the_whole_catalogue(events_run):
 
 
 def test_the_parquet_catalogue_reads_back_without_bkflow(events_run):
-    """pyarrow alone reads events.parquet: the same rows and values as events.csv (pandas's
-    CSV reader), its counts as integers."""
+    """pyarrow alone reads events.parquet, the catalogue's one copy: the rows and values of
+    the analysis's table, its counts as integers."""
     import pyarrow.parquet as pq
 
+    from bkflow.analysis import summarize
+    from bkflow.rundir import RunDir
+
     d, _ = events_run
+    assert not (d / "events.csv").exists()
     table = pq.read_table(d / "events.parquet")
     assert str(table.schema.field("n_slipped").type) == "int64"
     assert str(table.schema.field("late").type) == "bool"
     back = table.to_pandas()
-    csv = pd.read_csv(d / "events.csv")
-    assert list(back.columns) == list(csv.columns) and len(back) == len(csv)
-    for c in csv:
+    rd = RunDir(d)
+    spec = rd.spec()
+    f = rd.read_slip_frames(spec.N)
+    made = summarize(spec, rd.read_reduced(spec), None, (f.steps, f.positions),
+                     slip_breaks=f.breaks).tables()["events.csv"]
+    assert list(back.columns) == list(made) and len(back) == len(made["t_max"])
+    for c in made:
         np.testing.assert_array_equal(back[c].astype(float).to_numpy(),
-                                      csv[c].astype(float).to_numpy(), err_msg=c)
+                                      np.asarray(made[c], float), err_msg=c)
 
 
 def _copy(events_run, tmp_path):
@@ -225,7 +233,10 @@ def _rewrite(d, name, text):
     see: what the file's own reader must catch)."""
     import json
 
-    (d / name).write_text(text)
+    if isinstance(text, bytes):
+        (d / name).write_bytes(text)
+    else:
+        (d / name).write_text(text)
     meta = json.loads((d / "meta.json").read_text())
     meta["file_bytes"][name] = (d / name).stat().st_size
     (d / "meta.json").write_text(json.dumps(meta))
@@ -265,28 +276,29 @@ def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
         analyze(d)
 
 
-def test_a_ledger_row_missing_columns_is_refused(events_run, tmp_path):
+def test_a_damaged_record_is_refused(events_run, tmp_path):
+    """A record of the run (extrema.npy) damaged in place, its size kept: refused, naming
+    it."""
     from bkflow.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
-    lines = (d / "stress.csv").read_text().splitlines()
-    lines[100] = ",".join(lines[100].split(",")[:6])
-    _rewrite(d, "stress.csv", "\n".join(lines) + "\n")
-    with pytest.raises(DamagedRunError, match="stress.csv is damaged"):
+    data = bytearray((d / "extrema.npy").read_bytes())
+    data[:6] = b"garble"
+    _rewrite(d, "extrema.npy", bytes(data))
+    with pytest.raises(DamagedRunError, match="extrema.npy"):
         analyze(d)
 
 
 def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_path):
-    """events.csv and events.parquet are one set with summary.json (its record of their
+    """events.parquet and clusters.csv are one set with summary.json (its record of their
     sizes and digests): either one gone, cut or replaced, and the catalogue is refused with
-    the repair named (DamagedRunError), never read half or from the other copy; bkflow
-    analyze makes them again."""
+    the repair named (DamagedRunError), never read half; bkflow analyze makes them again."""
     from bkflow.api import load_run
     from bkflow.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     whole = load_run(d).events
-    for damage in (lambda: (d / "events.csv").unlink(),
+    for damage in (lambda: (d / "events.parquet").unlink(),
                    lambda: (d / "events.parquet").write_bytes(b"not parquet"),
                    lambda: (d / "clusters.csv").write_text("event,t\n0,1")):
         damage()
@@ -299,7 +311,7 @@ def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_p
 def test_a_run_without_slips_has_every_column(lammps, tmp_path):
     run(RunSpec(phi=10.0, t_end=5.0, scene="events"), tmp_path, progress=False)
     analyze(tmp_path)
-    header = (tmp_path / "events.csv").read_text().splitlines()[0].split(",")
+    header = list(pd.read_parquet(tmp_path / "events.parquet").columns)
     for c in (*catalogue.SIZE_COLUMNS, *catalogue.BREAK_COLUMNS, *catalogue.ENERGY_COLUMNS):
         assert c in header, c
 

@@ -5,7 +5,6 @@ import os
 import subprocess
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from bkflow.cli import main

@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: (docs/develop.md, "Layout"). The pure analysis functions sit low, beside the parameters, so that
 #: the engine's adaptive stop rule can use them.
 ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "states",
-         "stress",
+         "stress", "reduced",
          "order", "clusters", "catalogue", "io", "rundir", "deck", "plugin", "engine",
          "analysis", "grid", "job", "flowcompat", "project", "cluster", "tables", "sweep", "plot",
          "fronts", "api", "report", "cli")
@@ -70,7 +70,8 @@ def test_figures_never_analyse_and_never_need_flow():
 def test_no_run_file_name_is_written_outside_rundir():
     names = ("in.bk", "data.bk", "params.json", "stress.csv", "phase.csv", "snapshots.lammpstrj",
              "slips.lammpstrj", "log.lammps", "meta.json", "summary.json", "events.csv",
-             "psi.csv", "clusters.csv")
+             "events.parquet", "psi.csv", "clusters.csv", "extrema.npy", "blocks.npy",
+             "psi.npy")
     for path in SRC.glob("*.py"):
         if path.stem == "rundir":
             continue
@@ -97,6 +98,9 @@ ALLOWED = {
     ("cli.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
                         "(and stdout or stderr when the caller closed them)",
     ("cli.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
+    ("rundir.py", "replace"): "a record kept whole (atomic_file) while a continuation rewrote "
+                              "it in place, renamed back over it when the continuation is "
+                              "undone",
 }
 
 

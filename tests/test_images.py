@@ -18,6 +18,7 @@ from bkflow.engine import run
 from bkflow.io import read_frames
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
+from bkflow.rundir import RunDir
 from tests.support import INTEGRATION_PATHS, global_vector, tool, unwrapped_state
 
 pytestmark = pytest.mark.usefixtures("lammps")
@@ -34,9 +35,10 @@ def test_a_run_goes_on_past_the_image_flags_range(path, workdir):
     spec = RunSpec(**FAST, t_end=9000.0, scene="clusters")
     res = run(spec, workdir / "run", path=path)
     assert res.meta["engine"]["path"] == path
-    t, sigma = np.loadtxt(workdir / "run" / "stress.csv", delimiter=",", skiprows=1).T
-    assert t[-1] == pytest.approx(9000.0, abs=0.2)
-    assert np.all(np.isfinite(sigma)) and 0 < sigma[-1000:].mean() < 1.0
+    red = RunDir(workdir / "run").read_reduced(spec)
+    assert red.t_end == pytest.approx(9000.0, abs=0.2)
+    _, sigma, _ = red.series()
+    assert np.all(np.isfinite(sigma)) and 0 < sigma[-10:].mean() < 1.0
     frames = read_frames(workdir / "run" / "slips.lammpstrj", spec.N)
     # unwrapped x of the last frame: the plate's 1800 l, not folded back into the flags' range
     assert frames.positions[-1, :, 0].mean() == pytest.approx(0.2 * frames.steps[-1] * spec.dt,
@@ -51,14 +53,15 @@ def test_rebasing_the_flags_changes_no_bit(path, workdir, monkeypatch):
     run(spec, workdir / "never", path=path)
     monkeypatch.setenv(REBASE, "2")
     run(spec, workdir / "often", path=path)
-    for name in ("stress.csv", "phase.csv", "slips.lammpstrj"):
+    for name in ("extrema.npy", "blocks.npy", "slips.lammpstrj"):
         assert (workdir / "often" / name).read_bytes() == (workdir / "never" / name).read_bytes()
 
 
 def _lammps(spec, workdir, path):
     (workdir / "data.bk").write_text(data_text(spec))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, phase=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, extrema=None,
+                                                     psi=None, phase=None,
                                                      thermo_every=10**6, path=path)))
     return lmp
 
@@ -89,7 +92,7 @@ def test_a_restart_keeps_the_box_lengths_taken_out(path, workdir, monkeypatch):
     lmp.close()
     lmp = open_lammps()
     lmp.commands_string(continue_text(spec, "half.restart", DeckOptions(
-        data="", stress=None, phase=None, thermo_every=10**6, path=path)))
+        data="", stress=None, extrema=None, psi=None, phase=None, thermo_every=10**6, path=path)))
     lmp.command(f"run {steps}")
     resumed = _state(lmp)
     assert whole["base"] > 10
@@ -118,5 +121,5 @@ def test_two_fused_ranks_rebase_as_one(workdir):
         log = (workdir / f"log.{ranks}").read_text()
         assert proc.returncode == 0, log[-2000:]
         assert "bk/substrate fused:" in log
-        out[ranks] = (workdir / "stress.csv").read_bytes()
+        out[ranks] = [(workdir / n).read_bytes() for n in ("extrema.npy", "blocks.npy")]
     assert out[2] == out[1]

@@ -30,6 +30,7 @@ def _run(spec, workdir, path, fast=None, lattice=None, velocities=None, steps=ST
     lmp = open_lammps()
     try:
         lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                         extrema=None, psi=None,
                                                          thermo_every=10**6, path=path, fast=fast)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         lmp.command(f"run {steps} post no")
@@ -94,7 +95,7 @@ def test_integrate_on_two_ranks(rows_at, lammps, workdir):
             "write_dump all custom final.txt id xu yu vx vy f_bk[3] f_bk[4] "
             "modify sort id format float %.17g\n"
             'print "PATH $(f_bk[6])"\n')
-    files = DeckOptions(stress=None)
+    files = DeckOptions(stress=None, extrema=None, psi=None)
     runs = {}
     for name, path, fast, ranks in (("auto2", "auto", False, 2), ("general2", "general", False, 2),
                                     ("auto1", "auto", None, 1)):
@@ -132,7 +133,7 @@ def test_the_default_deck_integrates_by_itself():
 def _engine_run(tmp_path, name, path, **kw):
     from bkflow.engine import run
 
-    spec = RunSpec(phi=100.0, Lx=8, Ly=3, t_end=40.0, scene="friction", **kw)
+    spec = RunSpec(phi=100.0, Lx=8, Ly=3, t_end=40.0, scene="series", **kw)
     res = run(spec, tmp_path / name, progress=False, path=path)
     return res.meta, np.loadtxt(tmp_path / name / "stress.csv", delimiter=",", skiprows=1)
 

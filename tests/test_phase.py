@@ -22,7 +22,7 @@ COLUMNS = ["R", "Z_re", "Z_im", "R2", "u_mean", "u_std"]
 
 
 def _spec(**kw):
-    spec = RunSpec(**{"phi": 10.0, "Lx": 8, "Ly": 3, "seed": 3, **kw})
+    spec = RunSpec(**{"phi": 10.0, "Lx": 8, "Ly": 3, "seed": 3, "scene": "series", **kw})
     # a phase sample every EVERY steps (the deck rounds phase_every to stress samples)
     return spec.replace(stress_every=EVERY * spec.dt * 1.0000001, phase_every=1e-9)
 
@@ -33,6 +33,7 @@ def _plugin_phases(spec, workdir, path, lattice, v0, steps=STEPS):
     lmp = open_lammps()
     try:
         lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+                                                         extrema=None, psi=None,
                                                          phase="phase.csv", thermo_every=10**6,
                                                          path=path)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
@@ -128,7 +129,8 @@ def test_two_ranks_record_the_phases_of_one_rank(lammps, start, path, workdir):
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     runs = {}
     for ranks in (1, 2):
-        deck = setup_text(spec, DeckOptions(stress=None, phase=f"phase.{ranks}.csv",
+        deck = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None,
+                                            phase=f"phase.{ranks}.csv",
                                             thermo_every=10**6,
                                             path="auto" if ranks == 1 else path))
         deck += f"displace_atoms all move {-PRELOAD!r} 0 0\nrun {STEPS}\n"
@@ -152,7 +154,8 @@ def test_a_restart_continues_the_phase_series(lammps, path, workdir):
     whole = _plugin_phases(spec, workdir, path, lattice, v0)
 
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+                                                     psi=None,
                                                      phase="first.csv", thermo_every=10**6,
                                                      path=path)))
     lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
@@ -161,7 +164,8 @@ def test_a_restart_continues_the_phase_series(lammps, path, workdir):
     lmp.close()
     lmp = open_lammps()
     lmp.commands_string(continue_text(spec, "half.restart",
-                                      DeckOptions(data="", stress=None, phase="second.csv",
+                                      DeckOptions(data="", stress=None, extrema=None, psi=None,
+                                                  phase="second.csv",
                                                   thermo_every=10**6, path=path)))
     lmp.command(f"run {STEPS // 2}")
     lmp.close()

@@ -39,6 +39,9 @@ def test_friction_scene_writes_no_per_atom_output(lammps, tmp_path):
     deck = (tmp_path / "in.bk").read_text()
     assert "dump" not in deck and "bk/slips" not in deck
     assert not any(n.endswith(".lammpstrj") for n in _files(tmp_path))
+    # the stress and the phases reduced in the run, no raw series (scene series keeps them)
+    assert {"extrema.npy", "blocks.npy"} <= _files(tmp_path)
+    assert not {"stress.csv", "phase.csv", "psi.npy"} & _files(tmp_path)
     s = analyze(tmp_path)
     assert s["n_slips"] > 0 and s["psi_inf"] is None and s["regime"] is None
     assert not (tmp_path / "psi.csv").exists() and not (tmp_path / "clusters.csv").exists()
@@ -69,15 +72,15 @@ def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(lammps
     assert (clusters["n_c"] >= 2).all() and (clusters["n_c"] <= spec.N).all()
 
 
-def test_order_scene_writes_sparse_snapshots_and_psi(lammps, tmp_path):
+def test_order_scene_computes_psi_in_the_run(lammps, tmp_path):
     spec = RunSpec(phi=1000.0, t_end=100, scene="order", snapshot_every=10)
     run(spec, tmp_path, progress=False)
-    assert "slips.lammpstrj" not in _files(tmp_path)
-    frames = read_frames(tmp_path / "snapshots.lammpstrj", spec.N)
-    assert len(frames) == 11  # t = 0, 10, ..., 100
+    # Psi(t) computed in the run (fix bk/psi), no frames, no second copy by the analysis
+    assert not {"slips.lammpstrj", "snapshots.lammpstrj"} & _files(tmp_path)
     s = analyze(tmp_path)
-    psi = pd.read_csv(tmp_path / "psi.csv")
-    assert list(psi.columns) == ["t", "psi"] and len(psi) == 11
+    assert not (tmp_path / "psi.csv").exists()
+    psi = RunDir(tmp_path).read_psi()
+    assert list(psi.columns) == ["t", "psi"] and len(psi) == 11  # t = 0, 10, ..., 100
     assert psi["psi"].iloc[0] == pytest.approx(1.0, abs=1e-6)  # starts on the lattice
     assert 0.9 < s["psi_inf"] <= 1.0  # stiff layer stays crystalline
     assert s["regime"] is None and not (tmp_path / "clusters.csv").exists()
@@ -232,26 +235,25 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks, path="auto"):
     per = spec.N + 9
     vel = {int(lines[k + 1]): np.array([float(ln.split()[1]) for ln in lines[k + 9:k + per]])
            for k in range(0, len(lines), per)}
-    t, sigma = RunDir(workdir).read_stress()
-    return read_fronts(workdir / "fronts.bin"), vel, (t, sigma)
+    return read_fronts(workdir / "fronts.bin"), vel, RunDir(workdir).read_reduced(spec)
 
 
 @pytest.mark.parametrize("ranks, path", [(1, "auto"), (2, "auto"), (2, "general")])
 def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tmp_path, ranks,
                                                                       path):
     """fix bk/fronts (scene fronts): one record per slip after the transient, the very slips
-    of stress.csv (the zigzag rule), sampled at every stress sample from the slip's maximum to
+    of the stress (the zigzag rule), sampled at every stress sample from the slip's maximum to
     its minimum, holding every particle's v_x (float32) at those steps; on the fused path (one
     rank, two) and the general one (two)."""
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
     assert "bk/fronts" in deck_line(spec) and "bk/slips" not in deck_line(spec)
-    fronts, vel, (t, sigma) = _fronts_against_a_velocity_dump(spec, tmp_path, ranks, path)
-    events = slip_events(t, sigma, spec.slip_threshold_stress).after(
-        spec.slips_start_step * spec.dt)
+    fronts, vel, red = _fronts_against_a_velocity_dump(spec, tmp_path, ranks, path)
+    # the slips of the run's records (bkflow.reduced: exactly those of the whole series)
+    events = red.events(spec.slip_threshold_stress).after(spec.slips_start_step * spec.dt)
     assert len(fronts) == len(events) >= 3
     for f, i_max, i_min in zip(fronts, events.i_max, events.i_min):
-        first = int(round(t[i_max] / spec.dt))
-        last = int(round(t[i_min] / spec.dt))
+        first = int(i_max) * spec.stress_nevery
+        last = int(i_min) * spec.stress_nevery
         assert (f.step_max, f.step_min) == (first, last)
         np.testing.assert_array_equal(f.steps, np.arange(first, last + 1, spec.stress_nevery))
         assert f.vx.shape == (len(f.steps), spec.N) and f.vx.dtype == np.float32

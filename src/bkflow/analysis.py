@@ -17,8 +17,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import (__version__, catalogue, clusters, io, order, phases, reduced, states,
-               stationarity, stress)
+from . import (
+    __version__,
+    catalogue,
+    clusters,
+    io,
+    order,
+    phases,
+    reduced,
+    states,
+    stationarity,
+    stress,
+)
 from .lattice import square_lattice
 from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401

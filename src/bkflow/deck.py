@@ -23,8 +23,19 @@ from dataclasses import dataclass
 from . import __version__, io
 from .lattice import Lattice, contact_start, lattice_for
 from .params import PATHS, RunSpec
-from .rundir import (BLOCKS, DATA, DECK, EXTREMA, FRONTS, PARAMS, PHASE, PSI_RECORD, SLIPS,
-                     SNAPSHOTS, STRESS)
+from .rundir import (
+    BLOCKS,
+    DATA,
+    DECK,
+    EXTREMA,
+    FRONTS,
+    PARAMS,
+    PHASE,
+    PSI_RECORD,
+    SLIPS,
+    SNAPSHOTS,
+    STRESS,
+)
 
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"

@@ -28,8 +28,11 @@ import numpy as np
 
 from .stress import SlipEvents, Zigzag
 
-EXTREMA = "extrema.npy"
-BLOCKS = "blocks.npy"
+#: the contact breaks since the start and the energy ledger at a sample (docs/model.md
+#: "Energy"): the fields the records add with the ledger (scenes events, full), and the columns
+#: stress.csv has after t, sigma_x there (fix bk/stress ``energy``)
+LEDGER_COLUMNS = ("breaks", "e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
+                  "diss_damp")
 #: the phase statistics summed over a block (bkflow.rundir.PHASE_COLUMNS but t, and |Z|^2)
 PHASE_SUMS = ("R", "Z_re", "Z_im", "Z2", "R2", "u_mean", "u_std")
 
@@ -113,15 +116,11 @@ class Reduced:
 
     def ledger_at_extrema(self) -> dict:
         """The breaks and the ledger at every extremum (``LEDGER_COLUMNS``)."""
-        from .rundir import LEDGER_COLUMNS
-
         return {c: np.asarray(self.extrema[c], float) for c in LEDGER_COLUMNS}
 
     def ledger_at_blocks(self) -> dict:
         """The ledger at each block's last sample, stamped with the next block's first step's
         time (the window's edges): t and ``LEDGER_COLUMNS``."""
-        from .rundir import LEDGER_COLUMNS
-
         out = {"t": (np.arange(len(self.blocks)) + 1) * self.block * self.dt}
         out.update({c: np.asarray(self.blocks[c], float) for c in LEDGER_COLUMNS})
         return out
@@ -132,15 +131,11 @@ def _pairs(dtype_fields) -> np.dtype:
 
 
 def extrema_dtype(ledger: bool) -> np.dtype:
-    from .rundir import LEDGER_COLUMNS
-
     return _pairs([("step", "<i8"), ("sigma", "<f8")]
                   + ([(c, "<f8") for c in LEDGER_COLUMNS] if ledger else []))
 
 
 def blocks_dtype(phase: bool, ledger: bool) -> np.dtype:
-    from .rundir import LEDGER_COLUMNS
-
     return _pairs([("n", "<i8")] + ([("n_phase", "<i8")] if phase else []) + [("sigma", "<f8")]
                   + ([(c, "<f8") for c in PHASE_SUMS] if phase else [])
                   + ([(c, "<f8") for c in LEDGER_COLUMNS] if ledger else []))
@@ -152,8 +147,6 @@ def from_series(sigma, nevery: int, block: int, dt: float, threshold: float,
     """fix bk/reduce's records of a raw series: ``sigma`` sampled every ``nevery`` steps from
     step 0, ``phase`` (columns R, Z_re, Z_im, R2, u_mean, u_std) every ``phase_nevery``
     steps from step 0, ``ledger`` (``LEDGER_COLUMNS``) at every stress sample, or None."""
-    from .rundir import LEDGER_COLUMNS
-
     s = np.asarray(sigma, float)
     n = len(s)
     steps = np.arange(n, dtype=np.int64) * nevery
@@ -232,10 +225,8 @@ def _turning_points(s: np.ndarray, threshold: float) -> np.ndarray:
 
 def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
          threshold: float) -> Reduced:
-    """The records of a run (``numpy.load``; a record cut short raises ValueError; a FIFO or
-    device in a record's place is refused, never waited on: ``bkflow.io.regular``)."""
-    from .io import regular
-
-    ext = np.load(regular(extrema_path), allow_pickle=False)
-    blk = np.load(regular(blocks_path), allow_pickle=False)
+    """The records of a run (``numpy.load``; a record cut short raises ValueError). The
+    reader checks the paths first (``bkflow.rundir``: a FIFO is refused, never waited on)."""
+    ext = np.load(extrema_path, allow_pickle=False)
+    blk = np.load(blocks_path, allow_pickle=False)
     return Reduced(ext, blk, nevery, block, dt, float(threshold))

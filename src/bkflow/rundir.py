@@ -14,7 +14,7 @@ a file of a run.
 | ``blocks.npy`` | sums of sigma_x and of the contacts' phases over blocks (bkflow.reduced) |
 | ``stress.csv`` | ``t,sigma_x``: the raw shear stress (scenes series, full; + the ledger) |
 | ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the raw load phases (series, full) |
-| ``psi.npy`` | Psi(t) every snapshot_nevery steps, computed in the run (scenes order, figures, full) |
+| ``psi.npy`` | Psi(t) every snapshot_nevery steps, computed in the run (order, figures, full) |
 | ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scene full) |
 | ``slips.lammpstrj`` | positions at every slip's maximum and minimum (+ first breaks) |
 | ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
@@ -30,8 +30,9 @@ a file of a run.
 | ``.bkflow.lock`` | the lock a process holds while it writes the run |
 
 The scenes events and full add to extrema.npy and blocks.npy (and full to stress.csv) the
-contact breaks and the energy ledger (``LEDGER_COLUMNS``) and to slips.lammpstrj each contact's first break in the slip (column
-``brk``); events.parquet then holds the catalogue's size, shape, nucleation, front and energy
+contact breaks and the energy ledger (``LEDGER_COLUMNS``) and to slips.lammpstrj each
+contact's first break in the slip (column ``brk``); events.parquet then holds the catalogue's
+size, shape, nucleation, front and energy
 columns, clusters.csv the paper's energy argument per cluster.
 """
 
@@ -46,6 +47,10 @@ import numpy as np
 
 from . import io
 from .params import ANALYSIS_REVISION, AnalysisSettings, RunSpec
+
+# the columns of the ledger (stress.csv's after t, sigma_x in the scenes that keep it, fix
+# bk/stress ``energy``; the records' fields): named once, in bkflow.reduced
+from .reduced import LEDGER_COLUMNS  # noqa: F401
 
 DECK = "in.bk"
 DATA = "data.bk"
@@ -104,7 +109,8 @@ MAY_CHANGE = (LOG,)
 #: (file systems that keep times in whole or two seconds)
 MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
+RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS,
+             LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -117,10 +123,6 @@ COMPANION = "companion"
 
 #: columns of the contacts' phase series (fix bk/phase)
 PHASE_COLUMNS = ("t", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std")
-#: the columns stress.csv has after t, sigma_x in the scenes that keep the energy ledger (fix
-#: bk/stress ``energy``): contact breaks so far, the energies of the sample, the running sums
-LEDGER_COLUMNS = ("breaks", "e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
-                  "diss_damp")
 #: columns of the analysis's tables
 EVENT_COLUMNS = ("t_max", "t_min", "sigma_fail", "drop", "late")
 PSI_COLUMNS = ("t", "psi")
@@ -534,7 +536,8 @@ class RunDir:
         args = (spec.stress_nevery, spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
         if self.file(EXTREMA).exists() or not self.file(STRESS).exists():
             try:
-                red = reduced.load(self.file(EXTREMA), self.file(BLOCKS), *args)
+                red = reduced.load(io.regular(self.file(EXTREMA)), io.regular(self.file(BLOCKS)),
+                                   *args)
             except FileNotFoundError:
                 raise
             except (ValueError, OSError, EOFError) as exc:
@@ -754,8 +757,13 @@ class RunDir:
         return typed(io.read_table(self._checked(EVENTS)))
 
     def has_events(self) -> bool:
-        """Whether the analysis wrote the event catalogue (events.csv or events.parquet)."""
-        return self.file(EVENTS).exists() or self.file(EVENTS_PARQUET).exists()
+        """Whether the analysis wrote the event catalogue (events.parquet; events.csv of an
+        older bkflow): there, or listed by summary.json (then missing: damage, said by
+        ``read_events``)."""
+        if self.file(EVENTS).exists() or self.file(EVENTS_PARQUET).exists():
+            return True
+        s = self.summary()
+        return s is not None and EVENTS_PARQUET in (s.get("tables") or [])
 
     def read_psi_record(self, spec: RunSpec):
         """Psi(t) as fix bk/psi computed it in the run: (steps, psi), or None."""

@@ -175,7 +175,8 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     est = mean_error(ev.sigma_fail / sigma_n)
     late = t >= t0
     return MacroscopicFriction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
-                               mean_stress_ratio=float((s[late] / sigma_n).mean()),
+                               mean_stress_ratio=float((s[late] / sigma_n).mean())
+                               if late.any() else math.nan,
                                threshold=float(threshold), t_transient=float(t0),
                                g=est.g, error_reliable=est.reliable,
                                events=events)
