@@ -46,6 +46,7 @@ int FixBKReader::open_file(int iarg, int narg, char **arg)
     error->all(FLERR, "Illegal fix {} command: {}", style, usage);
   delete[] filename;
   filename = utils::strdup(arg[iarg + 1]);
+  if (strcmp(filename, "none") == 0) return iarg + 2;    // nothing written to a file
   if (comm->me == 0) {
     fp = fopen(filename, appending ? "a" : "w");
     if (!fp)
@@ -135,7 +136,7 @@ double FixBKReader::memory_usage()
 }
 
 FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_text,
-                         bool takes_limit, bool takes_breaks) :
+                         bool takes_limit, bool takes_breaks, bool takes_catalogue) :
     FixBKReader(lmp, narg, arg, usage_text)
 {
   if (narg < 8) error->all(FLERR, "Illegal fix {} command: {}", style, usage);
@@ -154,6 +155,22 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
     } else if (takes_breaks && strcmp(arg[iarg], "breaks") == 0) {
       with_breaks = 1;
       iarg++;
+    } else if (takes_catalogue && strcmp(arg[iarg], "catalogue") == 0 && iarg + 9 < narg &&
+               strcmp(arg[iarg + 3], "sx") == 0 && strcmp(arg[iarg + 5], "kb") == 0 &&
+               strcmp(arg[iarg + 7], "lattice") == 0) {
+      with_catalogue = 1;
+      catalogue_files[0] = utils::strdup(arg[iarg + 1]);
+      catalogue_files[1] = utils::strdup(arg[iarg + 2]);
+      cat_sx = utils::numeric(FLERR, arg[iarg + 4], false, lmp);
+      cat_kb = utils::numeric(FLERR, arg[iarg + 6], false, lmp);
+      cat_lx = utils::inumeric(FLERR, arg[iarg + 8], false, lmp);
+      cat_ly = utils::inumeric(FLERR, arg[iarg + 9], false, lmp);
+      if (cat_lx < 3 || cat_ly < 3)
+        error->all(FLERR, "fix {}: the lattice must be at least 3 x 3", style);
+      iarg += 10;
+    } else if (takes_catalogue && strcmp(arg[iarg], "exact") == 0) {
+      exact = 1;
+      iarg++;
     } else if (strcmp(arg[iarg], "append") == 0) {
       appending = 1;
       iarg++;
@@ -169,6 +186,12 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
   extvector = 0;
 
   open_file(6, narg, arg);
+}
+
+FixBKEvents::~FixBKEvents()
+{
+  delete[] catalogue_files[0];
+  delete[] catalogue_files[1];
 }
 
 double FixBKEvents::compute_vector(int n)

@@ -76,7 +76,7 @@ class FixBKReader : public Fix {
 class FixBKEvents : public FixBKReader {
  public:
   FixBKEvents(class LAMMPS *, int, char **, const char *usage_text, bool takes_limit,
-              bool takes_breaks = false);
+              bool takes_breaks = false, bool takes_catalogue = false);
   double compute_vector(int) override;
 
  protected:
@@ -85,6 +85,14 @@ class FixBKEvents : public FixBKReader {
   bigint limit = -1;     // at most this many events written (-1: all)
   bigint nevents = 0, nwritten = 0;
   int with_breaks = 0;    // `breaks`
+  // `catalogue SLIPS CLUSTERS sx S_X kb K_B lattice LX LY` (bk/slips): each slip's row of
+  // the event catalogue and its clusters, computed in the run (bk_catalogue.h)
+  int with_catalogue = 0;
+  char *catalogue_files[2] = {nullptr, nullptr};
+  double cat_sx = 0.0, cat_kb = 0.0;
+  int cat_lx = 0, cat_ly = 0;
+  int exact = 0;    // `exact` (bk/slips): frames to 17 digits, not 9
+  ~FixBKEvents() override;
 
   // whether an event whose maximum is at step `step_max` is to be written
   bool writes(bigint step_max) const

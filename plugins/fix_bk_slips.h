@@ -5,6 +5,8 @@
 #ifndef BKFLOW_FIX_BK_SLIPS_H
 #define BKFLOW_FIX_BK_SLIPS_H
 
+#include "bk_catalogue.h"
+#include "bk_npy.h"
 #include "fix_bk_reader.h"
 
 #include <vector>
@@ -14,7 +16,9 @@ namespace LAMMPS_NS {
 class FixBKSlips : public FixBKEvents {
  public:
   FixBKSlips(class LAMMPS *, int, char **);
+  ~FixBKSlips() override;
   void init() override;
+  void post_run() override;
   double memory_usage() override;
 
  private:
@@ -23,9 +27,17 @@ class FixBKSlips : public FixBKEvents {
   // step of the first break since the maximum
   std::vector<double> snap_max, snap_min;
 
+  int frames = 1;    // frames written (`file none`: not)
+  BKNpy slip_rows, cluster_rows;    // `catalogue`
+  std::vector<BKCluster> found;
+
   void sample() override;
   void snapshot(std::vector<double> &buf);
-  void write_frame(const std::vector<double> &buf, bigint step);
+  // the snapshot gathered on rank 0, sorted by atom ID (ncol values per atom); empty elsewhere
+  std::vector<double> gather(const std::vector<double> &buf);
+  void write_frame(const std::vector<double> &all, bigint step);
+  void catalogue(const std::vector<double> &amax, const std::vector<double> &amin,
+                 bigint step_max, bigint step_min);
 };
 
 }    // namespace LAMMPS_NS

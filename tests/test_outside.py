@@ -107,7 +107,7 @@ def test_a_job_folder_that_leads_out_is_refused(sweep, outside, tmp_path):
     assert _snapshot(outside) == before
 
 
-@pytest.mark.parametrize("planted", ["stress.csv", "log.lammps", ".bkflow.lock",
+@pytest.mark.parametrize("planted", ["extrema.npy", "log.lammps", ".bkflow.lock",
                                      "companion"])
 def test_a_runs_files_that_lead_out_are_never_written(planted, outside, tmp_path):
     """A finished run whose file (or lock, or companion) was replaced by a link out: a longer

@@ -229,3 +229,43 @@ def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
         spec.snapshot_nevery + 1
     assert np.allclose(psi, offline.psi, rtol=0, atol=1e-13)
     assert psi.min() < 0.999    # the layer moved: a test that Psi = 1 throughout would pass
+
+
+@pytest.mark.usefixtures("lammps")
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path, ranks):
+    """fix bk/slips ``catalogue`` (scene figures) against bkflow.catalogue.slip_rows of the
+    same slips' frames written to 17 digits: every row and cluster, on one and two ranks, on a
+    soft layer whose slips break into several clusters."""
+    from bkflow import catalogue, io
+    from bkflow.params import S_X
+
+    spec = RunSpec(phi=1.0, Lx=16, Ly=6, t_end=600, scene="figures", seed=4, start="random")
+    (tmp_path / "data.bk").write_text(data_text(spec, square_lattice(spec.Lx, spec.Ly)))
+    deck = setup_text(spec, DeckOptions())
+    line = next(ln for ln in deck.splitlines() if "bk/slips" in ln)
+    assert "file none" in line and "catalogue slips.npy clusters.npy" in line
+    # the frames too, to full precision, for the comparison
+    deck = deck.replace(line, line.replace("file none", "file frames.lammpstrj") + " exact")
+    (tmp_path / "in.bk").write_text(deck + f"\nrun {spec.n_steps}\n")
+    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
+    if ranks > 1:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, (tmp_path / "log.lammps").read_text()[-2000:]
+    slips, clusters = RunDir(tmp_path).read_slip_rows()
+    frames = io.read_frames(tmp_path / "frames.lammpstrj", spec.N)
+    want, per = catalogue.slip_rows(frames.positions[0::2], frames.positions[1::2],
+                                    square_lattice(spec.Lx, spec.Ly), S_X, spec.k_b)
+    assert len(slips) == len(frames) // 2 >= 5
+    assert np.array_equal(slips["step_max"], frames.steps[0::2])
+    assert np.array_equal(slips["step_min"], frames.steps[1::2])
+    assert len(clusters) == len(per["n_c"]) > len(slips)      # several clusters per slip
+    for c in catalogue.SIZE_COLUMNS:
+        np.testing.assert_allclose(slips[c].astype(float), np.asarray(want[c], float),
+                                   rtol=1e-12, atol=1e-12, equal_nan=True, err_msg=c)
+    np.testing.assert_array_equal(clusters["step_max"], frames.steps[0::2][per["slip_index"]])
+    for c in ("label", "n_c", "n_x", "n_y", "l_x", "l_y", "slip", "bond_change",
+              "eq2_estimate"):
+        np.testing.assert_allclose(clusters[c].astype(float), np.asarray(per[c], float),
+                                   rtol=1e-10, atol=1e-12, err_msg=c)

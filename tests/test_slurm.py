@@ -12,7 +12,7 @@ import pytest
 
 from bkflow.cli import main
 from bkflow.project import finished, open_project
-from bkflow.rundir import META, STRESS
+from bkflow.rundir import EXTREMA, META
 from tests.slurm_local import jobs, local_slurm, squeue, why_not
 
 pytestmark = pytest.mark.slurm
@@ -77,8 +77,8 @@ def test_a_job_cancelled_mid_run_is_redone(slurm, tmp_path):
     job = next(iter(project))
     ids = _submit(out, slurm)
     assert len(ids) == 1
-    # cancel once the run is under way (its stress series is being written)
-    _wait_until(lambda: (out / "workspace" / job.id / STRESS).exists(), what="the run to start")
+    # cancel once the run is under way (its records are being written)
+    _wait_until(lambda: (out / "workspace" / job.id / EXTREMA).exists(), what="the run to start")
     subprocess.run(["scancel", *ids], env=slurm, check=True, timeout=30)
     _wait_until(lambda: not squeue(slurm), what="the cancelled job to leave the queue")
     assert _states(slurm, ids) == ["CANCELLED"]

@@ -20,7 +20,7 @@ from bkflow.params import (
     RunSpec,
     protocol_fields,
 )
-from bkflow.rundir import COMPANION, PHASE, STRESS, RunDir
+from bkflow.rundir import BLOCKS, COMPANION, EXTREMA, RunDir
 from tests.support import tool
 
 
@@ -55,7 +55,7 @@ def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(lammps, tmp_path
                              t_end=ad["t_run"])
         out = tmp_path / f"fixed_{start}"
         run(fixed, out, progress=False)
-        for name in (STRESS, PHASE):
+        for name in (EXTREMA, BLOCKS):
             assert (out / name).read_bytes() == (where / name).read_bytes(), (start, name)
     f = analyze(tmp_path / f"fixed_{STEADY_START}")
     assert (f["mu_bar"], f["drift"]) == (s["mu_bar"], s["drift"])
@@ -118,7 +118,7 @@ def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path)
         assert key in s, key
     # the paper's start on a stiff layer: its early plateau is the synchronized start's
     assert s["state"] == "metastable" and s["state_evidence"] == "single run"
-    ev = pd.read_csv(tmp_path / "events.csv")
+    ev = pd.read_parquet(tmp_path / "events.parquet")
     late = ev[ev.late == 1]
     assert s["large_drop_threshold"] == pytest.approx(late["drop"].mean())
     assert s["n_slips_large"] == int((late["drop"] > late["drop"].mean()).sum()) == ev.large.sum()
@@ -138,7 +138,8 @@ def test_the_default_protocol_from_the_cli_and_the_sweep(lammps, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "and steady (drift bound" in proc.stdout and "\n  steady over t = " in proc.stdout
     assert "  energy: the balance" not in proc.stdout and "  Psi(inf) = " in proc.stdout
-    assert (out / "snapshots.lammpstrj").is_file() and (out / "slips.lammpstrj").is_file()
+    assert (out / "psi.npy").is_file() and (out / "slips.lammpstrj").is_file()
+    assert not (out / "snapshots.lammpstrj").exists() and not (out / "stress.csv").exists()
     assert "(steady)" in proc.stdout and f"companion run from the {STEADY_COMPANION}" \
         in proc.stdout
     meta = json.loads((out / "meta.json").read_text())

@@ -199,7 +199,8 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     from bkflow.api import load_sweep
 
     cat = pq.read_table(tmp_path / "s" / "catalogue.parquet").to_pandas()
-    events = pd.read_csv(job_dirs(tmp_path / "s")[0] / "events.csv")
+    events = pd.read_parquet(job_dirs(tmp_path / "s")[0] / "events.parquet")
+    assert not (tmp_path / "s" / "catalogue.csv").exists()   # stored once, as Parquet
     assert len(cat) == len(events) > 0 and list(cat.columns[:2]) == ["job", "Lx"]
     assert (cat.phi == 10.0).all() and (cat.scene == "friction").all()
     np.testing.assert_array_equal(cat["drop"].to_numpy(), events["drop"].to_numpy())
@@ -212,13 +213,13 @@ def test_corrupt_or_half_written_runs_are_detected_and_redone(lammps, tiny_sweep
     out = tmp_path / "copy"
     shutil.copytree(src, out)
     a, b = job_dirs(out)
-    a_size = (a / "stress.csv").stat().st_size
+    a_size = (a / "extrema.npy").stat().st_size
     a_started = (a / "meta.json").read_text()
-    with open(a / "stress.csv", "r+b") as f:  # a cut file under a complete meta.json
+    with open(a / "extrema.npy", "r+b") as f:  # a cut file under a complete meta.json
         f.truncate(a_size // 2)
     (b / "summary.json").write_text('{"mu_bar": 0.1')  # an analysis cut short
     b_meta = (b / "meta.json").stat().st_mtime_ns
-    assert is_complete(a) and "stress.csv has" in run_problem(a)
+    assert is_complete(a) and "extrema.npy has" in run_problem(a)
     proj = open_project(out, create=False)
     assert not any(finished(j) for j in proj)
 
@@ -226,7 +227,7 @@ def test_corrupt_or_half_written_runs_are_detected_and_redone(lammps, tiny_sweep
     assert proc.returncode == 0, proc.stderr
     assert done_counts(proc.stdout) == (2, 0)
     assert all(finished(j) for j in proj)
-    assert (a / "stress.csv").stat().st_size == a_size          # run again from scratch
+    assert (a / "extrema.npy").stat().st_size == a_size         # run again from scratch
     assert (a / "meta.json").read_text() != a_started
     assert (b / "meta.json").stat().st_mtime_ns == b_meta       # only analysed again
 
@@ -688,6 +689,7 @@ def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_s
         assert isinstance(sweep.figure("fig_drops"), Figure)
         run = sweep.run(0)
         assert list(run.stress.columns) == ["t", "sigma_x"] and len(run.stress) > 100
+        assert len(run.blocks) > 5 and {"t", "sigma_x", "R"} <= set(run.blocks.columns)
         assert run.summary["mu_bar"] == pytest.approx(sweep.runs.mu_bar.iloc[0])
         assert run.events is not None and len(run.events) >= run.summary["n_slips"] > 0
         assert run.clusters is not None and run.psi is not None

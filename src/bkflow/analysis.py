@@ -30,7 +30,7 @@ from . import (
     stress,
 )
 from .lattice import square_lattice
-from .params import STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
+from .params import S_X, STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
     CLUSTERS,
     DECK,
@@ -263,6 +263,9 @@ class ClusterResult:
     # the magnitude-frequency view: the power law of the potencies of the slips after the
     # transient (as the stress drops')
     potency: stress.PowerLawTest | None = None
+    # the clusters' rows are the run's own (clusters.npy, fix bk/slips ``catalogue``): a
+    # record of the run, not a table to write again
+    recorded: bool = False
 
     def row(self) -> dict:
         s, g = self.shape, self.shape_large
@@ -349,7 +352,8 @@ class RunAnalysis:
         if self.order is not None and not self.order.recorded:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
-            out[CLUSTERS] = self.clusters.table
+            if not self.clusters.recorded:
+                out[CLUSTERS] = self.clusters.table
         return out
 
 
@@ -509,12 +513,22 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
         for c in rows:
             if c not in ("event", "t"):
                 rows[c] = np.asarray(per[c]).tolist()
-    shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], lat.box, psi_inf,
+    return _cluster_summary(spec, settings, events, t_transient, rows, table, matched, psi_inf,
+                            large)
+
+
+def _cluster_summary(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
+                     t_transient: float, rows: dict, table: dict, matched: int,
+                     psi_inf: float, large=None) -> ClusterResult:
+    """The clusters' shape (all, and the large slips'), the potencies' power law, from the
+    clusters' rows and the catalogue's columns of every event."""
+    box = (float(spec.Lx), float(spec.Ly))
+    shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], box, psi_inf,
                                    settings.span_fraction, settings.psi_crystal)
     big = np.zeros(len(rows["event"]), bool) if large is None else \
         np.asarray(large, bool)[np.asarray(rows["event"], dtype=int)]
     shape_large = clusters.cluster_shape(np.asarray(rows["l_x"])[big],
-                                         np.asarray(rows["l_y"])[big], lat.box, psi_inf,
+                                         np.asarray(rows["l_y"])[big], box, psi_inf,
                                          settings.span_fraction, settings.psi_crystal)
     n_late = int(np.sum(events.t_max >= t_transient))
     potency = table["potency"][np.isfinite(table["potency"])]
@@ -522,9 +536,47 @@ def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.Sli
     return ClusterResult(rows, shape, matched, n_late - matched, shape_large, table, test)
 
 
+#: the clusters' columns of clusters.csv after event and t, as the run's rows name them
+CLUSTER_ROW_COLUMNS = ("n_c", "l_x", "l_y", "n_x", "n_y", "slip", "bond_change",
+                       "eq2_estimate")
+
+
+def cluster_from_rows(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
+                      t_transient: float, slip_rows, cluster_rows, psi_inf: float,
+                      large=None) -> ClusterResult:
+    """``cluster_result`` from what the run computed of each slip (fix bk/slips
+    ``catalogue``, scene figures: slips.npy and clusters.npy, at s_x = S_X): rows matched
+    to the events by the steps of their maximum and minimum, as frames are."""
+    if settings.s_x != S_X:
+        raise AnalysisError(f"the run computed its slips' clusters at s_x = {S_X:g} (scene "
+                            f"figures); s_x = {settings.s_x:g} needs the positions at each "
+                            "slip (scene clusters, events or full)")
+    index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
+    table = {c: np.full(len(events), np.nan) for c in catalogue.SIZE_COLUMNS}
+    matched_at = {}
+    for r, (smax, smin) in enumerate(zip(slip_rows["step_max"].tolist(),
+                                         slip_rows["step_min"].tolist())):
+        ev = index.get(int(smax))
+        if ev is None or events.t_max[ev] < t_transient or \
+                int(smin) != int(events.i_min[ev]) * spec.stress_nevery:
+            continue   # a slip of another threshold than this analysis's
+        matched_at[int(smax)] = ev
+        for c in catalogue.SIZE_COLUMNS:
+            table[c][ev] = float(slip_rows[c][r])
+    keep = np.array([int(s) in matched_at for s in cluster_rows["step_max"].tolist()], bool)
+    ev_of = np.array([matched_at[int(s)] for s in cluster_rows["step_max"][keep].tolist()],
+                     dtype=np.int64)
+    rows = {"event": ev_of.tolist(), "t": events.t_max[ev_of].astype(float).tolist()}
+    for c in CLUSTER_ROW_COLUMNS:
+        rows[c] = np.asarray(cluster_rows[c][keep]).tolist()
+    return dataclasses.replace(
+        _cluster_summary(spec, settings, events, t_transient, rows, table, len(matched_at),
+                         psi_inf, large), recorded=True)
+
+
 def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(), companion=None,
-              slip_breaks=None, psi=None) -> RunAnalysis:
+              slip_breaks=None, psi=None, slip_rows=None) -> RunAnalysis:
     """The analysis of one run.
 
     ``red``: the run's records of its stress and phases (``bkflow.reduced.Reduced``: the
@@ -535,6 +587,8 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     fix bk/slips, frames in pairs (maximum, minimum), or None; ``slip_breaks`` (frames, N):
     their column of first breaks (fix bk/slips ``breaks``), or None. ``psi``: (steps, Psi) as
     the run computed it (fix bk/psi), or None; it takes the place of ``snapshots``.
+    ``slip_rows``: (slips, clusters), the slips' rows the run computed (fix bk/slips
+    ``catalogue``), or None; they take the place of ``slip_frames``.
     """
     settings = settings.resolved(spec)
     t, sigma, phase = red.series()
@@ -555,8 +609,9 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     orders = order_from_record(spec, settings, *psi) if psi is not None else \
         None if snapshots is None else order_result(spec, settings, *snapshots)
     psi_inf = orders.psi_inf if orders is not None else math.nan
-    clus = None if slip_frames is None else cluster_result(
-        spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
+    clus = cluster_from_rows(spec, settings, events, t0, *slip_rows, psi_inf, large.large) \
+        if slip_rows is not None else None if slip_frames is None else cluster_result(
+            spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
     return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus,
                        ledger=red if red.has_ledger else None)
 
@@ -616,14 +671,18 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     if spec.writes_snapshots and psi is None:   # a run made before bkflow computed Psi in it
         f = rd.read_snapshots(spec.N)
         snaps = (f.steps, f.positions)
-    if spec.writes_slips:
+    slip_rows = None
+    if spec.writes_slips and spec.writes_slip_frames:
         f = rd.read_slip_frames(spec.N)
         slips, slip_breaks = (f.steps, f.positions), f.breaks
+    elif spec.writes_slips:
+        slip_rows = rd.read_slip_rows()
     companion = None
     if spec.companion is not None:
         companion = rd.companion().read_reduced(spec.companion_spec)
     try:
-        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks, psi)
+        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks, psi,
+                        slip_rows)
     except reduced.ReducedError as exc:
         raise AnalysisError(f"{rd.path}: {exc}") from None
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),

@@ -22,9 +22,10 @@ from dataclasses import dataclass
 
 from . import __version__, io
 from .lattice import Lattice, contact_start, lattice_for
-from .params import PATHS, RunSpec
+from .params import PATHS, S_X, RunSpec
 from .rundir import (
     BLOCKS,
+    CLUSTER_ROWS,
     DATA,
     DECK,
     EXTREMA,
@@ -32,6 +33,7 @@ from .rundir import (
     PARAMS,
     PHASE,
     PSI_RECORD,
+    SLIP_ROWS,
     SLIPS,
     SNAPSHOTS,
     STRESS,
@@ -72,6 +74,8 @@ class DeckOptions:
     stress: str | None = STRESS
     phase: str | None = PHASE
     psi: str | None = PSI_RECORD
+    slip_rows: str = SLIP_ROWS
+    cluster_rows: str = CLUSTER_ROWS
     snapshots: str = SNAPSHOTS
     slips: str = SLIPS
     fronts: str = FRONTS
@@ -315,9 +319,14 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
         ] + ([f"dump_modify     snap append yes delay {files.append_from + 1}"]
              if more else [])
     if spec.writes_slips and files.slips:
+        frames = files.slips if spec.writes_slip_frames else "none"
+        rows = "" if spec.writes_slip_frames else (
+            f" catalogue {files.slip_rows} {files.cluster_rows} sx {_f(S_X)} kb {_f(spec.k_b)} "
+            f"lattice {spec.Lx} {spec.Ly}")
         lines += [
             f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"{_f(spec.slip_threshold_stress)} file {files.slips} start {spec.slips_start_step}"
+            f"{_f(spec.slip_threshold_stress)} file {frames} start {spec.slips_start_step}"
+            + rows
             + (" breaks" if spec.writes_energy else "") + more,
         ]
     if spec.writes_fronts and files.fronts:

@@ -7,9 +7,12 @@ The estimates are deliberately simple and a little generous:
 - work: atom-steps, N * n_steps, twice that with a companion run (which runs beside the run,
   step for step); the time is said at ``ATOM_STEPS_PER_SECOND``;
 - memory: about 2 kB per atom for LAMMPS and the engine (twice with a companion), and for the
-  analysis the frames of the dumps it reads at once (16 bytes per atom and frame);
-- disk: the stress series (40 bytes a sample), the snapshots (50 bytes per atom and frame)
-  and the slip frames (two per slip, at most one slip per 10 time units after the transient).
+  analysis the frames of the dumps it reads at once (16 bytes per atom and frame) and the
+  run's reduced records;
+- disk: the reduced records (``RECORD_BYTES_PER_T`` a time unit, more with the ledger; Psi's
+  16 bytes a snapshot), the raw series where the scene keeps them (60 bytes a stress sample),
+  the snapshots of scene full (50 bytes per atom and frame) and the slip frames (two per slip,
+  at most one slip per 10 time units after the transient).
 """
 
 from __future__ import annotations
@@ -59,16 +62,28 @@ class Cost:
                     big.frame_memory)
 
 
+#: bytes a run's reduced records take per time unit, at most (extrema.npy: up to ~0.4 turning
+#: points a time unit at the extrema threshold, 16 bytes each, 80 with the ledger; blocks.npy:
+#: 80 bytes a block of BLOCK_EVERY, 144 with the ledger); benchmarks/RESULTS.md "What a scene
+#: costs"
+RECORD_BYTES_PER_T = 16.0
+RECORD_BYTES_PER_T_LEDGER = 40.0
+
+
 def cost(spec: RunSpec) -> Cost:
     """The estimated cost of one run (see module doc)."""
     n, steps = spec.N, spec.n_steps
     samples = steps / spec.stress_nevery + 1
-    snapshots = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
+    psi = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
+    snapshots = psi if spec.writes_frames else 0
     slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slips else 0
     frames, frame_memory = 50.0 * n * (snapshots + slips), 16.0 * n * max(snapshots, slips)
-    runs = 1 if spec.companion is None else 2  # the companion: its stress series, its data
-    disk = runs * (40.0 * samples + 120.0 * n) + frames  # the series, the data files, frames
-    memory = 2e3 * n * runs + frame_memory
+    runs = 1 if spec.companion is None else 2  # the companion: its records, its data
+    per_t = RECORD_BYTES_PER_T_LEDGER if spec.writes_energy else RECORD_BYTES_PER_T
+    records = per_t * spec.t_end + 16.0 * psi
+    series = 60.0 * samples if spec.writes_series else 0.0   # stress.csv and phase.csv
+    disk = runs * (per_t * spec.t_end + 120.0 * n) + 16.0 * psi + series + frames
+    memory = 2e3 * n * runs + frame_memory + records
     return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory)
 
 

@@ -673,7 +673,16 @@ class RunSpec:
 
     @property
     def writes_slips(self) -> bool:
+        """Whether the run follows its slips with fix bk/slips (their clusters)."""
         return self.scene in ("clusters", "figures", "events", "full")
+
+    @property
+    def writes_slip_frames(self) -> bool:
+        """Whether the run writes the positions at each slip's maximum and minimum
+        (slips.lammpstrj: scenes clusters, events, full), from which the analysis finds the
+        clusters at any s_x; the figures scene keeps each slip's clusters computed in the run
+        instead (at S_X)."""
+        return self.scene in ("clusters", "events", "full")
 
     @property
     def writes_energy(self) -> bool:

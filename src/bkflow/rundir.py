@@ -16,6 +16,7 @@ a file of a run.
 | ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the raw load phases (series, full) |
 | ``psi.npy`` | Psi(t) every snapshot_nevery steps, computed in the run (order, figures, full) |
 | ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scene full) |
+| ``slips.npy``, ``clusters.npy`` | each slip's catalogue row and clusters, from the run (figures) |
 | ``slips.lammpstrj`` | positions at every slip's maximum and minimum (+ first breaks) |
 | ``fronts.bin`` | every particle's slip rate through the first slips (scenes fronts, full) |
 | ``log.lammps`` | LAMMPS's log |
@@ -65,6 +66,10 @@ EXTREMA = "extrema.npy"
 BLOCKS = "blocks.npy"
 #: Psi(t) computed in the run (fix bk/psi): step, psi
 PSI_RECORD = "psi.npy"
+#: each slip's row of the event catalogue and its clusters, computed in the run (fix bk/slips
+#: ``catalogue``, scene figures)
+SLIP_ROWS = "slips.npy"
+CLUSTER_ROWS = "clusters.npy"
 LOG = "log.lammps"
 META = "meta.json"
 #: LAMMPS's restart file of the run's last step (named by that step; meta.json's "restart"
@@ -109,8 +114,8 @@ MAY_CHANGE = (LOG,)
 #: (file systems that keep times in whole or two seconds)
 MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS,
-             LOG, META)
+RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, SLIP_ROWS, CLUSTER_ROWS, STRESS, PHASE,
+             SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -776,6 +781,18 @@ class RunDir:
             raise DamagedRunError(f"{self.file(PSI_RECORD)} is damaged ({exc}); run the run "
                                   "again") from None
 
+    def read_slip_rows(self):
+        """(slips, clusters): each slip's catalogue row and its clusters as the run computed
+        them (fix bk/slips ``catalogue``; structured arrays)."""
+        out = []
+        for name in (SLIP_ROWS, CLUSTER_ROWS):
+            try:
+                out.append(np.load(io.regular(self.file(name)), allow_pickle=False))
+            except (ValueError, EOFError) as exc:
+                raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
+                                      "again") from None
+        return tuple(out)
+
     def read_psi(self):
         """Psi(t) as a DataFrame (t, psi): the run's psi.npy, or the psi.csv the analysis of
         an older run's snapshots wrote; None when the run recorded neither."""
@@ -788,7 +805,28 @@ class RunDir:
         return io.read_table(self._checked(PSI)) if self.file(PSI).exists() else None
 
     def read_clusters(self):
-        """clusters.csv as a DataFrame, or None when the run recorded no slip frames."""
+        """One row per slip cluster of the analysed slips (``CLUSTER_COLUMNS`` and n_x, n_y,
+        slip, bond_change, eq2_estimate): the run's clusters.npy joined to its events (scene
+        figures), or the clusters.csv the analysis made from the slips' frames; None when the
+        run recorded neither."""
+        import pandas as pd
+
+        if self.file(CLUSTER_ROWS).exists():
+            summary = self.summary()
+            if summary is None:
+                return None
+            events = self.read_events()
+            spec = self.spec()
+            at = {int(round(t / spec.dt)): k for k, t in enumerate(events["t_max"])
+                  if t >= summary["t_transient"]}
+            _, rows = self.read_slip_rows()
+            steps = [int(s) for s in rows["step_max"].tolist()]
+            keep = np.array([s in at for s in steps], bool)
+            out = {"event": [at[s] for s, k in zip(steps, keep) if k]}
+            out["t"] = events["t_max"].to_numpy()[out["event"]]
+            for c in ("n_c", "l_x", "l_y", "n_x", "n_y", "slip", "bond_change", "eq2_estimate"):
+                out[c] = rows[c][keep]
+            return pd.DataFrame(out)
         return io.read_table(self._checked(CLUSTERS)) if self.file(CLUSTERS).exists() else None
 
 
