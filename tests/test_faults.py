@@ -134,12 +134,14 @@ def test_file_system_errors_are_one_line(lammps, tmp_path, finished):
     one_line(p, "File name too long")
     small = tmp_path / "small"
     small.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(small)],
+    # a run of 40000 time units writes about 400 kB of records (the friction scene): more
+    # than the 64 kB here
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(small)],
                       capture_output=True).returncode != 0:
         pytest.skip("a full disk needs a tmpfs mount (root)")
     try:
-        p = bk("run", "--phi", "10", "--t-end", "2000", "--scene", "friction", "--quiet",
-               "--force", "--out", small / "r")
+        p = bk("run", "--phi", "10", "--t-end", "40000", "--protocol", "paper", "--scene",
+               "friction", "--quiet", "--force", "--out", small / "r")
         assert p.returncode == EXIT_FILE_SYSTEM
         one_line(p, "No space left on device")
         assert not (small / "r" / META).exists()

@@ -450,7 +450,8 @@ def test_a_runs_cost_counts_its_companion(tmp_path):
 
 def test_a_refusal_names_what_would_lift_it(tmp_path):
     """The advice follows the cause: the frames (snapshots, slip frames) are lifted by
-    --scene friction, a long stress series is not; a long time is said in whole hours"""
+    --scene friction, so is a long raw series (scene series), the records of a very long run
+    only by a shorter one; a long time is said in whole hours"""
     from bkflow.limits import Cost, CostError, check, check_cost
 
     def said(spec):
@@ -459,11 +460,14 @@ def test_a_refusal_names_what_would_lift_it(tmp_path):
         return str(e.value)
 
     base = RunSpec(phi=10, Lx=60, Ly=15, seed=1)
-    frames = said(base.replace(t_end=1e8))  # snapshots every 20: 230 GB of memory to read
+    frames = said(base.replace(t_end=1e8, scene="full"))  # frames every 20: 230 GB to read
     assert "of memory" in frames and "choose --scene friction or shorten --t-end" in frames
-    series = said(base.replace(t_end=1e9, scene="friction"))  # 824 GB of stress samples
-    assert "would write about" in series and "--scene friction" not in series
-    assert "shorten --t-end or sample the stress less often (--set stress_every=...)" in series
+    series = said(base.replace(t_end=1e8, scene="series"))  # 60 GB of raw series
+    assert "would write about" in series and "sample the stress less often" in series
+    assert "choose a scene without the raw series (--scene friction)" in series
+    records = said(base.replace(t_end=1e9, scene="friction"))  # 16 GB of records to read
+    assert "of memory" in records and "shorten --t-end (the analysis reads the run's " \
+        "records at once)" in records
     with pytest.raises(CostError, match=r"up to 5,556 h of one core"):
         check(Cost(1e15, 0.0, 0.0), tmp_path, "this run")
 

@@ -54,12 +54,17 @@ class Cost:
     #: of these, the frames' (snapshots, slip frames): what --scene friction does away with
     frame_bytes: float = 0.0
     frame_memory: float = 0.0
+    #: the raw series' bytes (scenes series, full): what a scene without them does away with
+    series_bytes: float = 0.0
+    #: the reduced records the analysis reads at once
+    record_memory: float = 0.0
 
     def __add__(self, other: Cost) -> Cost:
         big = self if self.memory_bytes >= other.memory_bytes else other
         return Cost(self.atom_steps + other.atom_steps, big.memory_bytes,
                     self.disk_bytes + other.disk_bytes, self.frame_bytes + other.frame_bytes,
-                    big.frame_memory)
+                    big.frame_memory, self.series_bytes + other.series_bytes,
+                    big.record_memory)
 
 
 #: bytes a run's reduced records take per time unit, at most (extrema.npy: up to ~0.4 turning
@@ -84,7 +89,7 @@ def cost(spec: RunSpec) -> Cost:
     series = 60.0 * samples if spec.writes_series else 0.0   # stress.csv and phase.csv
     disk = runs * (per_t * spec.t_end + 120.0 * n) + 16.0 * psi + series + frames
     memory = 2e3 * n * runs + frame_memory + records
-    return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory)
+    return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory, series, records)
 
 
 def _available_memory() -> float:
@@ -123,7 +128,9 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
     mem = _available_memory()
     if c.memory_bytes > MAX_MEMORY_SHARE * mem:
         fix = ("choose --scene friction or shorten --t-end (the analysis reads the frames at "
-               "once)" if c.frame_memory > c.memory_bytes / 2 else "use a smaller lattice")
+               "once)" if c.frame_memory > c.memory_bytes / 2 else
+               "shorten --t-end (the analysis reads the run's records at once)"
+               if c.record_memory > c.memory_bytes / 2 else "use a smaller lattice")
         raise CostError(f"{what} needs about {fmt_bytes(c.memory_bytes)} of memory, more than half "
                         f"of the {fmt_bytes(mem)} available: {fix}{hint}")
     free = _free_disk(out)
@@ -134,7 +141,9 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
                       "written there)", str(out))
     if c.disk_bytes > min(MAX_BYTES, MAX_DISK_SHARE * free):
         fix = ("choose --scene friction (no frames)" if c.frame_bytes > c.disk_bytes / 2 else
-               "shorten --t-end or sample the stress less often (--set stress_every=...)")
+               "choose a scene without the raw series (--scene friction) or sample the stress "
+               "less often (--set stress_every=...)" if c.series_bytes > c.disk_bytes / 2 else
+               "shorten --t-end")
         raise CostError(f"{what} would write about {fmt_bytes(c.disk_bytes)}, more than "
                         f"{fmt_bytes(min(MAX_BYTES, MAX_DISK_SHARE * free))} (half the free disk "
                         f"at {out}, at most {fmt_bytes(MAX_BYTES)}): {fix}, or another --out{hint}")
