@@ -404,7 +404,39 @@ def fresh_attack() -> str:
     return "\n".join(out) + "\n"
 
 
-BLOCKS = {"states-occupancy": states_occupancy, "states-longrun": states_longrun,
+# ------------------------------------------------------------------- what a scene writes
+def scene_bytes() -> str:
+    """Per size and scene: bytes per 10^5 time units, the loop against friction's, and the
+    analysis against the loop (benchmarks/scene_bytes.py's record)."""
+    from readme_numbers import human
+
+    rec = _record("scene_bytes")
+    if rec is None:
+        return "(not measured yet: python benchmarks/scene_bytes.py)\n"
+    out = []
+    for size, m in sorted(rec.get("sizes", {}).items(), key=lambda kv: len(kv[0])):
+        lx, ly = (int(v) for v in size.split("x"))
+        out += [f"N = {lx * ly} ({size}), phi = {m['phi']:g}, `--protocol paper --t-end "
+                f"{m['t_end']:g}`, default time step; median of {m['rounds']} alternated "
+                "rounds:", "",
+                "| scene | bytes per 10^5 time units | LAMMPS loop / friction | loop s | "
+                "`bkflow analyze` s | analysis / loop |", "|---|---|---|---|---|---|"]
+        for scene, r in m["scenes"].items():
+            out.append(f"| {scene} | {human(r['bytes_per_1e5'])} | "
+                       f"{r['loop_over_friction']:.2f}x | {r['loop_s']:.2f} | "
+                       f"{r['analyze_s']:.2f} | {r['analyze_s'] / r['loop_s']:.2f} |")
+        out.append("")
+    if "long" in rec:
+        g = rec["long"]
+        out.append(f"`{g['command']}`: {human(g['bytes_written'])} written by the run, "
+                   f"{human(g['with_analysis'])} with its analysis; the loop {g['loop_s']:.0f} s, "
+                   f"the whole command {g['whole_s']:.0f} s.")
+        out.append("")
+    return "\n".join(out)
+
+
+BLOCKS = {"scene-bytes": scene_bytes,
+          "states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
           "states-longest": states_longest,

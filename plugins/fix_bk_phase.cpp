@@ -17,6 +17,7 @@
 #include "bk_model.h"
 #include "error.h"
 #include "fix_bk_layer.h"
+#include "update.h"
 
 #include <charconv>
 #include <cmath>
@@ -34,6 +35,8 @@ FixBKPhase::FixBKPhase(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, nar
     appending = 1;
   else if (narg != 7)
     error->all(FLERR, "Illegal fix bk/phase command: {}", USAGE);
+  npy.field("step", "<i8");
+  for (const char *name : {"R", "Z_re", "Z_im", "R2", "u_mean", "u_std"}) npy.field(name, "<f8");
   open_file(5, narg, arg);
   if (fp && !appending) write(std::string("t,R,Z_re,Z_im,R2,u_mean,u_std\n"));
 }
@@ -50,7 +53,7 @@ void FixBKPhase::sample()
 {
   double s[BK_NPHASE];
   substrate->contact_phase(s);    // collective: every rank calls it
-  if (!fp) return;
+  if (!fp && !npy_mode) return;
   const double n = s[BK_PH_N] > 0.0 ? s[BK_PH_N] : 1.0;
   const double zr = s[BK_PH_C1] / n, zi = s[BK_PH_S1] / n;
   const double z2r = s[BK_PH_C2] / n, z2i = s[BK_PH_S2] / n;
@@ -58,6 +61,13 @@ void FixBKPhase::sample()
   const double values[6] = {std::sqrt(zr * zr + zi * zi), zr, zi,
                             std::sqrt(z2r * z2r + z2i * z2i), mean,
                             std::sqrt(var > 0.0 ? var : 0.0)};
+  if (npy_mode) {    // step and the six statistics, binary
+    const double rec[7] = {BKNpy::as_double(update->ntimestep), values[0], values[1],
+                           values[2], values[3], values[4], values[5]};
+    record(rec);
+    flush_if_due();
+    return;
+  }
   char line[256];
   char *end = std::to_chars(line, line + 30, substrate->current_time(),
                             std::chars_format::general, 10).ptr;

@@ -35,6 +35,7 @@ FixBKReader::FixBKReader(LAMMPS *lmp, int narg, char **arg, const char *usage_te
 
 FixBKReader::~FixBKReader()
 {
+  npy.close();
   if (fp) fclose(fp);    // before the buffer it uses goes
   delete[] substrate_id;
   delete[] filename;
@@ -47,6 +48,22 @@ int FixBKReader::open_file(int iarg, int narg, char **arg)
   delete[] filename;
   filename = utils::strdup(arg[iarg + 1]);
   if (strcmp(filename, "none") == 0) return iarg + 2;    // nothing written to a file
+  const std::size_t len = strlen(filename);
+  npy_mode = len > 4 && strcmp(filename + len - 4, ".npy") == 0;
+  if (npy_mode) {
+    if (comm->me == 0) {
+      if (!npy.open(filename, appending))
+        error->one(FLERR, "{} fix {}: cannot open {}: {}", BK_ERR_CANNOT_OPEN, style, filename,
+                   utils::getsyserror());
+      if (appending) {    // the records so far: their count from the file's size
+        if (fseek(npy.fp, 0, SEEK_END) != 0) write_failed();
+        const long size = ftell(npy.fp);
+        const long rec = static_cast<long>(sizeof(double)) * npy.nfields;
+        npy.nfinal = size > BKNpy::HEADER ? (size - BKNpy::HEADER) / rec : 0;
+      }
+    }
+    return iarg + 2;
+  }
   if (comm->me == 0) {
     fp = fopen(filename, appending ? "a" : "w");
     if (!fp)
@@ -117,15 +134,21 @@ void FixBKReader::write_failed()
              utils::getsyserror());
 }
 
+void FixBKReader::record(const double *values)
+{
+  npy.stage(values, comm->me == 0);
+}
+
 void FixBKReader::flush()
 {
+  if (npy.fp && !npy.write()) write_failed();
   if (fp && fflush(fp) != 0) write_failed();
   last_flush = std::chrono::steady_clock::now();
 }
 
 void FixBKReader::flush_if_due()
 {
-  if (!fp) return;
+  if (!fp && !npy.fp) return;
   const auto now = std::chrono::steady_clock::now();
   if (now - last_flush > FLUSH_EVERY) flush();
 }

@@ -11,6 +11,7 @@
 #ifndef BKFLOW_FIX_BK_READER_H
 #define BKFLOW_FIX_BK_READER_H
 
+#include "bk_npy.h"
 #include "bk_zigzag.h"
 #include "fix.h"
 
@@ -42,6 +43,12 @@ class FixBKReader : public Fix {
      that step already). A derived fix sets it before open_file() and skips its header. */
   int appending = 0;
 
+  /* a FILE named *.npy is a NumPy file of records (bk_npy.h), its fields declared in `npy`
+     by the style before open_file(), each sample given to record(); any other name is text,
+     given to write() */
+  BKNpy npy;
+  bool npy_mode = false;
+  void record(const double *values);
   // parses `file FILE` at arg[iarg] and opens FILE (rank 0); returns the next iarg
   int open_file(int iarg, int narg, char **arg);
   // writes to FILE (rank 0); a failed write (a full disk) stops the run with error->one

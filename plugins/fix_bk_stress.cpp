@@ -21,7 +21,9 @@
 
 #include "error.h"
 #include "fix_bk_layer.h"
+#include "update.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cstring>
 
@@ -47,6 +49,12 @@ FixBKStress::FixBKStress(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
     else
       error->all(FLERR, "Illegal fix bk/stress command: {}", USAGE);
   }
+  npy.field("step", "<i8");
+  npy.field("sigma", "<f8");
+  if (with_energy)
+    for (const char *name : {"breaks", "e_bond", "e_drive", "e_contact", "e_kinetic", "work",
+                             "diss_break", "diss_damp"})
+      npy.field(name, "<f8");
   open_file(5, narg, arg);
   if (fp && !appending)
     write(std::string(with_energy ? "t,sigma_x,breaks,e_bond,e_drive,e_contact,e_kinetic,work,"
@@ -60,6 +68,13 @@ void FixBKStress::sample()
   double ledger[NLEDGER];
   if (with_energy)
     for (int k = 0; k < NLEDGER; k++) ledger[k] = substrate->compute_vector(LEDGER[k]);
+  if (npy_mode) {    // step, sigma_x and the ledger, binary
+    double rec[2 + NLEDGER] = {BKNpy::as_double(update->ntimestep), sigma};
+    if (with_energy) std::copy(ledger, ledger + NLEDGER, rec + 2);
+    record(rec);
+    flush_if_due();
+    return;
+  }
   if (!fp) return;
   const double t = substrate->current_time();
   char line[64 + 32 * NLEDGER];

@@ -962,28 +962,26 @@ def test_a_collect_cut_short_leaves_no_mixed_set_that_reads(lammps, tmp_path):
     assert load_sweep(s).events is not None
 
 
-@pytest.mark.parametrize("damage", ["clusters cut", "events gone"])
+@pytest.mark.parametrize("damage", ["events cut", "events gone"])
 def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps, tmp_path,
                                                                           damage):
-    """A run's clusters.csv cut mid-line, or its events.parquet cut beside an empty events.csv:
-    Run.clusters / Run.events refuse them (DamagedRunError), and collect, or the sweep's own
-    command again, makes the analysis again (exit 0) rather than drawing from half a table."""
+    """A run's events.parquet cut mid-file, or gone (summary.json lists it): Run.events and
+    Run.clusters refuse them (DamagedRunError), and collect, or the sweep's own command again,
+    makes the analysis again (exit 0) rather than drawing from half a table."""
     from bkflow.api import load_sweep
     from bkflow.rundir import DamagedRunError
 
     s = _small_sweep(tmp_path / "s")
     before = (s / "results.csv").read_text()
-    job = next(p for p in (s / "workspace").iterdir() if (p / "clusters.csv").exists())
-    if damage == "clusters cut":
-        text = (job / "clusters.csv").read_text()
-        (job / "clusters.csv").write_text(text[: len(text) // 2])
-    else:
+    job = next(p for p in (s / "workspace").iterdir() if (p / "clusters.npy").exists())
+    if damage == "events cut":
         data = (job / "events.parquet").read_bytes()
         (job / "events.parquet").write_bytes(data[: len(data) // 2])
-        (job / "events.csv").write_text("")
-    with pytest.raises(DamagedRunError):
-        run = load_sweep(s).run(job.name)
-        _ = run.clusters if damage == "clusters cut" else run.events
+    else:
+        (job / "events.parquet").unlink()
+    for what in ("events", "clusters"):
+        with pytest.raises(DamagedRunError):
+            _ = getattr(load_sweep(s).run(job.name), what)
     p = bk("sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3", "--aspect", "any",
            "--t-end", "300", "--protocol", "paper", "--jobs", "2", "--out", s, "--quiet")
     assert p.returncode == 0, p.stderr

@@ -53,6 +53,7 @@ def _deck(spec, workdir, steps=STEPS, chunks=3, tail=FINAL):
     lattice, _, v0 = lively_start(spec, offset=(0.495, 0.0), drift=(0.2, 0.0))
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     deck = setup_text(spec, DeckOptions(thermo_every=steps // chunks // 2, path="auto",
+                                        stress="stress.csv",
                                         energy=True, phase=None))
     deck = deck.replace("\nrun ", "\n# run ")
     deck += f"\ndisplace_atoms all move {-PRELOAD!r} 0 0\n" + OUTPUTS
@@ -165,7 +166,7 @@ def test_a_restart_read_on_other_ranks_follows_one_run(first, then, workdir):
     assert _run_ok(workdir, first).returncode == 0
     cont = continue_text(spec, "half.restart", DeckOptions(data="", thermo_every=50,
                                                             path="auto", energy=True,
-                                                            phase=None))
+                                                            phase=None, stress="stress.csv"))
     cont = cont.replace("\nrun ", "\n# run ") + "\n" + OUTPUTS
     cont += f"run {STEPS // 2} pre yes post no\n" + FINAL
     (workdir / "stress.csv").unlink(missing_ok=True)

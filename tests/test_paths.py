@@ -18,6 +18,7 @@ from bkflow.deck import PROCESSORS, DeckOptions, data_text, deck_text, setup_tex
 from bkflow.lattice import Lattice, lattice_for
 from bkflow.params import RunSpec
 from bkflow.plugin import open_lammps
+from bkflow.rundir import RunDir
 from tests.support import RULE_COVER, global_vector, lively_start, tool, unwrapped_state
 
 STEPS = 1500
@@ -135,7 +136,7 @@ def _engine_run(tmp_path, name, path, **kw):
 
     spec = RunSpec(phi=100.0, Lx=8, Ly=3, t_end=40.0, scene="series", **kw)
     res = run(spec, tmp_path / name, progress=False, path=path)
-    return res.meta, np.loadtxt(tmp_path / name / "stress.csv", delimiter=",", skiprows=1)
+    return res.meta, np.column_stack(RunDir(tmp_path / name).read_stress())
 
 
 def test_engine_records_the_path_and_both_paths_agree(lammps, tmp_path):

@@ -118,10 +118,10 @@ def _records_and_series(workdir, spec, path="auto", ranks=1):
     rd = RunDir(workdir)
     recs = reduced.load(workdir / "extrema.npy", workdir / "blocks.npy", spec.stress_nevery,
                         spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
-    _, sigma = rd.read_stress()
+    _, sigma = rd.read_stress(spec)
     series = reduced.from_series(sigma, spec.stress_nevery, spec.block_nevery, spec.dt,
-                                 spec.extrema_threshold_stress, rd.read_phase(),
-                                 spec.phase_nevery, rd.read_ledger())
+                                 spec.extrema_threshold_stress, rd.read_phase(spec),
+                                 spec.phase_nevery, rd.read_ledger(spec))
     return recs, series
 
 

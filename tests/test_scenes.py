@@ -25,10 +25,6 @@ REQUIRED_SETTINGS = ("slip_threshold", "transient", "s_x", "span_fraction", "psi
                      "psi_late_fraction")
 
 
-def read_stress(path):
-    return RunDir(path.parent).read_stress()
-
-
 def _files(d):
     return {p.name for p in d.iterdir()}
 
@@ -50,11 +46,12 @@ def test_friction_scene_writes_no_per_atom_output(lammps, tmp_path):
 def test_slip_frames_hold_the_positions_at_each_slips_maximum_and_minimum(lammps, tmp_path):
     """With snapshots at every stress sample (never done in practice), the frames fix bk/slips
     keeps must be exactly the snapshots at the steps of each event's maximum and minimum, and
-    its events must be those slip_events finds in stress.csv after the transient."""
+    its events must be those slip_events finds in the raw stress series after the
+    transient."""
     spec = RunSpec(phi=30.0, t_end=200, scene="full", snapshot_every=0.1)
     assert spec.snapshot_nevery == spec.stress_nevery
     run(spec, tmp_path, progress=False)
-    t, sigma = read_stress(tmp_path / "stress.csv")
+    t, sigma = RunDir(tmp_path).read_stress()
     events = slip_events(t, sigma, spec.slip_threshold_stress).after(spec.transient_step * spec.dt)
     assert len(events) >= 3
     slips = read_frames(tmp_path / "slips.lammpstrj", spec.N)
@@ -160,15 +157,13 @@ def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path, path):
 
 @pytest.mark.slow
 def test_full_scene_of_the_largest_paper_lattice_stays_small(lammps, tmp_path):
-    """60x15 for the default preset's run with every observable: under 50 MB on disk besides
-    the energy ledger's columns of stress.csv, which have their own budget (at most 200 bytes
-    a sample: eight numbers, each the shortest text of its double)."""
+    """60x15 for the default preset's run with every observable (its raw series with the
+    ledger, binary: 80 bytes a sample), whole frames and fronts: under 50 MB on disk."""
     spec = RunSpec(phi=10.0, Lx=60, Ly=15, scene="full")
     res = run(spec, tmp_path, progress=False)
-    lines = (tmp_path / "stress.csv").read_bytes().splitlines()[1:]
-    ledger = sum(len(line) - len(b",".join(line.split(b",")[:2])) for line in lines)
-    assert res.meta["bytes_written"] - ledger < 50e6
-    assert ledger < 200 * len(lines)
+    samples = np.load(tmp_path / "stress.npy")
+    assert samples.dtype.itemsize == 80 and len(samples) > 1000
+    assert res.meta["bytes_written"] < 50e6
     assert res.meta["slip_snapshots"]["written"] > 50
 
 

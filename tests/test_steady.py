@@ -138,8 +138,9 @@ def test_the_default_protocol_from_the_cli_and_the_sweep(lammps, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "and steady (drift bound" in proc.stdout and "\n  steady over t = " in proc.stdout
     assert "  energy: the balance" not in proc.stdout and "  Psi(inf) = " in proc.stdout
-    assert (out / "psi.npy").is_file() and (out / "slips.lammpstrj").is_file()
-    assert not (out / "snapshots.lammpstrj").exists() and not (out / "stress.csv").exists()
+    assert all((out / n).is_file() for n in ("psi.npy", "slips.npy", "clusters.npy"))
+    assert not any((out / n).exists() for n in ("snapshots.lammpstrj", "slips.lammpstrj",
+                                                 "stress.npy"))
     assert "(steady)" in proc.stdout and f"companion run from the {STEADY_COMPANION}" \
         in proc.stdout
     meta = json.loads((out / "meta.json").read_text())

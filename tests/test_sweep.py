@@ -151,7 +151,8 @@ def test_tiny_sweep_runs_end_to_end_through_the_cli(tiny_sweep):
                          rf"\s+{mu:.4f}", proc.stdout), proc.stdout
     for d in job_dirs(out):
         assert run_problem(d) is None
-        assert (d / "summary.json").exists() and (d / "clusters.csv").exists()
+        assert (d / "summary.json").exists() and (d / "clusters.npy").exists()
+        assert not (d / "clusters.csv").exists()   # the run's own rows, not a second copy
 
 
 def test_rerunning_a_finished_sweep_recomputes_nothing(tiny_sweep):

@@ -248,8 +248,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="bkflow", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"bkflow {__version__}")
     sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
-    r = sub.add_parser("run", help=f"run the model: writes {rd.DECK}, {rd.DATA}, {rd.STRESS}, "
-                                   f"{rd.META}")
+    r = sub.add_parser("run", help=f"run the model: writes {rd.DECK}, {rd.DATA}, {rd.EXTREMA}, "
+                                   f"{rd.BLOCKS}, {rd.META} (and what the scene asks for)")
     _spec_args(r)
     r.add_argument("--overwrite", action="store_true", help="redo a finished run in --out")
     r.add_argument("--force", action="store_true",
@@ -615,10 +615,11 @@ def _deck(a) -> int:
                         f"write the companion's own deck with --start {spec.companion} --out "
                         "ANOTHER_DIR")
     d = RunDir(a.out)
-    if d.meta() is not None or d.file(rd.STRESS).exists():
-        raise SpecError(f"{a.out} holds a run ({rd.META if d.meta() is not None else rd.STRESS}"
-                        "); a deck is written only into an empty directory or over a deck: "
-                        "choose another --out")
+    made = rd.META if d.meta() is not None else next(
+        (n for n in (rd.EXTREMA, rd.STRESS) if d.file(n).exists()), None)
+    if made is not None:
+        raise SpecError(f"{a.out} holds a run ({made}); a deck is written only into an empty "
+                        "directory or over a deck: choose another --out")
     why = d.foreign()
     if why is not None and not why.startswith("holds a deck"):
         raise SpecError(f"{a.out} {why}: choose another --out")

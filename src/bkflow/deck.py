@@ -31,12 +31,12 @@ from .rundir import (
     EXTREMA,
     FRONTS,
     PARAMS,
-    PHASE,
     PSI_RECORD,
+    SERIES_PHASE,
+    SERIES_STRESS,
     SLIP_ROWS,
     SLIPS,
     SNAPSHOTS,
-    STRESS,
 )
 
 #: fix ID of the substrate (fix bk/substrate)
@@ -71,8 +71,8 @@ class DeckOptions:
     data: str = DATA
     extrema: str | None = EXTREMA
     blocks: str | None = BLOCKS
-    stress: str | None = STRESS
-    phase: str | None = PHASE
+    stress: str | None = SERIES_STRESS
+    phase: str | None = SERIES_PHASE
     psi: str | None = PSI_RECORD
     slip_rows: str = SLIP_ROWS
     cluster_rows: str = CLUSTER_ROWS
@@ -263,8 +263,8 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
               threshold any analysis asks for; ``blocks.npy``: sums over blocks of
               block_nevery steps; bkflow.reduced), no per-atom output at all; every scene
               writes these two, which the steady-state verdict reads.
-    series:   + the raw series: sigma_x every stress_nevery steps (``stress.csv``) and the
-              phase statistics every phase_nevery steps (``phase.csv``).
+    series:   + the raw series, binary: sigma_x every stress_nevery steps (``stress.npy``) and
+              the phase statistics every phase_nevery steps (``phase.npy``).
     order:    + ``fix bk/psi``: Psi(t) computed in the run every snapshot_nevery steps
               (``psi.npy``), for its late-time plateau.
     clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples

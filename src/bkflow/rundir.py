@@ -12,8 +12,9 @@ a file of a run.
 | ``params.json`` | the RunSpec of a deck written by ``bkflow deck`` |
 | ``extrema.npy`` | sigma_x's turning points at the extrema threshold (bkflow.reduced) |
 | ``blocks.npy`` | sums of sigma_x and of the contacts' phases over blocks (bkflow.reduced) |
-| ``stress.csv`` | ``t,sigma_x``: the raw shear stress (scenes series, full; + the ledger) |
-| ``phase.csv`` | ``t,R,Z_re,Z_im,R2,u_mean,u_std``: the raw load phases (series, full) |
+| ``stress.npy`` | step, sigma_x: the raw shear stress (scenes series, full; + the ledger) |
+| ``phase.npy`` | step, R, Z_re, Z_im, R2, u_mean, u_std: the raw load phases (series, full) |
+| ``stress.csv``, ``phase.csv`` | the same as text, in runs of bkflow before 0.5 |
 | ``psi.npy`` | Psi(t) every snapshot_nevery steps, computed in the run (order, figures, full) |
 | ``snapshots.lammpstrj`` | positions every snapshot_nevery steps (scene full) |
 | ``slips.npy``, ``clusters.npy`` | each slip's catalogue row and clusters, from the run (figures) |
@@ -56,6 +57,11 @@ from .reduced import LEDGER_COLUMNS  # noqa: F401
 DECK = "in.bk"
 DATA = "data.bk"
 PARAMS = "params.json"
+#: the raw series (scenes series, full), binary: step and sigma_x (+ the ledger), step and the
+#: phase statistics
+SERIES_STRESS = "stress.npy"
+SERIES_PHASE = "phase.npy"
+#: the raw series as CSV: what bkflow wrote before 0.5 (read)
 STRESS = "stress.csv"
 PHASE = "phase.csv"
 SNAPSHOTS = "snapshots.lammpstrj"
@@ -114,8 +120,8 @@ MAY_CHANGE = (LOG,)
 #: (file systems that keep times in whole or two seconds)
 MARK_SLACK_S = 2.0
 #: what a run writes (the engine); a partial run's are removed before it is redone
-RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, SLIP_ROWS, CLUSTER_ROWS, STRESS, PHASE,
-             SNAPSHOTS, SLIPS, FRONTS, LOG, META)
+RUN_FILES = (DECK, DATA, EXTREMA, BLOCKS, PSI_RECORD, SLIP_ROWS, CLUSTER_ROWS, SERIES_STRESS,
+             SERIES_PHASE, STRESS, PHASE, SNAPSHOTS, SLIPS, FRONTS, LOG, META)
 #: what the analysis writes
 ANALYSIS_FILES = (SUMMARY, EVENTS, EVENTS_PARQUET, PSI, CLUSTERS)
 #: what ``bkflow movie`` draws from a run's fronts (one pair per slip asked for)
@@ -424,8 +430,9 @@ class RunDir:
         names = {n for n in names if n not in SIGNAC_FILES and not bookkeeping(n)}
         if not names:
             return None
-        if {PARAMS, STRESS} <= names:
-            return f"holds a run made with lmp -in {DECK} ({PARAMS}, {STRESS})"
+        for made in (EXTREMA, STRESS):
+            if {PARAMS, made} <= names:
+                return f"holds a run made with lmp -in {DECK} ({PARAMS}, {made})"
         if PARAMS in names or DECK in names:
             deck = ", ".join(sorted(names & {DECK, DATA, PARAMS}))
             return f"holds a deck written by bkflow deck ({deck})"
@@ -552,17 +559,17 @@ class RunDir:
                 raise DamagedRunError(f"{self.path}: its records ({EXTREMA}, {BLOCKS}) are "
                                       f"damaged ({exc}); run the run again") from None
             return red
-        _, sigma = self.read_stress()
-        phase = self.read_phase()
-        ledger = self.read_ledger() if spec.writes_energy else None
+        _, sigma = self.read_stress(spec)
+        phase = self.read_phase(spec)
+        ledger = self.read_ledger(spec) if spec.writes_energy else None
         return reduced.from_series(sigma, *args[:3], args[3], phase, spec.phase_nevery, ledger)
 
     def stress_outline(self, spec: RunSpec) -> tuple[np.ndarray, np.ndarray]:
         """sigma_x(t) as the run kept it: the raw series where its scene wrote it (series,
         full), else its turning points (``EXTREMA``: every maximum and minimum of the drops
         above the extrema threshold, the stick-slip's outline)."""
-        if self.file(STRESS).exists():
-            return self.read_stress()
+        if self.file(SERIES_STRESS).exists() or self.file(STRESS).exists():
+            return self.read_stress(spec)
         red = self.read_reduced(spec)
         return red.sample_index() * spec.stress_nevery * spec.dt, \
             np.asarray(red.extrema["sigma"], float)
@@ -571,13 +578,28 @@ class RunDir:
         """The contacts' phase statistics as the run kept them: the raw series where its
         scene wrote it (phase.csv), else their means over the blocks (``BLOCKS``); None
         without phases."""
-        if self.file(PHASE).exists() or not self.file(BLOCKS).exists():
-            return self.read_phase()
+        if self.file(SERIES_PHASE).exists() or self.file(PHASE).exists() or \
+                not self.file(BLOCKS).exists():
+            return self.read_phase(spec)
         _, _, phase = self.read_reduced(spec).series()
         return phase
 
-    def read_stress(self) -> tuple[np.ndarray, np.ndarray]:
-        """The stress series: (t, sigma_x)."""
+    def _series(self, name: str, spec: RunSpec | None = None):
+        """A raw series' records (stress.npy, phase.npy) and the time step of ``spec`` (the
+        run's own by default)."""
+        try:
+            r = np.load(io.regular(self.file(name)), allow_pickle=False)
+        except (ValueError, EOFError) as exc:
+            raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
+                                  "again") from None
+        return r, (spec or self.spec()).dt
+
+    def read_stress(self, spec: RunSpec | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The raw stress series: (t, sigma_x) (stress.npy; stress.csv of an older run).
+        ``spec``: the run's parameters where the directory has no record of them."""
+        if self.file(SERIES_STRESS).exists():
+            r, dt = self._series(SERIES_STRESS, spec)
+            return np.asarray(r["step"], float) * dt, np.asarray(r["sigma"], float)
         try:
             c = io.read_columns(self.file(STRESS), ("t", "sigma_x"))
         except FileNotFoundError:
@@ -586,9 +608,15 @@ class RunDir:
             raise DamagedRunError(f"{self.file(STRESS)} is damaged ({exc})") from None
         return c["t"], c["sigma_x"]
 
-    def read_ledger(self) -> dict | None:
+    def read_ledger(self, spec: RunSpec | None = None) -> dict | None:
         """The breaks and the energy ledger at every stress sample (stress.csv of a scene that
         keeps it: ``LEDGER_COLUMNS``), or None."""
+        if self.file(SERIES_STRESS).exists():
+            r, dt = self._series(SERIES_STRESS, spec)
+            if "work" not in (r.dtype.names or ()):
+                return None
+            return {"t": np.asarray(r["step"], float) * dt,
+                    **{c: np.asarray(r[c], float) for c in LEDGER_COLUMNS}}
         path = self.file(STRESS)
         with open(path, "rb") as f:
             head = f.readline().decode(errors="replace").strip().split(",")
@@ -610,9 +638,13 @@ class RunDir:
                                   f"{ledger['t'][bad][0]:g}); run the run again")
         return ledger
 
-    def read_phase(self):
+    def read_phase(self, spec: RunSpec | None = None):
         """The contacts' phase series (phase.csv): a dict of float columns t, R, Z_re, Z_im,
         R2, u_mean, u_std; None for a run made before bkflow recorded it."""
+        if self.file(SERIES_PHASE).exists():
+            r, dt = self._series(SERIES_PHASE, spec)
+            return {"t": np.asarray(r["step"], float) * dt,
+                    **{c: np.asarray(r[c], float) for c in PHASE_COLUMNS[1:]}}
         if not self.file(PHASE).exists():
             if PHASE in ((self.meta() or {}).get("file_bytes") or {}):
                 raise DamagedRunError(f"{self.file(PHASE)} is missing (meta.json lists it)")
@@ -621,15 +653,6 @@ class RunDir:
             return io.read_columns(self.file(PHASE), PHASE_COLUMNS)
         except ValueError as exc:
             raise DamagedRunError(f"{self.file(PHASE)} is damaged ({exc})") from None
-
-    def stress_reader(self) -> CsvTail:
-        """An incremental reader of the stress series of a run in progress (t, sigma_x)."""
-        return CsvTail(self.file(STRESS), 2)
-
-    def phase_reader(self) -> CsvTail:
-        """An incremental reader of the phase series of a run in progress
-        (``PHASE_COLUMNS``)."""
-        return CsvTail(self.file(PHASE), len(PHASE_COLUMNS))
 
     def read_snapshots(self, n_atoms: int) -> io.Frames:
         return self._frames(SNAPSHOTS, n_atoms)
@@ -828,35 +851,6 @@ class RunDir:
                 out[c] = rows[c][keep]
             return pd.DataFrame(out)
         return io.read_table(self._checked(CLUSTERS)) if self.file(CLUSTERS).exists() else None
-
-
-class CsvTail:
-    """Reads the lines a running LAMMPS appended to one of its CSV series (stress.csv,
-    phase.csv) since the last call (whole lines only), so that a check during a run costs
-    what the new samples cost: ``new`` returns an array (rows, columns) of floats, the first
-    ``n_columns`` of each line (stress.csv has the ledger's after t and sigma_x in the scenes
-    that keep it)."""
-
-    def __init__(self, path, n_columns: int):
-        self.path = Path(path)
-        self.n_columns = n_columns
-        self.offset = 0
-
-    def new(self) -> np.ndarray:
-        with open(self.path, "rb") as f:
-            f.seek(self.offset)
-            chunk = f.read()
-        end = chunk.rfind(b"\n") + 1
-        self.offset += end
-        body = chunk[:end]
-        if body[:1].isalpha():  # the header
-            body = body[body.find(b"\n") + 1:]
-        if not body.strip():
-            return np.empty((0, self.n_columns))
-        import io as _io
-
-        return np.loadtxt(_io.BytesIO(body), delimiter=",", ndmin=2,
-                          usecols=range(self.n_columns))
 
 
 def sweep_run_dir(root, job_id: str) -> RunDir:
