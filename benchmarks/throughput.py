@@ -259,7 +259,7 @@ def compare_output(a) -> None:
         stress = str(work / STRESS)
         old = (f'fix stressp all print {spec.stress_nevery} "$(time:%.10g),'
                f'$(f_{SUBSTRATE_FIX}[1]:%.17g)" file {stress} screen no title "t,sigma_x"\n')
-        base = setup_text(spec, DeckOptions(data=data, stress=None, extrema=None, psi=None,
+        base = setup_text(spec, DeckOptions(data=data, stress=None, blocks=None, psi=None,
                                             thermo_every=10**7))
         m = alternated({"none": base,
                         "bk/stress": setup_text(spec, DeckOptions(data=data, stress=stress,
@@ -281,7 +281,7 @@ def compare_schemes(a) -> None:
             old = new.replace(contact_rule="reset/step", damping="half")
             data = _write_data(work, new)
             steps = max(200, int((a.atom_steps or 2e7) / new.N))
-            quiet = DeckOptions(data=data, stress=None, extrema=None, psi=None,
+            quiet = DeckOptions(data=data, stress=None, blocks=None, psi=None,
                                 thermo_every=10**7)
             m = alternated({"new": setup_text(new, quiet), "old": setup_text(old, quiet)},
                             steps, a.rounds, work)

@@ -21,7 +21,8 @@
      (fix bk/phase's quantities); with `energy` the breaks and the ledger at the block's last
      sample. The last record is the block under way, rewritten until it is complete.
 
-   Both files are NumPy .npy files (numpy.load reads them): a 512-byte header that holds the
+   With `extrema none` only the blocks are kept (what a steady-state verdict reads: the
+   companion run of bkflow's steady protocol). Both files are NumPy .npy files (numpy.load reads them): a 512-byte header that holds the
    number of records, rewritten with the records at every flush (the end of every run
    command, and at most a second after the last write). Only rank 0 writes; the sums are the
    substrate fix's, reduced over ranks. The state (the zigzag's running extrema, the block
@@ -110,8 +111,9 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
   restart_global = 1;
   last_write = std::chrono::steady_clock::now();
 
+  with_extrema = strcmp(extrema_name, "none") != 0;
   if (comm->me == 0) {
-    open(extrema, extrema_name);
+    if (with_extrema) open(extrema, extrema_name);
     open(blocks, blocks_name);
   }
 }
@@ -164,7 +166,7 @@ void FixBKReduce::sample()
 
   // the zigzag: a maximum is final once sigma_x fell from it by more than the threshold, a
   // minimum once it rose again by more
-  switch (zigzag.feed(sigma, step)) {
+  switch (with_extrema ? zigzag.feed(sigma, step) : BKZigzag::NONE) {
     case BKZigzag::NEW_MAX:
       std::memcpy(ledger_max, ledger_now, sizeof ledger_now);
       break;
@@ -230,7 +232,7 @@ void FixBKReduce::post_run()
 void FixBKReduce::write_out()
 {
   last_write = std::chrono::steady_clock::now();
-  if (zigzag.step_max >= 0) {
+  if (with_extrema && zigzag.step_max >= 0) {
     const bool falling = zigzag.falling;
     extrema.pending.assign({as_double(falling ? zigzag.step_min : zigzag.step_max),
                             falling ? zigzag.smin : zigzag.smax});

@@ -26,6 +26,7 @@ class FixBKReduce : public FixBKReader {
  private:
   static constexpr int NLEDGER = 8;
   int with_energy = 0, with_phase = 0;
+  int with_extrema = 1;    // `extrema none`: the blocks only (a companion run's)
   bigint phase_every = 0, block = 0;
   BKZigzag zigzag;
   double ledger_now[NLEDGER] = {}, ledger_max[NLEDGER] = {}, ledger_min[NLEDGER] = {};

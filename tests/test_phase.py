@@ -33,7 +33,7 @@ def _plugin_phases(spec, workdir, path, lattice, v0, steps=STEPS):
     lmp = open_lammps()
     try:
         lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None,
-                                                         extrema=None, psi=None,
+                                                         blocks=None, psi=None,
                                                          phase="phase.csv", thermo_every=10**6,
                                                          path=path)))
         lmp.command(f"displace_atoms all move {-PRELOAD!r} 0 0")
@@ -129,7 +129,7 @@ def test_two_ranks_record_the_phases_of_one_rank(lammps, start, path, workdir):
     (workdir / "data.bk").write_text(data_text(spec, lattice, v0))
     runs = {}
     for ranks in (1, 2):
-        deck = setup_text(spec, DeckOptions(stress=None, extrema=None, psi=None,
+        deck = setup_text(spec, DeckOptions(stress=None, blocks=None, psi=None,
                                             phase=f"phase.{ranks}.csv",
                                             thermo_every=10**6,
                                             path="auto" if ranks == 1 else path))
@@ -154,7 +154,7 @@ def test_a_restart_continues_the_phase_series(lammps, path, workdir):
     whole = _plugin_phases(spec, workdir, path, lattice, v0)
 
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data=str(data), stress=None, blocks=None,
                                                      psi=None,
                                                      phase="first.csv", thermo_every=10**6,
                                                      path=path)))
@@ -164,7 +164,7 @@ def test_a_restart_continues_the_phase_series(lammps, path, workdir):
     lmp.close()
     lmp = open_lammps()
     lmp.commands_string(continue_text(spec, "half.restart",
-                                      DeckOptions(data="", stress=None, extrema=None, psi=None,
+                                      DeckOptions(data="", stress=None, blocks=None, psi=None,
                                                   phase="second.csv",
                                                   thermo_every=10**6, path=path)))
     lmp.command(f"run {STEPS // 2}")

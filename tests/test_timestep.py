@@ -56,7 +56,7 @@ def test_both_paths_run_the_rules_step(path, phi, workdir, lammps):
     spec = RunSpec(phi=phi, Lx=6, Ly=3, seed=2)
     (workdir / "data.bk").write_text(data_text(spec))
     lmp = open_lammps()
-    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, extrema=None,
+    lmp.commands_string(setup_text(spec, DeckOptions(data="data.bk", stress=None, blocks=None,
                                                      psi=None, phase=None,
                                                      thermo_every=10**6, path=path)))
     lmp.command("run 10")

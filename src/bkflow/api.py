@@ -27,7 +27,6 @@ from .io import shell_word
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
 from .rundir import AnalysisError, DamagedRunError, RunDir, sweep_run_dir
-from .tables import CATALOGUE_PARQUET, StaleTablesError
 
 
 class Run:
@@ -227,19 +226,20 @@ class Sweep:
 
     @property
     def events(self) -> pd.DataFrame | None:
-        """The sweep's event catalogue (catalogue.parquet): one row per slip of every run,
-        the run's job id and parameters first (None when no run has events)."""
-        from .tables import check_tables
+        """The sweep's event catalogue: one row per slip of every run in runs.csv, the run's
+        job id and parameters first (None when no run has events), made from the runs' own
+        catalogues (workspace/JOB/events.parquet: stored once; DuckDB or polars read them
+        there too, with runs.csv's job column to join the parameters)."""
+        from .rundir import SIGNAC_FILES
+        from .tables import catalogue_table, check_tables
 
-        path = self.path / CATALOGUE_PARQUET
-        if not path.exists():
-            return None
-        check_tables(self.path)   # the catalogue the last collect wrote, or a typed error
-        df = pd.read_parquet(io.regular(path), engine="pyarrow")
-        if "job" not in df:
-            raise StaleTablesError(f"{path} has no column job: not a catalogue of bkflow's; "
-                                   f"bkflow collect {shell_word(self.path)} writes it again")
-        return df[df.job.isin(set(self.runs.job))].reset_index(drop=True)
+        check_tables(self.path)   # runs.csv as the last collect wrote it, or a typed error
+        parts = []
+        for job in self.runs.job:
+            rd = sweep_run_dir(self.path, job)
+            statepoint = io.read_json(rd.file(SIGNAC_FILES[0]))
+            parts.append((job, statepoint, rd.read_events() if rd.has_events() else None))
+        return catalogue_table(parts)
 
     #: the figures ``figure`` draws (short names work too: fig2a, drops)
     figures = tuple(FIGURES)

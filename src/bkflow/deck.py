@@ -69,6 +69,8 @@ class DeckOptions:
     path: str = "auto"
     fast: bool | None = None
     data: str = DATA
+    #: fix bk/reduce's records (None: no fix bk/reduce; extrema None: the blocks only, what a
+    #: companion run keeps)
     extrema: str | None = EXTREMA
     blocks: str | None = BLOCKS
     stress: str | None = SERIES_STRESS
@@ -268,31 +270,33 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
     order:    + ``fix bk/psi``: Psi(t) computed in the run every snapshot_nevery steps
               (``psi.npy``), for its late-time plateau.
     clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples
-              of stress.csv, keeps in memory a copy of the positions at the running maximum and
-              minimum, and writes the two frames of each slip (maximum, following minimum) once
-              the slip is confirmed, so the file holds two frames per slip after the transient
-              rather than every step. The same zigzag rule finds the events again in stress.csv
-              (bkflow.stress.slip_events), which is how each pair is matched to its event.
-    events:   the clusters scene, with the energy ledger (fix bk/substrate ``energy``; stress.csv
-              gets the breaks and the ledger's columns) and each contact's first break in every
-              slip (fix bk/slips ``breaks``): what the event catalogue needs
-              (``catalogue.parquet``; bkflow.catalogue).
+              of the records, keeps in memory a copy of the positions at the running maximum
+              and minimum, and writes the two frames of each slip (maximum, following minimum)
+              once the slip is confirmed, so the file holds two frames per slip after the
+              transient rather than every step. The same zigzag rule finds the events again in
+              the records (bkflow.reduced), which is how each pair is matched to its event.
+    events:   the clusters scene, with the energy ledger (fix bk/substrate ``energy``; the
+              records get the breaks and the ledger at every extremum and block end) and each
+              contact's first break in every slip (fix bk/slips ``breaks``): what the event
+              catalogue needs (``events.parquet``; bkflow.catalogue).
     fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
               of every particle at every sample from each slip's maximum to its minimum
               (float32, binary), to follow rupture fronts; only one event is held in memory.
-    figures:  order and clusters together: what the sweep's table and bkflow plot's figures
-              show (the default).
+    figures:  order, and the slips as in clusters but reduced in the run: ``fix bk/slips
+              catalogue`` computes each slip's row of the catalogue and its clusters from the
+              two frames (``slips.npy``, ``clusters.npy``) and writes no frames: what the
+              sweep's table and bkflow plot's figures show (the default).
     full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only), the raw
               series with the ledger included, and whole position frames every
               snapshot_nevery steps (``snapshots.lammpstrj``, for OVITO and the like).
     """
     lines = []
     more = " append" if files.append_from is not None else ""
-    if files.extrema:
+    if files.blocks:
         lines += [  # what the analysis reads of sigma_x and the phases, reduced in the run
             f"fix             reduce all bk/reduce {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"threshold {_f(spec.extrema_threshold_stress)} block {spec.block_nevery} "
-            f"extrema {files.extrema} blocks {files.blocks}"
+            f"extrema {files.extrema or 'none'} blocks {files.blocks}"
             + (f" phase {spec.phase_nevery}" if contact else "")
             + (" energy" if _energy(spec, files) else "") + more,
         ]

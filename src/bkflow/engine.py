@@ -127,8 +127,9 @@ class AdaptiveStop:
             return False
         self.checks += 1
         red = self.rd.read_reduced(spec)
-        ev = red.events(spec.slip_threshold_stress)
-        self.fail, self.t_fail = ev.sigma_fail, ev.t_max
+        if red.has_extrema:
+            ev = red.events(spec.slip_threshold_stress)
+            self.fail, self.t_fail = ev.sigma_fail, ev.t_max
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
         self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
@@ -535,10 +536,12 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
             if prior is None:
                 comp.path.mkdir()
                 comp.mark()
-            legs.append(_Leg(spec.companion_spec, comp, options))
+            # the companion keeps what the pair's verdict reads of it: its blocks, not its
+            # extrema (the pair's slips are the main run's)
+            legs.append(_Leg(spec.companion_spec, comp, options.replace(extrema=None)))
         if prior is None:
             for leg in legs:
-                _write_inputs(leg.spec, leg.rd, options)
+                _write_inputs(leg.spec, leg.rd, leg.options)
         started = time.time() if prior is None else prior.get("started_epoch", time.time())
         bar = _Progress(spec.label, spec.n_steps, progress)
         try:

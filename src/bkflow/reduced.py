@@ -44,10 +44,11 @@ class ReducedError(ValueError):
 @dataclass(frozen=True)
 class Reduced:
     """A run's reduced records: ``extrema`` and ``blocks`` (structured arrays, the fields of
-    fix bk/reduce), the steps between stress samples (``nevery``) and per block (``block``),
-    the time step, and the zigzag threshold of the extrema (stress units)."""
+    fix bk/reduce; ``extrema`` None for a companion run, which keeps its blocks only), the
+    steps between stress samples (``nevery``) and per block (``block``), the time step, and
+    the zigzag threshold of the extrema (stress units)."""
 
-    extrema: np.ndarray
+    extrema: np.ndarray | None
     blocks: np.ndarray
     nevery: int
     block: int
@@ -60,8 +61,14 @@ class Reduced:
             len(self.blocks) and self.blocks["n_phase"].sum() > 0)
 
     @property
+    def has_extrema(self) -> bool:
+        """Whether the run recorded its turning points (a companion run keeps its blocks
+        only)."""
+        return self.extrema is not None
+
+    @property
     def has_ledger(self) -> bool:
-        return "work" in (self.extrema.dtype.names or ())
+        return self.has_extrema and "work" in (self.extrema.dtype.names or ())
 
     @property
     def n_samples(self) -> int:
@@ -79,6 +86,9 @@ class Reduced:
     def events(self, threshold: float) -> SlipEvents:
         """The slips of the run at ``threshold`` (stress units, at least the recorded one):
         what ``bkflow.stress.slip_events`` finds in the whole series."""
+        if not self.has_extrema:
+            raise ReducedError("the run kept no record of its slips (a companion run keeps its "
+                               "blocks only: the pair's slips are the main run's)")
         if not threshold >= self.threshold * (1 - 1e-12):
             raise ReducedError(
                 f"the run recorded its slips down to a threshold of {self.threshold:.6g} (stress "
@@ -227,6 +237,6 @@ def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
          threshold: float) -> Reduced:
     """The records of a run (``numpy.load``; a record cut short raises ValueError). The
     reader checks the paths first (``bkflow.rundir``: a FIFO is refused, never waited on)."""
-    ext = np.load(extrema_path, allow_pickle=False)
+    ext = np.load(extrema_path, allow_pickle=False) if extrema_path is not None else None
     blk = np.load(blocks_path, allow_pickle=False)
     return Reduced(ext, blk, nevery, block, dt, float(threshold))

@@ -546,10 +546,13 @@ class RunDir:
         from . import reduced
 
         args = (spec.stress_nevery, spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
-        if self.file(EXTREMA).exists() or not self.file(STRESS).exists():
+        if self.file(BLOCKS).exists() or not self.file(STRESS).exists():
             try:
-                red = reduced.load(io.regular(self.file(EXTREMA)), io.regular(self.file(BLOCKS)),
-                                   *args)
+                # a companion keeps its blocks only (no extrema.npy; a finished run's
+                # missing file is found by problem() before)
+                red = reduced.load(io.regular(self.file(EXTREMA))
+                                   if self.file(EXTREMA).exists() else None,
+                                   io.regular(self.file(BLOCKS)), *args)
             except FileNotFoundError:
                 raise
             except (ValueError, OSError, EOFError) as exc:

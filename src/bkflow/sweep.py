@@ -335,7 +335,7 @@ def _collect(project, settings, jobs) -> Collection:
     done = [j for j in all_jobs if finished(j)]
     runs, results = write_tables(
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
-        settings.to_dict(), [(j.id, j.cached_statepoint, _events_of(j)) for j in done])
+        settings.to_dict())
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
     damaged = []
     for j in all_jobs:
@@ -347,11 +347,6 @@ def _collect(project, settings, jobs) -> Collection:
     retired = retire_figures(project.path)
     return Collection(len(all_jobs), len(done), failed,
                       [j.id for j in stale if finished(j)], runs, results, retired, damaged)
-
-
-def _events_of(job):
-    rd = RunDir(job.path)
-    return rd.read_events() if rd.has_events() else None
 
 
 def available_cores() -> int:

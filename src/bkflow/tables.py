@@ -17,9 +17,9 @@ from .states import STATE_NAMES, SWITCHING
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
-#: the sweep's event catalogue: every run's events, the run's job id and parameters first
-#: (typed and columnar, Parquet; catalogue.csv is what bkflow wrote before 0.5, removed by
-#: the next collect)
+#: the sweep's event catalogue as bkflow wrote it before 0.5 (a copy of its runs'
+#: events.parquet with their parameters, CSV and Parquet): removed by the next collect; the
+#: catalogue is now made from the runs' own when asked for (``bkflow.api.Sweep.events``)
 CATALOGUE_FILE, CATALOGUE_PARQUET = "catalogue.csv", "catalogue.parquet"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"
@@ -176,23 +176,21 @@ def varied_parameters(results: pd.DataFrame) -> list[str]:
             and results[f].astype(str).nunique(dropna=False) > 1]
 
 
-def write_tables(root, finished_runs, settings: dict,
-                 run_events=None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Write the sweep's tables into ``root`` as one set: runs.csv, results.csv and the event
-    catalogue (``write_catalogue``, from ``run_events``) first, then analysis.json, the
-    record of the set: the settings they were made under and the size and digest of each. A
-    collect cut short (a full disk, Ctrl-C) leaves the record of the set before, which the
-    new tables no longer match: readers refuse them (``tables_problem``), and the next
-    collect writes the set again."""
+def write_tables(root, finished_runs, settings: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Write the sweep's tables into ``root`` as one set: runs.csv and results.csv first
+    (and an older bkflow's copy of the event catalogue removed: the runs' own are the
+    catalogue), then analysis.json, the record of the set: the settings they were made under
+    and the size and digest of each. A collect cut short (a full disk, Ctrl-C) leaves the
+    record of the set before, which the new tables no longer match: readers refuse them
+    (``tables_problem``), and the next collect writes the set again."""
     runs = runs_table(finished_runs)
     results = results_table(runs)
     root = Path(root)
     io.write_table(root / RUNS_FILE, runs)
     io.write_table(root / RESULTS_FILE, results)
-    if run_events is not None:
-        write_catalogue(root, run_events)
-    members = [n for n in (RUNS_FILE, RESULTS_FILE, CATALOGUE_FILE, CATALOGUE_PARQUET)
-               if (root / n).is_file()]
+    for name in (CATALOGUE_FILE, CATALOGUE_PARQUET):
+        (root / name).unlink(missing_ok=True)
+    members = [n for n in (RUNS_FILE, RESULTS_FILE) if (root / n).is_file()]
     io.write_json_atomic(root / SETTINGS_FILE, {
         **settings, TABLES_KEY: {n: io.file_record(root / n) for n in members}})
     return runs, results
@@ -265,19 +263,6 @@ def catalogue_table(run_events) -> pd.DataFrame | None:
     if not parts:
         return None
     return typed(pd.concat(parts, ignore_index=True))
-
-
-def write_catalogue(root, run_events) -> pd.DataFrame | None:
-    """Write the sweep's event catalogue (``catalogue_table``) as Parquet into ``root`` (a
-    table for programs: stored once); remove an old one when there is no event."""
-    table = catalogue_table(run_events)
-    root = Path(root)
-    (root / CATALOGUE_FILE).unlink(missing_ok=True)
-    if table is None:
-        (root / CATALOGUE_PARQUET).unlink(missing_ok=True)
-        return None
-    io.write_parquet(root / CATALOGUE_PARQUET, table)
-    return table
 
 
 def read_tables(root) -> tuple[pd.DataFrame, pd.DataFrame]:
