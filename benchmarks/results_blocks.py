@@ -435,7 +435,50 @@ def scene_bytes() -> str:
     return "\n".join(out)
 
 
-BLOCKS = {"scene-bytes": scene_bytes,
+def scene_goals() -> str:
+    """Issue 32's goals against the records: the main command's bytes (readme_numbers.json,
+    before and after), a run of 10^6 time units at phi = 1000 (scene_bytes.json ``long``), the
+    costliest scene without frames against friction, the analysis against the simulation."""
+    from readme_numbers import duration, human
+
+    rec = _record("scene_bytes") or {}
+    hist = _readme_record().get("sweep_history", [])
+    before = next((h for h in hist if h["commit"] == "43a0f39"), None)
+    now = hist[-1] if hist else None
+    frames = ("order", "clusters", "figures", "events", "fronts", "full")
+    no_frames = [(size, scene, r["loop_over_friction"])
+                 for size, m in rec.get("sizes", {}).items()
+                 for scene, r in m["scenes"].items()
+                 if scene not in frames and scene != "friction"]
+    worst = max(no_frames, key=lambda x: x[2]) if no_frames else None
+    default = [(size, m["scenes"]["figures"]) for size, m in rec.get("sizes", {}).items()
+               if "figures" in m["scenes"]]
+    long = rec.get("long")
+
+    def met(ok):
+        return "**met**" if ok else "**not met**"
+
+    rows = ["| goal | measured | |", "|---|---|---|"]
+    if before and now:
+        rows.append(f"| the main command writes at most 50 MB | {human(now['bytes'])} in "
+                    f"{duration(now['wall_s'])} (before: {human(before['bytes'])} in "
+                    f"{duration(before['wall_s'])}) | {met(now['bytes'] <= 50e6)} |")
+    if long:
+        rows.append(f"| 10^6 time units at phi = 1000 in the default scene: at most 5 MB | "
+                    f"{human(long['bytes_written'])} | {met(long['bytes_written'] <= 5e6)} |")
+    if worst:
+        rows.append(f"| no scene above 1.1x friction unless it records frames | the costliest "
+                    f"without frames: {worst[1]} at {worst[0]}, {worst[2]:.2f}x | "
+                    f"{met(worst[2] <= 1.1)} |")
+    for size, r in default:
+        ratio = r["analyze_s"] / r["loop_s"]
+        rows.append(f"| the analysis at most a fifth of the simulation | {size}, default scene: "
+                    f"`bkflow analyze` {r['analyze_s']:.2f} s against the loop's "
+                    f"{r['loop_s']:.2f} s ({ratio:.2f}) | {met(ratio <= 0.2)} |")
+    return "\n".join(rows) + "\n"
+
+
+BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,

@@ -315,7 +315,7 @@ void FixBKReduce::restart(char *buf)
   blocks.nfinal = blocks.nrecords = static_cast<bigint>(s[j++]);
   if (comm->me == 0)
     for (BKNpy *f : {&extrema, &blocks})
-      if (!f->holds_final())
+      if (f->fp && !f->holds_final())
         error->one(FLERR, "fix bk/reduce: {} holds fewer records than the restart file says "
                    "were written: it is not this run's", f->name);
 }

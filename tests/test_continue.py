@@ -54,7 +54,9 @@ def test_a_capped_pair_continued_is_the_pair_with_the_larger_cap(tmp_path):
     fresh = run(longer, tmp_path / "fresh", progress=False).meta
     assert meta["adaptive"]["t_run"] == fresh["adaptive"]["t_run"]
     _same(tmp_path / "c", tmp_path / "fresh")
-    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion")
+    # the companion keeps its blocks only
+    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion", ("blocks.npy", "in.bk"))
+    assert not (tmp_path / "c" / "companion" / "extrema.npy").exists()
 
 
 def test_a_continuation_cut_short_is_undone(tmp_path):

@@ -559,7 +559,7 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
                 leg.close()
         if step != spec.n_steps or prior is not None:  # the decks say what ran, from t = 0
             for leg in legs:
-                _write_inputs(leg.spec, leg.rd, options, steps=step)
+                _write_inputs(leg.spec, leg.rd, leg.options, steps=step)
         if _RUNS_IN_PROCESS["pid"] != os.getpid():
             _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
         process = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
