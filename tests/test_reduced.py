@@ -269,3 +269,28 @@ def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path
               "eq2_estimate"):
         np.testing.assert_allclose(clusters[c].astype(float), np.asarray(per[c], float),
                                    rtol=1e-10, atol=1e-12, err_msg=c)
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("lammps")
+def test_a_long_run_on_a_small_lattice_stays_under_its_byte_budget(tmp_path):
+    """10^6 time units at phi = 1000 in the default scene on a 4 x 3 lattice: the run writes
+    at most what bkflow.limits budgets for it (a few tens of bytes a time unit, whatever the
+    length: every record grows with the slips, none with the samples), and its analysis
+    reads back every slip."""
+    from bkflow import limits
+
+    spec = RunSpec(phi=1000.0, Lx=4, Ly=3, seed=1, t_end=1e6, **{
+        k: v for k, v in protocol_fields("paper").items() if k != "t_end"})
+    assert spec.scene == "figures"
+    res = run(spec, tmp_path, progress=False)
+    written = res.meta["bytes_written"]
+    budget = limits.cost(spec).disk_bytes
+    assert written <= budget <= 60e6, (written, budget)
+    grows = {n: b for n, b in res.meta["file_bytes"].items() if n.endswith(".npy")}
+    per_t = sum(grows.values()) / spec.t_end
+    assert per_t <= limits.RECORD_BYTES_PER_T + limits.SLIP_ROW_BYTES_PER_T + 1, grows
+    from bkflow.analysis import analyze
+
+    s = analyze(tmp_path)
+    assert s["n_slips"] > 1000 and s["n_cluster_events"] == s["n_slips"]

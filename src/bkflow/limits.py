@@ -67,12 +67,15 @@ class Cost:
                     big.record_memory)
 
 
-#: bytes a run's reduced records take per time unit, at most (extrema.npy: up to ~0.4 turning
+#: bytes a run's reduced records take per time unit, at most (extrema.npy: up to ~0.6 turning
 #: points a time unit at the extrema threshold, 16 bytes each, 80 with the ledger; blocks.npy:
-#: 80 bytes a block of BLOCK_EVERY, 144 with the ledger); benchmarks/RESULTS.md "What a scene
-#: costs"
+#: 80 bytes a block of BLOCK_EVERY, 144 with the ledger); with the slips' rows of the default
+#: scene (slips.npy, clusters.npy: 96 and 80 bytes a slip, up to ~0.1 slips a time unit at
+#: phi = 1000) SLIP_ROW_BYTES_PER_T more; benchmarks/RESULTS.md "Skip what a scene doesn't
+#: need"
 RECORD_BYTES_PER_T = 16.0
-RECORD_BYTES_PER_T_LEDGER = 40.0
+RECORD_BYTES_PER_T_LEDGER = 60.0
+SLIP_ROW_BYTES_PER_T = 20.0
 
 
 def cost(spec: RunSpec) -> Cost:
@@ -81,10 +84,12 @@ def cost(spec: RunSpec) -> Cost:
     samples = steps / spec.stress_nevery + 1
     psi = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
     snapshots = psi if spec.writes_frames else 0
-    slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slips else 0
+    slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slip_frames else 0
     frames, frame_memory = 50.0 * n * (snapshots + slips), 16.0 * n * max(snapshots, slips)
     runs = 1 if spec.companion is None else 2  # the companion: its records, its data
     per_t = RECORD_BYTES_PER_T_LEDGER if spec.writes_energy else RECORD_BYTES_PER_T
+    if spec.writes_slips and not spec.writes_slip_frames:
+        per_t += SLIP_ROW_BYTES_PER_T
     records = per_t * spec.t_end + 16.0 * psi
     series = 60.0 * samples if spec.writes_series else 0.0   # stress.csv and phase.csv
     disk = runs * (per_t * spec.t_end + 120.0 * n) + 16.0 * psi + series + frames
