@@ -473,8 +473,13 @@ def scene_goals() -> str:
     for size, r in default:
         ratio = r["analyze_s"] / r["loop_s"]
         rows.append(f"| the analysis at most a fifth of the simulation | {size}, default scene: "
-                    f"`bkflow analyze` {r['analyze_s']:.2f} s against the loop's "
-                    f"{r['loop_s']:.2f} s ({ratio:.2f}) | {met(ratio <= 0.2)} |")
+                    f"`bkflow analyze` (a process of its own) {r['analyze_s']:.2f} s against "
+                    f"the loop's {r['loop_s']:.2f} s ({ratio:.2f}) | {met(ratio <= 0.2)} |")
+    for size, r in sorted(rec.get("warm", {}).items(), key=lambda kv: len(kv[0])):
+        ratio = r["analyze_s"] / r["loop_s"]
+        rows.append(f"| | {size}, default scene, t_end {r['t_end']:g}: the analysis where its "
+                    f"imports are paid (a sweep's warm worker) {r['analyze_s']:.2f} s against "
+                    f"the loop's {r['loop_s']:.2f} s ({ratio:.2f}) | {met(ratio <= 0.2)} |")
     return "\n".join(rows) + "\n"
 
 

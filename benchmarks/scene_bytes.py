@@ -11,6 +11,7 @@ benchmarks/records/scene_bytes.json (resumable: a size already measured is kept 
   median of the rounds, each round every scene in turn (the machine's noise is shared);
 - ``bkflow analyze`` as a process of its own against the run's loop.
 
+``--warm`` times the analysis of a default-scene run in a process whose imports are paid.
 ``--long`` adds one run of 10^6 time units at phi = 1000, N = 100, in the default scene (the
 issue's byte budget: 5 MB).
 
@@ -93,12 +94,36 @@ def long_run(work: Path) -> dict:
             "files": files, "loop_s": meta["wall_time_s"], "whole_s": whole}
 
 
+def warm_analysis(size: str, phi: float, t_end: float, work: Path, rounds: int = 3) -> dict:
+    """The analysis of a default-scene run in a process whose imports are paid (a sweep's
+    warm worker, a notebook): ``bkflow.analysis.analyze`` timed in-process after a first
+    call, the median of ``rounds``, against the run's LAMMPS loop."""
+    from bkflow.analysis import analyze
+
+    bkflow = str(Path(sys.executable).parent / "bkflow")
+    out = work / f"warm-{size}"
+    subprocess.run([bkflow, "run", "--phi", repr(phi), "--size", size, "--t-end", repr(t_end),
+                    "--protocol", "paper", "--no-analyze", "--quiet", "--overwrite", "--out",
+                    str(out)], check=True, capture_output=True, timeout=7200)
+    analyze(out)   # the imports, paid once
+    times = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        analyze(out)
+        times.append(time.perf_counter() - t0)
+    meta = json.loads((out / "meta.json").read_text())
+    return {"size": size, "phi": phi, "t_end": t_end, "analyze_s": statistics.median(times),
+            "loop_s": meta["wall_time_s"]}
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--sizes", nargs="+", default=list(T_END))
     ap.add_argument("--phi", type=float, default=100.0)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--long", action="store_true")
+    ap.add_argument("--warm", action="store_true",
+                    help="the analysis in a warm process (imports paid), per size")
     ap.add_argument("--again", action="store_true")
     a = ap.parse_args(argv)
     record = json.loads(RECORD.read_text()) if RECORD.exists() else {}
@@ -114,6 +139,12 @@ def main(argv=None) -> None:
         RECORD.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
         print(json.dumps({s: {k: v for k, v in r.items() if k != "files"}
                           for s, r in m["scenes"].items()}, indent=1))
+    if a.warm and ("warm" not in record or a.again):
+        record["warm"] = {size: warm_analysis(size, a.phi, T_END.get(size, 4000.0), work)
+                          for size in a.sizes}
+        record["provenance"] = provenance()
+        RECORD.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+        print(json.dumps(record["warm"], indent=1))
     if a.long and ("long" not in record or a.again):
         record["long"] = long_run(work)
         record["provenance"] = provenance()
