@@ -104,24 +104,28 @@ void FixBKSlips::init()
 
 void FixBKSlips::snapshot(std::vector<double> &buf)
 {
+  // every sample of a rising sigma_x is a new running maximum: this copy is the scene's cost,
+  // so it writes into a buffer of the right size, without a call per value
   const int nlocal = atom->nlocal;
   const int *mask = atom->mask;
   const tagint *tag = atom->tag;
   const imageint *image = atom->image;
   double **x = atom->x;
-  buf.clear();
-  buf.reserve(static_cast<size_t>(nlocal) * ncol);
+  buf.resize(static_cast<size_t>(nlocal) * ncol);
+  double *out = buf.data();
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
-    buf.push_back(static_cast<double>(tag[i]));
-    buf.push_back(x[i][0]);
-    buf.push_back(x[i][1]);
     bigint ix, iy;    // counted with the box lengths the substrate fix took out of them
     substrate->image_flags(image[i], &ix, &iy);
-    buf.push_back(static_cast<double>(ix));
-    buf.push_back(static_cast<double>(iy));
-    if (with_breaks) buf.push_back(substrate->first_break_of(i));
+    out[0] = static_cast<double>(tag[i]);
+    out[1] = x[i][0];
+    out[2] = x[i][1];
+    out[3] = static_cast<double>(ix);
+    out[4] = static_cast<double>(iy);
+    if (with_breaks) out[5] = substrate->first_break_of(i);
+    out += ncol;
   }
+  buf.resize(static_cast<size_t>(out - buf.data()));
 }
 
 std::vector<double> FixBKSlips::gather(const std::vector<double> &buf)
