@@ -53,7 +53,8 @@ struct BKNpy {
   {
     name = fname;
     fp = fopen(fname, appending ? "r+b" : "w+b");
-    return fp != nullptr;
+    // a new file is a valid .npy of no records from the start
+    return fp != nullptr && (appending || write());
   }
 
   void close()

@@ -56,6 +56,7 @@ FixBKPsi::FixBKPsi(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
   extscalar = 0;
   out.field("step", "<i8");
   out.field("psi", "<f8");
+  last_write = std::chrono::steady_clock::now();
   if (comm->me == 0) {
     if (!out.open(arg[7], appending))
       error->one(FLERR, "{} fix bk/psi: cannot open {}: {}", BK_ERR_CANNOT_OPEN, arg[7],
@@ -161,6 +162,14 @@ void FixBKPsi::sample()
     psi /= n;
     const double rec[2] = {BKNpy::as_double(static_cast<int64_t>(update->ntimestep)), psi};
     out.stage(rec, true);
+    // on disk at most a second after it is known (a deck cut short keeps what it computed)
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_write > std::chrono::seconds(1)) {
+      last_write = now;
+      if (!out.write())
+        error->one(FLERR, "{} fix bk/psi: writing {} failed: {}", BK_ERR_WRITE_FAILED,
+                   out.name, utils::getsyserror());
+    }
     MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
   } else {
     MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);

@@ -7,6 +7,7 @@
 #include "bk_npy.h"
 #include "fix.h"
 
+#include <chrono>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -29,6 +30,7 @@ class FixBKPsi : public Fix {
   bigint last_step = -1;
   double last_psi = 0.0;
   BKNpy out;
+  std::chrono::steady_clock::time_point last_write;
   std::vector<double> xy, all;    // the layer's unwrapped positions, by particle (2N)
 
   void sample();

@@ -248,6 +248,15 @@ void FixBKSlips::catalogue(const std::vector<double> &amax, const std::vector<do
                            BKNpy::as_double(c.n_y), c.l_x, c.l_y, c.slip, c.bond_change, c.eq2};
     cluster_rows.stage(crow, true);
   }
+  // on disk at most a second after they are known (a deck cut short keeps what it found)
+  const auto now = std::chrono::steady_clock::now();
+  if (now - rows_written > std::chrono::seconds(1)) {
+    rows_written = now;
+    for (BKNpy *f : {&slip_rows, &cluster_rows})
+      if (!f->write())
+        error->one(FLERR, "{} fix bk/slips: writing {} failed: {}", BK_ERR_WRITE_FAILED, f->name,
+                   utils::getsyserror());
+  }
 }
 
 // the base's file buffer and the two snapshots of local atoms

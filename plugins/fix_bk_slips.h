@@ -30,6 +30,7 @@ class FixBKSlips : public FixBKEvents {
   int frames = 1;    // frames written (`file none`: not)
   BKNpy slip_rows, cluster_rows;    // `catalogue`
   std::vector<BKCluster> found;
+  std::chrono::steady_clock::time_point rows_written = std::chrono::steady_clock::now();
 
   void sample() override;
   void snapshot(std::vector<double> &buf);

@@ -59,15 +59,20 @@ def test_a_capped_pair_continued_is_the_pair_with_the_larger_cap(tmp_path):
     assert not (tmp_path / "c" / "companion" / "extrema.npy").exists()
 
 
-def test_a_continuation_cut_short_is_undone(tmp_path):
-    short = _spec(t_end=1000.0)
+@pytest.mark.parametrize("scene", ["figures", "series"])
+def test_a_continuation_cut_short_is_undone(tmp_path, scene):
+    """Every record a continuation rewrites in place (its header, the record under way) comes
+    back as it was: the default scene's and the raw series' too."""
+    short = _spec(t_end=1000.0, scene=scene)
     run(short, tmp_path / "c", progress=False)
     rd = RunDir(tmp_path / "c")
     before = {p.name: p.read_bytes() for p in rd.path.iterdir() if p.is_file()}
+    records = sorted(n for n in before if n.endswith(".npy"))
+    assert len(records) >= 4, records
     # what an interrupted continuation leaves: its note, its records rewritten in place
     # (the header, the record under way) and added to, a restart file
     rd.begin_continuation()
-    for name in ("extrema.npy", "blocks.npy"):
+    for name in records:
         with open(rd.file(name), "r+b") as f:
             f.seek(100)
             f.write(b"rewritten")
@@ -78,6 +83,40 @@ def test_a_continuation_cut_short_is_undone(tmp_path):
     assert continuation(rd, short.replace(t_end=2000.0)) is not None
     after = {p.name: p.read_bytes() for p in rd.path.iterdir() if p.is_file()}
     assert after == before and not rd.file(CONTINUING).exists()
+
+
+def test_a_continuation_stopped_after_it_committed_is_kept(tmp_path):
+    """Killed between its record and its clean-up, a continuation is the run: the next
+    command finishes the clean-up and puts nothing of the shorter run back."""
+    short = _spec(t_end=1000.0, scene="figures")
+    run(short, tmp_path / "c", progress=False)
+    rd = RunDir(tmp_path / "c")
+    rd.begin_continuation()                       # the note and the shorter run's copies
+    note = rd.file(CONTINUING).read_text()
+    run(short.replace(t_end=2000.0), tmp_path / "c", progress=False)   # commits and cleans
+    rd.begin_continuation()
+    rd.file(CONTINUING).write_text(note)          # as if stopped before its clean-up
+    longer = {p.name: p.read_bytes() for p in rd.path.iterdir()
+              if p.is_file() and not p.name.startswith(".")}
+    assert rd.undo_continuation()
+    after = {p.name: p.read_bytes() for p in rd.path.iterdir()
+             if p.is_file() and not p.name.startswith(".")}
+    assert after == longer and rd.problem() is None
+    assert not list(rd.path.glob(".*before-continuing*"))
+
+
+def test_analyze_undoes_a_continuation_cut_short(tmp_path):
+    from bkflow.analysis import analyze
+
+    short = _spec(t_end=1000.0, scene="figures")
+    run(short, tmp_path / "c", progress=False)
+    first = analyze(tmp_path / "c")
+    rd = RunDir(tmp_path / "c")
+    rd.begin_continuation()
+    with open(rd.file("extrema.npy"), "ab") as f:
+        f.write(b"more records")
+    again = analyze(tmp_path / "c")
+    assert again["mu_bar"] == first["mu_bar"] and rd.problem() is None
 
 
 def test_nothing_is_continued_from_another_run(tmp_path):

@@ -294,3 +294,41 @@ def test_a_long_run_on_a_small_lattice_stays_under_its_byte_budget(tmp_path):
 
     s = analyze(tmp_path)
     assert s["n_slips"] > 1000 and s["n_cluster_events"] == s["n_slips"]
+
+
+@pytest.mark.usefixtures("lammps")
+def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
+    """A threshold below the recorded one: from the raw series where the scene kept it, refused
+    in one line naming scene series where not; the clusters of a re-analysis at another
+    threshold are that analysis's slips' (matched by maximum and minimum); a record damaged
+    in its header (a field renamed, another shape) is damage, not a crash; a companion's
+    stress is its blocks."""
+    from bkflow.analysis import analyze
+    from bkflow.api import load_run
+    from bkflow.params import AnalysisSettings
+    from bkflow.rundir import AnalysisError, DamagedRunError
+
+    base = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
+                      "t_end": 1500.0})
+    run(base.replace(scene="series"), tmp_path / "s", progress=False)
+    low = analyze(tmp_path / "s", AnalysisSettings(slip_threshold=0.0005))
+    assert low["n_slips"] > analyze(tmp_path / "s")["n_slips"]
+    run(base, tmp_path / "f", progress=False)
+    with pytest.raises(AnalysisError, match="scene series"):
+        analyze(tmp_path / "f", AnalysisSettings(slip_threshold=0.0005))
+    s = analyze(tmp_path / "f", AnalysisSettings(slip_threshold=0.03))
+    assert len(load_run(tmp_path / "f").clusters) == \
+        int(np.nansum(load_run(tmp_path / "f").events["n_clusters"]))
+    assert s["n_cluster_events"] <= s["n_slips"]
+    data = bytearray((tmp_path / "f" / "extrema.npy").read_bytes())
+    at = data.index(b"'step'")
+    data[at:at + 6] = b"'stap'"
+    (tmp_path / "f" / "extrema.npy").write_bytes(bytes(data))
+    with pytest.raises(DamagedRunError, match="extrema.npy"):
+        analyze(tmp_path / "f")
+    run(base.replace(t_end=600.0, companion="partial", until_steady=True, start="random"),
+        tmp_path / "p", progress=False)
+    comp = load_run(tmp_path / "p" / "companion")
+    with pytest.raises(AnalysisError, match="Run.blocks"):
+        _ = comp.stress
+    assert len(comp.blocks) > 10

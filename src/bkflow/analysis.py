@@ -32,9 +32,11 @@ from . import (
 from .lattice import square_lattice
 from .params import S_X, STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
+    BLOCKS,
     CLUSTERS,
     DECK,
     EVENTS,
+    EXTREMA,
     PARAMS,
     PSI,
     SLIPS,
@@ -379,8 +381,12 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Redu
 
     late = np.asarray(t, dtype=float) >= t_transient
     ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
-    return FrictionResult(at(settings.slip_threshold),
-                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error)
+    main = at(settings.slip_threshold)
+    if late.any():   # the mean of the samples: the block means weighted by their samples
+        main = dataclasses.replace(main, mean_stress_ratio=float(np.average(
+            np.asarray(sigma, float)[late], weights=red.weights()[late]) / spec.sigma_n))
+    return FrictionResult(main, {_key(f): at(f) for f in settings.report_thresholds},
+                          ratio_err.error)
 
 
 def _phase(phase: dict | None) -> dict | None:
@@ -394,19 +400,20 @@ def _phase(phase: dict | None) -> dict | None:
 
 
 def run_window(spec: RunSpec, settings: AnalysisSettings, t, sigma, phase,
-               t_transient: float, events: stress.SlipEvents | None = None) -> states.Window:
+               t_transient: float, events: stress.SlipEvents | None = None,
+               weights=None) -> states.Window:
     """The analysed window of one run (``bkflow.states.window``)."""
     late = None if events is None else events.after(t_transient)
     return states.window(spec, t, sigma, _phase(phase), t_transient, settings.n_blocks,
                          settings.alpha, None if late is None else late.t_max,
-                         None if late is None else late.sigma_fail)
+                         None if late is None else late.sigma_fail, weights=weights)
 
 
 def companion_result(spec: RunSpec, settings: AnalysisSettings, t_transient: float,
                      mean_stress_ratio: float, red: reduced.Reduced) -> CompanionResult:
     """The companion's window over the main run's [t_transient, end], and the gap."""
     comp = spec.companion_spec
-    w = run_window(comp, settings, *red.series(), t_transient)
+    w = run_window(comp, settings, *red.series(), t_transient, weights=red.weights())
     gap = mean_stress_ratio / w.mean - 1 if w.mean else math.nan
     return CompanionResult(comp.start, w, gap)
 
@@ -596,7 +603,7 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     t0 = transient_time(spec, settings, t_equil)
     fr = friction_result(spec, settings, red, t0)
     events = fr.friction.events
-    win = run_window(spec, settings, t, sigma, phase, t0, events)
+    win = run_window(spec, settings, t, sigma, phase, t0, events, weights=red.weights())
     # the trend the verdict read (its error widened by the layer's calibrated fluctuations),
     # not a second test of the same window that the summary would report beside it
     steady = StationarityResult(win.trend, t_equil)
@@ -633,6 +640,11 @@ def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
 
 def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     rd.check_record_readable()  # unreadable is the file system's refusal, not "not run"
+    # a continuation cut short (Ctrl-C, a full disk): the finished run it continued comes
+    # back first, as the next bkflow run would bring it back
+    for d in (rd, rd.companion()):
+        if d.path.is_dir():
+            d.undo_continuation()
     meta = rd.meta() if rd.is_complete() else None
     if meta is None:
         from .deck import SIGNATURE, written_by_bkflow
@@ -666,6 +678,15 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
                                   "(bkflow run --overwrite, or the sweep redoes it)")
     spec = rd.spec()
     red = rd.read_reduced(spec)
+    if rd.is_complete():   # a finished run's records hold every sample of its steps
+        last = spec.n_steps // spec.stress_nevery * spec.stress_nevery
+        if red.n_samples != last // spec.stress_nevery + 1 or \
+                len(red.blocks) != last // spec.block_nevery + 1:
+            raise DamagedRunError(f"{rd.path}: its records ({EXTREMA}, {BLOCKS}) hold "
+                                  f"{red.n_samples} samples in {len(red.blocks)} blocks, not the "
+                                  f"run's {last // spec.stress_nevery + 1}: the run is "
+                                  "damaged; run it again (bkflow run --overwrite, or the sweep "
+                                  "redoes it)")
     snaps = slips = slip_breaks = None
     psi = rd.read_psi_record(spec) if spec.writes_snapshots else None
     if spec.writes_snapshots and psi is None:   # a run made before bkflow computed Psi in it

@@ -71,8 +71,13 @@ class Run:
         tables are not the ones it made, or of a damaged run, raises DamagedRunError."""
         rd = self._intact()
         s = rd.summary()
-        if s is not None and rd.table_problem(s) is not None:
-            raise DamagedRunError(f"{self.path}: {rd.table_problem(s)}; bkflow analyze "
+        why = None if s is None else rd.table_problem(s)
+        if why is None and s is not None and rd.is_complete() and \
+                s.get("params") != io.json_ready(rd.spec().to_dict()):
+            why = ("summary.json is the analysis of other parameters (the run was continued "
+                   "since, or redone)")
+        if why is not None:
+            raise DamagedRunError(f"{self.path}: {why}; bkflow analyze "
                                   f"{shell_word(self.path)} makes the analysis again")
         return s
 
@@ -94,7 +99,7 @@ class Run:
     @property
     def phase(self) -> pd.DataFrame | None:
         """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases, the raw series
-        where the run's scene kept it (phase.csv), else their means over the blocks of
+        where the run's scene kept it (phase.npy), else their means over the blocks of
         blocks.npy; None for a run made before bkflow recorded them."""
         p = self._intact().phase_series(self.spec)
         return None if p is None else pd.DataFrame(p)
@@ -114,7 +119,10 @@ class Run:
     def events(self) -> pd.DataFrame | None:
         """The event catalogue, one row per slip, typed (events.parquet, or events.csv; None
         before the analysis): docs/model.md "The event catalogue"."""
-        return self._intact().read_events() if self._rd.has_events() else None
+        if not self._rd.has_events():
+            return None
+        _ = self.summary   # the catalogue is the analysis's: refused when it is stale
+        return self._intact().read_events()
 
     @property
     def psi(self) -> pd.DataFrame | None:
@@ -124,6 +132,7 @@ class Run:
     @property
     def clusters(self) -> pd.DataFrame | None:
         """One row per slip cluster (scenes clusters, full; None otherwise)."""
+        _ = self.summary   # the clusters are read with the analysis's events
         return self._intact().read_clusters()
 
     @functools.cached_property
@@ -237,7 +246,14 @@ class Sweep:
         parts = []
         for job in self.runs.job:
             rd = sweep_run_dir(self.path, job)
-            statepoint = io.read_json(rd.file(SIGNAC_FILES[0]))
+            why = rd.problem()
+            try:
+                statepoint = io.read_json(rd.file(SIGNAC_FILES[0]))
+            except (OSError, ValueError) as exc:
+                why = why or f"its parameters are unreadable ({exc})"
+            if why is not None:
+                raise DamagedRunError(f"{rd.path}: {why}; bkflow sweep (the same command) "
+                                      f"or bkflow collect {shell_word(self.path)} redoes it")
             parts.append((job, statepoint, rd.read_events() if rd.has_events() else None))
         return catalogue_table(parts)
 

@@ -133,7 +133,7 @@ class AdaptiveStop:
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
         self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
-                                        t0, own_error=False)
+                                        t0, own_error=False, weights=red.weights())
         met = True
         switching = spec.until_steady and win.state in states.SWITCHING
         if spec.target_error is not None:

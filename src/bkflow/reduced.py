@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .stress import SlipEvents, Zigzag
+from .stress import SlipEvents, Zigzag, slip_events
 
 #: the contact breaks since the start and the energy ledger at a sample (docs/model.md
 #: "Energy"): the fields the records add with the ledger (scenes events, full), and the columns
@@ -54,6 +54,9 @@ class Reduced:
     block: int
     dt: float
     threshold: float
+    #: the raw sigma_x series where the run kept it (scenes series, full): the slips below
+    #: the recorded threshold come from it
+    raw: np.ndarray | None = None
 
     @property
     def has_phase(self) -> bool:
@@ -86,14 +89,17 @@ class Reduced:
     def events(self, threshold: float) -> SlipEvents:
         """The slips of the run at ``threshold`` (stress units, at least the recorded one):
         what ``bkflow.stress.slip_events`` finds in the whole series."""
+        if not threshold >= self.threshold * (1 - 1e-12) and self.raw is not None:
+            return slip_events(np.arange(len(self.raw)) * self.nevery * self.dt, self.raw,
+                               threshold)
         if not self.has_extrema:
             raise ReducedError("the run kept no record of its slips (a companion run keeps its "
                                "blocks only: the pair's slips are the main run's)")
         if not threshold >= self.threshold * (1 - 1e-12):
             raise ReducedError(
-                f"the run recorded its slips down to a threshold of {self.threshold:.6g} (stress "
-                f"units); {threshold:.6g} is smaller: only the raw series (scene series) can "
-                "give it")
+                f"the run recorded its slips down to a threshold of {self.threshold:.10g} "
+                f"(stress units); {threshold:.10g} is smaller: only the raw series (scene "
+                "series) can give it")
         s = np.asarray(self.extrema["sigma"], float)
         maxima, minima = Zigzag(threshold).feed(s.tolist())
         a, b = np.asarray(maxima, np.int64), np.asarray(minima, np.int64)
@@ -123,6 +129,11 @@ class Reduced:
             for c in PHASE_SUMS:
                 phase[c] = np.asarray(b[c], float)[keep] / m[keep]
         return t, sigma, phase
+
+    def weights(self) -> np.ndarray:
+        """The stress samples of each block (the last block under way may hold fewer): the
+        weights that make the mean of block means the mean of the samples."""
+        return np.asarray(self.blocks["n"], float)
 
     def ledger_at_extrema(self) -> dict:
         """The breaks and the ledger at every extremum (``LEDGER_COLUMNS``)."""
@@ -233,10 +244,46 @@ def _turning_points(s: np.ndarray, threshold: float) -> np.ndarray:
     return np.asarray(out, np.int64)
 
 
+#: the fields of the plugin's other records (fix bk/slips ``catalogue``, fix bk/psi, and the
+#: raw series of fix bk/stress and bk/phase)
+SLIP_FIELDS = ("step_max", "step_min", "n_slipped", "n_clusters", "cluster_n", "cluster_nx",
+               "cluster_ny", "potency", "slip_mean", "slip_max", "cluster_lx", "cluster_ly")
+CLUSTER_FIELDS = ("step_max", "label", "n_c", "n_x", "n_y", "l_x", "l_y", "slip",
+                  "bond_change", "eq2_estimate")
+PSI_FIELDS = ("step", "psi")
+SERIES_FIELDS = (("step", "sigma"), ("step", "sigma", *LEDGER_COLUMNS),
+                 ("step", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std"))
+
+
+def checked(records: np.ndarray, layouts, what: str) -> np.ndarray:
+    """``records`` when they are what the plugin writes: one dimension, the fields of one of
+    ``layouts`` (tuples of names), every field a little-endian int64 or float64, every float
+    finite; ValueError naming ``what`` otherwise."""
+    got = records.dtype.names or ()
+    if isinstance(layouts[0], str):
+        layouts = (layouts,)
+    if records.ndim != 1 or got not in layouts:
+        raise ValueError(f"{what} holds {records.dtype} of shape {records.shape}, not the "
+                         f"records of fields {', '.join(layouts[0])}")
+    for name in got:
+        kind = records.dtype[name]
+        if kind.str not in ("<i8", "<f8"):
+            raise ValueError(f"{what}: field {name} is {kind.str}, not <i8 or <f8")
+        if kind.kind == "f" and not np.isfinite(records[name]).all():
+            raise ValueError(f"{what}: field {name} holds NaN or infinity")
+    return records
+
+
 def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
          threshold: float) -> Reduced:
     """The records of a run (``numpy.load``; a record cut short raises ValueError). The
     reader checks the paths first (``bkflow.rundir``: a FIFO is refused, never waited on)."""
-    ext = np.load(extrema_path, allow_pickle=False) if extrema_path is not None else None
-    blk = np.load(blocks_path, allow_pickle=False)
+    ext = None if extrema_path is None else checked(
+        np.load(extrema_path, allow_pickle=False),
+        tuple(extrema_dtype(ledger).names for ledger in (False, True)), "extrema.npy")
+    blk = checked(np.load(blocks_path, allow_pickle=False),
+                  tuple(blocks_dtype(p, ledger).names for p in (True, False)
+                        for ledger in (False, True)), "blocks.npy")
+    if ext is not None and len(ext) and (np.diff(ext["step"]) <= 0).any():
+        raise ValueError("extrema.npy: its steps do not increase")
     return Reduced(ext, blk, nevery, block, dt, float(threshold))

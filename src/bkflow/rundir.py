@@ -41,6 +41,7 @@ columns, clusters.csv the paper's energy argument per cluster.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import errno
 import os
 from pathlib import Path
@@ -254,19 +255,22 @@ class RunDir:
 
     #: the records a continuation rewrites in place (their header and the record under way),
     #: kept as they were until it commits: cutting them back to their size is not enough
-    REWRITTEN = (EXTREMA, BLOCKS)
+    REWRITTEN = (EXTREMA, BLOCKS, PSI_RECORD, SLIP_ROWS, CLUSTER_ROWS, SERIES_STRESS,
+                 SERIES_PHASE)
 
     def _before(self, name: str) -> Path:
         return self.file(f".{name}.before-continuing.tmp")
 
     def begin_continuation(self) -> None:
-        """Note that the finished run here is being continued (its record stays as it is)."""
+        """Note that the finished run here is being continued (its record stays as it is):
+        the records it rewrites in place are kept aside, and the note names the finished
+        run's restart file (what tells an interrupted continuation from one that committed)."""
         for name in self.REWRITTEN:
             if self.file(name).is_file():
                 data = io.read_bytes(self.file(name))
                 with io.atomic_file(self._before(name), binary=True) as f:
                     f.write(data)
-        self.file(CONTINUING).touch()
+        io.write_text_atomic(self.file(CONTINUING), str((self.meta() or {}).get("restart")))
 
     def end_continuation(self, keep: str | None) -> None:
         """After the new record is committed: remove the continuation's note and every
@@ -286,6 +290,15 @@ class RunDir:
         if not self.file(CONTINUING).exists():
             return False
         meta = self.meta() or {}
+        try:
+            noted = io.read_text(self.file(CONTINUING)).strip()
+        except (OSError, ValueError):
+            noted = ""
+        if noted and noted != str(meta.get("restart")):
+            # the continuation committed (the record names its own restart file) and was
+            # stopped before it cleaned up: finish that, the committed run stays
+            self.end_continuation(meta.get("restart"))
+            return True
         sizes = meta.get("file_bytes", {})
         for name in self.REWRITTEN:
             if self._before(name).is_file():
@@ -553,6 +566,8 @@ class RunDir:
                 red = reduced.load(io.regular(self.file(EXTREMA))
                                    if self.file(EXTREMA).exists() else None,
                                    io.regular(self.file(BLOCKS)), *args)
+                if self.file(SERIES_STRESS).exists():   # scenes series, full: every slip
+                    red = dataclasses.replace(red, raw=self.read_stress(spec)[1])
             except FileNotFoundError:
                 raise
             except (ValueError, OSError, EOFError) as exc:
@@ -574,6 +589,9 @@ class RunDir:
         if self.file(SERIES_STRESS).exists() or self.file(STRESS).exists():
             return self.read_stress(spec)
         red = self.read_reduced(spec)
+        if not red.has_extrema:
+            raise AnalysisError(f"{self.path} keeps its stress as block means only (a companion "
+                                "run): read them as Run.blocks")
         return red.sample_index() * spec.stress_nevery * spec.dt, \
             np.asarray(red.extrema["sigma"], float)
 
@@ -590,8 +608,11 @@ class RunDir:
     def _series(self, name: str, spec: RunSpec | None = None):
         """A raw series' records (stress.npy, phase.npy) and the time step of ``spec`` (the
         run's own by default)."""
+        from .reduced import SERIES_FIELDS, checked
+
         try:
-            r = np.load(io.regular(self.file(name)), allow_pickle=False)
+            r = checked(np.load(io.regular(self.file(name)), allow_pickle=False),
+                        SERIES_FIELDS, name)
         except (ValueError, EOFError) as exc:
             raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
                                   "again") from None
@@ -801,7 +822,10 @@ class RunDir:
         if not self.file(PSI_RECORD).exists():
             return None
         try:
-            r = np.load(io.regular(self.file(PSI_RECORD)), allow_pickle=False)
+            from .reduced import PSI_FIELDS, checked
+
+            r = checked(np.load(io.regular(self.file(PSI_RECORD)), allow_pickle=False),
+                        PSI_FIELDS, PSI_RECORD)
             return np.asarray(r["step"], np.int64), np.asarray(r["psi"], float)
         except (ValueError, EOFError, KeyError) as exc:
             raise DamagedRunError(f"{self.file(PSI_RECORD)} is damaged ({exc}); run the run "
@@ -810,10 +834,13 @@ class RunDir:
     def read_slip_rows(self):
         """(slips, clusters): each slip's catalogue row and its clusters as the run computed
         them (fix bk/slips ``catalogue``; structured arrays)."""
+        from .reduced import CLUSTER_FIELDS, SLIP_FIELDS, checked
+
         out = []
-        for name in (SLIP_ROWS, CLUSTER_ROWS):
+        for name, fields in ((SLIP_ROWS, SLIP_FIELDS), (CLUSTER_ROWS, CLUSTER_FIELDS)):
             try:
-                out.append(np.load(io.regular(self.file(name)), allow_pickle=False))
+                out.append(checked(np.load(io.regular(self.file(name)), allow_pickle=False),
+                                   fields, name))
             except (ValueError, EOFError) as exc:
                 raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
                                       "again") from None
@@ -843,10 +870,14 @@ class RunDir:
                 return None
             events = self.read_events()
             spec = self.spec()
-            at = {int(round(t / spec.dt)): k for k, t in enumerate(events["t_max"])
-                  if t >= summary["t_transient"]}
-            _, rows = self.read_slip_rows()
-            steps = [int(s) for s in rows["step_max"].tolist()]
+            # an event by the steps of its maximum and minimum (a slip of another threshold
+            # than the analysis's may share its maximum): as the analysis matched them
+            at = {(int(round(a / spec.dt)), int(round(b / spec.dt))): k
+                  for k, (a, b) in enumerate(zip(events["t_max"], events["t_min"]))
+                  if a >= summary["t_transient"]}
+            slips, rows = self.read_slip_rows()
+            end = dict(zip(slips["step_max"].tolist(), slips["step_min"].tolist()))
+            steps = [(int(s), int(end.get(s, -1))) for s in rows["step_max"].tolist()]
             keep = np.array([s in at for s in steps], bool)
             out = {"event": [at[s] for s, k in zip(steps, keep) if k]}
             out["t"] = events["t_max"].to_numpy()[out["event"]]

@@ -328,20 +328,23 @@ class Window:
 
 
 def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
-           alpha: float = 0.05, t_fail=None, sigma_fail=None, own_error: bool = True) -> Window:
+           alpha: float = 0.05, t_fail=None, sigma_fail=None, own_error: bool = True,
+           weights=None) -> Window:
     """The window [t0, end] of one run (a RunSpec ``spec``; its stress series ``t``,
     ``sigma``; its phase series ``phase`` with columns t, R, Z_re, Z_im (and R2, u_std), or
     None), with the slips' times and sigma_fail for each state's mu_bar. The verdict reads
     only the trend test's block means, the contacts and the calibration (the same at every
     check of a run in progress and in its summary); ``own_error`` False leaves out the run's
-    own error of the mean (the costly part, which only the summary reports)."""
+    own error of the mean (the costly part, which only the summary reports); ``weights``: the
+    samples behind each value of a series of block means (bkflow.reduced), for its mean."""
     from .phases import coherence
     from .stationarity import mean_error, stationarity
 
     t, sigma = np.asarray(t, float), np.asarray(sigma, float)
     ratio = sigma / spec.sigma_n
     late = t >= t0
-    mean = float(ratio[late].mean()) if late.any() else math.nan
+    w = None if weights is None else np.asarray(weights, float)[late]
+    mean = float(np.average(ratio[late], weights=w)) if late.any() else math.nan
     err_run = mean_error(ratio[late]).error if own_error else math.nan
     trend = stationarity(t, sigma, t0, n_blocks, alpha)
     why = calibrated(spec)
