@@ -26,7 +26,7 @@ from .fronts import front_figure, front_movie
 from .io import shell_word
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
-from .rundir import AnalysisError, DamagedRunError, RunDir, sweep_run_dir
+from .rundir import SUMMARY, AnalysisError, DamagedRunError, RunDir, sweep_run_dir
 
 
 class Run:
@@ -74,7 +74,7 @@ class Run:
         why = None if s is None else rd.table_problem(s)
         if why is None and s is not None and rd.is_complete() and \
                 s.get("params") != io.json_ready(rd.spec().to_dict()):
-            why = ("summary.json is the analysis of other parameters (the run was continued "
+            why = (f"{SUMMARY} is the analysis of other parameters (the run was continued "
                    "since, or redone)")
         if why is not None:
             raise DamagedRunError(f"{self.path}: {why}; bkflow analyze "

@@ -306,6 +306,11 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
                              f"{'symlink' if comp.is_symlink() else 'file'}); nothing was "
                              "changed: move it away")
     if rd.is_complete() and not overwrite:
+        why = rd.problem()
+        if why is not None:   # not continued, nor replaced unasked: said as what it is
+            raise RunExistsError(f"{rd.path} holds a damaged run ({why}); redo it with "
+                                 "--overwrite (overwrite=True from Python), or choose another "
+                                 "output directory")
         raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
                              "another output directory, or replace it (--overwrite; "
                              "overwrite=True from Python)")

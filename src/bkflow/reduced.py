@@ -278,12 +278,14 @@ def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
          threshold: float) -> Reduced:
     """The records of a run (``numpy.load``; a record cut short raises ValueError). The
     reader checks the paths first (``bkflow.rundir``: a FIFO is refused, never waited on)."""
+    from pathlib import Path
+
     ext = None if extrema_path is None else checked(
         np.load(extrema_path, allow_pickle=False),
-        tuple(extrema_dtype(ledger).names for ledger in (False, True)), "extrema.npy")
+        tuple(extrema_dtype(ledger).names for ledger in (False, True)), Path(extrema_path).name)
     blk = checked(np.load(blocks_path, allow_pickle=False),
                   tuple(blocks_dtype(p, ledger).names for p in (True, False)
-                        for ledger in (False, True)), "blocks.npy")
+                        for ledger in (False, True)), Path(blocks_path).name)
     if ext is not None and len(ext) and (np.diff(ext["step"]) <= 0).any():
-        raise ValueError("extrema.npy: its steps do not increase")
+        raise ValueError(f"{Path(extrema_path).name}: its steps do not increase")
     return Reduced(ext, blk, nevery, block, dt, float(threshold))
