@@ -96,8 +96,8 @@ SIZES = (400, 900)
 
 def measure_sizes() -> dict:
     """The main command's grid under the steady protocol at N = SIZES, recording only the
-    stress and phase series (--scene friction: the frames of a larger layer would take tens
-    of GB, and the protocol's time is the simulation's): {N: measure_sweep}."""
+    stress's and the phases' records (--scene friction: the protocol's time is the
+    simulation's): {N: measure_sweep}."""
     return {str(n): measure_sweep(f"{SWEEP} --sizes {n} --scene friction") for n in SIZES}
 
 
@@ -182,8 +182,8 @@ def blocks(record: dict) -> dict[str, str]:
             f"visited is within the target: "
             f"{s['runs']} pairs of runs in\n{duration(s['wall_s'])} on a {s['cores']}-core "
             f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
-            "(`benchmarks/readme_numbers.py` measured it; `--scene friction` records only the "
-            "stress and phase series,\nbeside the analysis' event catalogue).")
+            "(`benchmarks/readme_numbers.py` measured it; the default scene keeps what the table "
+            "and the\nfigures show, reduced in the run; `--scene full` keeps everything).")
         out["sweep-output"] = "```\n" + s["output"] + "\n```"
     r = record.get("run")
     if r and "catalogue" in r:

@@ -445,7 +445,7 @@ def scene_goals() -> str:
     hist = _readme_record().get("sweep_history", [])
     before = next((h for h in hist if h["commit"] == "43a0f39"), None)
     now = hist[-1] if hist else None
-    frames = ("order", "clusters", "figures", "events", "fronts", "full")
+    frames = ("clusters", "events", "fronts", "full")   # the scenes that record frames
     no_frames = [(size, scene, r["loop_over_friction"])
                  for size, m in rec.get("sizes", {}).items()
                  for scene, r in m["scenes"].items()
