@@ -103,6 +103,15 @@ def _spec(**kw):
                       "t_end": 300.0, "stress_every": 0.05, **kw})
 
 
+def _lmp(workdir, ranks: int = 1) -> None:
+    """``lmp -in in.bk`` in ``workdir`` on ``ranks`` ranks; the test fails with its log."""
+    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
+    if ranks > 1:
+        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
+    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, (workdir / "log.lammps").read_text()[-2000:]
+
+
 def _records_and_series(workdir, spec, path="auto", ranks=1):
     lattice = square_lattice(spec.Lx, spec.Ly)
     workdir.mkdir(parents=True, exist_ok=True)
@@ -110,11 +119,7 @@ def _records_and_series(workdir, spec, path="auto", ranks=1):
     deck = setup_text(spec, DeckOptions(path=path, energy=True))
     deck += f"\nrun {spec.n_steps // 2} post no\nrun {spec.n_steps - spec.n_steps // 2}\n"
     (workdir / "in.bk").write_text(deck)
-    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
-    if ranks > 1:
-        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
-    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, (workdir / "log.lammps").read_text()[-2000:]
+    _lmp(workdir, ranks)
     rd = RunDir(workdir)
     recs = reduced.load(workdir / "extrema.npy", workdir / "blocks.npy", spec.stress_nevery,
                         spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
@@ -216,11 +221,7 @@ def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
         f"\ndump exact all custom {spec.snapshot_nevery} exact.lammpstrj id type x y z ix iy iz"
         f"\ndump_modify exact sort id format float %.17g\nrun {spec.n_steps}\n")
     (tmp_path / "in.bk").write_text(deck)
-    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
-    if ranks > 1:
-        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, (tmp_path / "log.lammps").read_text()[-2000:]
+    _lmp(tmp_path, ranks)
     steps, psi = RunDir(tmp_path).read_psi_record(spec)
     frames = io.read_frames(tmp_path / "exact.lammpstrj", spec.N)
     offline = order_result(spec, AnalysisSettings().resolved(spec), frames.steps,
@@ -248,11 +249,7 @@ def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path
     # the frames too, to full precision, for the comparison
     deck = deck.replace(line, line.replace("file none", "file frames.lammpstrj") + " exact")
     (tmp_path / "in.bk").write_text(deck + f"\nrun {spec.n_steps}\n")
-    cmd = [tool("lmp"), "-in", "in.bk", "-log", "log.lammps", "-screen", "none"]
-    if ranks > 1:
-        cmd = [tool("mpirun"), "-np", str(ranks)] + cmd
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, (tmp_path / "log.lammps").read_text()[-2000:]
+    _lmp(tmp_path, ranks)
     slips, clusters = RunDir(tmp_path).read_slip_rows()
     frames = io.read_frames(tmp_path / "frames.lammpstrj", spec.N)
     want, per = catalogue.slip_rows(frames.positions[0::2], frames.positions[1::2],

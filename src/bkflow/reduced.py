@@ -219,29 +219,14 @@ def _block_sums(k, x, nb: int) -> np.ndarray:
 
 def _turning_points(s: np.ndarray, threshold: float) -> np.ndarray:
     """The samples fix bk/reduce records: each maximum once the series fell from it by more
-    than ``threshold``, each minimum once it rose again by more, and the extremum under way."""
-    out = []
-    falling = False
-    imax = imin = 0
-    vmax = vmin = 0.0
-    for i, v in enumerate(s.tolist()):
-        if i == 0:
-            imax, vmax = 0, v
-        elif not falling:
-            if v > vmax:
-                imax, vmax = i, v
-            elif vmax - v > threshold:
-                out.append(imax)
-                falling, imin, vmin = True, i, v
-        else:
-            if v < vmin:
-                imin, vmin = i, v
-            elif v - vmin > threshold:
-                out.append(imin)
-                falling, imax, vmax = False, i, v
-    if len(s):
-        out.append(imin if falling else imax)
-    return np.asarray(out, np.int64)
+    than ``threshold``, each minimum once it rose again by more, and the extremum under way:
+    the zigzag rule's confirmed pairs in turn, then its state at the end."""
+    if not len(s):
+        return np.zeros(0, np.int64)
+    z = Zigzag(threshold)
+    maxima, minima = z.feed(s.tolist())
+    tail = [z.imax, z.imin] if z.falling else [z.imax]   # a final maximum, the one under way
+    return np.asarray([i for pair in zip(maxima, minima) for i in pair] + tail, np.int64)
 
 
 #: the fields of the plugin's other records (fix bk/slips ``catalogue``, fix bk/psi, and the
