@@ -102,17 +102,27 @@ void FixBKSlips::init()
   if (with_breaks) substrate->track_first_breaks();
 }
 
-void FixBKSlips::snapshot(std::vector<double> &buf)
+void FixBKSlips::snapshot(Snap &s)
 {
-  // every sample of a rising sigma_x is a new running maximum: this copy is the scene's cost,
-  // so it writes into a buffer of the right size, without a call per value
   const int nlocal = atom->nlocal;
+  if (!with_breaks && groupbit == 1) {    // group all: LAMMPS's arrays, copied whole
+    s.raw = true;
+    s.x.assign(&atom->x[0][0], &atom->x[0][0] + 3 * static_cast<size_t>(nlocal));
+    s.tag.assign(atom->tag, atom->tag + nlocal);
+    s.image.assign(atom->image, atom->image + nlocal);
+    // the flags of an atom in the origin's image: the box lengths taken out of them now
+    const imageint zero = (static_cast<imageint>(IMGMAX) << IMG2BITS) |
+        (static_cast<imageint>(IMGMAX) << IMGBITS) | IMGMAX;
+    substrate->image_flags(zero, &s.base[0], &s.base[1]);
+    return;
+  }
+  s.raw = false;
   const int *mask = atom->mask;
   const tagint *tag = atom->tag;
   const imageint *image = atom->image;
   double **x = atom->x;
-  buf.resize(static_cast<size_t>(nlocal) * ncol);
-  double *out = buf.data();
+  s.columns.resize(static_cast<size_t>(nlocal) * ncol);
+  double *out = s.columns.data();
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     bigint ix, iy;    // counted with the box lengths the substrate fix took out of them
@@ -125,7 +135,23 @@ void FixBKSlips::snapshot(std::vector<double> &buf)
     if (with_breaks) out[5] = substrate->first_break_of(i);
     out += ncol;
   }
-  buf.resize(static_cast<size_t>(out - buf.data()));
+  s.columns.resize(static_cast<size_t>(out - s.columns.data()));
+}
+
+std::vector<double> FixBKSlips::cols(const Snap &s) const
+{
+  if (!s.raw) return s.columns;
+  const size_t n = s.tag.size();
+  std::vector<double> out(n * ncol);
+  for (size_t i = 0; i < n; i++) {
+    const imageint img = s.image[i];
+    out[i * ncol] = static_cast<double>(s.tag[i]);
+    out[i * ncol + 1] = s.x[3 * i];
+    out[i * ncol + 2] = s.x[3 * i + 1];
+    out[i * ncol + 3] = static_cast<double>((img & IMGMASK) - IMGMAX + s.base[0]);
+    out[i * ncol + 4] = static_cast<double>((img >> IMGBITS & IMGMASK) - IMGMAX + s.base[1]);
+  }
+  return out;
 }
 
 std::vector<double> FixBKSlips::gather(const std::vector<double> &buf)
@@ -196,7 +222,7 @@ void FixBKSlips::sample()
     case BKZigzag::CONFIRMED:
       nevents++;
       if (writes(zigzag.event_max)) {
-        const std::vector<double> amax = gather(snap_max), amin = gather(snap_min);
+        const std::vector<double> amax = gather(cols(snap_max)), amin = gather(cols(snap_min));
         write_frame(amax, zigzag.event_max);
         write_frame(amin, zigzag.event_min);
         if (with_catalogue && comm->me == 0)
@@ -263,5 +289,7 @@ void FixBKSlips::catalogue(const std::vector<double> &amax, const std::vector<do
 double FixBKSlips::memory_usage()
 {
   return FixBKReader::memory_usage() +
-      static_cast<double>(snap_max.capacity() + snap_min.capacity()) * sizeof(double);
+      static_cast<double>(snap_max.x.capacity() + snap_min.x.capacity() +
+                          snap_max.columns.capacity() + snap_min.columns.capacity()) *
+      sizeof(double);
 }

@@ -23,9 +23,21 @@ class FixBKSlips : public FixBKEvents {
 
  private:
   int ncol = 5;    // columns of a snapshot (6 with `breaks`)
-  // snapshots of local atoms: tag, x, y, ix, iy (5 doubles per atom), and with `breaks` the
-  // step of the first break since the maximum
-  std::vector<double> snap_max, snap_min;
+  /* a snapshot of the local atoms. Taken at every new running extremum of sigma_x (every
+     sample while the layer loads), so it copies LAMMPS's arrays as they are (x, tags, image
+     flags, with the box lengths the substrate fix had taken out of the flags then), and is
+     turned into columns (cols()) only for the slips that are written. With `breaks`, or a
+     group other than all, the columns are made at once. */
+  struct Snap {
+    std::vector<double> x;        // 3 per atom, LAMMPS's x
+    std::vector<tagint> tag;
+    std::vector<imageint> image;
+    bigint base[2] = {0, 0};
+    std::vector<double> columns;  // tag, x, y, ix, iy (and brk): ncol per atom
+    bool raw = false;
+  };
+  Snap snap_max, snap_min;
+  std::vector<double> cols(const Snap &s) const;
 
   int frames = 1;    // frames written (`file none`: not)
   BKNpy slip_rows, cluster_rows;    // `catalogue`
@@ -33,7 +45,7 @@ class FixBKSlips : public FixBKEvents {
   std::chrono::steady_clock::time_point rows_written = std::chrono::steady_clock::now();
 
   void sample() override;
-  void snapshot(std::vector<double> &buf);
+  void snapshot(Snap &s);
   // the snapshot gathered on rank 0, sorted by atom ID (ncol values per atom); empty elsewhere
   std::vector<double> gather(const std::vector<double> &buf);
   void write_frame(const std::vector<double> &all, bigint step);
