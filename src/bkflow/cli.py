@@ -200,7 +200,7 @@ def _spec_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", choices=SCENES, default=RunSpec.scene,
                    help="what to record: friction (sigma_x's turning points and block sums of "
                         "the stress and the contacts' phases, reduced in the run), series (+ "
-                        "the raw stress and phase series), order (+ snapshots for Psi(t)), "
+                        "the raw stress and phase series), order (+ Psi(t), in the run), "
                         "clusters (+ positions at each slip), figures (default: order and "
                         "clusters, what the table and the figures show), events (clusters + "
                         "the energy ledger and each slip's first breaks: the event "

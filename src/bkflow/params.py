@@ -400,9 +400,10 @@ class RunSpec:
     #: a whole number of stress samples): a load cycle of a contact lasts about
     #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves
     phase_every: float = checked(1.0, number(gt=0))
-    #: observables to record: friction (sigma_x and the phases only), order (+ snapshots for
-    #: Psi(t)), clusters (+ positions at every slip's maximum and minimum), figures (order and
-    #: clusters: the default), events, fronts, full (all; bkflow.deck's _outputs)
+    #: observables to record: friction (sigma_x and the phases, reduced in the run), series (+
+    #: the raw series), order (+ Psi(t) in the run), clusters (+ positions at every slip's
+    #: maximum and minimum), figures (order and each slip's clusters computed in the run: the
+    #: default), events, fronts, full (all; bkflow.deck's _outputs)
     scene: str = checked(DEFAULT_SCENE, choice(SCENES))
     #: interval of the snapshots of the order scene (time units, rounded to whole steps)
     snapshot_every: float = checked(20.0, number(gt=0))

@@ -1,7 +1,8 @@
 """Figures of a sweep directory, one per figure of the paper (``bkflow plot DIR``).
 
-Reads tables only: ``runs.csv``, ``results.csv`` and the tables of each run (stress.csv,
-and what the analysis wrote: events.parquet, psi.csv, clusters.csv), through
+Reads tables only: ``runs.csv``, ``results.csv`` and the records and tables of each run
+(its reduced stress and phases, Psi(t), its slips' clusters, and what the analysis wrote:
+events.parquet), through
 ``bkflow.tables`` and ``bkflow.rundir``; it never analyses. Writes PNG and PDF into
 ``DIR/figures``:
 
