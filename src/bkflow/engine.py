@@ -14,6 +14,7 @@ the run's records, ``bkflow.reduced``, and ``bkflow.states.window``).
 from __future__ import annotations
 
 import contextlib
+import copy
 import math
 import os
 import platform
@@ -52,6 +53,7 @@ from .plugin import ERROR_TOKENS, PATH_CODES, block_rows, build_info, lammps_ver
 from .provenance import record as provenance
 from .rundir import COMPANION, DATA, DECK, LOG, META, RESTART, RunDir
 from .stationarity import mean_error
+from .stress import Zigzag
 
 
 class RunError(RuntimeError):
@@ -105,6 +107,10 @@ class AdaptiveStop:
         self.spec, self.rd = spec, run_dir
         self.fail = np.array([])    # sigma_fail of the slips so far
         self.t_fail = np.array([])
+        # the slips at the run's threshold, found once: the final extrema fed as they come
+        # (the last record, the extremum under way, is fed to a copy at each check)
+        self.zigzag = Zigzag(spec.slip_threshold_stress)
+        self.fed, self.maxima = 0, []
         self.met, self.checks = False, 0
         self.last: states.Window | None = None
         self.last_error = None      # mu_bar's error at the last check (covering the switching)
@@ -127,9 +133,15 @@ class AdaptiveStop:
             return False
         self.checks += 1
         red = self.rd.read_reduced(spec)
-        if red.has_extrema:
-            ev = red.events(spec.slip_threshold_stress)
-            self.fail, self.t_fail = ev.sigma_fail, ev.t_max
+        if red.has_extrema and len(red.extrema):
+            s = np.asarray(red.extrema["sigma"], float)
+            final = len(s) - 1
+            self.maxima += self.zigzag.feed(s[self.fed:final].tolist())[0]
+            self.fed = final
+            pending = copy.copy(self.zigzag).feed([s[final]])[0]
+            at = np.asarray(self.maxima + pending, np.int64)
+            self.fail = s[at]
+            self.t_fail = red.sample_index()[at] * spec.stress_nevery * spec.dt
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
         self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,

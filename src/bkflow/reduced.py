@@ -54,9 +54,9 @@ class Reduced:
     block: int
     dt: float
     threshold: float
-    #: the raw sigma_x series where the run kept it (scenes series, full): the slips below
-    #: the recorded threshold come from it
-    raw: np.ndarray | None = None
+    #: where the run kept its raw sigma_x series (scenes series, full): a function that reads
+    #: it, for the slips below the recorded threshold (read only when they are asked for)
+    raw: object = None
 
     @property
     def has_phase(self) -> bool:
@@ -90,8 +90,8 @@ class Reduced:
         """The slips of the run at ``threshold`` (stress units, at least the recorded one):
         what ``bkflow.stress.slip_events`` finds in the whole series."""
         if not threshold >= self.threshold * (1 - 1e-12) and self.raw is not None:
-            return slip_events(np.arange(len(self.raw)) * self.nevery * self.dt, self.raw,
-                               threshold)
+            raw = self.raw()
+            return slip_events(np.arange(len(raw)) * self.nevery * self.dt, raw, threshold)
         if not self.has_extrema:
             raise ReducedError("the run kept no record of its slips (a companion run keeps its "
                                "blocks only: the pair's slips are the main run's)")
