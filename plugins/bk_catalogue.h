@@ -120,20 +120,24 @@ inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<dou
   std::vector<std::vector<int>> members(nlabels);
   for (int k = 0; k < n; k++)
     if (label[k] >= 0) members[label[k]].push_back(k);
-  // the bond energies' change, where a cluster of two or more touches
-  std::vector<double> change(2 * n, 0.0);
+  // the bond energies' change summed per cluster it touches (each end's cluster once): one
+  // pass over the bonds, where a cluster of two or more exists
+  std::vector<double> touched(nlabels, 0.0);
   bool any = false;
   for (auto &m : members) any = any || m.size() >= 2;
   if (any)
     for (int k = 0; k < n; k++)
       for (int d = 0; d < 2; d++) {
         const int j = bond_end(k, d);
+        if (label[k] < 0 && label[j] < 0) continue;
         const int ix = k % lx, iy = k / lx;
         // the bond's lattice image: +box where it wraps
         const double sx = (d == 0 && ix == lx - 1) ? lx : 0.0;
         const double sy = (d == 1 && iy == ly - 1) ? ly : 0.0;
-        change[2 * k + d] = bond_energy(&xmin[2 * k], &xmin[2 * j], sx, sy, k_b) -
+        const double change = bond_energy(&xmin[2 * k], &xmin[2 * j], sx, sy, k_b) -
             bond_energy(&xmax[2 * k], &xmax[2 * j], sx, sy, k_b);
+        if (label[k] >= 0) touched[label[k]] += change;
+        if (label[j] >= 0 && label[j] != label[k]) touched[label[j]] += change;
       }
   for (int c = 0; c < nlabels; c++) {
     const auto &m = members[c];
@@ -157,11 +161,7 @@ inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<dou
     cl.n_x = std::count(col.begin(), col.end(), 1);
     cl.n_y = std::count(rowhit.begin(), rowhit.end(), 1);
     cl.slip = sum / static_cast<double>(cl.n_c);
-    for (int k = 0; k < n; k++)
-      for (int d = 0; d < 2; d++) {
-        const int j = bond_end(k, d);
-        if (label[k] == c || label[j] == c) cl.bond_change += change[2 * k + d];
-      }
+    cl.bond_change = touched[c];
     const double delta = cl.slip;
     const double stretch = std::sqrt(delta * delta + 1.0) - 1.0;
     cl.eq2 = (cl.n_x < lx ? k_b * cl.n_y * delta * delta : 0.0) +

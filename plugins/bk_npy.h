@@ -53,8 +53,15 @@ struct BKNpy {
   {
     name = fname;
     fp = fopen(fname, appending ? "r+b" : "w+b");
-    // a new file is a valid .npy of no records from the start
-    return fp != nullptr && (appending || write());
+    if (!fp) return false;
+    if (!appending) return write();    // a new file is a valid .npy of no records from the start
+    // appended to: the records so far, from the file's size (a restart's state may say more
+    // exactly which are final: it sets nfinal then)
+    if (fseek(fp, 0, SEEK_END) != 0) return false;
+    const long size = ftell(fp);
+    const long rec = static_cast<long>(sizeof(double)) * nfields;
+    nfinal = size > HEADER && rec > 0 ? (size - HEADER) / rec : 0;
+    return true;
   }
 
   void close()

@@ -61,12 +61,6 @@ FixBKPsi::FixBKPsi(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
     if (!out.open(arg[7], appending))
       error->one(FLERR, "{} fix bk/psi: cannot open {}: {}", BK_ERR_CANNOT_OPEN, arg[7],
                  utils::getsyserror());
-    if (appending) {    // the records so far: their count from the file's size
-      if (fseek(out.fp, 0, SEEK_END) != 0) error->one(FLERR, "fix bk/psi: cannot read {}", arg[7]);
-      const long size = ftell(out.fp);
-      out.nfinal = (size - BKNpy::HEADER) / static_cast<long>(sizeof(double) * out.nfields);
-      if (out.nfinal < 0) out.nfinal = 0;
-    }
   }
 }
 
@@ -170,9 +164,7 @@ void FixBKPsi::sample()
         error->one(FLERR, "{} fix bk/psi: writing {} failed: {}", BK_ERR_WRITE_FAILED,
                    out.name, utils::getsyserror());
     }
-    MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
-  } else {
-    MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
   }
+  MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
   last_psi = psi;
 }

@@ -34,7 +34,6 @@ class FixBKPsi : public Fix {
   std::vector<double> xy, all;    // the layer's unwrapped positions, by particle (2N)
 
   void sample();
-  void write();
 };
 
 }    // namespace LAMMPS_NS

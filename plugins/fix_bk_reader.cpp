@@ -55,12 +55,6 @@ int FixBKReader::open_file(int iarg, int narg, char **arg)
       if (!npy.open(filename, appending))
         error->one(FLERR, "{} fix {}: cannot open {}: {}", BK_ERR_CANNOT_OPEN, style, filename,
                    utils::getsyserror());
-      if (appending) {    // the records so far: their count from the file's size
-        if (fseek(npy.fp, 0, SEEK_END) != 0) write_failed();
-        const long size = ftell(npy.fp);
-        const long rec = static_cast<long>(sizeof(double)) * npy.nfields;
-        npy.nfinal = size > BKNpy::HEADER ? (size - BKNpy::HEADER) / rec : 0;
-      }
     }
     return iarg + 2;
   }

@@ -70,12 +70,6 @@ FixBKSlips::FixBKSlips(LAMMPS *lmp, int narg, char **arg) :
         if (!f.open(catalogue_files[k], appending))
           error->one(FLERR, "{} fix bk/slips: cannot open {}: {}", BK_ERR_CANNOT_OPEN,
                      catalogue_files[k], utils::getsyserror());
-        if (appending) {    // the rows so far: their count from the file's size
-          fseek(f.fp, 0, SEEK_END);
-          const long size = ftell(f.fp);
-          const long rec = static_cast<long>(sizeof(double)) * f.nfields;
-          f.nfinal = size > BKNpy::HEADER ? (size - BKNpy::HEADER) / rec : 0;
-        }
       }
   }
 }

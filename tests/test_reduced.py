@@ -329,3 +329,25 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
     with pytest.raises(AnalysisError, match="Run.blocks"):
         _ = comp.stress
     assert len(comp.blocks) > 10
+
+
+@pytest.mark.usefixtures("lammps")
+def test_the_energy_of_slips_below_the_recorded_threshold_comes_from_the_raw_ledger(tmp_path):
+    """Scene full, re-analysed at a threshold below the records': the slips come from the raw
+    series, and so does each one's energy budget (not another extremum's ledger)."""
+    from bkflow.analysis import analyze
+    from bkflow.api import load_run
+    from bkflow.params import AnalysisSettings
+
+    spec = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
+                      "t_end": 1000.0, "scene": "full"})
+    run(spec, tmp_path, progress=False)
+    analyze(tmp_path, AnalysisSettings(slip_threshold=0.0005))
+    ev = load_run(tmp_path).events
+    ledger = RunDir(tmp_path).read_ledger()
+    t = ledger["t"]
+    a = np.searchsorted(t, ev["t_max"].to_numpy() - 1e-9)
+    b = np.searchsorted(t, ev["t_min"].to_numpy() - 1e-9)
+    assert len(ev) > 20
+    np.testing.assert_allclose(ev["breaks"].to_numpy(float),
+                               ledger["breaks"][b] - ledger["breaks"][a])

@@ -348,9 +348,8 @@ class RunAnalysis:
         if self.clusters is not None:
             out[EVENTS].update(self.clusters.events_table)
         if self.ledger is not None:
-            out[EVENTS].update(catalogue.energy_rows(self.ledger.ledger_at_extrema(),
-                                                     self.ledger.positions(ev.i_max),
-                                                     self.ledger.positions(ev.i_min)))
+            out[EVENTS].update(catalogue.energy_rows(*self.ledger.ledger_rows(ev.i_max,
+                                                                              ev.i_min)))
         if self.order is not None and not self.order.recorded:
             out[PSI] = {"t": self.order.t, "psi": self.order.psi}
         if self.clusters is not None:
@@ -368,25 +367,22 @@ def transient_time(spec: RunSpec, settings: AnalysisSettings, t_equil: float) ->
 
 
 def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Reduced,
-                    t_transient: float) -> FrictionResult:
+                    t, sigma, t_transient: float) -> FrictionResult:
     """mu_bar at the run's threshold and at the report thresholds (the slips from the run's
-    extrema), the mean stress ratio and its error (batch means of the blocks)."""
+    extrema), the mean stress ratio (the block means ``t``, ``sigma`` weighted by their
+    samples) and its error (batch means of the blocks)."""
     unit = spec.mu_s * spec.sigma_n
-    t, sigma, _ = red.series()
+    weights = red.weights()
 
     def at(fraction):
         return stress.macroscopic_friction(t, sigma, spec.sigma_n, fraction * unit,
                                            t_transient=t_transient,
-                                           events=red.events(fraction * unit))
+                                           events=red.events(fraction * unit), weights=weights)
 
     late = np.asarray(t, dtype=float) >= t_transient
     ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
-    main = at(settings.slip_threshold)
-    if late.any():   # the mean of the samples: the block means weighted by their samples
-        main = dataclasses.replace(main, mean_stress_ratio=float(np.average(
-            np.asarray(sigma, float)[late], weights=red.weights()[late]) / spec.sigma_n))
-    return FrictionResult(main, {_key(f): at(f) for f in settings.report_thresholds},
-                          ratio_err.error)
+    return FrictionResult(at(settings.slip_threshold),
+                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error)
 
 
 def _phase(phase: dict | None) -> dict | None:
@@ -601,7 +597,7 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     t, sigma, phase = red.series()
     t_equil = stationarity.equilibration_time(t, sigma)
     t0 = transient_time(spec, settings, t_equil)
-    fr = friction_result(spec, settings, red, t0)
+    fr = friction_result(spec, settings, red, t, sigma, t0)
     events = fr.friction.events
     win = run_window(spec, settings, t, sigma, phase, t0, events, weights=red.weights())
     # the trend the verdict read (its error widened by the layer's calibrated fluctuations),

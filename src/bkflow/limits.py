@@ -90,9 +90,10 @@ def cost(spec: RunSpec) -> Cost:
     per_t = RECORD_BYTES_PER_T_LEDGER if spec.writes_energy else RECORD_BYTES_PER_T
     if spec.writes_slips and not spec.writes_slip_frames:
         per_t += SLIP_ROW_BYTES_PER_T
-    records = per_t * spec.t_end + 16.0 * psi
-    series = 60.0 * samples if spec.writes_series else 0.0   # stress.csv and phase.csv
-    disk = runs * (per_t * spec.t_end + 120.0 * n) + 16.0 * psi + series + frames
+    records = per_t * spec.t_end + 16.0 * psi   # what the analysis reads at once
+    # stress.npy (16 bytes a sample, 80 with the ledger) and phase.npy
+    series = (80.0 if spec.writes_energy else 24.0) * samples if spec.writes_series else 0.0
+    disk = records + (runs - 1) * per_t * spec.t_end + runs * 120.0 * n + series + frames
     memory = 2e3 * n * runs + frame_memory + records
     return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory, series, records)
 

@@ -57,6 +57,8 @@ class Reduced:
     #: where the run kept its raw sigma_x series (scenes series, full): a function that reads
     #: it, for the slips below the recorded threshold (read only when they are asked for)
     raw: object = None
+    #: ... and its ledger at every sample (scene full), for the slips that are no extrema
+    raw_ledger: object = None
 
     @property
     def has_phase(self) -> bool:
@@ -107,11 +109,19 @@ class Reduced:
         t = i * self.nevery * self.dt
         return SlipEvents(i[a], i[b], t[a], t[b], s[a], s[a] - s[b], float(threshold))
 
-    def positions(self, sample) -> np.ndarray:
-        """The rows of ``extrema`` of the stress samples ``sample`` (each one of them)."""
+    def ledger_rows(self, i_max, i_min) -> tuple[dict, np.ndarray, np.ndarray]:
+        """The ledger and the rows of it at the samples ``i_max``, ``i_min`` of slips (for
+        bkflow.catalogue.energy_rows): the extrema's, where every sample is an extremum (a
+        threshold at or above the recorded one), else the raw series' (scene full)."""
         i = self.sample_index()
-        k = np.searchsorted(i, np.asarray(sample, np.int64))
-        return k
+        rows = [np.searchsorted(i, np.asarray(x, np.int64)) for x in (i_max, i_min)]
+        if all(np.array_equal(i[np.minimum(r, len(i) - 1)], x) if len(i) else not len(x)
+               for r, x in zip(rows, (i_max, i_min))):
+            return self.ledger_at_extrema(), rows[0], rows[1]
+        if self.raw_ledger is not None:
+            return self.raw_ledger(), np.asarray(i_max, int), np.asarray(i_min, int)
+        raise ReducedError("the slips of this threshold are not the recorded extrema and the "
+                           "run kept no raw ledger (scene full keeps it)")
 
     def series(self) -> tuple[np.ndarray, np.ndarray, dict | None]:
         """The block means: (t, sigma_x, phase), t the time of each block's first step,

@@ -567,7 +567,8 @@ class RunDir:
                                    if self.file(EXTREMA).exists() else None,
                                    io.regular(self.file(BLOCKS)), *args)
                 if self.file(SERIES_STRESS).exists():   # scenes series, full: every slip
-                    red = dataclasses.replace(red, raw=lambda: self.read_stress(spec)[1])
+                    red = dataclasses.replace(red, raw=lambda: self.read_stress(spec)[1],
+                                              raw_ledger=lambda: self.read_ledger(spec))
             except FileNotFoundError:
                 raise
             except (ValueError, OSError, EOFError) as exc:

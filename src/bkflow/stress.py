@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import TRANSIENT
-from .stationarity import MeanEstimate, mean_error
+from .stationarity import mean_error
 
 
 @dataclass(frozen=True)
@@ -154,13 +154,14 @@ class MacroscopicFriction:
 def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
                          transient_fraction: float = TRANSIENT,
                          t_transient: float | None = None,
-                         events: SlipEvents | None = None) -> MacroscopicFriction:
+                         events: SlipEvents | None = None, weights=None) -> MacroscopicFriction:
     """mu_bar with its error and the time-averaged stress ratio of one series.
 
     ``threshold`` in stress units (docs/model.md's 1% of mu_s sigma_n is 0.01); the transient is the
     first ``transient_fraction`` of the series' time span, or everything before
     ``t_transient`` when that is given. ``events``: the slips at ``threshold`` when the
-    series is not the raw one (block means: ``bkflow.reduced``), found from its records.
+    series is not the raw one (block means: ``bkflow.reduced``), found from its records, and
+    ``weights`` the samples behind each block mean (the time average is the samples').
     """
     t = np.asarray(t, dtype=float)
     s = np.asarray(sigma, dtype=float)
@@ -175,69 +176,13 @@ def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,
     est = mean_error(ev.sigma_fail / sigma_n)
     late = t >= t0
     return MacroscopicFriction(mu_bar=est.mean, mu_bar_err=est.error, n_slips=len(ev),
-                               mean_stress_ratio=float((s[late] / sigma_n).mean())
+                               mean_stress_ratio=float(np.average(
+                                   s[late] / sigma_n, weights=None if weights is None
+                                   else np.asarray(weights, float)[late]))
                                if late.any() else math.nan,
                                threshold=float(threshold), t_transient=float(t0),
                                g=est.g, error_reliable=est.reliable,
                                events=events)
-
-
-class Growing:
-    """Columns of floats that grow at the end (a series of a run in progress), kept in
-    arrays that double when full, so that a check reads them as arrays without copying."""
-
-    def __init__(self, n_columns: int):
-        self._a = np.empty((1024, n_columns))
-        self.n = 0
-
-    def extend(self, rows) -> None:
-        rows = np.asarray(rows, dtype=float).reshape(-1, self._a.shape[1])
-        need = self.n + len(rows)
-        if need > len(self._a):
-            bigger = np.empty((max(need, 2 * len(self._a)), self._a.shape[1]))
-            bigger[:self.n] = self._a[:self.n]
-            self._a = bigger
-        self._a[self.n:need] = rows
-        self.n = need
-
-    def column(self, k: int) -> np.ndarray:
-        return self._a[:self.n, k]
-
-
-class RunningFriction:
-    """mu_bar's standard error of a series that grows (a run in progress), for the stop rule
-    of an adaptive run: samples are fed in order (``feed``), slips found once by the
-    ``Zigzag`` rule, and ``error`` is the error of sigma_fail / sigma_n over the
-    slips after the transient of the series so far, exactly what ``macroscopic_friction``
-    gives on the whole series at that point. The series itself is kept (``t``, ``sigma``,
-    arrays) for the trend test of a run until steady."""
-
-    def __init__(self, threshold: float, sigma_n: float):
-        self.zigzag = Zigzag(threshold)
-        self.sigma_n = float(sigma_n)
-        self.series = Growing(2)
-        self.t_max: list[float] = []
-        self.fail: list[float] = []
-
-    @property
-    def t(self) -> np.ndarray:
-        return self.series.column(0)
-
-    @property
-    def sigma(self) -> np.ndarray:
-        return self.series.column(1)
-
-    def feed(self, rows) -> None:
-        """Append samples: rows (t, sigma_x)."""
-        first = self.series.n
-        self.series.extend(rows)
-        i_max, _ = self.zigzag.feed(self.sigma[first:].tolist())
-        self.t_max += [float(self.t[i]) for i in i_max]
-        self.fail += [float(self.sigma[i]) for i in i_max]
-
-    def error(self, t_transient: float) -> MeanEstimate:
-        fail = np.array([f for t, f in zip(self.t_max, self.fail) if t >= t_transient])
-        return mean_error(fail / self.sigma_n)
 
 
 @dataclass(frozen=True)
