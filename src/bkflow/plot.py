@@ -285,6 +285,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 1.9 * len(chosen) + 0.4),
                              squeeze=False)
     lows, tops = [], []
+    outline = False
     for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
@@ -292,6 +293,8 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         ev = rd.read_events()
         t0 = t[-1] - window
         keep = t >= t0
+        # the raw series where the run kept it, else the line through its turning points
+        outline = outline or not rd.keeps_raw_stress()
         ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
                 label=rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
         k = ev.t_max >= t0
@@ -313,7 +316,10 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     for ax in axes[:, 0]:
         ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
     fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$ ("
-                 + protocol_label(data) + ")", fontsize=9)
+                 + protocol_label(data) + ")"
+                 + ("\nthe lines join its turning points (the drops above 0.1% of "
+                    r"$\mu_s\sigma_n$; --scene series keeps every sample)" if outline else ""),
+                 fontsize=9)
     return fig
 
 
@@ -363,14 +369,15 @@ def fig_contacts(data: SweepData, plt):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
         spec = rd.spec()
-        phase = rd.phase_series(spec)
+        red = rd.read_reduced(spec)
+        phase = rd.phase_series(spec, red)
         top, bottom = axes[0, j], axes[1, j]
         if phase is None:
             top.text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
                      transform=top.transAxes, ha="center", va="center", fontsize=7)
             continue
         drawn += 1
-        t, sigma, _ = rd.read_reduced(spec).series()    # block means
+        t, sigma, _ = red.series()    # block means
         span = t[-1] - t[0]
         ts, ss = _smooth(t, sigma / row.sigma_n, span / 100)
         top.plot(ts, ss, color="black", lw=0.8)

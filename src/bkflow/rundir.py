@@ -569,12 +569,9 @@ class RunDir:
                 if self.file(SERIES_STRESS).exists():   # scenes series, full: every slip
                     red = dataclasses.replace(red, raw=lambda: self.read_stress(spec)[1],
                                               raw_ledger=lambda: self.read_ledger(spec))
-            except FileNotFoundError:
-                raise
-            except (ValueError, OSError, EOFError) as exc:
-                if isinstance(exc, OSError) and not isinstance(exc, EOFError) and \
-                        exc.errno is not None:
-                    raise
+            except (ValueError, EOFError, OSError) as exc:
+                if isinstance(exc, OSError) and exc.errno is not None:
+                    raise   # the file system's refusal (missing, unreadable), not damage
                 raise DamagedRunError(f"{self.path}: its records ({EXTREMA}, {BLOCKS}) are "
                                       f"damaged ({exc}); run the run again") from None
             return red
@@ -587,7 +584,7 @@ class RunDir:
         """sigma_x(t) as the run kept it: the raw series where its scene wrote it (series,
         full), else its turning points (``EXTREMA``: every maximum and minimum of the drops
         above the extrema threshold, the stick-slip's outline)."""
-        if self.file(SERIES_STRESS).exists() or self.file(STRESS).exists():
+        if self.keeps_raw_stress():
             return self.read_stress(spec)
         red = self.read_reduced(spec)
         if not red.has_extrema:
@@ -596,14 +593,19 @@ class RunDir:
         return red.sample_index() * spec.stress_nevery * spec.dt, \
             np.asarray(red.extrema["sigma"], float)
 
-    def phase_series(self, spec: RunSpec) -> dict | None:
+    def keeps_raw_stress(self) -> bool:
+        """Whether the run kept its raw stress series (scenes series, full; every run of an
+        older bkflow)."""
+        return self.file(SERIES_STRESS).exists() or self.file(STRESS).exists()
+
+    def phase_series(self, spec: RunSpec, red=None) -> dict | None:
         """The contacts' phase statistics as the run kept them: the raw series where its
-        scene wrote it (phase.csv), else their means over the blocks (``BLOCKS``); None
-        without phases."""
+        scene wrote it (phase.npy), else their means over the blocks (``BLOCKS``, of ``red``
+        where the caller has read the records already); None without phases."""
         if self.file(SERIES_PHASE).exists() or self.file(PHASE).exists() or \
                 not self.file(BLOCKS).exists():
             return self.read_phase(spec)
-        _, _, phase = self.read_reduced(spec).series()
+        _, _, phase = (red or self.read_reduced(spec)).series()
         return phase
 
     def _series(self, name: str, spec: RunSpec | None = None):
