@@ -333,6 +333,41 @@ def test_power_law_fit_recovers_the_exponent(alpha):
     assert auto.x_min >= 0.5 * x_min
 
 
+def test_the_x_min_scan_is_a_fit_at_every_candidate_in_order():
+    """power_law_fit's vectorised scan of x_min picks what fitting the tail above each
+    sample value in turn (and keeping the first of the smallest KS distances) picks, ties
+    and a tail of one value included, across chunk edges."""
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        m = int(rng.integers(10, 400))
+        x = np.round(0.01 * (1 - rng.random(m)) ** -0.8, int(rng.integers(2, 6)))
+        if trial % 5 == 0:
+            x[-(m // 3):] = x.max()   # a block of equal values at the top
+        xs = np.sort(x)
+        best = None
+        for xm in np.unique(xs[: m - 10 + 1]):
+            tail = xs[np.searchsorted(xs, xm):]
+            if np.all(tail == xm):
+                continue
+            alpha, ks = stress._fit_tail(tail, xm)
+            if best is None or ks < best[1]:
+                best = (alpha, ks, xm, len(tail))
+        fit = stress.power_law_fit(x)
+        if best is None:
+            assert math.isnan(fit.alpha)
+            continue
+        assert (fit.x_min, fit.n_tail) == (best[2], best[3])
+        assert fit.alpha == pytest.approx(best[0], rel=1e-12)
+        assert fit.ks == pytest.approx(best[1], rel=1e-9, abs=1e-15)
+        cands = np.unique(xs[: m - 9])
+        cands = cands[cands < xs[-1]]
+        a1, k1 = stress._scan_tails(xs, cands)
+        a2, k2 = stress._scan_tails(xs, cands, cells=3 * m)   # chunks of three
+        a3, k3 = stress._scan_tails(xs, cands, loop_from=0)   # a call per candidate
+        for a, k in ((a2, k2), (a3, k3)):
+            assert np.allclose(a1, a, rtol=1e-12, atol=0) and np.allclose(k1, k, rtol=1e-9)
+
+
 def test_power_law_fit_is_the_powerlaw_packages_at_a_fixed_x_min():
     """bkflow keeps its own closed-form fit (no optimiser, used inside the bootstrap); it
     is the same maximum-likelihood estimate as the field's library."""

@@ -554,26 +554,30 @@ def cluster_from_rows(spec: RunSpec, settings: AnalysisSettings, events: stress.
         raise AnalysisError(f"the run computed its slips' clusters at s_x = {S_X:g} (scene "
                             f"figures); s_x = {settings.s_x:g} needs the positions at each "
                             "slip (scene clusters, events or full)")
-    index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
+    nevery = spec.stress_nevery
+    ev_max = np.asarray(events.i_max, np.int64) * nevery   # increasing, as the slips come
+    ev_min = np.asarray(events.i_min, np.int64) * nevery
+    smax = np.asarray(slip_rows["step_max"], np.int64)
+    smin = np.asarray(slip_rows["step_min"], np.int64)
     table = {c: np.full(len(events), np.nan) for c in catalogue.SIZE_COLUMNS}
-    matched_at = {}
-    for r, (smax, smin) in enumerate(zip(slip_rows["step_max"].tolist(),
-                                         slip_rows["step_min"].tolist())):
-        ev = index.get(int(smax))
-        if ev is None or events.t_max[ev] < t_transient or \
-                int(smin) != int(events.i_min[ev]) * spec.stress_nevery:
-            continue   # a slip of another threshold than this analysis's
-        matched_at[int(smax)] = ev
-        for c in catalogue.SIZE_COLUMNS:
-            table[c][ev] = float(slip_rows[c][r])
-    keep = np.array([int(s) in matched_at for s in cluster_rows["step_max"].tolist()], bool)
-    ev_of = np.array([matched_at[int(s)] for s in cluster_rows["step_max"][keep].tolist()],
-                     dtype=np.int64)
+    if len(events):
+        at = np.minimum(np.searchsorted(ev_max, smax), len(events) - 1)
+        # a row of another threshold than this analysis's matches no slip of its own
+        ok = (ev_max[at] == smax) & (ev_min[at] == smin) & \
+            (np.asarray(events.t_max)[at] >= t_transient)
+    else:
+        at, ok = np.zeros(len(smax), np.int64), np.zeros(len(smax), bool)
+    for c in catalogue.SIZE_COLUMNS:
+        table[c][at[ok]] = np.asarray(slip_rows[c], float)[ok]
+    matched, first = np.unique(smax[ok], return_index=True)
+    cstep = np.asarray(cluster_rows["step_max"], np.int64)
+    keep = np.isin(cstep, matched)
+    ev_of = at[ok][first][np.searchsorted(matched, cstep[keep])].astype(np.int64)
     rows = {"event": ev_of.tolist(), "t": events.t_max[ev_of].astype(float).tolist()}
     for c in CLUSTER_ROW_COLUMNS:
         rows[c] = np.asarray(cluster_rows[c][keep]).tolist()
     return dataclasses.replace(
-        _cluster_summary(spec, settings, events, t_transient, rows, table, len(matched_at),
+        _cluster_summary(spec, settings, events, t_transient, rows, table, len(matched),
                          psi_inf, large), recorded=True)
 
 

@@ -209,6 +209,36 @@ def _fit_tail(x_sorted_tail: np.ndarray, x_min: float) -> tuple[float, float]:
     return alpha, ks
 
 
+def _scan_tails(x: np.ndarray, candidates: np.ndarray, cells: int = 1 << 20,
+                loop_from: int = 4096):
+    """``_fit_tail`` of the tail of sorted ``x`` above each of ``candidates`` (values of x), as
+    arrays of alpha and KS distance. Up to ``loop_from`` samples, the candidates in chunks of
+    about ``cells`` array cells, each a row over the chunk's columns with the part below its
+    cut masked out (a call per candidate costs more than its tail there); above, one call
+    of ``_fit_tail`` per candidate (its arrays are long enough to pay for the call)."""
+    m = len(x)
+    first = np.searchsorted(x, candidates)
+    if m > loop_from:
+        fits = [_fit_tail(x[j:], xm) for j, xm in zip(first.tolist(), candidates.tolist())]
+        return np.array([f[0] for f in fits]), np.array([f[1] for f in fits])
+    alphas, kss = [], []
+    c = 0
+    while c < len(candidates):
+        j0 = int(first[c])   # the chunk's columns start at its first cut
+        step = max(1, cells // (m - j0))
+        xm, j = candidates[c:c + step, None], first[c:c + step, None]
+        n = m - j
+        col = np.arange(j0, m)
+        inside = col >= j
+        r = x[j0:] / xm
+        alpha = 1.0 + n[:, 0] / np.log(np.where(inside, r, 1.0)).sum(axis=1)
+        model = 1.0 - r ** (1.0 - alpha[:, None])
+        kss.append(np.where(inside, np.abs((col - j) / n - model), 0.0).max(axis=1))
+        alphas.append(alpha)
+        c += step
+    return np.concatenate(alphas), np.concatenate(kss)
+
+
 def power_law_fit(x, x_min: float | None = None, min_tail: int = 10) -> PowerLawFit:
     """Maximum-likelihood exponent of a continuous power law (Clauset, Shalizi and Newman,
     SIAM Rev. 51, 661 (2009), Eq. 3.1): alpha = 1 + n / sum ln(x_i / x_min).
@@ -228,18 +258,14 @@ def power_law_fit(x, x_min: float | None = None, min_tail: int = 10) -> PowerLaw
         return PowerLawFit(alpha, (alpha - 1) / math.sqrt(len(tail)), float(x_min), len(tail), ks)
     if len(x) < min_tail:
         return nan
-    best = None
     candidates = np.unique(x[: len(x) - min_tail + 1])
-    for xm in candidates:
-        tail = x[np.searchsorted(x, xm):]
-        if np.all(tail == xm):
-            continue
-        alpha, ks = _fit_tail(tail, xm)
-        if best is None or ks < best[1]:
-            best = (alpha, ks, xm, len(tail))
-    if best is None:
+    candidates = candidates[candidates < x[-1]]   # a tail of one value has no fit
+    if len(candidates) == 0:
         return nan
-    alpha, ks, xm, n = best
+    alpha, ks = _scan_tails(x, candidates)
+    k = int(np.argmin(ks))   # the first of equal distances, as a scan in order keeps
+    alpha, ks, xm = float(alpha[k]), float(ks[k]), float(candidates[k])
+    n = len(x) - int(np.searchsorted(x, xm))
     return PowerLawFit(alpha, (alpha - 1) / math.sqrt(n), float(xm), n, ks)
 
 
@@ -316,9 +342,10 @@ def power_law_p(fit: PowerLawFit, n_boot: int = N_BOOT, seed: int = 0) -> float:
     for start in range(0, n_boot, rows):
         b = min(rows, n_boot - start)
         # inverse transform of the continuous power law above x_min
-        r = np.sort((1.0 - rng.random((b, n))) ** (-1.0 / (alpha - 1.0)), axis=1)  # x / x_min
-        a = 1.0 + n / np.log(r).sum(axis=1)
-        ks = np.max(np.abs(emp - (1.0 - r ** (1.0 - a[:, None]))), axis=1)
+        # ln(x / x_min) = -ln(v) / (alpha - 1), v uniform on (0, 1]: sorted by sorting -ln v
+        lr = np.sort(-np.log(1.0 - rng.random((b, n))), axis=1) / (alpha - 1.0)
+        a = 1.0 + n / lr.sum(axis=1)
+        ks = np.max(np.abs(emp - (1.0 - np.exp((1.0 - a[:, None]) * lr))), axis=1)
         worse += int(np.count_nonzero(ks >= fit.ks))
     return worse / n_boot
 
