@@ -206,7 +206,8 @@ def test_slipping_is_signed_and_clusters_follow_the_bonds():
 
 @pytest.mark.parametrize("fx, fy, psi, expected", [
     (1.01, 0.98, 0.99, "C"),
-    (1.01, 0.98, 0.6, "DP"),     # spans both axes but is not crystalline
+    (1.01, 0.98, 0.6, "W"),      # spans both axes but is not crystalline: never DP or DT
+    (0.98, 1.01, 0.6, "W"),
     (1.02, 0.35, 0.95, "LC"),
     (0.6, 0.3, 0.7, "DP"),
     (0.3, 0.6, 0.5, "DT"),
@@ -223,11 +224,37 @@ def test_run_regime_is_the_most_frequent_cluster_regime():
     l_y = np.array([5.05, 5.05, 5.05, 0.0, 0.0, 4.0])
     shape = clusters.cluster_shape(l_x, l_y, box, psi_inf=0.99)
     assert shape.regime == "C"
-    assert shape.regime_fractions == pytest.approx({"C": 0.5, "LC": 1 / 3, "DP": 0, "DT": 1 / 6})
+    assert shape.regime_fractions == pytest.approx({"C": 0.5, "W": 0, "LC": 1 / 3, "DP": 0,
+                                                    "DT": 1 / 6})
     assert shape.lx_mean_over_Lx == pytest.approx(l_x.mean() / 20)
     assert shape.lx_over_ly == pytest.approx(l_x.mean() / l_y.mean())
-    assert clusters.cluster_shape(l_x, l_y, box, psi_inf=0.5).regime == "DP"
+    assert clusters.cluster_shape(l_x, l_y, box, psi_inf=0.5).regime == "W"
     assert clusters.cluster_shape([], [], box).regime is None
+
+
+@pytest.mark.parametrize("lx, ly", [(20, 5), (5, 20), (10, 10), (21, 6), (6, 21), (9, 7),
+                                    (40, 10), (10, 40), (3, 3)])
+@pytest.mark.parametrize("psi, expected", [(0.99, "C"), (0.5, "W")])
+def test_a_whole_box_slip_is_neither_dp_nor_dt_on_any_lattice(lx, ly, psi, expected):
+    """The parity-free rule: every particle slipping, on odd and even sides, is C or W; its
+    extents are exactly the whole box's (box_extent), and whole rows stay LC."""
+    from bkflow.lattice import square_lattice
+
+    lat = square_lattice(lx, ly)
+    x0 = lat.positions[:, :2].copy()
+    ext = clusters.event_clusters(x0, x0 + [0.5, 0.0], lat.bonds, lat.box)
+    assert ext.n_c.tolist() == [lx * ly]
+    assert ext.l_x[0] == pytest.approx(clusters.box_extent(lx, ly), rel=1e-12)
+    assert ext.l_y[0] == pytest.approx(clusters.box_extent(ly, lx), rel=1e-12)
+    shape = clusters.cluster_shape(ext.l_x, ext.l_y, lat.box, psi_inf=psi)
+    assert shape.regime == expected and shape.regime_fractions[expected] == 1.0
+    assert shape.regime_fractions["DP"] == shape.regime_fractions["DT"] == 0.0
+    # the layer's rows one by one (a row of lx sites is bonded along x): LC
+    row = np.zeros(lx * ly, bool)
+    row[:lx] = True
+    ext = clusters.event_clusters(x0, x0 + 0.5 * row[:, None] * [1.0, 0.0], lat.bonds, lat.box)
+    if ly > 1 and lx > 1:
+        assert clusters.cluster_shape(ext.l_x, ext.l_y, lat.box, psi_inf=psi).regime == "LC"
 
 
 # --- stress ------------------------------------------------------------------------------

@@ -11,7 +11,8 @@ cluster of N_c >= 2 particles, with minimum-image distances and positions at the
 so that a cluster filling the periodic box gives l_x = Lx N/(N-1) and l_y = Ly N/(N-1) (the
 "lattice's discreteness" of docs/model.md: the distances from one of L equally spaced sites on a
 ring to the others sum to L^2/4; for odd L it is (L^2 - 1)/4, a further factor 1 - 1/L^2),
-and one full row gives l_x = Lx Lx/(Lx-1), l_y = 0.
+and one full row gives l_x = Lx Lx/(Lx-1), l_y = 0. The regimes compare each extent with the
+whole box's own on that side (``box_extent``), so that the parity of a side decides nothing.
 The pair sum is computed in O(N_c log N_c) from sorted coordinates and prefix sums, so a
 cluster of the whole 120x30 layer costs no more memory than its positions.
 
@@ -146,29 +147,56 @@ class ClusterShape:
     regime: str | None
 
 
-REGIMES = ("C", "LC", "DP", "DT")
+REGIMES = ("C", "W", "LC", "DP", "DT")
 
 
-def regime(lx_frac, ly_frac, psi_inf: float, span: float = DEFAULT_SPAN_FRACTION,
+def box_extent(n_along: int, n_across: int) -> float:
+    """l along a side of ``n_along`` sites of the whole box of n_along x n_across sites (unit
+    spacing), every particle in the cluster: 4 n_across^2 n_along S / (N (N - 1)), N the
+    particles, S = floor(n_along^2 / 4) the ring distances from one site to the others.
+    That is L N/(N-1) for an even side and a further 1 - 1/L^2 for an odd one: the odd side's
+    whole-box extent is the smaller, so l/L would call a whole-box slip longer along the
+    even side (tests/test_analysis.py)."""
+    n_along, n_across = int(n_along), int(n_across)
+    n = n_along * n_across
+    if n < 2:
+        return math.nan
+    return 4.0 * n_across ** 2 * n_along * (n_along * n_along // 4) / (n * (n - 1))
+
+
+def box_fractions(l_x, l_y, box) -> tuple[np.ndarray, np.ndarray]:
+    """l_x and l_y as fractions of the whole box's own extent on each side (``box_extent``;
+    ``box`` in lattice units, one site per unit): 1 on both for a whole-box slip on any
+    lattice, odd or even sides."""
+    lx_sites, ly_sites = int(round(float(box[0]))), int(round(float(box[1])))
+    return (np.asarray(l_x, dtype=float) / box_extent(lx_sites, ly_sites),
+            np.asarray(l_y, dtype=float) / box_extent(ly_sites, lx_sites))
+
+
+def regime(fx, fy, psi_inf: float, span: float = DEFAULT_SPAN_FRACTION,
            psi_crystal: float = DEFAULT_PSI_CRYSTAL):
-    """Regime of a cluster from its l_x/Lx, l_y/Ly and the run's Psi(inf), in docs/model.md's terms
-    (Fig. 4a of the paper is this classification of single clusters):
+    """Regime of a cluster from its extents as fractions of the whole box's own on each side
+    (``box_fractions``) and the run's Psi(inf), in docs/model.md's terms (Fig. 4a of the paper
+    is this classification of single clusters):
 
-    - ``C``  (crystalline, the whole system slips): l_x/Lx >= span and l_y/Ly >= span, in a
+    - ``C``  (crystalline, the whole system slips): fx >= span and fy >= span, in a
       crystalline layer (Psi(inf) >= psi_crystal);
-    - ``LC`` (laminar crystalline, whole rows): l_x/Lx >= span and l_y/Ly < span;
-    - ``DP`` (disorder-parallel): otherwise, when l_x/Lx >= l_y/Ly;
-    - ``DT`` (disorder-transverse): otherwise (l_x/Lx < l_y/Ly).
+    - ``W``  (the whole box slips in a layer that is not crystalline): fx >= span and
+      fy >= span otherwise. A slip that spans both axes is never DP or DT: their
+      comparison of fx with fy is noise for it (both about 1);
+    - ``LC`` (laminar crystalline, whole rows): fx >= span and fy < span;
+    - ``DP`` (disorder-parallel): x not spanned, fx >= fy;
+    - ``DT`` (disorder-transverse): x not spanned, fx < fy.
 
-    ``span`` = 0.9 by default: a cluster of whole rows gives l_x/Lx = Lx/(Lx-1) > 1, and
-    4 of 5 rows give l_y/Ly = 0.91. Works on scalars (a label, None for NaN) and on arrays
-    (an array of labels, "" for NaN).
+    ``span`` = 0.9 by default: whole rows give fx = (N-1)/N Lx/(Lx-1) >= 1 (even Lx), and
+    4 of 5 rows give fy = 0.94. Works on scalars (a label, None for NaN) and on arrays (an
+    array of labels, "" for NaN).
     """
-    fx, fy = np.asarray(lx_frac, dtype=float), np.asarray(ly_frac, dtype=float)
+    fx, fy = np.asarray(fx, dtype=float), np.asarray(fy, dtype=float)
     crystal = math.isfinite(psi_inf) and psi_inf >= psi_crystal
     label = np.where(fx >= fy, "DP", "DT").astype(object)
     label = np.where((fx >= span) & (fy < span), "LC", label)
-    label = np.where((fx >= span) & (fy >= span) & crystal, "C", label)
+    label = np.where((fx >= span) & (fy >= span), "C" if crystal else "W", label)
     label = np.where(np.isfinite(fx) & np.isfinite(fy), label, "")
     if label.ndim == 0:
         return str(label) or None
@@ -179,8 +207,8 @@ def cluster_shape(l_x, l_y, box, psi_inf: float = math.nan,
                   span: float = DEFAULT_SPAN_FRACTION,
                   psi_crystal: float = DEFAULT_PSI_CRYSTAL) -> ClusterShape:
     """Averages over all clusters of a run (each cluster counts once), and its regime: every
-    cluster is classified by ``regime`` and the run takes the most frequent label (ties
-    go to the label of larger phi, in the order C, LC, DP, DT)."""
+    cluster is classified by ``regime`` of its ``box_fractions`` and the run takes the most
+    frequent label (ties go to the first in REGIMES' order: C, W, LC, DP, DT)."""
     l_x = np.asarray(l_x, dtype=float)
     l_y = np.asarray(l_y, dtype=float)
     if len(l_x) == 0:
@@ -189,7 +217,7 @@ def cluster_shape(l_x, l_y, box, psi_inf: float = math.nan,
     fy = float(np.mean(l_y) / box[1])
     my = float(np.mean(l_y))
     ratio = float(np.mean(l_x) / my) if my > 0 else math.inf
-    labels = regime(l_x / box[0], l_y / box[1], psi_inf, span, psi_crystal)
+    labels = regime(*box_fractions(l_x, l_y, box), psi_inf, span, psi_crystal)
     fractions = {r: float(np.mean(labels == r)) for r in REGIMES}
     best = max(REGIMES, key=lambda r: (fractions[r], -REGIMES.index(r)))
     return ClusterShape(fx, fy, ratio, len(l_x), fractions, best)

@@ -771,7 +771,7 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
 #: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 9
+ANALYSIS_REVISION = 10
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ events.parquet), through
 | ``fig2a_friction`` | mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside |
 | ``fig2b_asymmetry`` | <l_x>/<l_y>(phi) per size |
 | ``fig3_order`` | Psi(inf)(phi) per size; inset 1 - Psi(t) for phi in {1e3, 1e2, 10, 1} |
-| ``fig4a_clusters`` | l_y/Ly vs l_x/Lx of every slip cluster for four phi |
+| ``fig4a_clusters`` | l_y vs l_x of every slip cluster for four phi, each against the whole box's |
 | ``fig_drops`` | stress-drop sizes for four phi, a power law where plausible |
 | ``fig_contacts`` | sigma_x(t) and the contacts' phase coherence R(t) of three runs |
 
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import io
+from . import clusters, io
 from .io import MARK, atomic_file, foreign_file, shell_word
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
@@ -40,7 +40,8 @@ from .tables import FIGURES_DIR, read_tables, varied_parameters
 FORMATS = ("png", "pdf")
 MARKERS = ("o", "s", "D", "^", "v", "P")
 #: the regimes' colours in the cluster scatter (the paper's: black, red, green, blue)
-REGIME_COLOURS = {"C": "black", "LC": "tab:red", "DP": "tab:green", "DT": "tab:blue"}
+REGIME_COLOURS = {"C": "black", "W": "tab:grey", "LC": "tab:red", "DP": "tab:green",
+                  "DT": "tab:blue"}
 #: phi of the Psi(t) inset (the paper's Fig. 3)
 INSET_PHI = (1e3, 1e2, 10.0, 1.0)
 
@@ -512,9 +513,14 @@ def fig2b_asymmetry(data: SweepData, plt):
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)
-    ax.text(0.98, 0.04, "dotted: the box's Lx/Ly (clusters spanning the box reach a little\n"
-            "more: l = L N/(N-1) on a lattice of N sites, 4.17 on 20x5)", transform=ax.transAxes,
-            ha="right", va="bottom", fontsize=5.5, color="grey")
+    # a whole-box slip's l_x/l_y is not Lx/Ly: N/(N-1) cancels, an odd side's ring distances
+    # (L^2 - 1)/4 do not (bkflow.clusters.box_extent)
+    whole = ", ".join(f"{clusters.box_extent(lx, ly) / clusters.box_extent(ly, lx):.3g} on "
+                      f"{lx}x{ly}" for lx, ly in data.sizes
+                      if (lx % 2 or ly % 2) and lx > 1 and ly > 1)
+    ax.text(0.98, 0.04, "dotted: the box's Lx/Ly" + (
+        f"\na whole-box slip on an odd side reaches {whole}" if whole else ""),
+        transform=ax.transAxes, ha="right", va="bottom", fontsize=6, color="grey")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
@@ -615,29 +621,33 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     # the largest set first and lowest: a sparse set is drawn over a dense one, not hidden
     handles = {}
     for z, (phi, m, colour, c) in enumerate(sorted(sets, key=lambda s: -len(s[3]))):
-        handles[phi], = ax.plot(c.l_x / lx, c.l_y / ly, m, color=colour, mfc="none", ms=3,
+        fx, fy = clusters.box_fractions(c.l_x, c.l_y, (lx, ly))
+        handles[phi], = ax.plot(fx, fy, m, color=colour, mfc="none", ms=3,
                                 mew=0.6, alpha=0.5, zorder=2 + z,
                                 label=rf"$\phi$ = {_num(phi)} ({len(c)} clusters)")
     # every cluster inside the axes (a soft layer's clusters reach past 1 across the box)
-    top = max(1.15, 1.03 * max(float(max((c.l_x / lx).max(), (c.l_y / ly).max()))
-                               for *_, c in sets))
+    top = max(1.15, 1.03 * max(float(max(f.max() for f in clusters.box_fractions(
+        c.l_x, c.l_y, (lx, ly)))) for *_, c in sets))
     ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
     ax.axvline(0.9, color="grey", lw=0.6, ls=":")
     ax.axhline(0.9, color="grey", lw=0.6, ls=":")
     # the regions' names in grey: the colours belong to the phi of the key
-    for txt, x, y in (("C", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2), ("DT", 0.2, 0.6)):
+    for txt, x, y in (("C / W", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2),
+                      ("DT", 0.2, 0.6)):
         ax.text(x, y, txt, fontsize=8, ha="center", va="center", color="dimgrey",
                 weight="bold", bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
     ax.set_xlim(-0.03, top)  # a cluster one particle across sits at 0: drawn whole
     ax.set_ylim(-0.03, top)
-    ax.set_xlabel(r"$l_x / L_x$")
-    ax.set_ylabel(r"$l_y / L_y$")
+    # each extent against the whole box's own on its side: a whole-box slip sits at (1, 1)
+    # on odd and even sides alike (bkflow.clusters.box_fractions)
+    ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$")
+    ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$")
     ax.set_title(title, fontsize=9)
     from matplotlib.lines import Line2D
 
     guides = [Line2D([], [], color="grey", lw=0.6, ls=":",
                      label="0.9 of a side: spanning (the regimes' bounds)"),
-              Line2D([], [], color="grey", lw=0.6, ls="--", label=r"$l_x/L_x = l_y/L_y$")]
+              Line2D([], [], color="grey", lw=0.6, ls="--", label="the DP / DT bound")]
     ax.legend(handles=[handles[phi] for phi, *_ in sets] + guides, frameon=False, fontsize=6.5,
               loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, markerscale=1.5)
     return fig if fig is not None else ax.figure

@@ -4,8 +4,8 @@
         [--protocols paper,steady,steady_3600,sync_steady,aspect] [--figures DIR]
         [--numbers FILE]
 
-Every sweep uses the default time step (C = 0.1, the default preset's) and scene full, seeds
-1..3, 13 phi from 1e-1 to 1e3 (3 per decade) unless said otherwise; each goes into OUT/<name>:
+Every sweep uses the default time step (the default accuracy preset's) and the default scene,
+seeds 1..3, 13 phi from 1e-1 to 1e3 (3 per decade) unless said otherwise; each goes into OUT/<name>:
 
 paper        the paper's protocol (bkflow run --protocol paper): the synchronized start
              (every contact formed at t = 0) run for a finite length, t_end = 1000, 4000 and
@@ -20,7 +20,8 @@ steady_3600  the same at N = 3600 (120x30), beyond the paper, one phi per decade
 sync_steady  the synchronized start beside its partial companion until steady (cap 64000) at
              N = 100, phi = 10, 100, 1000: does the paper's start reach the same steady state?
 aspect       the aspect-ratio check ("with Lx <= Ly the DT regime does not appear"): N = 100
-             on 20x5, 10x10 and 5x20, the paper's protocol, t_end = 8000.
+             on 20x5, 10x10 and 5x20, and N = 400 on 40x10, 20x20 and 10x40 (every side
+             even), the paper's protocol, t_end = 8000.
 
 Then the figures (``bkflow plot`` of each protocol, and the comparisons below) as PNG into
 workflows/paper/figures/, and workflows/paper/numbers.md: every number REPRODUCTION.md cites,
@@ -40,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from bkflow import io
+from bkflow.clusters import box_fractions
 from bkflow.grid import phi_values, sweep_specs
 from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
 from bkflow.plot import STATE_FILL, STYLE, SweepData, _style, cluster_scatter, plot, state_handles
@@ -49,7 +51,9 @@ from bkflow.tables import SETTINGS_FILE, read_tables
 
 HERE = Path(__file__).resolve().parent
 PHI = "1e-1:1e3"
-ASPECT_SIZES = [(20, 5), (10, 10), (5, 20)]
+#: the aspect-ratio check: N = 100 as the paper, and N = 400 with every side even (an odd
+#: side's whole-box extent is shorter, so claim 5 is also decided where parity plays no part)
+ASPECT_SIZES = [(20, 5), (10, 10), (5, 20), (40, 10), (20, 20), (10, 40)]
 #: the paper's protocol: the synchronized start run for a finite length, at three lengths
 PAPER_LENGTHS = (1000.0, 4000.0, 16000.0)
 #: the steady protocol as the main command runs it (bkflow sweep's default cap: the stiff
@@ -258,11 +262,16 @@ def numbers(out: Path, wall: dict) -> str:
                          f"{arg('mean_stress_ratio', 'idxmin')} |")
 
     lines += ["", "## Regimes: share of slip clusters (all seeds), N = 100 (20x5)", "",
-              "| curve | phi | C | LC | DP | DT | clusters |", "|---|---|---|---|---|---|---|"]
+              "The parity-free rule of bkflow.clusters.regime: each extent against the whole "
+              "box's own on its side; a slip spanning both axes is C in a crystalline layer and "
+              "W otherwise, never DP or DT. 'x not spanned' = DP + DT.", "",
+              "| curve | phi | C | W | LC | DP | DT | x not spanned | clusters |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for label, (runs, _) in cs.items():
         r100 = runs[(runs.Lx == 20) & (runs.Ly == 5)]
         for phi, g in r100.groupby("phi"):
-            fr = [cluster_share(g, k) for k in ("C", "LC", "DP", "DT")]
+            fr = [cluster_share(g, k) for k in ("C", "W", "LC", "DP", "DT")]
+            fr.append(fr[3] + fr[4])
             lines.append(f"| {label} | {phi:g} | " + " | ".join(f"{f:.2f}" for f in fr)
                          + f" | {g.n_clusters.sum():.0f} |")
 
@@ -305,7 +314,7 @@ def numbers(out: Path, wall: dict) -> str:
 
 
 def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
-    out = ["", "## Aspect ratio (N = 100, t_end = 8000): share of DT clusters", "",
+    out = ["", "## Aspect ratio (t_end = 8000): share of DT clusters", "",
            "| phi | " + " | ".join(f"{lx}x{ly} (Lx/Ly = {lx / ly:g})" for lx, ly in ASPECT_SIZES)
            + " |", "|---|" + "---|" * len(ASPECT_SIZES)]
     for phi, g in a.groupby("phi"):
@@ -320,11 +329,11 @@ def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
         tot.append(f"{cluster_share(s, 'DT'):.3f} of {s.n_clusters.sum():.0f}")
     out.append("| all phi | " + " | ".join(tot) + " |")
     span = span_fraction(aspect_dir)
-    out += ["", "## Aspect ratio (N = 100): cluster shapes over all phi and seeds", "",
-            "DT by the regime rule of bkflow.clusters.regime; 'DT, x not spanned' also leaves "
-            f"out clusters with l_x/Lx >= {span:g} (whole-box slips of disordered layers, whose "
-            "DP/DT label the rule decides by l_x/Lx vs l_y/Ly, both about 1).", "",
-            "| size | clusters | DT (regime rule) | DT, x not spanned | spans both axes | "
+    out += ["", "## Aspect ratio: cluster shapes over all phi and seeds", "",
+            "DT and 'spans both axes' by the parity-free rule (bkflow.clusters.regime: each "
+            f"extent against the whole box's own on its side, spanning from {span:g}); a slip "
+            "that spans both axes is C or W, never DT.", "",
+            "| size | clusters | DT | x not spanned (DP + DT) | spans both axes | "
             "l_y > l_x (absolute) |", "|---|---|---|---|---|---|"]
     for lx, ly in ASPECT_SIZES:
         s = a[(a.Lx == lx) & (a.Ly == ly)]
@@ -334,9 +343,9 @@ def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
             out.append(f"| {lx}x{ly} | 0 | n/a | n/a | n/a | n/a |")
             continue
         c = pd.concat(tables)
-        fx, fy = c.l_x / lx, c.l_y / ly
+        fx, fy = box_fractions(c.l_x, c.l_y, (lx, ly))
         out.append(f"| {lx}x{ly} | {len(c)} | {cluster_share(s, 'DT'):.3f} | "
-                   f"{((fx < fy) & (fx < span)).mean():.3f} | "
+                   f"{(fx < span).mean():.3f} | "
                    f"{((fx >= span) & (fy >= span)).mean():.3f} | "
                    f"{(c.l_y > c.l_x).mean():.3f} |")
     return out
@@ -634,8 +643,9 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
     each aspect ratio at the phi with the most DT clusters and at phi = 0.1."""
     plt = _style()
     data = SweepData(aspect_dir)
-    fig, axes = plt.subplots(1, len(ASPECT_SIZES), figsize=(3.0 * len(ASPECT_SIZES), 3.9))
-    for ax, (lx, ly) in zip(axes, ASPECT_SIZES):
+    rows = (len(ASPECT_SIZES) + 2) // 3   # N = 100 above, N = 400 below
+    fig, axes = plt.subplots(rows, 3, figsize=(9.0, 3.9 * rows), squeeze=False)
+    for ax, (lx, ly) in zip(axes.flat, ASPECT_SIZES):
         cluster_scatter(data, plt, lx, ly, [2.15443, 0.1], f"{lx}x{ly} (Lx/Ly = {lx / ly:g})",
                         ax=ax)
         ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
@@ -647,17 +657,20 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     plt = _style()
     a, _ = read_tables(aspect_dir)
     fig, ax = plt.subplots(figsize=(3.8, 2.8))
-    for (lx, ly), m in zip(ASPECT_SIZES, "osD"):
+    for (lx, ly), m, c in zip(ASPECT_SIZES, "osDosD", ["tab:blue", "tab:orange", "tab:green"] * 2):
         s = a[(a.Lx == lx) & (a.Ly == ly)]
         rows = [(phi, cluster_share(g, "DT")) for phi, g in s.groupby("phi")]
         if rows:
             x, y = zip(*rows)
-            ax.plot(x, y, marker=m, lw=0.8, label=f"{lx}x{ly} (Lx/Ly = {lx / ly:g})")
+            even = lx % 2 == 0 and ly % 2 == 0
+            ax.plot(x, y, marker=m, lw=0.8, color=c, ls="-" if even else "--",
+                    mfc=c if even else "none", ms=4,
+                    label=f"{lx}x{ly} (Lx/Ly = {lx / ly:g}, N = {lx * ly})")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel("share of DT clusters")
-    ax.set_title("aspect ratio check, N = 100", fontsize=9)
-    ax.legend(frameon=False)
+    ax.set_title("aspect ratio check (parity-free rule)", fontsize=9)
+    ax.legend(frameon=False, fontsize=6.5)
     return _write(fig, out / "aspect_dt_share.png")
 
 
