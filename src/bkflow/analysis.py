@@ -30,7 +30,7 @@ from . import (
     stress,
 )
 from .lattice import square_lattice
-from .params import S_X, STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
+from .params import S_X, SCALED_N, STEADY_AGREEMENT, AnalysisSettings, RunSpec, transient_step
 from .rundir import (  # noqa: F401
     BLOCKS,
     CLUSTERS,
@@ -62,6 +62,8 @@ class FrictionResult:
     friction: stress.MacroscopicFriction
     by_threshold: dict  # fraction of mu_s sigma_n -> MacroscopicFriction
     mean_stress_ratio_err: float
+    #: at the size-scaled threshold (params.SCALED_N), None where the records do not reach it
+    scaled: stress.MacroscopicFriction | None = None
     mean_stress_ratio_err_run: float = math.nan
     mu_bar_err: float = math.nan
     mu_bar_err_by_threshold: dict = field(default_factory=dict)
@@ -92,6 +94,9 @@ class FrictionResult:
                 "slip_threshold_stress": f.threshold,
                 "t_transient": f.t_transient,
                 "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
+                "mu_bar_scaled": self.scaled.mu_bar if self.scaled is not None else math.nan,
+                "slip_threshold_scaled": (self.scaled.threshold if self.scaled is not None
+                                          else math.nan),
                 "mu_bar_err_by_threshold": (dict(self.mu_bar_err_by_threshold) if covered else
                                             {k: v.mu_bar_err
                                              for k, v in self.by_threshold.items()}),
@@ -381,8 +386,12 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Redu
 
     late = np.asarray(t, dtype=float) >= t_transient
     ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
+    scaled = settings.slip_threshold * min(1.0, SCALED_N / spec.N)
+    reachable = red.raw is not None or (red.has_extrema and
+                                        scaled * unit >= red.threshold * (1 - 1e-12))
     return FrictionResult(at(settings.slip_threshold),
-                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error)
+                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error,
+                          scaled=at(scaled) if reachable else None)
 
 
 def _phase(phase: dict | None) -> dict | None:

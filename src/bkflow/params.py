@@ -173,6 +173,11 @@ PSI_CRYSTAL = 0.9
 PSI_LATE_FRACTION = 0.2
 #: thresholds (fractions of mu_s sigma_n) that the summary reports mu_bar for
 REPORT_THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
+#: the size-scaled slip threshold beside the fixed one: the slip threshold times
+#: min(1, SCALED_N / N), so that at every N a drop counts from the same number of slipping
+#: particles as at N = SCALED_N (a drop of the mean stress scales like the share of the layer
+#: that slips); the summary's ``mu_bar_scaled``
+SCALED_N = 100
 #: how the transient is found: a fixed fraction of the run, or detected (Chodera 2016)
 TRANSIENT_RULES = ("fixed", "detect")
 #: a "large" drop is larger than this times the mean drop of the run's slips after the
@@ -656,9 +661,11 @@ class RunSpec:
     @property
     def extrema_threshold_stress(self) -> float:
         """The zigzag threshold of the run's recorded extrema (stress units): the smallest any
-        analysis asks for (the run's slip threshold and the summary's REPORT_THRESHOLDS), so
+        analysis asks for (the run's slip threshold, its size-scaled one and the summary's
+        REPORT_THRESHOLDS), so
         that the slips at every one of them are exact (bkflow.reduced)."""
-        return min((self.slip_threshold,) + REPORT_THRESHOLDS) * self.mu_s * self.sigma_n
+        scaled = self.slip_threshold * min(1.0, SCALED_N / self.N)
+        return min((self.slip_threshold, scaled) + REPORT_THRESHOLDS) * self.mu_s * self.sigma_n
 
     @property
     def writes_snapshots(self) -> bool:
@@ -771,7 +778,7 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
 #: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 10
+ANALYSIS_REVISION = 11
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,519 @@
+"""The paper's claims, each decided by a stated test with its power, as one record.
+
+``reproduce.py`` computes the record from its sweeps (``record``) and writes it to
+``workflows/paper/claims.json``; numbers.md's "Claims" section and REPRODUCTION.md's verdicts
+and per-claim tables are rendered from that record by the functions here (``render_*``),
+REPRODUCTION.md's through ``benchmarks/results_blocks.py``. tests/test_results_blocks.py fails
+when a document and the record differ, so that no number of the reproduction is typed twice.
+
+The tests (errors are standard errors over seeds; a difference is significant at more than
+``Z`` combined errors, and its power is the difference that test finds with 80% probability,
+(Z + 0.84) combined errors):
+
+1. mu_bar(phi) is non-monotonic: its lowest point is interior and below both ends by more
+   than Z combined errors (``minimum``); read at the paper's 1% threshold and at a
+   size-scaled one (1% times 100/N: the same number of particles per drop at every N).
+2. Psi(inf) rises from about 0.5 to about 1 and does not depend on N for phi >= 100: Psi(inf)
+   at the ends of each curve, and the largest difference between sizes at phi >= 100 in
+   combined errors.
+3. <l_x>/<l_y> peaks where mu_bar dips: the phi of each, per curve and N.
+4. Four regimes C, LC, DP, DT in this order from stiff to soft (20x5): the share of each
+   (bkflow.clusters.regime, parity-free) per phi, which appear (5% of the clusters at some
+   phi), and the order of the phi where each is most frequent.
+5. With Lx <= Ly no DT: the DT share of each lattice (all phi), its error over seeds.
+6. The energy argument: for every cluster, is its shape (row, column, whole box, patch) the
+   one Eq. 2 makes cheapest for its size and mean slip?
+7. Stress drops follow a power law: Clauset et al.'s test in every run.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+#: a difference is significant beyond this many combined standard errors
+Z = 2.0
+#: z of 80% power, one-sided
+Z_POWER = 0.84
+#: a regime "appears" when it holds this share of the clusters at some phi
+APPEARS = 0.05
+#: the paper's order of the regimes from soft to stiff layers (its Fig. 4a)
+PAPER_ORDER = ("DT", "DP", "LC", "C")
+#: Psi(inf) counts as independent of N where the sizes differ by less than this (1% of its
+#: stiff-end value): with enough seeds a difference of 0.005 is significant, yet invisible on
+#: the paper's Fig. 3
+PSI_SAME = 0.01
+#: the curves every claim is decided on: the paper's protocol at its longest run, and the
+#: steady protocol (numbers.md has the shorter runs too)
+DECIDING = ("paper, t_end = 16000", "steady protocol")
+
+
+def _f(v) -> float | None:
+    """A JSON-safe float (None for NaN or infinity)."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _sem(x) -> float:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.std(x, ddof=1) / math.sqrt(len(x))) if len(x) > 1 else math.nan
+
+
+def minimum(phi, y, e) -> dict:
+    """Where one curve is lowest, and whether that is an interior minimum below both ends by
+    more than Z combined errors; ``dip80``: the depth below the less certain end that the test
+    finds with 80% power."""
+    order = np.argsort(phi)
+    phi, y, e = (np.asarray(a, float)[order] for a in (phi, y, e))
+    ok = np.isfinite(y)
+    phi, y, e = phi[ok], y[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0)
+    if len(y) < 3:
+        return {}
+    i = int(np.argmin(y))
+    comb = [math.hypot(e[k], e[i]) for k in (0, len(y) - 1)]
+    z = [(y[k] - y[i]) / c if c > 0 else math.inf for k, c in zip((0, len(y) - 1), comb)]
+    interior = 0 < i < len(y) - 1
+    return {"phi": _f(phi[i]), "min": _f(y[i]), "sem": _f(e[i]), "lo": _f(y[0]),
+            "hi": _f(y[-1]), "z_lo": _f(z[0]) if interior else None,
+            "z_hi": _f(z[1]) if interior else None, "interior": interior,
+            "non_monotonic": bool(interior and min(z) > Z),
+            "dip80": _f((Z + Z_POWER) * max(math.hypot(e[0], e[i]), math.hypot(e[-1], e[i])))}
+
+
+def _per_seed(runs: pd.DataFrame, field: str) -> pd.DataFrame:
+    """Per (N, phi): the mean of ``field`` over seeds, its standard error and the seeds."""
+    g = runs.groupby(["N", "phi"])[field]
+    return pd.DataFrame({"mean": g.mean(), "sem": g.apply(_sem), "seeds": g.count()}).reset_index()
+
+
+def claim1(runs: pd.DataFrame, mu_s: float) -> dict:
+    """Non-monotonic mu_bar per N, at 1% and at the size-scaled threshold, and the depth of
+    every point below mu_s (which a "40% below mu_s" does not discriminate)."""
+    out = {}
+    for field in ("mu_bar", "mu_bar_scaled", "mu_bar_large"):
+        if field not in runs or runs[field].isna().all():
+            continue
+        t = _per_seed(runs, field)
+        per = {}
+        for n, g in t.groupby("N"):
+            m = minimum(g.phi, g["mean"], g["sem"])
+            if m:
+                m["seeds"] = int(g.seeds.min())
+                m["below_mu_s"] = _f(1 - m["min"] / mu_s)
+                per[str(int(n))] = m
+        out[field] = per
+    depth = 1 - runs.groupby(["N", "phi"]).mu_bar.mean() / mu_s
+    out["below_mu_s_range"] = [_f(depth.min()), _f(depth.max())]
+    mins = out.get("mu_bar", {})
+    ns = sorted(mins, key=int)
+    out["deeper_with_N"] = bool(len(ns) > 1 and all(
+        mins[a]["min"] - mins[b]["min"] > Z * math.hypot(mins[a]["sem"], mins[b]["sem"])
+        for a, b in zip(ns, ns[1:])))
+    stiff = runs[runs.phi >= 46]
+    out["stiff_states"] = {k: int(v) for k, v in stiff.state.value_counts().items()}
+    return out
+
+
+def claim2(runs: pd.DataFrame) -> dict:
+    t = _per_seed(runs, "psi_inf")
+    ends = {str(int(n)): [_f(g.sort_values("phi")["mean"].iloc[0]),
+                          _f(g.sort_values("phi")["mean"].iloc[-1])]
+            for n, g in t.groupby("N")}
+    worst = {"z": 0.0, "diff": 0.0, "phi": None}
+    below_lower = []
+    for phi, g in t.groupby("phi"):
+        g = g.sort_values("N")
+        if len(g) < 2:
+            continue
+        m, e = g["mean"].to_numpy(), g["sem"].to_numpy()
+        i, j = int(np.argmax(m)), int(np.argmin(m))
+        d = m[i] - m[j]
+        z = d / math.hypot(e[i], e[j]) if math.hypot(e[i], e[j]) > 0 else math.inf
+        if phi >= 100 and z > worst["z"]:
+            worst = {"z": _f(z), "diff": _f(d), "phi": _f(phi)}
+        if phi < 100:
+            below_lower.append(bool(m[0] > m[-1]))
+    return {"ends": ends, "stiff_size_spread": worst,
+            "soft_smaller_at_larger_N": [int(sum(below_lower)), len(below_lower)]}
+
+
+def claim3(res: pd.DataFrame) -> dict:
+    out = {}
+    for n, g in res.groupby("N"):
+        g = g.reset_index(drop=True)
+
+        def arg(f, fn, g=g):
+            v = g[f]
+            return _f(g.phi[getattr(v, fn)()]) if f in g and v.notna().any() else None
+        out[str(int(n))] = {"lx_over_ly_max": arg("lx_over_ly", "idxmax"),
+                            "mu_bar_min": arg("mu_bar", "idxmin"),
+                            "mu_bar_large_max": arg("mu_bar_large", "idxmax"),
+                            "lx_over_ly_peak": _f(g.lx_over_ly.max())}
+    return out
+
+
+def cluster_share(runs: pd.DataFrame, regime: str, large: bool = False) -> float:
+    """The share of all slip clusters of ``runs`` that the regime rule calls ``regime``:
+    each run's fraction weighted by its clusters (NaN without clusters)."""
+    w = runs["n_clusters_large" if large else "n_clusters"].to_numpy(float)
+    col = f"regime_fractions{'_large' if large else ''}[{regime}]"
+    if col not in runs or not np.nansum(w) > 0:
+        return math.nan
+    return float(np.nansum(runs[col].to_numpy(float) * w) / np.nansum(w))
+
+
+REGIMES = ("C", "W", "LC", "DP", "DT")
+
+
+def claim4(runs: pd.DataFrame) -> dict:
+    r = runs[(runs.Lx == 20) & (runs.Ly == 5)]
+    shares = {f"{phi:g}": {k: _f(cluster_share(g, k)) for k in REGIMES}
+              | {"clusters": int(g.n_clusters.sum())} for phi, g in r.groupby("phi")}
+    appear = [k for k in REGIMES if any((s[k] or 0) >= APPEARS for s in shares.values())]
+    peak = {k: float(max(shares, key=lambda p: shares[p][k] or 0)) for k in appear}
+    seen = [k for k in PAPER_ORDER if k in peak]
+    in_order = all(peak[a] <= peak[b] for a, b in zip(seen, seen[1:]))
+    return {"shares": shares, "appear": appear, "peak_phi": peak, "paper_order_kept": in_order}
+
+
+def claim5(runs: pd.DataFrame, sizes) -> dict:
+    out = {}
+    for lx, ly in sizes:
+        s = runs[(runs.Lx == lx) & (runs.Ly == ly)]
+        if not len(s):
+            continue
+        per_seed = [cluster_share(g, "DT") for _, g in s.groupby("seed")]
+        share = cluster_share(s, "DT")
+        out[f"{lx}x{ly}"] = {"N": lx * ly, "clusters": int(s.n_clusters.sum()),
+                             "DT": _f(share), "DT_sem": _f(_sem(per_seed)),
+                             "seeds": len(per_seed),
+                             "W": _f(cluster_share(s, "W")),
+                             "upper": _f(share + Z * _sem(per_seed))}
+    return out
+
+
+def shape_class(n_x, n_y, lx: int, ly: int) -> np.ndarray:
+    """row (spans x, not y), column (spans y, not x), whole (both) or patch (neither)."""
+    n_x, n_y = np.asarray(n_x), np.asarray(n_y)
+    sx, sy = n_x >= lx, n_y >= ly
+    return np.select([sx & sy, sx, sy], ["whole", "row", "column"], "patch")
+
+
+def cheapest_shape(n_c, delta, lx: int, ly: int) -> np.ndarray:
+    """The class (``shape_class``) of the rectangle of at least n_c sites, a columns by
+    ceil(n_c / a) rows inside the box, whose Eq. 2 energy (k_b set to 1: it scales every
+    shape alike) is lowest at mean slip delta: what the paper's energy argument predicts."""
+    from bkflow.catalogue import eq2_estimate
+
+    n_c, delta = np.asarray(n_c, float), np.asarray(delta, float)
+    a = np.arange(1, lx + 1, dtype=float)[None, :]
+    b = np.ceil(n_c[:, None] / a)
+    e = eq2_estimate(1.0, np.broadcast_to(a, b.shape), b, delta[:, None], lx, ly)
+    e = np.where(b <= ly, e, np.inf)
+    k = np.argmin(e, axis=1)   # ties: the fewest columns
+    rows = np.arange(len(n_c))
+    return shape_class(a[0, k], b[rows, k], lx, ly)
+
+
+def claim6(clusters: pd.DataFrame) -> dict:
+    """Per N and phi, the share of clusters whose shape is Eq. 2's cheapest for their size and
+    slip, and the shares of each observed and predicted shape; clusters of the whole layer
+    (n_c = N) are left out, since no other shape holds them."""
+    out = {}
+    clusters = clusters[clusters.n_c < clusters.N]   # a whole layer has no other shape
+    for n, g in clusters.groupby("N"):
+        lx, ly = int(g.Lx.iloc[0]), int(g.Ly.iloc[0])
+        seen = shape_class(g.n_x, g.n_y, lx, ly)
+        best = cheapest_shape(g.n_c, np.abs(g.slip), lx, ly)
+        per = {}
+        for phi in sorted(g.phi.unique()):
+            m = (g.phi == phi).to_numpy()
+            per[f"{phi:g}"] = {"clusters": int(m.sum()),
+                               "cheapest": _f(np.mean(seen[m] == best[m])),
+                               **{f"seen_{k}": _f(np.mean(seen[m] == k))
+                                  for k in ("row", "column", "whole", "patch")},
+                               **{f"predicted_{k}": _f(np.mean(best[m] == k))
+                                  for k in ("row", "column", "whole", "patch")}}
+        out[str(int(n))] = {"lattice": f"{lx}x{ly}", "clusters": int(len(g)),
+                            "cheapest": _f(np.mean(seen == best)), "per_phi": per}
+    return out
+
+
+def claim7(runs: pd.DataFrame) -> dict:
+    v = runs.drop_power_law.value_counts()
+    e = runs.drop_exponent[np.isfinite(runs.drop_exponent)]
+    # Vuong's test: R < 0 favours the lognormal, significant at p < 0.1 (bkflow.stress)
+    lognormal = (runs.drop_vs_lognormal < 0) & (runs.drop_vs_lognormal_p < 0.1)
+    return {"runs": int(len(runs)), **{k: int(v.get(k, 0)) for k in
+                                       ("rejected", "plausible", "no fit")},
+            "lognormal_favoured": int(lognormal.sum()),
+            "exponent_range": [_f(e.min()), _f(e.max())] if len(e) else [None, None]}
+
+
+def clusters_of(sweep_dir: Path, runs: pd.DataFrame) -> pd.DataFrame | None:
+    """Every slip cluster of ``runs`` (Run.read_clusters), with its run's phi, Lx, Ly, N, seed."""
+    from bkflow.rundir import sweep_run_dir
+
+    parts = []
+    for _, r in runs.iterrows():
+        c = sweep_run_dir(sweep_dir, r.job).read_clusters()
+        if c is not None and len(c):
+            parts.append(c.assign(phi=r.phi, Lx=int(r.Lx), Ly=int(r.Ly), N=int(r.N),
+                                  seed=int(r.seed)))
+    return pd.concat(parts, ignore_index=True) if parts else None
+
+
+def record(curves: dict, dirs: dict, aspect=None, aspect_sizes=(), provenance=None) -> dict:
+    """The claims record: ``curves`` label -> (runs, results), ``dirs`` label -> the sweep's
+    directory, ``aspect`` the aspect sweep's (runs, directory)."""
+    rec = {"z": Z, "deciding": list(DECIDING), "curves": {}, "provenance": provenance or {}}
+    for label in DECIDING:
+        if label not in curves:
+            continue
+        runs, res = curves[label]
+        mu_s = float(runs.mu_s.iloc[0])
+        c = {"runs": int(len(runs)), "seeds": int(runs.seed.nunique()),
+             "states": {k: int(v) for k, v in runs.state.value_counts().items()},
+             "claim1": claim1(runs, mu_s), "claim2": claim2(runs), "claim3": claim3(res),
+             "claim4": claim4(runs), "claim7": claim7(runs)}
+        cl = clusters_of(dirs[label], runs)
+        if cl is not None:
+            c["claim6"] = claim6(cl)
+        rec["curves"][label] = c
+    if aspect is not None:
+        rec["claim5"] = claim5(aspect[0], aspect_sizes)
+    return rec
+
+
+# ---------------------------------------------------------------------------- rendering
+def _num(v, fmt=".4f") -> str:
+    return "n/a" if v is None else format(v, fmt)
+
+
+def _phi(v) -> str:
+    """phi to three digits, without an exponent (1000, 215, 0.464)."""
+    if v is None:
+        return "n/a"
+    return f"{v:.0f}" if v >= 100 else f"{v:.3g}"
+
+
+def verdict1(c: dict) -> str:
+    m = c["claim1"].get("mu_bar", {})
+    yes = [n for n, r in m.items() if r["non_monotonic"]]
+    if not m:
+        return "n/a"
+    word = "reproduced" if len(yes) == len(m) else "partly" if yes else "not reproduced"
+    s = c["claim1"].get("mu_bar_scaled", {})
+    scaled = [n for n, r in s.items() if r["non_monotonic"]]
+    return (f"**{word}**: non-monotonic at N = {', '.join(yes) or 'none'} of {', '.join(m)}"
+            + (f" (size-scaled threshold: at {', '.join(scaled) or 'none'})" if s else "")
+            + f"; lowest points {'deeper' if c['claim1']['deeper_with_N'] else 'not deeper'}"
+            " with N")
+
+
+def verdict4(c: dict) -> str:
+    k = c["claim4"]
+    four = all(r in k["appear"] for r in PAPER_ORDER)
+    word = "reproduced" if four and k["paper_order_kept"] else "partly"
+    return (f"**{word}**: {', '.join(k['appear'])} appear; the paper's order "
+            f"{'kept' if k['paper_order_kept'] else 'not kept'}")
+
+
+def verdict5(rec: dict) -> str:
+    a = rec.get("claim5") or {}
+    tall = {k: v for k, v in a.items() if int(k.split("x")[0]) <= int(k.split("x")[1])}
+    if not tall:
+        return "not run"
+    absent = all((v["upper"] or 0) < 0.01 for v in tall.values())
+    wide = [v["DT"] for k, v in a.items() if k not in tall and v["DT"] is not None]
+    less = wide and all((v["DT"] or 0) < 0.5 * min(wide) for v in tall.values())
+    word = "reproduced" if absent else "partly" if less else "not reproduced"
+    return (f"**{word}**: DT " + ", ".join(f"{v['DT']:.3f} at {k}" for k, v in a.items()
+                                           if v["DT"] is not None))
+
+
+def render_verdicts(rec: dict) -> str:
+    """REPRODUCTION.md's verdict table."""
+    cs = [rec["curves"].get(label) for label in DECIDING]
+    rows = ["| claim | test | " + " | ".join(DECIDING) + " |", "|---|---|---|---|"]
+
+    def row(claim, test, cells):
+        rows.append(f"| {claim} | {test} | " + " | ".join(cells) + " |")
+
+    row("1. mu_bar(phi) non-monotonic, minimum ~40% below mu_s, deeper with N",
+        f"interior minimum below both ends by > {Z:g} combined errors",
+        [verdict1(c) if c else "not run" for c in cs])
+    cells = []
+    for c in cs:
+        if not c:
+            cells.append("not run")
+            continue
+        k = c["claim2"]
+        lo = min(v[0] for v in k["ends"].values())
+        hi = max(v[1] for v in k["ends"].values())
+        w = k["stiff_size_spread"]
+        ind = (w["diff"] or 0) < PSI_SAME
+        cells.append(f"**{'reproduced' if lo < 0.7 and hi > 0.95 and ind else 'partly'}**: "
+                     f"{lo:.2f} to {hi:.3f}; sizes at phi >= 100 within "
+                     f"{w['diff'] or 0:.4f} ({w['z'] or 0:.1f} errors)")
+    row("2. Psi(inf) from ~0.5 to ~1, N-independent for phi >= 100",
+        f"ends of the curve; sizes at phi >= 100 within {PSI_SAME:g} (and how many errors)",
+        cells)
+    cells = []
+    for c in cs:
+        if not c:
+            cells.append("not run")
+            continue
+        k = c["claim3"]
+        same = [n for n, v in k.items() if v["lx_over_ly_max"] == v["mu_bar_min"]]
+        opposite = [n for n, v in k.items() if v["lx_over_ly_max"] == v["mu_bar_large_max"]]
+        cells.append(f"**{'reproduced' if len(same) == len(k) else 'not reproduced'}**: peaks "
+                     "at phi = " + ", ".join(f"{_phi(v['lx_over_ly_max'])} (N = {n})"
+                                              for n, v in k.items())
+                     + (f"; where mu_bar (large drops) is highest at N = {', '.join(opposite)}"
+                        if opposite else ""))
+    row("3. <l_x>/<l_y> peaks where mu_bar dips", "phi of the peak against phi of the dip",
+        cells)
+    row("4. Four regimes C, LC, DP, DT (20x5)",
+        f"each at >= {APPEARS:.0%} of the clusters at some phi, in the paper's order",
+        [verdict4(c) if c else "not run" for c in cs])
+    row("5. With Lx <= Ly no DT", f"DT share + {Z:g} errors below 1% on every Lx <= Ly",
+        [verdict5(rec), "(the paper's protocol only)"])
+    cells = []
+    for c in cs:
+        k = (c or {}).get("claim6")
+        if not k:
+            cells.append("not run")
+            continue
+        cells.append("**not reproduced**: the observed shape is Eq. 2's cheapest for "
+                     + ", ".join(f"{v['cheapest']:.0%} (N = {n})" for n, v in k.items()))
+    row("6. Energy argument: each slip takes Eq. 2's cheapest shape",
+        "observed shape class against the cheapest one for its size and slip", cells)
+    cells = []
+    for c in cs:
+        if not c:
+            cells.append("not run")
+            continue
+        k = c["claim7"]
+        word = "not reproduced" if k["rejected"] > k["runs"] / 2 else "partly" \
+            if k["rejected"] else "reproduced"
+        cells.append(f"**{word}**: rejected in {k['rejected']} of {k['runs']} runs, "
+                     f"a lognormal favoured in {k['lognormal_favoured']}")
+    row("7. Stress drops follow a power law", "Clauset et al. (p < 0.1 rejects)", cells)
+    return "\n".join(rows) + "\n"
+
+
+def render_claim1(rec: dict) -> str:
+    rows = ["| curve | reading | N | seeds | phi at min | min | 1 - min/mu_s | z (low end) | "
+            "z (high end) | non-monotonic | dip found with 80% power |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    names = {"mu_bar": "1% threshold", "mu_bar_scaled": "1% x 100/N",
+             "mu_bar_large": "large drops"}
+    for label, c in rec["curves"].items():
+        for field, per in c["claim1"].items():
+            if field not in names:
+                continue
+            for n, m in per.items():
+                rows.append(f"| {label} | {names[field]} | {n} | {m['seeds']} | "
+                            f"{_phi(m['phi'])} | {_num(m['min'])} | "
+                            f"{_num(m['below_mu_s'], '.3f')} | {_num(m['z_lo'], '.1f')} | "
+                            f"{_num(m['z_hi'], '.1f')} | "
+                            f"{'**yes**' if m['non_monotonic'] else 'no'} | "
+                            f"{_num(m['dip80'], '.4f')} |")
+    rows.append("")
+    for label, c in rec["curves"].items():
+        k = c["claim1"]
+        lo, hi = k["below_mu_s_range"]
+        states = ", ".join(f"{v} {s}" for s, v in sorted(k["stiff_states"].items()))
+        rows.append(f"- {label}: every point lies {lo:.0%} to {hi:.0%} below mu_s; the "
+                    f"lowest points {'do' if k['deeper_with_N'] else 'do not'} fall with N "
+                    f"by more than {Z:g} errors; the runs at phi >= 46: {states}.")
+    return "\n".join(rows) + "\n"
+
+
+def render_claim4(rec: dict) -> str:
+    rows = ["| curve | phi | C | W | LC | DP | DT | x not spanned (DP + DT) | clusters |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for label, c in rec["curves"].items():
+        for phi, s in c["claim4"]["shares"].items():
+            cells = [s[k] for k in REGIMES]
+            nx = None if cells[3] is None else cells[3] + (cells[4] or 0)
+            rows.append(f"| {label} | {phi} | " + " | ".join(_num(v, ".2f") for v in cells)
+                        + f" | {_num(nx, '.2f')} | {s['clusters']} |")
+    rows.append("")
+    for label, c in rec["curves"].items():
+        k = c["claim4"]
+        rows.append(f"- {label}: most frequent at phi = " + ", ".join(
+            f"{r} {_phi(p)}" for r, p in sorted(k["peak_phi"].items(), key=lambda t: t[1])))
+    return "\n".join(rows) + "\n"
+
+
+def render_claim5(rec: dict) -> str:
+    rows = ["| lattice | N | Lx/Ly | clusters | DT | its error (seeds) | DT + 2 errors | W |",
+            "|---|---|---|---|---|---|---|---|"]
+    for k, v in (rec.get("claim5") or {}).items():
+        lx, ly = (int(s) for s in k.split("x"))
+        rows.append(f"| {k} | {v['N']} | {lx / ly:g} | {v['clusters']} | {_num(v['DT'], '.3f')} "
+                    f"| {_num(v['DT_sem'], '.3f')} ({v['seeds']}) | {_num(v['upper'], '.3f')} "
+                    f"| {_num(v['W'], '.3f')} |")
+    return "\n".join(rows) + "\n"
+
+
+def render_claim6(rec: dict) -> str:
+    rows = ["| curve | N | phi | clusters | shape is the cheapest | seen: row / column / whole "
+            "/ patch | Eq. 2's cheapest: row / column / whole / patch |",
+            "|---|---|---|---|---|---|---|"]
+    for label, c in rec["curves"].items():
+        for n, k in (c.get("claim6") or {}).items():
+            for phi, v in k["per_phi"].items():
+                seen = " / ".join(_num(v[f"seen_{s}"], ".2f")
+                                  for s in ("row", "column", "whole", "patch"))
+                best = " / ".join(_num(v[f"predicted_{s}"], ".2f")
+                                  for s in ("row", "column", "whole", "patch"))
+                rows.append(f"| {label} | {n} | {phi} | {v['clusters']} | "
+                            f"{_num(v['cheapest'], '.2f')} | {seen} | {best} |")
+    return "\n".join(rows) + "\n"
+
+
+def render_other(rec: dict) -> str:
+    """Claims 2, 3 and 7 in a few lines each."""
+    out = []
+    for label, c in rec["curves"].items():
+        k2 = c["claim2"]
+        ends = "; ".join(f"N = {n}: {a:.3f} to {b:.3f}" for n, (a, b) in k2["ends"].items())
+        w = k2["stiff_size_spread"]
+        lower, of = k2["soft_smaller_at_larger_N"]
+        out.append(f"- {label}, Psi(inf): {ends}. At phi >= 100 the sizes differ by at most "
+                   f"{w['diff'] or 0:.4f} ({w['z'] or 0:.1f} combined errors, at phi = "
+                   f"{_phi(w['phi'])}); below phi = 100 the smallest N lies above the "
+                   f"largest at {lower} of {of} phi.")
+        k3 = c["claim3"]
+        out.append(f"- {label}, <l_x>/<l_y>: " + "; ".join(
+            f"N = {n}: peaks at phi = {_phi(v['lx_over_ly_max'])} "
+            f"({_num(v['lx_over_ly_peak'], '.2f')}), "
+            f"mu_bar lowest at {_phi(v['mu_bar_min'])}, mu_bar (large drops) highest at "
+            f"{_phi(v['mu_bar_large_max'])}" for n, v in k3.items()) + ".")
+        k7 = c["claim7"]
+        lo, hi = k7["exponent_range"]
+        out.append(f"- {label}, stress drops: a power law rejected in {k7['rejected']} of "
+                   f"{k7['runs']} runs, plausible in {k7['plausible']} (no fit: "
+                   f"{k7['no fit']}); a lognormal favoured in {k7['lognormal_favoured']}; "
+                   f"maximum-likelihood exponents {_num(lo, '.2f')} to {_num(hi, '.2f')}.")
+    return "\n".join(out) + "\n"
+
+
+RENDER = {"claims-verdicts": render_verdicts, "claims-1": render_claim1,
+          "claims-4": render_claim4, "claims-5": render_claim5, "claims-6": render_claim6,
+          "claims-other": render_other}
+
+
+def render_all(rec: dict) -> str:
+    """numbers.md's "Claims" section: every block REPRODUCTION.md shows, from the record."""
+    parts = ["## Claims (the record claims.json; REPRODUCTION.md shows the same blocks)", ""]
+    for name, fn in RENDER.items():
+        parts += [f"### {name}", "", fn(rec)]
+    return "\n".join(parts)
