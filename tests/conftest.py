@@ -7,6 +7,10 @@ nothing else. The mark is not written by hand: a test that runs LAMMPS without a
 fixture fails, because every other test runs with the plugin hidden (``BKFLOW_PLUGIN_DIR`` and
 ``LAMMPS_PLUGIN_PATH`` point at an empty directory), and ``tests.support.tool("lmp")`` refuses.
 As in freud's and MDAnalysis's suites, what a test needs is said by its fixtures.
+
+``pytest --install-slurm`` lets tests/test_slurm.py install Debian's SLURM packages when they
+are missing (system-wide, as root: what CI runs); without it those tests use a SLURM that is
+installed already, or are skipped (tests/slurm_local.py).
 """
 
 from __future__ import annotations
@@ -21,6 +25,14 @@ import pytest
 LAMMPS_MARK = "lammps"
 #: the environment variable a pure test runs with (tests.support.tool reads it)
 PURE_ENV = "BKFLOW_TEST_PURE"
+
+
+def pytest_addoption(parser):
+    from tests.slurm_local import INSTALL_OPTION, PACKAGES
+
+    parser.addoption(INSTALL_OPTION, action="store_true", default=False,
+                     help=f"let the SLURM tests install {', '.join(PACKAGES)} with apt-get "
+                          "when missing (root, Debian; changes the system: what CI runs)")
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -1,7 +1,11 @@
 """A one-node SLURM for the tests, started and stopped by them: Debian's munge, slurmctld and
-slurmd (installed with apt-get when missing; the tests run as root on CI), configured for
-this host in a temporary directory, on ports of its own, every daemon started in the
-foreground by us and stopped by its PID, also when the test fails."""
+slurmd, configured for this host in a temporary directory, on ports of its own, every daemon
+started in the foreground by us and stopped by its PID, also when the test fails.
+
+Installing the packages changes the machine (apt-get installs them system-wide, and Debian's
+packaging may start their services), so it is opt-in: only ``pytest --install-slurm`` (what CI
+runs, as root) installs them when they are missing. A plain ``pytest`` uses SLURM only where
+it is installed already, and otherwise skips its tests, saying how to opt in."""
 
 from __future__ import annotations
 
@@ -15,14 +19,21 @@ from pathlib import Path
 
 PACKAGES = ("slurmctld", "slurmd", "slurm-client", "munge")
 DAEMONS = ("/usr/sbin/munged", "/usr/sbin/slurmctld", "/usr/sbin/slurmd")
+#: the pytest option (tests/conftest.py) that lets the SLURM tests install the packages
+INSTALL_OPTION = "--install-slurm"
 
 
-def why_not() -> str | None:
-    """Why a local SLURM cannot be had here (None: it can, installing it if need be)."""
+def why_not(may_install: bool = False) -> str | None:
+    """Why a local SLURM cannot be had here (None: it can). ``may_install``: install the
+    Debian packages when they are missing (``pytest --install-slurm``); without it nothing is
+    installed."""
     if os.name != "posix" or os.geteuid() != 0:
-        return "needs root (CI runs as root) to install and start SLURM's daemons"
+        return "needs root (CI runs as root) to start SLURM's daemons"
     if all(Path(d).exists() for d in DAEMONS) and shutil.which("sbatch"):
         return None
+    if not may_install:
+        return (f"SLURM is not installed; pytest {INSTALL_OPTION} installs Debian's "
+                f"{', '.join(PACKAGES)} with apt-get (system-wide) to run these tests")
     if not shutil.which("apt-get"):
         return "SLURM is not installed and this is not a Debian-like system (no apt-get)"
     return install()

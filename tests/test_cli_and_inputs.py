@@ -2,7 +2,9 @@
 
 import json
 import os
+import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -136,6 +138,37 @@ def test_the_decks_readme_table_is_the_decks():
         assert re.search(rf"^run\s+{steps}$", deck, flags=re.M), name
 
 
+def _header_and_run_steps(deck: str) -> tuple[int, int]:
+    """The steps in.bk's header gives and the steps its ``run`` line runs."""
+    import re
+
+    header = re.search(r"^# t(?:_end)? = [^(]*\((\d+) steps\)", deck, flags=re.M)
+    run_line, = re.findall(r"^run\s+(\d+)$", deck, flags=re.M)
+    return int(header.group(1)), int(run_line)
+
+
+@pytest.mark.parametrize("stopped", [False, True])
+def test_a_decks_header_gives_the_steps_the_deck_runs(tmp_path, stopped):
+    """in.bk's header gives the steps of its ``run`` line: the whole run, or, in the deck the
+    engine writes at the end of an adaptive run that stopped by its rule, the steps it ran
+    (the header gave the cap's, "t_end = 64000 (4615106 steps)", above ``run 533614``)."""
+    from bkflow.deck import DeckOptions
+    from bkflow.engine import _write_inputs
+    from bkflow.params import protocol_fields
+
+    spec = RunSpec(phi=10.0, Lx=20, Ly=5, seed=1, **protocol_fields("steady", t_end=64000.0))
+    rd = RunDir(tmp_path)
+    _write_inputs(spec, rd, DeckOptions())              # as the run starts
+    ran = spec.n_steps // 7 if stopped else spec.n_steps
+    _write_inputs(spec, rd, DeckOptions(), steps=ran)   # as it ends
+    deck = (tmp_path / "in.bk").read_text()
+    assert _header_and_run_steps(deck) == (ran, ran)
+    assert (f"of at most t_end = 64000 ({spec.n_steps} steps)" in deck) == stopped
+    for name in STANDARD_DECKS:   # and the decks of lammps_inputs/
+        header, runs = _header_and_run_steps((ROOT / "lammps_inputs" / name / "in.bk").read_text())
+        assert header == runs == STANDARD_DECKS[name].n_steps, name
+
+
 def test_checked_in_decks_are_current(lammps, tmp_path):
     write_standard_decks(tmp_path)
     for name in STANDARD_DECKS:
@@ -169,6 +202,20 @@ def test_standalone_deck_runs_under_lmp(lammps, tmp_path):
     assert summary["n_slips"] > 10 and summary["n_slips_without_snapshots"] == 0
     assert 0 < summary["mu_bar"] < STANDARD_DECKS["N100_phi10"].mu_s
     assert summary["regime"] in ("C", "W", "LC", "DP", "DT")
+    # run where it lies (lammps_inputs/N100_phi10/, as the READMEs say), the deck writes there,
+    # as LAMMPS does into the current directory: .gitignore keeps every file the run and the
+    # analysis wrote out of git status, and only those
+    if (ROOT / ".git").exists() and shutil.which("git"):
+        deck_files = {"in.bk", "data.bk", "params.json"}
+        written = {p.name for p in tmp_path.iterdir()} - deck_files
+        assert {"log.lammps", "blocks.npy", "summary.json"} <= written
+        paths = [f"lammps_inputs/N100_phi10/{n}" for n in sorted(written | deck_files)]
+        check = subprocess.run(["git", "check-ignore", "--no-index", *paths], cwd=ROOT,
+                               capture_output=True, text=True, timeout=60)
+        assert check.returncode in (0, 1), check.stderr
+        ignored = {Path(p).name for p in check.stdout.split()}
+        assert ignored == written, (f"not ignored: {sorted(written - ignored)}; ignored deck "
+                                    f"files: {sorted(ignored & deck_files)}")
 
 
 def test_the_progress_bar_shows_steps_and_the_stress(capsys):

@@ -66,6 +66,29 @@ def test_the_readmes_measured_numbers_are_the_record():
     assert record["tests"]["passed"]
 
 
+def test_the_readme_gives_the_main_commands_time_once_and_only_from_the_record():
+    """The main command's wall time and disk use are in the README only where
+    benchmarks/readme_numbers.py writes them from its record, and its time is one number: the
+    cost sentence gives the time the printed output gives (it said 30 s above a run line
+    "done in 0:00:29"; once, 8 min 40 s by hand after a re-measurement). No other wall time
+    or size is written by hand."""
+    numbers = _numbers()
+    text = README.read_text()
+    cost = re.search(r"<!-- generated: sweep-cost -->\n(.*?)<!-- end -->", text, re.S).group(1)
+    shown = re.search(r"<!-- generated: sweep-output -->\n(.*?)<!-- end -->", text,
+                      re.S).group(1)
+    printed = numbers.printed_wall(shown)
+    assert printed is not None, "the sweep's output shows no 'run(s) done in H:MM:SS'"
+    times = re.findall(r"\b\d+ min \d+ s\b|\b\d+ min\b|\b\d+(?:\.\d+)? s\b", cost)
+    assert times == [numbers.duration(printed)], (times, numbers.duration(printed))
+    # every other time of seconds, minutes or hours and every size outside the blocks the
+    # generator writes (the scaling model's microseconds per step are no command's time)
+    rest = re.sub(r"<!-- (generated|size): .*? -->.*?<!-- end -->", "", text, flags=re.S)
+    rest = re.sub(r"<!-- output: .*? -->\n```\n.*?```", "", rest, flags=re.S)
+    by_hand = re.findall(r"\b\d+(?:\.\d+)? ?(?:s|min|h|kB|MB|GB|TB)\b|\b\d+:\d\d:\d\d\b", rest)
+    assert by_hand == [], f"times or sizes written by hand in README.md: {by_hand}"
+
+
 #: what depends on the machine in a run's first line: the wall time, the throughput, the kernel
 MACHINE = [(re.compile(r" in [0-9.]+ s \([0-9.e+]+ atom-steps/s, (\w+) path, \w+ kernel\)"),
             r" in T s (R atom-steps/s, \1 path, K kernel)")]
@@ -134,6 +157,23 @@ def test_the_readme_names_no_option_that_does_not_exist():
             if opt not in options[m.group(1)]:
                 bad.append(f"bkflow {m.group(1)} ... {opt}")
     assert not bad, bad
+
+
+def test_ci_runs_the_readmes_install_and_test_commands():
+    """.ci/run says it performs exactly the README's install and test commands: each of its
+    ``pip install`` and ``pytest`` lines is a command of a README block (CI's opt-in
+    ``pytest --install-slurm`` included), so what CI checks is what a reader can run."""
+    shown, fenced = set(), False
+    for ln in README.read_text().splitlines():
+        if ln.startswith("```"):
+            fenced = not fenced
+        elif fenced:
+            shown.add(ln.split("#")[0].strip())
+    ci = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()
+          if ln.strip().startswith(("pip install", "pytest"))]
+    assert any(c.startswith("pip install") for c in ci) and any(
+        c.startswith("pytest") for c in ci), ci
+    assert [c for c in ci if c not in shown] == [], "commands of .ci/run the README does not show"
 
 
 @pytest.mark.parametrize("flag", ["--until-stationary"])

@@ -1,7 +1,8 @@
 """The cluster path for real: a one-node SLURM (tests/slurm_local.py) runs a sweep submitted
 with ``python -m bkflow.cluster submit --bundle 2 --parallel``; a re-submission queues
 nothing; a job cancelled mid-run is redone by the next submission. Skipped (saying why) where
-SLURM cannot be started: not root, or no Debian packages."""
+SLURM cannot be started: not root, or SLURM not installed (``pytest --install-slurm``, what CI
+runs, installs Debian's packages first; a plain ``pytest`` installs nothing)."""
 
 import re
 import subprocess
@@ -13,14 +14,13 @@ import pytest
 from bkflow.cli import main
 from bkflow.project import finished, open_project
 from bkflow.rundir import EXTREMA, META
-from tests.slurm_local import jobs, local_slurm, squeue, why_not
-
-pytestmark = pytest.mark.slurm
+from tests import slurm_local
+from tests.slurm_local import INSTALL_OPTION, jobs, local_slurm, squeue, why_not
 
 
 @pytest.fixture(scope="module")
-def slurm(lammps, tmp_path_factory):
-    why = why_not()
+def slurm(lammps, tmp_path_factory, request):
+    why = why_not(may_install=request.config.getoption(INSTALL_OPTION))
     if why is not None:
         pytest.skip(why)
     with local_slurm(tmp_path_factory.mktemp("slurm")) as env:
@@ -56,6 +56,7 @@ def _grid(out, *args):
     return open_project(out, create=False)
 
 
+@pytest.mark.slurm
 @pytest.mark.slow
 def test_a_sweep_runs_on_slurm_and_a_resubmission_queues_nothing(slurm, tmp_path):
     out = tmp_path / "grid"
@@ -69,6 +70,7 @@ def test_a_sweep_runs_on_slurm_and_a_resubmission_queues_nothing(slurm, tmp_path
     assert not squeue(slurm)
 
 
+@pytest.mark.slurm
 @pytest.mark.slow
 def test_a_job_cancelled_mid_run_is_redone(slurm, tmp_path):
     out = tmp_path / "grid"
@@ -88,3 +90,20 @@ def test_a_job_cancelled_mid_run_is_redone(slurm, tmp_path):
     _wait_until(lambda: not squeue(slurm), what="the resubmitted job")
     assert _states(slurm, again) == ["COMPLETED"]
     assert finished(job)
+
+
+@pytest.mark.parametrize("opted_in", [False, True])
+def test_slurm_is_installed_only_when_asked(opted_in, monkeypatch):
+    """As root on Debian without SLURM, a plain ``pytest`` installs nothing (apt-get changes
+    the system, and Debian's packaging may start services): the tests are skipped, naming
+    ``--install-slurm``; with the option the packages are installed."""
+    calls = []
+    monkeypatch.setattr(slurm_local.os, "geteuid", lambda: 0)
+    monkeypatch.setattr(slurm_local.shutil, "which",
+                        lambda name: "/usr/bin/apt-get" if name == "apt-get" else None)
+    monkeypatch.setattr(slurm_local, "install", lambda: calls.append("apt-get install"))
+    why = why_not(may_install=opted_in)
+    if opted_in:
+        assert why is None and calls == ["apt-get install"]
+    else:
+        assert calls == [] and INSTALL_OPTION in why

@@ -307,6 +307,32 @@ def test_results_are_means_over_seeds_with_standard_errors():
     assert one.n_seeds == 1 and math.isnan(one.mu_bar_sem)
 
 
+def test_the_tables_write_each_float_as_its_shortest_text_and_read_it_back_exactly(tmp_path):
+    """runs.csv and results.csv give every float as the shortest text that reads back as the
+    same double: phi = 0.1 as ``0.1`` (``%.17g`` wrote 0.10000000000000001), and reading the
+    tables back gives the very floats that were written, bit for bit."""
+    from bkflow.tables import read_tables, write_tables
+
+    awkward = (1 / 3, 2.15443469003188, 1e-300, 0.1 + 0.2, -0.0, math.inf, math.nan)
+    finished = []
+    for seed, phi in ((1, 0.1), (2, 0.1), (1, float(phi_values("1e-1:1e1")[1]))):
+        statepoint = sweep_specs([phi], [(20, 5)], 1)[0].replace(seed=seed).to_dict()
+        summary = {"mu_bar": 0.1 + seed * 1e-17 + awkward[seed], "psi_inf": awkward[seed + 2],
+                   "drift": awkward[seed + 4], "regime": "C", "state": "steady"}
+        finished.append((f"job{seed}-{phi}", statepoint, summary))
+    runs, results = write_tables(tmp_path, finished, {})
+    text = (tmp_path / "results.csv").read_text()
+    assert "\n0.1," in text and "0.10000000000000001" not in text
+    assert "0.10000000000000001" not in (tmp_path / "runs.csv").read_text()
+    for written, read in zip((runs, results), read_tables(tmp_path)):
+        assert list(read.columns) == list(written.columns)
+        for col in written.columns:
+            if pd.api.types.is_float_dtype(written[col]):
+                a, b = written[col].to_numpy(), read[col].to_numpy(dtype=float)
+                assert np.array_equal(a, b, equal_nan=True) and np.array_equal(
+                    np.signbit(a), np.signbit(b)), col
+
+
 # --------------------------------------------------------------------------- cluster
 def _fake_scheduler(tmp_path, scripts: dict) -> dict:
     """The environment of a SLURM whose commands are these shell scripts ({name: body})."""
@@ -709,6 +735,21 @@ def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_s
         assert not changed, changed
     finally:
         plt.close(mine)
+
+
+def test_the_readmes_sweep_example_runs_as_written(tiny_sweep, tmp_path):
+    """README's ``bkflow.load_sweep`` block, run as written on a sweep (the tiny one in place
+    of runs/sweep): the columns it names are results.csv's, the figure is drawn."""
+    out, _ = tiny_sweep
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    block, = [b for b in blocks if "load_sweep" in b]
+    assert '"runs/sweep"' in block
+    code = block.replace('"runs/sweep"', repr(str(out))) + (
+        "\nprint(type(sweep).__name__, len(sweep.results), len(sweep.runs))\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert p.stdout.split() == ["Sweep", "2", "2"]
 
 
 def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):

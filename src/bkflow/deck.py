@@ -173,13 +173,22 @@ def substrate_fix(spec: RunSpec, drive: bool = True, contact: bool = True,
     return f"fix             {SUBSTRATE_FIX} all bk/substrate " + " ".join(parts)
 
 
-def _header(spec: RunSpec, path: str) -> list[str]:
+def _length(spec: RunSpec, steps: int | None) -> str:
+    """The header's line on the run's length: the steps the deck runs (``steps``, default the
+    whole run), which an adaptive run that stopped by its rule ends short of its cap t_end."""
+    if steps is None or steps == spec.n_steps:
+        return f"# t_end = {spec.t_end:g} ({spec.n_steps} steps)"
+    return (f"# t = {steps * spec.dt:g} ({steps} steps): the adaptive run stopped there by its "
+            f"rule, of at most t_end = {spec.t_end:g} ({spec.n_steps} steps)")
+
+
+def _header(spec: RunSpec, path: str, steps: int | None = None) -> list[str]:
     return [
         f"# bkflow {__version__}: 2D Burridge-Knopoff layer (Giacco et al. 2014; docs/model.md)",
         f"# phi = {spec.phi:g} (k_b = {spec.k_b:g}), lattice {spec.Lx}x{spec.Ly}, "
         f"seed {spec.seed}, contact rule {spec.contact_rule}, {spec.start} start",
         f"# dt = {spec.dt:.6g}, {spec.dt_rule}",
-        f"# t_end = {spec.t_end:g} ({spec.n_steps} steps)",
+        _length(spec, steps),
         "# Needs fix bk/substrate: the lmp of the environment where bkflow is installed loads it",
         "# by itself; any other LAMMPS 22Jul2025 build needs `plugin load .../bkflowplugin.so`.",
     ] + ({
@@ -356,12 +365,14 @@ def _energy(spec: RunSpec, o: DeckOptions) -> bool:
     return spec.writes_energy if o.energy is None else o.energy
 
 
-def setup_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
-    """Everything of the deck before ``run``: system, forces, integrator, outputs. Neither
+def setup_text(spec: RunSpec, options: DeckOptions = DeckOptions(),
+               steps: int | None = None) -> str:
+    """Everything of the deck before ``run``: system, forces, integrator, outputs; its header
+    gives the length of a run of ``steps`` steps (default: the whole run). Neither
     the path nor the fast settings change a number beyond rounding (the fused path sums in
     another order; tests/test_fused.py)."""
     o = options
-    lines = (_header(spec, o.path) + _system(spec, o, o.fast)
+    lines = (_header(spec, o.path, steps) + _system(spec, o, o.fast)
              + _dynamics(spec, o.drive, o.contact, o.damp, o.path, o.fast, _energy(spec, o))
              + _outputs(spec, o, o.thermo_every, o.contact))
     return "\n".join(lines)
@@ -384,9 +395,13 @@ def continue_text(spec: RunSpec, restart: str,
     return "\n".join(lines)
 
 
-def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions()) -> str:
-    """The complete standalone deck: ``setup_text`` plus the run."""
-    return setup_text(spec, options.replace()) + f"run             {spec.n_steps}\n"
+def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions(),
+              steps: int | None = None) -> str:
+    """The complete standalone deck: ``setup_text`` plus the run of ``steps`` steps (default:
+    the whole run, ``spec.n_steps``; fewer: an adaptive run that stopped by its rule, whose
+    deck redoes the steps it ran), the header giving the same count as the ``run`` line."""
+    n = spec.n_steps if steps is None else steps
+    return setup_text(spec, options.replace(), n) + f"run             {n}\n"
 
 
 #: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.deck lammps_inputs)

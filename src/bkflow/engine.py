@@ -339,14 +339,10 @@ def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions,
     """The run's data file and deck; ``steps``: an adaptive run's deck rewritten at its end to
     run the steps it ran, so that ``lmp -in in.bk`` in the finished directory redoes exactly
     this run (the same files, bit for bit, on one rank)."""
-    if steps is None or steps == spec.n_steps:  # (a continued run's deck: the whole run)
-        if steps is None:
-            write_text_atomic(rd.file(DATA), data_text(spec))
-        write_text_atomic(rd.file(DECK), deck_text(spec, options))
-        return
-    write_text_atomic(rd.file(DECK), setup_text(spec, options.replace())
-                      + f"# adaptive: stopped at step {steps} (t = {steps * spec.dt:g}) of at "
-                        f"most {spec.n_steps}\nrun             {steps}\n")
+    if steps is None:
+        write_text_atomic(rd.file(DATA), data_text(spec))
+    # (a continued run's deck: the whole run, from t = 0; the header says the steps it runs)
+    write_text_atomic(rd.file(DECK), deck_text(spec, options, steps))
 
 
 #: wall time one piece of a run should take: LAMMPS returns to Python (where Ctrl-C is

@@ -23,8 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-#: one float format for every table bkflow writes: full double precision
-FLOAT_FORMAT = "%.17g"
+
+def float_text(x) -> str:
+    """A float as every table bkflow writes it: the shortest text that reads back as the same
+    double (Python's repr: 0.1, where ``%.17g`` wrote 0.10000000000000001)."""
+    return repr(float(x))
+
+
+#: one float format for every table bkflow writes (pandas' ``float_format``): ``float_text``
+FLOAT_FORMAT = float_text
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -90,10 +97,13 @@ def read_columns(path, columns) -> dict[str, np.ndarray]:
 
 
 def read_table(path):
-    """A CSV table as a pandas DataFrame."""
+    """A CSV table as a pandas DataFrame, every float the very double that was written
+    (``float_text``): pandas 3 parses floats exactly; before it, only its round-trip parser
+    does (``float_precision``, an option pandas 3 deprecates)."""
     import pandas as pd
 
-    return pd.read_csv(regular(path))
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    return pd.read_csv(regular(path), **exact)
 
 
 def read_frames(path, n_atoms: int | None = None) -> Frames:
@@ -408,8 +418,8 @@ def write_parquet(path, df) -> None:
 
 
 def write_table(path, table) -> None:
-    """Write a CSV of named columns (a dict of arrays or a DataFrame) atomically, floats in
-    ``FLOAT_FORMAT``."""
+    """Write a CSV of named columns (a dict of arrays or a DataFrame) atomically, each float
+    in ``FLOAT_FORMAT``: the shortest text that ``read_table`` reads back as the same double."""
     import pandas as pd
 
     df = table if isinstance(table, pd.DataFrame) else pd.DataFrame(table)
