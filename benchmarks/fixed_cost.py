@@ -5,7 +5,7 @@ and the analysis against the simulation it reads.
 
 Each piece is a whole process, timed as a user meets it, the pieces alternated round by round
 (the machine is shared: medians of ``--rounds``), and written to
-benchmarks/records/fixed_cost.json (RESULTS.md's "The fixed cost of a run" is generated from
+benchmarks/records/fixed_cost.json (RESULTS.md's block fixed-cost is generated from
 it by results_blocks.py):
 
 - ``python``: the interpreter alone (``python -c pass``), the floor of any command;

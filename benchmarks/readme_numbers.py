@@ -80,10 +80,21 @@ def _scratch() -> Path:
     return d
 
 
-def measure_sweep(command: str = SWEEP) -> dict:
+#: the README's figure: fig2a of `bkflow plot runs/sweep` after the README's own sweep
+HERO = ROOT / "docs" / "images" / "readme_fig2a.png"
+
+
+def measure_sweep(command: str = SWEEP, hero: Path | None = None) -> dict:
+    """The sweep ``command`` timed in a scratch directory, its bytes and its output; with
+    ``hero``, then the README's `bkflow plot runs/sweep` (not timed), its fig2a copied there."""
+    import shutil
+
     with tempfile.TemporaryDirectory(prefix="readme-numbers-", dir=_scratch()) as d:
         out, wall = _run(command, Path(d))
         size = disk_bytes(Path(d) / "runs" / "sweep")
+        if hero is not None:
+            _run("bkflow plot runs/sweep", Path(d))
+            shutil.copyfile(Path(d) / "runs" / "sweep" / "figures" / "fig2a_friction.png", hero)
     runs = int(re.search(r"= (\d+) runs into", out).group(1))
     jobs = int(re.search(r", (\d+) at a time", out).group(1))
     return {"command": command, "wall_s": wall, "bytes": size, "runs": runs, "jobs": jobs,
@@ -260,7 +271,8 @@ def main(argv=None) -> int:
     record = load()
     machine = {"machine": platform.machine(), "python": platform.python_version(),
                "date": time.strftime("%Y-%m-%d")}
-    for flag, key, fn in ((a.run, "run", measure_run), (a.sweep, "sweep", measure_sweep),
+    for flag, key, fn in ((a.run, "run", measure_run),
+                          (a.sweep, "sweep", lambda: measure_sweep(hero=HERO)),
                           (a.tests, "tests", measure_tests), (a.sizes, "sizes", measure_sizes)):
         if flag:
             print(f"measuring {key} ...", flush=True)

@@ -317,6 +317,22 @@ def _readme_record() -> dict:
     return json.loads((HERE / "readme_numbers.json").read_text())
 
 
+def _sweep_wall(h: dict) -> float:
+    """A measurement's wall time of the main command as README.md states it: for the current
+    one (the record's ``sweep``), the time its printed output gives, where
+    benchmarks/readme_numbers.py reads one (``printed_wall``); else the measured ``wall_s``."""
+    import readme_numbers
+
+    s = _readme_record().get("sweep") or {}
+    printed = getattr(readme_numbers, "printed_wall", None)
+    if printed is not None and s.get("output") and h.get("commit") == s.get("commit") \
+            and h.get("bytes") == s.get("bytes"):
+        wall = printed(s["output"])
+        if wall is not None:
+            return wall
+    return h["wall_s"]
+
+
 def main_command() -> str:
     """Every measurement of the main command (benchmarks/readme_numbers.py --sweep)."""
     from readme_numbers import duration, human
@@ -324,8 +340,37 @@ def main_command() -> str:
     out = ["| date | commit | `bkflow sweep --phi 1e-1:1e3` | on disk | runs (pairs) | at a time |",
            "|---|---|---|---|---|---|"]
     for h in _readme_record().get("sweep_history", []):
-        out.append(f"| {h['date']} | {h['commit']} | {duration(h['wall_s'])} | "
+        out.append(f"| {h['date']} | {h['commit']} | {duration(_sweep_wall(h))} | "
                    f"{human(h['bytes'])} | {h['runs']} | {h['jobs']} |")
+    return "\n".join(out) + "\n"
+
+
+def readme_numbers() -> str:
+    """The README's measured numbers as they stand (benchmarks/readme_numbers.json): the main
+    command, the quick start and the test suite, each with the date and commit it was
+    measured at."""
+    from readme_numbers import duration, human
+
+    rec = _readme_record()
+    out = ["| what | command | measured | date, commit |", "|---|---|---|---|"]
+    s = rec.get("sweep")
+    if s:
+        out.append(f"| the main command | `{s['command']}` | {duration(_sweep_wall(s))}, "
+                   f"{human(s['bytes'])} on disk; {s['runs']} pairs of runs, {s['jobs']} at a "
+                   f"time on {s['cores']} cores | {s.get('date', 'n/a')}, "
+                   f"{s.get('commit', 'n/a')} |")
+    r = rec.get("run")
+    if r:
+        out.append(f"| the quick start | `{r['command']}` | {duration(r['wall_s'])} the "
+                   f"whole command, {human(r['bytes'])} on disk | {r.get('date', 'n/a')}, "
+                   f"{r.get('commit', 'n/a')} |")
+    t = rec.get("tests")
+    if t:
+        out.append(f"| the test suite | `pytest` (and `pytest -m \"not slow\"`) | {t['all']} "
+                   f"tests in {duration(t['wall_s'])} ({t['fast']} in "
+                   f"{duration(t['fast_wall_s'])}) on {t['cores']} cores, "
+                   f"{'all passed' if t.get('passed') else 'not all passed'} | "
+                   f"{t.get('date', 'n/a')}, {t.get('commit', 'n/a')} |")
     return "\n".join(out) + "\n"
 
 
@@ -461,8 +506,8 @@ def scene_goals() -> str:
     rows = ["| goal | measured | |", "|---|---|---|"]
     if before and now:
         rows.append(f"| the main command writes at most 50 MB | {human(now['bytes'])} in "
-                    f"{duration(now['wall_s'])} (before: {human(before['bytes'])} in "
-                    f"{duration(before['wall_s'])}) | {met(now['bytes'] <= 50e6)} |")
+                    f"{duration(_sweep_wall(now))} (before: {human(before['bytes'])} in "
+                    f"{duration(_sweep_wall(before))}) | {met(now['bytes'] <= 50e6)} |")
     if long:
         rows.append(f"| 10^6 time units at phi = 1000 in the default scene: at most 5 MB | "
                     f"{human(long['bytes_written'])} | {met(long['bytes_written'] <= 5e6)} |")
@@ -483,6 +528,96 @@ def scene_goals() -> str:
     return "\n".join(rows) + "\n"
 
 
+# ------------------------------------------------------------------------- the presets
+def accuracy_presets() -> str:
+    """The accuracy presets as bkflow defines them now (bkflow.params.ACCURACY): the error
+    target, the two constants of the time-step rule, the run lengths and the target error."""
+    from bkflow.params import ACCURACY
+
+    out = ["| preset | target bias of the time step | c_contact (omega_c dt) | c_stable "
+           "(dt omega_max) | t_end, paper protocol | cap, steady protocol | target error of "
+           "mu_bar |", "|---|---|---|---|---|---|---|"]
+    for name, p in ACCURACY.items():
+        out.append(f"| `{name}` | {100 * p.dt_error:g}% | {p.c_contact:g} | {p.c_stable:g} | "
+                   f"{p.t_end:g} | {p.t_cap:g} | {p.target_error:g} |")
+    return "\n".join(out) + "\n"
+
+
+# ------------------------------------------------------------------------- many ranks
+def _scaling_model():
+    import scaling_model as sm
+
+    return sm
+
+
+def scaling() -> str:
+    """One fused rank against two (benchmarks/scaling_model.py's MEASURED, the last line of
+    ``python benchmarks/throughput.py --scaling``): time per step, atom-steps/s, the speed-up
+    and the two ranks' halo exchange (the slower rank's, its wait included)."""
+    sm = _scaling_model()
+    out = ["| lattice | N | fused, 1 rank: us/step | fused, 2 ranks: us/step | fused, 1 rank: "
+           "atom-steps/s | fused, 2 ranks: atom-steps/s | fused 2 / fused 1 | halo us/step | "
+           "halo share of the step |", "|---|---|---|---|---|---|---|---|---|"]
+    for lx, n, t1, t2, halo in sorted(sm.MEASURED, key=lambda r: r[1]):
+        out.append(f"| {lx:.0f}x{n / lx:.0f} | {n:.0f} | {t1 * 1e6:.1f} | {t2 * 1e6:.1f} | "
+                   f"{n / t1:.3e} | {n / t2:.3e} | {t1 / t2:.2f} | {halo * 1e6:.2f} | "
+                   f"{100 * halo / t2:.0f}% |")
+    return "\n".join(out) + "\n"
+
+
+def scaling_model() -> str:
+    """What ``python benchmarks/scaling_model.py`` prints: the model fitted to MEASURED and
+    its predictions."""
+    import contextlib
+    import io
+
+    sm = _scaling_model()
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        sm.main()
+    lines = buf.getvalue().rstrip("\n").splitlines()
+    # the first two lines (c(n), the fitted constants) are paragraphs of their own
+    return "\n".join(["- " + lines[0], "- " + lines[1]] + lines[2:]) + "\n"
+
+
+# ------------------------------------------------------------------------- the starts
+#: the windows (time units from the start) in which each start's mean stress is compared
+START_WINDOWS = ((0.0, 2e3), (2e3, 1e4), (1e4, 1e5))
+START_ORDER = ("random", "partial", "stratified", "synchronized")
+
+
+def states_starts() -> str:
+    """How far each start's mean stress lies from its layer's long-run mean in the first
+    windows of a run (the long runs of benchmarks/stiff_states.py, whole records from t = 0):
+    relative deviation, the median over the seeds, per start."""
+    import numpy as np
+
+    from bkflow.states import BLOCK_T
+
+    sr, runs, means = _states()
+    half = BLOCK_T / 2     # the blocks' edges drift from whole thousands by rounding to steps
+    cell = {}
+    for _, r in runs.iterrows():
+        lm = means[(r.N, r.phi, r.seed)]["stress"]
+        w = r.whole
+        for a, b in START_WINDOWS:
+            sel = w[(w.t0 >= a - half) & (w.t1 <= b + half)]
+            if len(sel):
+                cell.setdefault((r.N, r.phi, (a, b), r.start), []).append(
+                    float(np.average(sel.s, weights=sel.t1 - sel.t0)) / lm - 1.0)
+    head = " | ".join(f"t = {a:g} to {b:g}" for a, b in START_WINDOWS)
+    out = [f"| N | phi | seeds | {head} |", "|---|---|---|" + "---|" * len(START_WINDOWS)]
+    for n, phi in sorted({(k[0], k[1]) for k in cell}):
+        cells = []
+        for win in START_WINDOWS:
+            cells.append(" / ".join(
+                _pct(float(np.median(cell[(n, phi, win, st)])))
+                if (n, phi, win, st) in cell else "n/a" for st in START_ORDER))
+        seeds = max(len(v) for k, v in cell.items() if k[:2] == (n, phi))
+        out.append(f"| {n} | {phi:g} | {seeds} | " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
 BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
@@ -492,7 +627,33 @@ BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "timestep-bias": timestep_bias, "timestep-presets": timestep_presets,
           "timestep-cost": timestep_cost, "main-command": main_command,
           "steady-sizes": steady_sizes, "fixed-cost": fixed_cost,
-          "faults": faults, "fresh-attack": fresh_attack}
+          "faults": faults, "fresh-attack": fresh_attack,
+          "readme-numbers": readme_numbers, "accuracy-presets": accuracy_presets,
+          "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts}
+
+
+# ---------------------------------------------------------------- the paper's claims
+CLAIMS = ROOT / "workflows" / "paper" / "claims.json"
+
+
+def claims_block(name: str):
+    """The block ``name`` of workflows/paper/claims.py, rendered from its record claims.json
+    (written by workflows/paper/reproduce.py)."""
+    def block() -> str:
+        import importlib.util
+        import json
+
+        if not CLAIMS.exists():
+            return "(not measured yet: python workflows/paper/reproduce.py)\n"
+        spec = importlib.util.spec_from_file_location("claims", CLAIMS.with_suffix(".py"))
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return mod.RENDER[name](json.loads(CLAIMS.read_text()))
+    return block
+
+
+BLOCKS.update({name: claims_block(name) for name in (
+    "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other")})
 
 
 def render(text: str) -> str:

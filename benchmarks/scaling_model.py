@@ -1,5 +1,6 @@
 """The time per step of the fused path on P ranks: a model, fitted to this machine, and what it
-predicts past it (benchmarks/RESULTS.md, "The fused path on many ranks").
+predicts past it (benchmarks/RESULTS.md's blocks scaling and scaling-model are generated from
+MEASURED and this model).
 
 Each of P ranks holds a block of n = N / P atoms in whole rows of an Lx x Ly lattice and,
 every step, trades its first and last rows with its two neighbours (32 Lx bytes leave each
@@ -35,7 +36,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 #: (Lx, N, t_1 s/step, t_2 s/step, halo s/step) of `throughput.py --scaling`, this machine
-#: (2026-11-24, benchmarks/RESULTS.md "The fused path on many ranks")
+#: (2026-11-24, bkflow 0.3.0)
 MEASURED = [(60.0, 900.0, 5.37206e-06, 6.35276e-06, 3.13e-06),
             (120.0, 3600.0, 2.38575e-05, 1.60747e-05, 3.76e-06),
             (240.0, 14400.0, 9.53438e-05, 5.25592e-05, 4.89e-06),

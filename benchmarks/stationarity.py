@@ -121,8 +121,9 @@ def _relaxation_figure(df: pd.DataFrame, curves: dict) -> None:
 # --------------------------------------------------------------------------- cost
 def cost(steady: str, sync: str, phis: str, seeds: int, jobs: int) -> pd.DataFrame:
     """Until steady (single runs, no companion) at N = 100 from the random start (cap 32000)
-    and the synchronized one (cap 64000). Superseded by benchmarks/steady.py's time to
-    steady per start, kept for the history of benchmarks/RESULTS.md."""
+    and the synchronized one (cap 64000). Superseded by the long runs of
+    benchmarks/stiff_states.py (four starts, from t = 0), kept because benchmarks/RESULTS.md
+    quotes its bkflow 0.1 measurement."""
     for start, out, cap in (("random", steady, 32000.0), ("synchronized", sync, 64000.0)):
         sweep(sweep_specs(phi_values(phis), [(20, 5)], seeds, t_end=cap, start=start,
                           until_steady=True, companion=None), out, jobs=jobs, progress=False)

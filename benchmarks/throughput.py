@@ -183,7 +183,8 @@ HALO = re.compile(r"(\d+) halo exchanges of (\d+) bytes .*? ([\d.e+-]+) to ([\d.
 
 def scaling(a) -> None:
     """atom-steps/s against N: one fused rank, two fused ranks, two general ranks, with the
-    two-rank runs' halo exchange time (the fix's log line), for the model of RESULTS.md."""
+    two-rank runs' halo exchange time (the fix's log line), for benchmarks/scaling_model.py
+    (its last line is that script's MEASURED)."""
     work = Path(tempfile.mkdtemp(prefix="bkscaling"))
     rows, fits = [], []
     for size in a.sizes:

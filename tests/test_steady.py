@@ -85,7 +85,8 @@ def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
 
 def test_a_switching_layer_stops_on_its_states_error_and_says_so(lammps, tmp_path):
     """At phi = 1000, N = 100 the layer switches between a quiet and a coherent state on
-    scales of 10^4-10^5 time units (benchmarks/RESULTS.md "The stiff end"): no affordable run
+    scales of 10^4-10^5 time units (benchmarks/stiff_states.py, its records
+    benchmarks/records/stiff_states/): no affordable run
     averages over that, so the steady protocol stops once the mean of the states visited is
     within the target (the run's own error), names them, and reports the long-run mean's
     error that covers the switching, larger, with the run length that would need."""

@@ -865,3 +865,20 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
              ln.get_label()}
     assert lines[labels[0]] > lines[labels[1]]  # the sparse set on top
     plt.close(fig)
+
+
+def test_a_sweep_is_selected_by_numbers_from_python(tiny_sweep):
+    """load_sweep(path, where={"Lx": 20}): a number from Python selects the runs whose column
+    has that value (it compared the column's text with the number, and matched none)."""
+    from bkflow import load_sweep
+
+    out, _ = tiny_sweep
+    every = load_sweep(out).runs
+    lx = int(every.Lx.iloc[0])
+    assert len(load_sweep(out, where={"Lx": lx}).runs) == len(every) > 0
+    assert len(load_sweep(out, where={"Lx": float(lx)}).runs) == len(every)
+    assert len(load_sweep(out, where={"phi": 1}).runs) == int((every.phi == 1).sum()) > 0
+    from bkflow.plot import PlotError
+
+    with pytest.raises(PlotError, match=f"no finished run has Lx = {lx + 1}"):
+        load_sweep(out, where={"Lx": lx + 1})

@@ -13,6 +13,7 @@ four bonds and there are 2N in all.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +51,29 @@ def square_lattice(Lx: int, Ly: int) -> Lattice:
     bonds[1::2, 0] = idx
     bonds[1::2, 1] = up
     return Lattice(Lx, Ly, positions, bonds, np.ones(Lx * Ly))
+
+
+def box_extent(n_along: int, n_across: int) -> float:
+    """l along a side of ``n_along`` sites of the whole box of n_along x n_across sites (unit
+    spacing), every particle in the cluster: 4 n_across^2 n_along S / (N (N - 1)), N the
+    particles, S = floor(n_along^2 / 4) the ring distances from one site to the others.
+    That is L N/(N-1) for an even side and a further 1 - 1/L^2 for an odd one: the odd side's
+    whole-box extent is the smaller, so l/L would call a whole-box slip longer along the
+    even side (tests/test_analysis.py)."""
+    n_along, n_across = int(n_along), int(n_across)
+    n = n_along * n_across
+    if n < 2:
+        return math.nan
+    return 4.0 * n_across ** 2 * n_along * (n_along * n_along // 4) / (n * (n - 1))
+
+
+def box_fractions(l_x, l_y, box) -> tuple[np.ndarray, np.ndarray]:
+    """l_x and l_y as fractions of the whole box's own extent on each side (``box_extent``;
+    ``box`` in lattice units, one site per unit): 1 on both for a whole-box slip on any
+    lattice, odd or even sides."""
+    lx_sites, ly_sites = int(round(float(box[0]))), int(round(float(box[1])))
+    return (np.asarray(l_x, dtype=float) / box_extent(lx_sites, ly_sites),
+            np.asarray(l_y, dtype=float) / box_extent(ly_sites, lx_sites))
 
 
 def drive_stiffness(spec: RunSpec) -> np.ndarray:

@@ -56,7 +56,7 @@ class Preset(NamedTuple):
     the steady observables (<sigma_x>/sigma_n and mu_bar, relative), at every phi. Its time
     step follows the rule of ``time_step``, dt = min(c_contact / omega_c, c_stable /
     omega_max), the two constants the largest that meet ``dt_error`` at every phi measured
-    (benchmarks/timestep.py; benchmarks/RESULTS.md "The time step"). Beside it: the length of a
+    (benchmarks/timestep.py, its records benchmarks/records/timestep/). Beside it: the length of a
     fixed run (the paper's protocol), the cap of a run until steady (the steady protocol) and
     the standard error of mu_bar that the steady protocol waits for (absolute; mu_bar is
     0.10-0.12, so 2e-4 is about 0.2%)."""
@@ -94,7 +94,8 @@ def time_step(preset: Preset, w_max: float, w_contact: float) -> float:
     """The time step of an accuracy preset: dt = min(c_contact / omega_c, c_stable /
     omega_max). Soft layers (bonds slower than the contacts) take the contacts' step; stiff
     ones the stability bound's, with its margin: their bond modes barely move the contacts,
-    so resolving them buys no accuracy (benchmarks/RESULTS.md "The time step").
+    so resolving them buys no accuracy (benchmarks/timestep.py, its records
+    benchmarks/records/timestep/).
 
     >>> dt = time_step(ACCURACY["default"], omega_max(0.1, 10, 1, 1, 1), omega_contact(10, 1, 1, 1))
     >>> round(dt * omega_contact(10, 1, 1, 1), 6)
@@ -119,7 +120,8 @@ STARTS = ("synchronized", "random", "stratified", "partial")
 PARTIAL_FRACTION = 0.3
 
 #: the protocols of a run (docs/model.md "Steady state"). steady, the default: the start
-#: that forgets fastest (STEADY_START, measured: benchmarks/RESULTS.md "Time to steady"), run
+#: that forgets fastest (STEADY_START, measured: benchmarks/stiff_states.py's runs from four
+#: starts, its records benchmarks/records/stiff_states/), run
 #: until the run is steady (RunSpec.until_steady), the preset's t_cap its cap. paper: the
 #: paper's synchronized start, a fixed t_end (the preset's)
 PROTOCOLS = ("steady", "paper")
@@ -127,11 +129,11 @@ PROTOCOLS = ("steady", "paper")
 STEADY_START = "random"
 #: the start of the steady protocol's companion run: from the other side of the steady state
 #: (the stratified and random starts approach a stiff layer's plateau from below, the partial
-#: one from above: benchmarks/RESULTS.md "Time to steady")
+#: one from above: benchmarks/stiff_states.py's runs, benchmarks/records/stiff_states/)
 STEADY_COMPANION = "partial"
 #: a run and its companion agree when their mean stresses over the analysed window differ by
-#: at most this (relative): then neither remembers its start (benchmarks/RESULTS.md "The
-#: verdict")
+#: at most this (relative): then neither remembers its start (the verdict's false-steady rate on
+#: the long runs of benchmarks/stiff_states.py, benchmarks/states_report.py's verdicts)
 STEADY_AGREEMENT = 0.005
 
 #: a run until steady (RunSpec.until_steady) must be able to exclude a drift of the stress
@@ -388,7 +390,7 @@ class RunSpec:
     contact_rule: str = checked("reset", choice(CONTACT_RULES))
     #: starting state of the contacts (STARTS)
     start: str = checked("synchronized", choice(STARTS))
-    #: velocity of the damping force (DAMPING_MODES; benchmarks/RESULTS.md "Convergence order")
+    #: velocity of the damping force (DAMPING_MODES; benchmarks/convergence.py)
     damping: str = checked("implicit", choice(DAMPING_MODES))
     k_d: float = checked(1.0, number(gt=0))
     #: half-width of the k_d^i, in (0, k_d] (checked with k_d)

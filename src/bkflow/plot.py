@@ -9,16 +9,19 @@ events.parquet), through
 | file | what |
 |---|---|
 | ``fig1b_stress`` | sigma_x(t) of two runs (phi near 1e3 and 1), sigma_fail marked |
-| ``fig2a_friction`` | mu_bar(phi) per size with error bars; <sigma_x>/sigma_n beside |
+| ``fig2a_friction`` | mu_bar(phi) per size, error bars, regimes keyed; <sigma_x>/sigma_n beside |
 | ``fig2b_asymmetry`` | <l_x>/<l_y>(phi) per size |
-| ``fig3_order`` | Psi(inf)(phi) per size; inset 1 - Psi(t) for phi in {1e3, 1e2, 10, 1} |
-| ``fig4a_clusters`` | l_y vs l_x of every slip cluster for four phi, each against the whole box's |
-| ``fig_drops`` | stress-drop sizes for four phi, a power law where plausible |
+| ``fig3_order`` | Psi(inf)(phi) per size; beside it 1 - Psi(t) from the start, sample by sample |
+| ``fig4a_clusters`` | l_y vs l_x of every slip cluster for the phi of ``CLUSTER_PHI`` |
+| ``fig_drops`` | stress-drop sizes for the same phi, a power law where plausible |
+| ``fig_potency`` | the slips' potencies for the same phi, and against their stress drops |
 | ``fig_contacts`` | sigma_x(t) and the contacts' phase coherence R(t) of three runs |
 
 Error bars are standard errors over seeds; with a single seed, the run's own standard error.
 A figure whose data the sweep did not record (e.g. scene ``friction``: no clusters) is
-skipped with a note, never drawn empty.
+skipped with a note, never drawn empty. No text of a figure is smaller than ``MIN_FONT``
+points at its saved size (tests/test_figures.py checks this and the rest of what a reader
+needs: every point inside its axes, units, a key for every code).
 """
 
 from __future__ import annotations
@@ -31,19 +34,54 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import clusters, io
+from . import io
 from .io import MARK, atomic_file, foreign_file, shell_word
+from .lattice import box_extent, box_fractions
 from .params import SpecError, parse_typed, split_assignment
 from .rundir import RunDir, sweep_run_dir
 from .tables import FIGURES_DIR, read_tables, varied_parameters
 
 FORMATS = ("png", "pdf")
 MARKERS = ("o", "s", "D", "^", "v", "P")
-#: the regimes' colours in the cluster scatter (the paper's: black, red, green, blue)
+#: the regimes' colours of the letters in fig2a (the paper's code: black, red, green, blue;
+#: W, which the paper has not, grey), always with their key
 REGIME_COLOURS = {"C": "black", "W": "tab:grey", "LC": "tab:red", "DP": "tab:green",
                   "DT": "tab:blue"}
-#: phi of the Psi(t) inset (the paper's Fig. 3)
+#: the regimes in words, for the keys (bkflow.clusters.regime)
+REGIME_WORDS = {"C": "crystalline, the whole box slips",
+                "W": "the whole box slips, not crystalline",
+                "LC": "laminar crystalline: whole rows",
+                "DP": "disordered, longer along x",
+                "DT": "disordered, longer across x"}
+#: phi of the Psi(t) panel (the paper's Fig. 3 inset)
 INSET_PHI = (1e3, 1e2, 10.0, 1.0)
+#: samples of Psi(t) (one every ``snapshot_every`` time units) that fig3's Psi(t) panel shows
+#: from the start: on a linear time axis, each sample marked, so that the reader sees how few
+#: samples the fall of Psi from 1 spans (it is over within the first two or three)
+PSI_SAMPLES = 40
+#: the phi of the cluster scatter (fig4a), fig_drops and fig_potency: the swept values
+#: nearest these targets, log-evenly spaced over the default range 0.1 .. 1000 (4/3 of a
+#: decade apart, so that on the default grid of 3 per decade each is a grid point). Fixed, so
+#: that the figures of two sweeps or two versions show the same layers (they once showed the
+#: phi where each regime was most frequent, which moved with the data)
+CLUSTER_PHI = (1e3, 46.4159, 2.15443, 0.1)
+#: the range of phi over which ``phi_colour`` runs: one colour per phi in every figure
+PHI_RANGE = (0.1, 1000.0)
+#: the smallest text of any figure, in points at its saved size
+MIN_FONT = 7.0
+
+
+def phi_colour(phi: float):
+    """The colour of a phi where a figure draws a few phi as sets (fig4a, fig_drops,
+    fig_potency): viridis over log10 phi in ``PHI_RANGE``, the stiff end dark, cut at 0.85
+    (the yellow end is not seen on white). A sequential map, the same for a phi in every
+    figure, whose hues cannot be read as the paper's regime code (black C, red LC, green DP,
+    blue DT: its Fig. 4a draws regimes, not phi)."""
+    from matplotlib import colormaps
+
+    lo, hi = (math.log10(v) for v in PHI_RANGE)
+    frac = min(1.0, max(0.0, (math.log10(phi) - lo) / (hi - lo)))
+    return colormaps["viridis"](0.85 * (1.0 - frac))
 
 
 class PlotError(ValueError):
@@ -159,10 +197,11 @@ def _select(df: pd.DataFrame, where: dict) -> pd.DataFrame:
             df = df[col.isna() | col.astype(str).str.lower().isin(("none", "nan", ""))]
         elif isinstance(value, bool):
             df = df[col.astype(str).str.lower() == str(value).lower()]
-        elif isinstance(value, float):
-            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), value, rtol=1e-9, atol=0)]
+        elif isinstance(value, (int, float)):   # a number from Python, e.g. {"Lx": 20}
+            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), float(value), rtol=1e-9,
+                               atol=0)]
         else:
-            df = df[col.astype(str) == value]
+            df = df[col.astype(str) == str(value)]
     return df
 
 
@@ -217,6 +256,8 @@ class SweepData:
             sweep = AnalysisSettings.from_dict(dict(doc.get("analysis_settings", {})))
         except (OSError, ValueError, TypeError, AttributeError, SpecError):
             sweep = tables
+        #: the analysis settings the tables were made under (the regime rule's bounds)
+        self.settings = tables
         if sweep != tables:
             raise PlotError(f"{self.root}: the sweep's analysis settings are not those its "
                             f"tables were made under {advice}")
@@ -278,14 +319,18 @@ def _save(fig, out: Path, name: str, formats) -> list[Path]:
 
 
 def fig1b_stress(data: SweepData, plt, window: float = 150.0):
-    """sigma_x(t) over the last ``window`` time units of two runs, slips' sigma_fail marked,
-    on one y range."""
+    """sigma_x(t) over the last ``window`` time units of two runs (phi nearest 1e3 and 1),
+    slips' sigma_fail marked. Both panels on one y range, fitted to the traces so that a
+    reader compares their stick-slip by eye; the Amontons-Coulomb line mu_s sigma_n, far
+    above the traces in a layer whose contacts break one by one, is drawn where it lies in
+    that range and otherwise named in the right margin, its arrow pointing up (or down) to
+    it (a range stretched to it left the traces a sliver of each panel)."""
     lx, ly = data.sizes[0]
     phis = sorted(set(data.runs_of(lx, ly).phi))
     chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
-    fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 1.9 * len(chosen) + 0.4),
+    fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 2.1 * len(chosen) + 0.5),
                              squeeze=False)
-    lows, tops = [], []
+    lows, highs, tops = [], [], []
     outline = False
     for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
         row = data.runs_of(lx, ly, phi).iloc[0]
@@ -304,18 +349,33 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
                 mfc=colour if fill != "none" else "white", mfcalt="white", ls="none",
                 label=r"$\sigma_{\rm fail}$ (slip maxima; " + str(row.get("state", "n/a"))
                 + ")")
-        top = row.mu_s * row.sigma_n
-        ax.axhline(top, color="tab:blue", ls="-.", lw=1,
-                   label=r"Amontons-Coulomb $\mu_s\sigma_n$")
         ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
         ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")  # each panel: the two runs' times differ
-        lows.append(sigma[keep].min())
-        tops.append(top)
-        ax.legend(loc="upper center", ncol=3, frameon=False, fontsize=6.5)
-    # one y range for both panels, so that their stresses compare by eye
-    lo, top = min(lows), max(tops)
-    for ax in axes[:, 0]:
-        ax.set_ylim(lo - 0.05 * (top - lo), top + 0.3 * (top - lo))
+        lows.append(float(np.min(sigma[keep])))
+        highs.append(float(max(np.max(sigma[keep]),
+                               np.max(ev.sigma_fail[k].to_numpy(float), initial=-np.inf))))
+        tops.append(float(row.mu_s * row.sigma_n))
+    # one y range for both panels, fitted to the traces, so that their stresses compare by eye
+    lo, hi = min(lows), max(highs)
+    pad = 0.06 * (hi - lo) if hi > lo else 0.05 * abs(hi) or 0.05
+    lo, hi = lo - pad, hi + pad
+    for ax, top in zip(axes[:, 0], tops):
+        ax.set_ylim(lo, hi)
+        words = rf"Amontons-Coulomb $\mu_s\sigma_n$ = {top:.3g}"
+        if lo <= top <= hi:
+            ax.axhline(top, color="tab:blue", ls="-.", lw=1, label=words)
+        else:  # outside the range: named in the right margin, the arrow pointing to it
+            up = top > hi
+            ax.annotate("Amontons-Coulomb\n" + rf"$\mu_s\sigma_n$ = {top:.3g}",
+                        xy=(1.012, 1.0 if up else 0.0),
+                        xycoords="axes fraction", xytext=(1.012, 0.5),
+                        textcoords="axes fraction", rotation=90, ha="left", va="center",
+                        fontsize=MIN_FONT, color="tab:blue", annotation_clip=False,
+                        arrowprops={"arrowstyle": "->", "color": "tab:blue", "lw": 0.8,
+                                    "shrinkA": 2, "shrinkB": 0})
+        # the key above the panel: inside, it would sit on the trace
+        ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, frameon=False,
+                  fontsize=MIN_FONT, borderaxespad=0.1, handlelength=1.5, columnspacing=1.0)
     fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$ ("
                  + protocol_label(data) + ")"
                  + ("\nthe lines join its turning points (the drops above 0.1% of "
@@ -355,53 +415,101 @@ def _smooth(t, x, width: float):
     return (np.bincount(k, t)[keep] / n[keep], np.bincount(k, x)[keep] / n[keep])
 
 
+def _contact_phis(phis) -> list[float]:
+    """A soft, an intermediate and a stiff phi of those swept: the softest, the stiffest,
+    and the one nearest their geometric mean (0.1, 10, 1000 on the default grid; all three
+    of a sweep of three phi, such as 10, 100, 1000: nearest-to-target choices left its middle
+    one out), each once."""
+    phis = sorted(set(float(p) for p in phis))
+    middle = _nearest(phis, math.sqrt(phis[0] * phis[-1]))
+    return list(dict.fromkeys([phis[0], middle, phis[-1]]))
+
+
+def _window(shortest: float, block: float) -> float:
+    """The smoothing window of fig_contacts, in time units: the largest 1, 2 or 5 times a
+    power of ten at most a twentieth of the shortest run shown, or, where that is shorter than
+    one block of the records, the smallest such number at least one block: one window for
+    every panel, so that their curves are smoothed alike."""
+    decade = math.floor(math.log10(max(shortest / 20.0, 1e-12)))
+    steps = [m * 10.0 ** e for e in range(decade - 1, decade + 12) for m in (1.0, 2.0, 5.0)]
+    below = [w for w in steps if w <= shortest / 20.0 * (1 + 1e-9)]
+    if below and below[-1] >= block * (1 - 1e-9):
+        return below[-1]
+    return min(w for w in steps if w >= block * (1 - 1e-9))
+
+
 def fig_contacts(data: SweepData, plt):
-    """The memory of the start, run by run: sigma_x(t)/sigma_n (averaged over 1% of the run)
-    and the contacts' phase coherence R(t) (docs/model.md "Contact phase") over the whole
-    run, for a soft, an intermediate and a stiff phi of the smallest size (seed 1, or the
-    first), the analysed window shaded and each run's state written."""
+    """The memory of the start, run by run: sigma_x(t)/sigma_n and the contacts' phase
+    coherence R(t) (docs/model.md "Contact phase") over the whole run, for a soft, an
+    intermediate and a stiff phi of the smallest size (``_contact_phis``; seed 1, or the
+    first). The dark curves are means over one window of time (``_window``, the same in every
+    panel and said in the key: "1% of the run" made runs of different lengths look alike
+    when they were not smoothed alike); the light curve is R's block means as recorded. The
+    analysed window (from the end of the transient) is shaded, green where the run is
+    steady and orange where it is not (its state in the panel's title), keyed below."""
     lx, ly = data.sizes[0]
-    phis = sorted(set(data.runs_of(lx, ly).phi))
-    chosen = list(dict.fromkeys(_nearest(phis, p) for p in (0.1, 10.0, 1000.0)))
-    fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 3.6),
+    chosen = _contact_phis(data.runs_of(lx, ly).phi)
+    fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 4.1),
                              sharex="col", squeeze=False)
-    drawn = 0
+    panels = []
     for j, phi in enumerate(chosen):
         row = data.runs_of(lx, ly, phi).iloc[0]
         rd = data.run_dir(row)
         spec = rd.spec()
         red = rd.read_reduced(spec)
         phase = rd.phase_series(spec, red)
-        top, bottom = axes[0, j], axes[1, j]
         if phase is None:
-            top.text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
-                     transform=top.transAxes, ha="center", va="center", fontsize=7)
+            axes[0, j].text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
+                            transform=axes[0, j].transAxes, ha="center", va="center",
+                            fontsize=MIN_FONT)
             continue
-        drawn += 1
         t, sigma, _ = red.series()    # block means
-        span = t[-1] - t[0]
-        ts, ss = _smooth(t, sigma / row.sigma_n, span / 100)
+        panels.append((j, phi, row, t, sigma, phase, red.block * spec.dt))
+    if not panels:
+        return None
+    block = max(b for *_, b in panels)   # the records' block, in time units
+    width = _window(min(t[-1] - t[0] for _, _, _, t, _, _, _ in panels), block)
+    steady_seen = other_seen = False
+    for j, phi, row, t, sigma, phase, _ in panels:
+        top, bottom = axes[0, j], axes[1, j]
+        ts, ss = _smooth(t, sigma / row.sigma_n, width)
         top.plot(ts, ss, color="black", lw=0.8)
         bottom.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
-        tr, rr = _smooth(phase["t"], phase["R"], span / 100)
+        tr, rr = _smooth(phase["t"], phase["R"], width)
         bottom.plot(tr, rr, color="indigo", lw=1.2)
         t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
             else t[0]
+        steady = row.get("state") == "steady"
+        steady_seen, other_seen = steady_seen or steady, other_seen or not steady
         for ax in (top, bottom):
-            ax.axvspan(t0, t[-1], color="tab:green" if row.get("state") == "steady"
-                       else "tab:orange", alpha=0.08, lw=0)
+            ax.axvspan(t0, t[-1], color="tab:green" if steady else "tab:orange", alpha=0.1,
+                       lw=0)
         top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}: "
-                      f"{row.get('state', 'n/a')}", fontsize=7.5)
+                      f"{row.get('state', 'n/a')}", fontsize=MIN_FONT + 0.5)
         bottom.set_ylim(0, 1.02)
         bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
     for top, bottom in axes.T:  # every panel: the stresses' ranges differ
         top.set_ylabel(r"$\sigma_x/\sigma_n$")
         bottom.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
-    if not drawn:
-        return None
-    fig.suptitle("The start's memory: the stress (mean over 1% of the run) and the contacts' "
-                 "phase coherence R (light: block means; dark: mean over 1%); shaded: the "
-                 "analysed window, green if steady", fontsize=7.5)
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = [Line2D([], [], color="black", lw=0.8), Line2D([], [], color="indigo", lw=1.2),
+               Line2D([], [], color="plum", lw=0.8)]
+    labels = [rf"$\sigma_x/\sigma_n$, mean over {width:g} time units",
+              f"R, mean over {width:g} time units",
+              f"R, block means ({block:.3g} time units)"]
+    if steady_seen:
+        handles.append(Patch(color="tab:green", alpha=0.25, lw=0))
+        labels.append("analysed window (after the transient), steady run")
+    if other_seen:
+        handles.append(Patch(color="tab:orange", alpha=0.25, lw=0))
+        labels.append("analysed window, run not steady (state in the title)")
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, frameon=False,
+               fontsize=MIN_FONT, handlelength=1.8, columnspacing=1.2,
+               title=protocol_label(data), title_fontsize=MIN_FONT)
+    fig.suptitle("The start's memory: the stress and the contacts' phase coherence",
+                 fontsize=9)
     return fig
 
 
@@ -436,53 +544,94 @@ def state_handles(present=tuple(STATE_FILL)) -> tuple[list, list[str]]:
 
 
 def protocol_label(data: SweepData) -> str:
-    """What the figure's runs are, in words: "steady protocol" (until steady, beside a
-    companion), "paper's protocol, t_end = 1000" (a fixed length), or the mixture."""
+    """What the figure's runs are, in words, from what the sweep recorded of them (runs.csv
+    ``start``, ``companion``, ``until_steady``, ``t_end``): "steady protocol" only for the
+    steady protocol's own start and companion (params.STEADY_START beside
+    STEADY_COMPANION, until steady); any other start run until steady says so
+    ("synchronized start until steady, partial companion"); a fixed length names its start
+    and lengths ("paper's protocol, t_end = 1000": the synchronized start); else the
+    mixture."""
+    from .params import STEADY_COMPANION, STEADY_START
+
     r = data.runs
-    steady = r["until_steady"].fillna(False).astype(bool) if "until_steady" in r \
-        else pd.Series(False, index=r.index)
+
+    def recorded(column) -> pd.Series:
+        """Each run's value of ``column`` as text, "" where none was recorded."""
+        if column not in r:
+            return pd.Series("", index=r.index)
+        v = r[column].astype(str).where(r[column].notna(), "")
+        return v.where(~v.str.lower().isin(("none", "nan")), "")
+
+    steady = recorded("until_steady").str.lower().isin(("true", "1", "1.0"))
+    start, companion = recorded("start"), recorded("companion")
+    starts, companions = set(start) - {""}, set(companion) - {""}
+    start_words = "/".join(sorted(starts)) + " start" if starts else "runs"
+    companion_words = ", " + "/".join(sorted(companions)) + " companion" if companions else ""
     if steady.all():
-        return "steady protocol" if r.get("companion", pd.Series(dtype=object)).notna().all() \
-            else "runs until steady"
+        if (start == STEADY_START).all() and (companion == STEADY_COMPANION).all():
+            return "steady protocol"
+        return start_words + " until steady" + companion_words
     if not steady.any() and "t_end" in r:
         ends = sorted(set(pd.to_numeric(r["t_end"], errors="coerce").dropna()))
-        starts = set(r["start"].astype(str)) if "start" in r else set()
-        who = "paper's protocol" if starts <= {"synchronized"} else \
-            "fixed length, " + "/".join(sorted(starts)) + " start"
+        who = "paper's protocol" if starts == {"synchronized"} and not companions else \
+            "fixed length, " + start_words + companion_words
         return who + ", t_end = " + ", ".join(_num(e) for e in ends)
     return "mixed protocols"
 
 
-def state_key(fig, data: SweepData, ax=None) -> None:
+def state_key(fig, data: SweepData, ax=None, extra=((), ())) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
     labelled handles, e.g. one per size) and the marker convention (``STATE_FILL``) for
-    the states present in the figure's points (grey markers)."""
+    the states present in the figure's points (grey markers); ``extra`` (handles, labels),
+    e.g. fig2a's regime letters, on rows of their own below."""
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
     more, words = state_handles(set(_point_states(data.results)))
-    handles, labels = handles + more, labels + words
-    if handles:
-        fig.legend(handles, labels, loc="outside lower center", ncol=min(len(handles), 6),
-                   frameon=False, fontsize=6.5, handletextpad=0.3, columnspacing=1.2,
-                   title=protocol_label(data), title_fontsize=6.5)
+    groups = [(handles + more, labels + words), (list(extra[0]), list(extra[1]))]
+    groups = [g for g in groups if g[0]]
+    if not groups:
+        return
+    # as many columns as the figure's width holds (a key wider than the figure squeezes it)
+    ncol = min(max(len(h) for h, _ in groups), 6, max(2, int(fig.get_figwidth() // 1.6)))
+    handles, labels = _in_rows(groups, ncol)
+    fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
+               fontsize=MIN_FONT, handletextpad=0.3, columnspacing=1.2,
+               title=protocol_label(data), title_fontsize=MIN_FONT)
+
+
+def _in_rows(groups, ncol: int) -> tuple[list, list[str]]:
+    """(handles, labels) of several groups in the order that a legend of ``ncol`` columns
+    (which fills column by column) shows as rows, each group starting a row of its own
+    (blank entries fill a group's last row)."""
+    from matplotlib.lines import Line2D
+
+    rows = []
+    for handles, labels in groups:
+        entries = list(zip(handles, labels))
+        entries += [(Line2D([], [], ls="none"), "")] * (-len(entries) % ncol)
+        rows += [entries[i:i + ncol] for i in range(0, len(entries), ncol)]
+    ordered = [row[c] for c in range(ncol) for row in rows]
+    return [h for h, _ in ordered], [label for _, label in ordered]
 
 
 def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
-    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``STATE_FILL``)."""
-    fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 2.9))
+    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``STATE_FILL``);
+    the majority regime of the smallest size written above each phi in the paper's colours,
+    keyed below (``regime_key``)."""
+    fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 3.1))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
         for ax, f in ((a, "mu_bar"), (c, "mu_bar_large"), (b, "mean_stress_ratio")):
             if f in g:
                 _series(ax, g, f, m, _size_label(lx, ly))
-    _regime_labels(a, data)
+    shown = _regime_labels(a, data)
     a.set_ylabel(r"$\overline{\mu} = \langle\sigma_{\rm fail}\rangle/\sigma_n$")
     c.set_ylabel(r"$\overline{\mu}$ over large drops")
     b.set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$")
     for ax in (a, c, b):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-    state_key(fig, data, ax=a)
+    state_key(fig, data, ax=a, extra=regime_key(shown))
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
                 f"{data.sizes[0][1]})", fontsize=8)
     c.set_title("large drops only (drop > mean drop)", fontsize=8)
@@ -490,23 +639,42 @@ def fig2a_friction(data: SweepData, plt):
     return fig
 
 
-def _regime_labels(ax, data: SweepData):
-    """The majority regime of the smallest size, written above each phi."""
+def regime_key(regimes) -> tuple[list, list[str]]:
+    """The key of the regime letters (``REGIME_COLOURS``, ``REGIME_WORDS``) for the regimes
+    given: each letter as its marker, in its colour."""
+    from matplotlib.lines import Line2D
+
+    order = [r for r in REGIME_COLOURS if r in set(regimes)]
+    handles = [Line2D([], [], ls="none", marker=rf"$\mathrm{{{r}}}$",
+                      ms=7 if len(r) == 1 else 10, color=REGIME_COLOURS[r], mew=0)
+               for r in order]
+    return handles, [REGIME_WORDS[r] for r in order]
+
+
+def _regime_labels(ax, data: SweepData) -> list[str]:
+    """The majority regime of the smallest size, written above each phi; the regimes
+    written."""
     lx, ly = data.sizes[0]
     g = data.results_of(lx, ly)
     if "regime" not in g or g.regime.isna().all():
-        return
+        return []
     ax.margins(y=0.18)
     tr = ax.get_xaxis_transform()
+    shown = []
     for phi, reg in zip(g.phi, g.regime):
         if isinstance(reg, str):
-            ax.text(phi, 0.98, reg, transform=tr, ha="center", va="top", fontsize=6,
+            ax.text(phi, 0.98, reg, transform=tr, ha="center", va="top", fontsize=MIN_FONT,
                     color=REGIME_COLOURS.get(reg, "grey"))
+            shown.append(reg)
+    return shown
 
 
 def fig2b_asymmetry(data: SweepData, plt):
-    """<l_x>/<l_y>(phi) per size."""
-    fig, ax = plt.subplots(figsize=(3.6, 2.8))
+    """<l_x>/<l_y>(phi) per size; the box's Lx/Ly dotted, and in the key what a whole-box
+    slip reaches on a lattice with an odd side (not Lx/Ly: ``bkflow.lattice.box_extent``)."""
+    from matplotlib.lines import Line2D
+
+    fig, ax = plt.subplots(figsize=(4.6, 2.9))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
         _series(ax, g, "lx_over_ly", m, _size_label(lx, ly))
@@ -514,25 +682,31 @@ def fig2b_asymmetry(data: SweepData, plt):
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)
     # a whole-box slip's l_x/l_y is not Lx/Ly: N/(N-1) cancels, an odd side's ring distances
-    # (L^2 - 1)/4 do not (bkflow.clusters.box_extent)
-    whole = ", ".join(f"{clusters.box_extent(lx, ly) / clusters.box_extent(ly, lx):.3g} on "
+    # (L^2 - 1)/4 do not (bkflow.lattice.box_extent)
+    whole = ", ".join(f"{box_extent(lx, ly) / box_extent(ly, lx):.3g} on "
                       f"{lx}x{ly}" for lx, ly in data.sizes
                       if (lx % 2 or ly % 2) and lx > 1 and ly > 1)
-    ax.text(0.98, 0.04, "dotted: the box's Lx/Ly" + (
-        f"\na whole-box slip on an odd side reaches {whole}" if whole else ""),
-        transform=ax.transAxes, ha="right", va="bottom", fontsize=6, color="grey")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
     ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
-    state_key(fig, data, ax=ax)
+    # the notes in the key below, where they cover no point
+    state_key(fig, data, ax=ax, extra=([Line2D([], [], color="grey", ls=":", lw=0.8)], [
+        "the box's Lx/Ly" + (f"; a whole-box slip on an odd side\nreaches {whole}"
+                             if whole else "")]))
     return fig
 
 
 def fig3_order(data: SweepData, plt):
-    """Psi(inf)(phi) per size; inset: 1 - Psi(t) of one seed for phi in INSET_PHI, on log
-    axes (Psi of the stiff layers all lie within 2% of 1)."""
-    fig, ax = plt.subplots(figsize=(4.4, 3.2))
+    """(a) Psi(inf)(phi) per size; (b) the paper's inset, 1 - Psi(t) from the start of one
+    seed for phi in INSET_PHI (N = 400 where swept), on a log axis (the stiff layers' Psi
+    all lie within 2% of 1). Psi is recorded every ``snapshot_every`` time units (psi.npy;
+    20 by default), and its fall from Psi(0) = 1 is over within two or three samples: a log
+    time axis from the first sample made those samples look like a resolved fall. (b) shows
+    the first ``PSI_SAMPLES`` samples on a linear time axis, each one marked, and says the
+    sampling interval: the fall is drawn as what the record holds, a step the sampling does
+    not resolve, followed by the plateau."""
+    fig, (ax, ins) = plt.subplots(1, 2, figsize=(7.6, 3.1), width_ratios=(1.25, 1))
     for (lx, ly), m in zip(data.sizes, MARKERS):
         g = data.results_of(lx, ly)
         _series(ax, g, "psi_inf", m, _size_label(lx, ly))
@@ -545,111 +719,223 @@ def fig3_order(data: SweepData, plt):
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
     runs = data.runs_of(*inset_size)
     phis = sorted(set(runs.phi))
-    ins = ax.inset_axes([0.42, 0.3, 0.54, 0.36])
-    shown = []
-    for target, colour in zip(INSET_PHI, ("black", "tab:red", "tab:green", "tab:blue")):
+    shown, steps = [], []
+    for target in INSET_PHI:
         phi = _nearest(phis, target)
         if phi in shown:
             continue
         shown.append(phi)
         p = data.run_dir(data.runs_of(*inset_size, phi).iloc[0]).read_psi()
-        if p is None:
+        if p is None or len(p) < 2:
             continue
-        # 1 - Psi on log axes: the stiff layers' Psi all sit near 1 and would overlap
-        t, dis = p.t.to_numpy(dtype=float), 1.0 - p.psi.to_numpy(dtype=float)
-        k = (t > 0) & (dis > 0)
-        ins.plot(t[k], dis[k], color=colour, lw=0.6, label=_num(phi))
-    ins.set_xscale("log")
+        t, psi = p.t.to_numpy(dtype=float), p.psi.to_numpy(dtype=float)
+        step = float(np.median(np.diff(t)))
+        steps.append(step)
+        k = t <= t[0] + PSI_SAMPLES * step * (1 + 1e-9)
+        # 1 - Psi on a log axis: Psi(0) = 1 exactly, and a sample at 1 has no place on it
+        t, dis = t[k], 1.0 - psi[k]
+        k = dis > 0
+        ins.plot(t[k], dis[k], "o-", color=phi_colour(phi), lw=0.6, ms=2.2,
+                 label=rf"$\phi$ = {_num(phi)}")
+    if not steps:
+        fig.delaxes(ins)
+        return fig
     ins.set_yscale("log")
-    ins.set_xlabel(r"t ($\sqrt{m/k_d}$)", fontsize=6.5, labelpad=0)
-    ins.set_ylabel(r"$1 - \Psi(t)$", fontsize=6.5, labelpad=1)
-    ins.tick_params(labelsize=6)
-    ins.set_title(rf"N = {inset_size[0] * inset_size[1]}, one seed, $\phi$ =", fontsize=6,
-                  pad=12)
-    ins.legend(fontsize=5.5, frameon=False, loc="lower center", bbox_to_anchor=(0.5, 0.98),
-               ncol=4, handlelength=1.2, columnspacing=0.8, borderaxespad=0)
+    ins.set_xlim(left=0)
+    ins.set_xlabel(r"t ($\sqrt{m/k_d}$)")
+    ins.set_ylabel(r"$1 - \Psi(t)$")
+    lo, hi = f"{min(steps):.3g}", f"{max(steps):.3g}"   # (the runs' time steps differ)
+    every = lo if lo == hi else f"{lo} to {hi}"
+    ins.set_title(f"the paper's inset: from the start, N = {inset_size[0] * inset_size[1]}, "
+                  "one seed;\n"
+                  rf"$\Psi$ sampled every {every} time units (dots), $\Psi(0) = 1$",
+                  fontsize=MIN_FONT)
+    ins.legend(fontsize=MIN_FONT, frameon=False, loc="upper center",
+               bbox_to_anchor=(0.5, -0.24), ncol=4, handlelength=1.5, columnspacing=0.8)
     return fig
 
 
-def _phi_per_regime(data: SweepData, lx, ly) -> list[float]:
-    """Four phi that show the four regimes best: for each of C, LC, DP, DT the phi where
-    the largest share of clusters has it (distinct phi, spread over the range)."""
-    runs = data.runs_of(lx, ly)
-    phis = sorted(set(runs.phi))
-    chosen = []
-    for reg in ("C", "LC", "DP", "DT"):
-        col = f"regime_fractions[{reg}]"
-        if col not in runs:
-            continue
-        share = runs.groupby("phi")[col].mean().drop(chosen, errors="ignore")
-        if len(share) and share.max() > 0:
-            chosen.append(float(share.idxmax()))
-    for target in (1e3, 1e2, 1.0, 0.1):  # fill up when some regime never appears
-        if len(chosen) >= 4:
-            break
-        phi = _nearest(phis, target)
-        if phi not in chosen:
-            chosen.append(phi)
-    return sorted(chosen, reverse=True)[:4]
+def cluster_phis(phis) -> list[float]:
+    """The phi of the cluster scatter, fig_drops and fig_potency among the swept ``phis``: for
+    each target of ``CLUSTER_PHI`` the nearest (on a log scale), each once, stiffest first.
+    The same targets in every sweep, so that two sweeps' figures show the same layers where
+    both swept them."""
+    return sorted({_nearest(phis, target) for target in CLUSTER_PHI}, reverse=True)
+
+
+def _cluster_size(data: SweepData) -> tuple[int, int]:
+    """The size of the cluster figures: the paper's 20x5 where swept, else the smallest."""
+    return (20, 5) if (20, 5) in data.sizes else data.sizes[0]
 
 
 def fig4a_clusters(data: SweepData, plt):
-    """l_y/Ly against l_x/Lx of every slip cluster, all seeds, for four phi (20x5 if swept)."""
-    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
-    return cluster_scatter(data, plt, lx, ly, _phi_per_regime(data, lx, ly),
-                           f"Fig. 4a: slip clusters, {_size_label(lx, ly)}\n"
-                           f"({protocol_label(data)})")
+    """l_y against l_x of every slip cluster, all seeds, each as a fraction of the whole box's
+    own extent on its side, for the phi of ``CLUSTER_PHI`` (20x5 if swept): one panel per
+    phi on shared axes, so that no phi's clusters hide another's (on one panel the thousands
+    of a soft layer covered the rest, and the stiff layers' clusters all sit on one spot of
+    the C / W corner); each panel's title gives its count and the shares of its clusters in
+    the regimes (``cluster_sets``)."""
+    lx, ly = _cluster_size(data)
+    sets = cluster_sets(data, lx, ly, cluster_phis(data.runs_of(lx, ly).phi))
+    if not sets:
+        return None
+    n = len(sets)
+    ncols = 2 if n > 1 else 1
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.3 * ncols + 0.3, 3.2 * nrows + 0.9),
+                             sharex=True, sharey=True, squeeze=False)
+    top = _cluster_top(sets, (lx, ly))
+    span = _span(data)
+    for ax, one in zip(axes.flat, sets):
+        _cluster_panel(ax, [one], (lx, ly), span, top)
+        phi, c, shares = one
+        ax.set_title(rf"$\phi$ = {_num(phi)}: {len(c)} clusters" + "\n"
+                     + _shares_words(shares), fontsize=8)
+    for ax in axes.flat[n:]:
+        ax.set_axis_off()
+    for k, ax in enumerate(axes.flat[:n]):
+        if k + ncols >= n:    # no panel below: its x axis is labelled
+            ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$ (whole box's extent along x)")
+            ax.xaxis.set_tick_params(labelbottom=True)
+    for ax in axes[:, 0]:
+        ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$ (whole box's extent across)")
+    # the key (the colours of phi, as in fig_drops and fig_potency, and the bounds) in a spare
+    # panel where there is one, else below the panels
+    from matplotlib.lines import Line2D
+
+    key = [Line2D([], [], ls="none", marker="o", ms=5, mew=0, color=phi_colour(phi),
+                  label=rf"$\phi$ = {_num(phi)}") for phi, *_ in sets] + _cluster_guides(span)
+    if n < axes.size:
+        axes.flat[-1].legend(handles=key, loc="center", frameon=False, fontsize=MIN_FONT)
+    else:
+        fig.legend(handles=key, loc="outside lower center", ncol=3, frameon=False,
+                   fontsize=MIN_FONT)
+    fig.suptitle(f"Fig. 4a: slip clusters, {_size_label(lx, ly)} ({protocol_label(data)})",
+                 fontsize=9)
+    return fig
+
+
+def cluster_sets(data: SweepData, lx, ly, phis) -> list[tuple]:
+    """[(phi, its clusters pooled over the seeds, {regime: share})] of the runs at (lx, ly)
+    for each of ``phis`` whose runs recorded clusters."""
+    sets = []
+    for phi in phis:
+        runs = data.runs_of(lx, ly, phi)
+        frames = [(r, c) for (_, r), c in zip(
+            runs.iterrows(), (data.run_dir(r).read_clusters() for _, r in runs.iterrows()))
+            if c is not None and len(c)]
+        if frames:
+            kept = pd.DataFrame([r for r, _ in frames])
+            sets.append((phi, pd.concat([c for _, c in frames]),
+                         _regime_shares(kept, [c for _, c in frames])))
+    return sets
+
+
+def _shares_words(shares: dict) -> str:
+    """"C 98%, LC 2%": the regimes' shares of a set of clusters, those of 0.5% or more."""
+    return ", ".join(f"{reg} {share:.0%}" for reg, share in shares.items() if share >= 0.005)
+
+
+def _span(data: SweepData) -> float:
+    """The fraction of a side from which the sweep's analysis counts it spanned."""
+    from .params import SPAN_FRACTION
+
+    return float(getattr(getattr(data, "settings", None), "span_fraction", SPAN_FRACTION))
+
+
+def _cluster_top(sets, box) -> float:
+    """The upper limit of both axes of a cluster scatter: every cluster inside (a soft
+    layer's clusters reach past 1 across the box), at least 1.15 (the C / W corner's name)."""
+    return max(1.15, 1.03 * max(float(max(f.max() for f in box_fractions(
+        c.l_x, c.l_y, box))) for _, c, _ in sets))
+
+
+def _cluster_guides(span: float) -> list:
+    """The key of the regime bounds drawn on a cluster scatter."""
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], color="grey", lw=0.6, ls=":",
+                   label=f"{span:g} of a side: spanning (the regimes' bounds)"),
+            Line2D([], [], color="grey", lw=0.6, ls="--", label="the DP / DT bound")]
+
+
+def _cluster_panel(ax, sets, box, span: float, top: float) -> dict:
+    """Draw ``sets`` (``cluster_sets``) on ``ax`` as small filled circles in their phi's
+    colour (``phi_colour``), translucent (the more clusters, the fainter), the densest set
+    lowest, with the regime bounds and the regions' names in grey; returns {phi: a key handle
+    (opaque and larger, labelled with the count and the regime shares)}."""
+    keys = {}
+    # the largest set first and lowest: a sparse set is drawn over a dense one, not hidden
+    for z, (phi, c, shares) in enumerate(sorted(sets, key=lambda s: -len(s[1]))):
+        fx, fy = box_fractions(c.l_x, c.l_y, box)
+        colour = phi_colour(phi)
+        alpha = float(np.clip(20.0 / math.sqrt(len(c)), 0.15, 0.8))
+        ax.plot(fx, fy, "o", color=colour, ms=2.0, mew=0, alpha=alpha, zorder=2 + z,
+                label="_nolegend_")
+        words = _shares_words(shares)
+        # an empty line added to the axes, so that a caller's ax.legend() finds it too
+        keys[phi], = ax.plot([], [], "o", color=colour, ms=5, mew=0,
+                             label=rf"$\phi$ = {_num(phi)}: {len(c)} clusters"
+                             + (f" ({words})" if words else ""))
+    ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
+    ax.axvline(span, color="grey", lw=0.6, ls=":")
+    ax.axhline(span, color="grey", lw=0.6, ls=":")
+    # the regions' names in grey (the colours belong to the phi), under the points: a name
+    # never hides a cluster
+    for txt, x, y in (("C / W", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2),
+                      ("DT", 0.2, 0.6)):
+        ax.text(x, y, txt, fontsize=8, ha="center", va="center", color="dimgrey",
+                weight="bold", zorder=1)
+    ax.set_xlim(-0.03, top)  # a cluster one particle across sits at 0: drawn whole
+    ax.set_ylim(-0.03, top)
+    return keys
+
+
+def _regime_shares(runs: pd.DataFrame, frames) -> dict:
+    """{regime: share of the clusters} of ``frames`` (the clusters of each run of ``runs``):
+    the runs' own shares as the analysis classified them (runs.csv
+    ``regime_fractions[R]``, bkflow.clusters.regime), weighted by each run's clusters. A
+    figure reads the regimes from the tables; it never classifies."""
+    weights = np.array([len(c) for c in frames], dtype=float)
+    shares = {}
+    for reg in REGIME_COLOURS:
+        col = f"regime_fractions[{reg}]"
+        if col in runs:
+            f = pd.to_numeric(runs[col], errors="coerce").to_numpy(dtype=float)
+            ok = np.isfinite(f)
+            if ok.any() and weights[ok].sum() > 0:
+                shares[reg] = float(np.sum(f[ok] * weights[ok]) / weights[ok].sum())
+    return shares
 
 
 def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
-    """l_y/Ly against l_x/Lx of every cluster of the runs at (lx, ly) and each phi; the
-    regime boundaries of ``bkflow.clusters.regime`` drawn in. None when no clusters."""
+    """l_y/l_y^box against l_x/l_x^box of every cluster of the runs at (lx, ly) and each phi,
+    all on one panel (``ax``, or a new figure's), with the regime bounds of
+    ``bkflow.clusters.regime`` drawn in and the regions named in grey; None when no clusters.
+    Each phi is a set of small filled circles in its colour (``phi_colour``: a sequential map,
+    so that no set reads as one of the paper's regime colours, and filled, as open markers
+    mean a drifting run in bkflow's other figures), translucent and the densest lowest; the
+    key gives each set's count and regime shares, which a reader cannot count where sets lie
+    on one another (fig4a draws one panel per phi instead)."""
     fig = None
     if ax is None:
-        fig, ax = plt.subplots(figsize=(3.8, 4.0))
-    sets = []
-    for phi, m, colour in zip(phis, MARKERS, ("black", "tab:red", "tab:green", "tab:blue")):
-        frames = [c for c in (data.run_dir(r).read_clusters()
-                              for _, r in data.runs_of(lx, ly, phi).iterrows())
-                  if c is not None]
-        if frames:
-            sets.append((phi, m, colour, pd.concat(frames)))
+        fig, ax = plt.subplots(figsize=(4.2, 4.9))
+    sets = cluster_sets(data, lx, ly, phis)
     if not sets:
         if fig is not None:
             plt.close(fig)
         return None
-    # the largest set first and lowest: a sparse set is drawn over a dense one, not hidden
-    handles = {}
-    for z, (phi, m, colour, c) in enumerate(sorted(sets, key=lambda s: -len(s[3]))):
-        fx, fy = clusters.box_fractions(c.l_x, c.l_y, (lx, ly))
-        handles[phi], = ax.plot(fx, fy, m, color=colour, mfc="none", ms=3,
-                                mew=0.6, alpha=0.5, zorder=2 + z,
-                                label=rf"$\phi$ = {_num(phi)} ({len(c)} clusters)")
-    # every cluster inside the axes (a soft layer's clusters reach past 1 across the box)
-    top = max(1.15, 1.03 * max(float(max(f.max() for f in clusters.box_fractions(
-        c.l_x, c.l_y, (lx, ly)))) for *_, c in sets))
-    ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
-    ax.axvline(0.9, color="grey", lw=0.6, ls=":")
-    ax.axhline(0.9, color="grey", lw=0.6, ls=":")
-    # the regions' names in grey: the colours belong to the phi of the key
-    for txt, x, y in (("C / W", 1.07, 1.07), ("LC", 1.07, 0.5), ("DP", 0.6, 0.2),
-                      ("DT", 0.2, 0.6)):
-        ax.text(x, y, txt, fontsize=8, ha="center", va="center", color="dimgrey",
-                weight="bold", bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 1})
-    ax.set_xlim(-0.03, top)  # a cluster one particle across sits at 0: drawn whole
-    ax.set_ylim(-0.03, top)
+    span = _span(data)
+    keys = _cluster_panel(ax, sets, (lx, ly), span, _cluster_top(sets, (lx, ly)))
     # each extent against the whole box's own on its side: a whole-box slip sits at (1, 1)
-    # on odd and even sides alike (bkflow.clusters.box_fractions)
-    ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$")
-    ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$")
+    # on odd and even sides alike (bkflow.lattice.box_fractions)
+    ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$ (whole box's extent along x)")
+    ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$ (whole box's extent across)")
     ax.set_title(title, fontsize=9)
-    from matplotlib.lines import Line2D
-
-    guides = [Line2D([], [], color="grey", lw=0.6, ls=":",
-                     label="0.9 of a side: spanning (the regimes' bounds)"),
-              Line2D([], [], color="grey", lw=0.6, ls="--", label="the DP / DT bound")]
-    ax.legend(handles=[handles[phi] for phi, *_ in sets] + guides, frameon=False, fontsize=6.5,
-              loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, markerscale=1.5)
+    ax.legend(handles=[keys[phi] for phi, *_ in sets] + _cluster_guides(span), frameon=False,
+              fontsize=MIN_FONT, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1,
+              title=r"colour: $\phi$ (regime shares of its clusters)",
+              title_fontsize=MIN_FONT)
     return fig if fig is not None else ax.figure
 
 
@@ -722,23 +1008,26 @@ def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
 
 def fig_drops(data: SweepData, plt):
     """(a) Density of stress-drop sizes after the transient (events.parquet, the seeds pooled)
-    for the four phi of the cluster figure, with the maximum-likelihood power law drawn only
-    where the analysis found it plausible in every seed (Clauset et al.'s bootstrap,
-    p >= 0.1; runs.csv ``drop_power_law``), else the rejection written in the key.
-    (b) The stiffest of them split into its two populations: slips that move every particle
-    of the layer (system-wide) and the rest, each density weighted by its share so that the
-    two add up to (a)'s. Markers by the point's state (``STATE_FILL``)."""
-    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    for the phi of the cluster figure (``cluster_phis``; those with two drops or more are
+    drawn), with the maximum-likelihood power law drawn only where the analysis found it
+    plausible in every seed (Clauset et al.'s bootstrap, p >= 0.1; runs.csv
+    ``drop_power_law``), else the rejection written in the key.
+    (b) The stiffest phi drawn in (a) whose runs recorded clusters, split into its two
+    populations: slips that move every particle of the layer (system-wide) and the rest,
+    each density weighted by its share so that the two add up to (a)'s; its title says which
+    of (a)'s phi it is, counted from the data. Markers by the point's state
+    (``STATE_FILL``), colours by phi (``phi_colour``)."""
+    lx, ly = _cluster_size(data)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.6))
     points = data.results_of(lx, ly)
-    drawn, stiff, lines = 0, None, 0
-    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
-                              ("black", "tab:red", "tab:green", "tab:blue")):
+    drawn, stiff, lines = [], None, 0
+    for phi, m in zip(cluster_phis(data.runs_of(lx, ly).phi), MARKERS):
+        colour = phi_colour(phi)
         runs = data.runs_of(lx, ly, phi)
         d, whole = _late_drops(data, runs)
         if len(d) < 2:
             continue
-        drawn += 1
+        drawn.append(phi)
         plausible, words = _drop_verdict(runs)
         state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
         fill = STATE_FILL.get(state[0] if len(state) else "drifting", "none")
@@ -767,15 +1056,15 @@ def fig_drops(data: SweepData, plt):
         a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     ax.set_ylabel("probability density")
     bx.set_ylabel("probability density (of all drops)")
-    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}; " + (
+    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}\n" + (
         "lines: power laws that pass Clauset et al.'s test (p >= 0.1)" if lines else
-        "no power law passes Clauset et al.'s test (p >= 0.1)"), fontsize=6.5)
+        "no power law passes Clauset et al.'s test (p >= 0.1)"), fontsize=8)
     state_key(fig, data)
     # below the axes: a rejection's words never cover a point
-    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    ax.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
     if stiff is None:
         bx.text(0.5, 0.5, "no cluster data\n(scene without slip frames)",
-                transform=bx.transAxes, ha="center", va="center", fontsize=7)
+                transform=bx.transAxes, ha="center", va="center", fontsize=MIN_FONT)
         return fig
     phi, d, whole, colour, fill = stiff
     for part, label, m, ls in ((whole, "system-wide (every particle slips)", "^", "-"),
@@ -786,10 +1075,22 @@ def fig_drops(data: SweepData, plt):
             bx.plot(x[nz], dens[nz], marker=m, ls=ls, color=colour, lw=0.8, fillstyle=fill,
                     mfc=colour if fill != "none" else "white", mfcalt="white",
                     label=f"{label}: {np.mean(part):.0%} of {len(d)}")
-    bx.set_title(rf"two populations at $\phi$ = {_num(phi)} (the stiffest of the four)",
-                 fontsize=8)
-    bx.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    bx.set_title(rf"two populations at $\phi$ = {_num(phi)}" + "\n(" + _which(phi, drawn)
+                 + ")", fontsize=8)
+    bx.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
     return fig
+
+
+def _which(phi: float, drawn) -> str:
+    """Which of the phi ``drawn`` ``phi`` is, in words from their number: "the stiffest of
+    the three in (a)", "the only one in (a)", or, when a stiffer one drawn in (a) recorded
+    no clusters, "the stiffest with slip clusters"."""
+    words = {2: "two", 3: "three", 4: "four", 5: "five", 6: "six"}
+    if len(drawn) == 1:
+        return "the only one in (a)"
+    if phi < max(drawn):
+        return "the stiffest with slip clusters"
+    return f"the stiffest of the {words.get(len(drawn), len(drawn))} in (a)"
 
 
 def _late_potencies(data: SweepData, runs: pd.DataFrame):
@@ -812,16 +1113,21 @@ def _late_potencies(data: SweepData, runs: pd.DataFrame):
 
 def fig_potency(data: SweepData, plt):
     """The magnitude-frequency view, beside fig_drops: (a) the density of the slips'
-    potencies (the sum of the slipping particles' slips, events.parquet) after the transient for
-    the four phi of the cluster figure, the seeds pooled, with the analysis's verdict on a
-    power law in the key (runs.csv ``potency_power_law``; the fitted law drawn where it is
-    plausible in every seed); (b) each slip's potency against its stress drop."""
-    lx, ly = (20, 5) if (20, 5) in data.sizes else data.sizes[0]
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    potencies after the transient for the phi of the cluster figure (``cluster_phis``), the
+    seeds pooled, with the analysis's verdict on a power law in the key (runs.csv
+    ``potency_power_law``; the fitted law drawn where it is plausible in every seed); (b) each
+    slip's potency against its stress drop, the largest set drawn lowest.
+
+    The potency is events.parquet's ``potency`` (bkflow.catalogue): the sum over the slipping
+    particles of their slips in x, sum_i dx_i, a length in lattice units l. (Seismic potency,
+    slip times area, is this times the area l^2 each particle stands for: l^3; the axes show
+    the sum as computed, so their unit is l.)"""
+    lx, ly = _cluster_size(data)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.6))
     points = data.results_of(lx, ly)
     drawn = 0
-    for phi, m, colour in zip(_phi_per_regime(data, lx, ly), MARKERS,
-                              ("black", "tab:red", "tab:green", "tab:blue")):
+    for phi, m in zip(cluster_phis(data.runs_of(lx, ly).phi), MARKERS):
+        colour = phi_colour(phi)
         runs = data.runs_of(lx, ly, phi)
         pot, drops = _late_potencies(data, runs)
         if len(pot) < 2:
@@ -841,7 +1147,9 @@ def fig_potency(data: SweepData, plt):
             xs = np.geomspace(x_min, pot.max(), 50)
             ax.plot(xs, np.mean(pot >= x_min) * (alpha - 1) / x_min * (xs / x_min) ** -alpha,
                     color=colour, lw=0.8)
-        bx.plot(drops, pot, m, ms=2.5, alpha=0.6, ls="none", **style_)
+        # the largest set lowest: a sparse one is drawn over it, not under it
+        bx.plot(drops, pot, m, ms=2.5, alpha=0.6, ls="none", zorder=2 + 1 / len(pot),
+                **style_)
     if not drawn:  # no run recorded slip frames
         return None
     for a in (ax, bx):
@@ -853,16 +1161,17 @@ def fig_potency(data: SweepData, plt):
         axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
         axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         axis.set_minor_formatter(NullFormatter())
-    ax.set_xlabel(r"potency $\sum_i \Delta x_i$ over the slipping particles ($l^3$)")
+    ax.set_xlabel(r"potency $\sum_i \Delta x_i$ of the slipping particles ($l$)")
     ax.set_ylabel("probability density")
-    ax.set_title(f"potencies, {_size_label(lx, ly)}; a law drawn only where Clauset et al.'s "
-                 "test passes (p >= 0.1)\nand a lognormal is not favoured", fontsize=6.5)
+    ax.set_title(f"potencies, {_size_label(lx, ly)}: a law drawn only where\nClauset et al.'s "
+                 "test passes (p >= 0.1) and a lognormal is not favoured", fontsize=8)
     bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
-    bx.set_ylabel(r"potency ($l^3$)")
-    bx.set_title("each slip's potency against its stress drop", fontsize=7)
+    bx.set_ylabel(r"potency $\sum_i \Delta x_i$ ($l$)")
+    bx.set_title("each slip's potency against its stress drop", fontsize=8)
     state_key(fig, data)
     # below the axis label (two lines tall with its sum)
-    ax.legend(frameon=False, fontsize=5.5, loc="upper left", bbox_to_anchor=(-0.02, -0.27))
+    ax.legend(frameon=False, fontsize=MIN_FONT, loc="upper left",
+              bbox_to_anchor=(-0.02, -0.27))
     return fig
 
 

@@ -1,5 +1,6 @@
 """The long-lived states a layer visits, and the error of a mean that covers its switching
-between them (docs/model.md, "The stiff end's states"; benchmarks/RESULTS.md, "The stiff end").
+between them (docs/model.md, "The stiff end's states"; measured by benchmarks/stiff_states.py,
+its records benchmarks/records/stiff_states/).
 
 Pure functions on arrays, like ``bkflow.stress``.
 

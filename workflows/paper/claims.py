@@ -204,7 +204,7 @@ def shape_class(n_x, n_y, lx: int, ly: int) -> np.ndarray:
 
 
 def cheapest_shape(n_c, delta, lx: int, ly: int) -> np.ndarray:
-    """The class (``shape_class``) of the rectangle of at least n_c sites, a columns by
+    """The class (``shape_class``) of the rectangle that holds n_c sites, a <= n_c columns by
     ceil(n_c / a) rows inside the box, whose Eq. 2 energy (k_b set to 1: it scales every
     shape alike) is lowest at mean slip delta: what the paper's energy argument predicts."""
     from bkflow.catalogue import eq2_estimate
@@ -213,7 +213,7 @@ def cheapest_shape(n_c, delta, lx: int, ly: int) -> np.ndarray:
     a = np.arange(1, lx + 1, dtype=float)[None, :]
     b = np.ceil(n_c[:, None] / a)
     e = eq2_estimate(1.0, np.broadcast_to(a, b.shape), b, delta[:, None], lx, ly)
-    e = np.where(b <= ly, e, np.inf)
+    e = np.where((b <= ly) & (a <= n_c[:, None]), e, np.inf)   # every column holds a site
     k = np.argmin(e, axis=1)   # ties: the fewest columns
     rows = np.arange(len(n_c))
     return shape_class(a[0, k], b[rows, k], lx, ly)

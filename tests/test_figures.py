@@ -1,0 +1,416 @@
+"""The figures of ``bkflow plot`` as a reader sees them at print size, drawn from a small real
+sweep (the synchronized start until steady at phi = 10, 100, 1000, as the reproduction's
+``sync_steady``; a few seconds of LAMMPS) and from synthetic tables: every point inside its
+axes and off the keys, no text under ``MIN_FONT`` points, units on the axes, a key for every
+colour, letter and shading that encodes something, one y range where panels are compared;
+and what a referee found wrong, figure by figure (the protocol named as run, the text of
+fig_drops following its data, fig_contacts' phi and smoothing, fig4a's fixed phi and
+markers, fig1b's range, fig3's Psi samples, the potency's unit)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bkflow import plot
+from tests.support import tool
+
+SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",
+         "--jobs", "2", "--quiet"]
+#: labels of quantities without units (pure numbers)
+PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "probability", "R =", "1 -")
+#: what an axis label must say when it names the quantity: its unit
+UNITS = {"t (": r"($\sqrt{m/k_d}$)", r"$\sigma_x$ (": "($k_d/l$)", "stress drop": "($k_d/l$)",
+         "potency": "($l$)"}
+
+
+@pytest.fixture(scope="module")
+def sweep(lammps, tmp_path_factory):
+    out = tmp_path_factory.mktemp("figures") / "sync"
+    proc = subprocess.run([tool("bkflow"), "sweep", *SWEEP, "--out", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def drawn(sweep):
+    """The sweep's data and every figure, drawn (tick labels and layout made) as saved."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    data = plot.SweepData(sweep)
+    figs = {}
+    for name in plot.FIGURES:
+        fig = plot.figure(data, name)
+        with plot.style():
+            FigureCanvasAgg(fig).draw()
+        figs[name] = fig
+    return data, figs
+
+
+def _draw(fig):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    with plot.style():
+        FigureCanvasAgg(fig).draw()
+    return fig
+
+
+def _all_axes(fig):
+    return [a for ax in fig.axes for a in (ax, *ax.child_axes)]
+
+
+def _legends(fig):
+    from matplotlib.legend import Legend
+
+    return list(fig.legends) + [c for ax in _all_axes(fig) for c in ax.get_children()
+                                if isinstance(c, Legend)]
+
+
+def _rgb(colour):
+    from matplotlib.colors import to_rgb
+
+    return tuple(round(v, 3) for v in to_rgb(colour))
+
+
+def _key_colours(fig) -> set:
+    """The colours of every handle drawn in the figure's keys (lines, markers, patches)."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    out = set()
+    for leg in _legends(fig):
+        for a in leg.findobj(Line2D):
+            out |= {_rgb(a.get_color()), _rgb(a.get_markerfacecolor())
+                    if a.get_markerfacecolor() not in ("none", "None") else None}
+        for a in leg.findobj(Patch):
+            if a is not leg.legendPatch:
+                out.add(_rgb(a.get_facecolor()))
+        for a in leg.findobj(LineCollection):
+            out |= {_rgb(c) for c in a.get_colors()}
+    return out - {None}
+
+
+def _data_lines(ax):
+    """The lines of ``ax`` that draw data: visible, with points."""
+    return [ln for ln in ax.get_lines() if ln.get_visible() and len(ln.get_xydata())]
+
+
+def _outside_or_hidden(fig) -> list[str]:
+    """Every drawn point (of lines with or without markers, error bars too) outside its axes,
+    and every marker under a key or an inset."""
+    from matplotlib.collections import LineCollection
+
+    r = fig.canvas.get_renderer()
+    keys = [k.get_window_extent(r) for k in _legends(fig)]
+    bad = []
+    for ax in _all_axes(fig):
+        if not ax.get_visible() or not ax.axison:
+            continue
+        box = ax.get_window_extent(r).expanded(1.01, 1.01)
+        over = keys + [inset.get_window_extent(r) for inset in ax.child_axes]
+        for ln in _data_lines(ax):
+            pts = ln.get_transform().transform(ln.get_xydata())
+            pts = pts[np.isfinite(pts).all(axis=1)]
+            marked = ln.get_marker() not in (None, "", "None", "none")
+            for x, y in pts:
+                if not box.contains(x, y):
+                    bad.append(f"{ax.get_title() or ax.get_ylabel()}: {ln.get_label()} at "
+                               f"({x:.0f}, {y:.0f}) outside its axes")
+                elif marked and any(b.contains(x, y) for b in over):
+                    bad.append(f"{ax.get_title() or ax.get_ylabel()}: {ln.get_label()} under a "
+                               "key")
+        for coll in ax.collections:
+            if isinstance(coll, LineCollection) and coll.get_visible():  # error bars
+                for seg in coll.get_segments():
+                    for x, y in ax.transData.transform(seg):
+                        if np.isfinite([x, y]).all() and not box.contains(x, y):
+                            bad.append(f"{ax.get_ylabel()}: an error bar outside its axes")
+    return bad
+
+
+# --------------------------------------------------------------------------- every figure
+@pytest.mark.parametrize("name", list(plot.FIGURES))
+def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
+    from matplotlib.text import Text
+
+    _, figs = drawn
+    small = [(t.get_text(), t.get_fontsize()) for t in figs[name].findobj(Text)
+             if t.get_visible() and t.get_text().strip()
+             and t.get_fontsize() < plot.MIN_FONT - 1e-9]
+    assert small == [], f"{name}: text under {plot.MIN_FONT} pt: {small[:5]}"
+
+
+@pytest.mark.parametrize("name", list(plot.FIGURES))
+def test_every_point_lies_inside_its_axes_and_off_the_keys(drawn, name):
+    _, figs = drawn
+    assert _outside_or_hidden(figs[name]) == [], name
+
+
+@pytest.mark.parametrize("name", list(plot.FIGURES))
+def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
+    _, figs = drawn
+    for ax in _all_axes(figs[name]):
+        if not ax.get_visible() or not ax.axison or not _data_lines(ax):
+            continue
+        # a panel stacked on another with the same axis shares that axis' label
+        xs = [a.get_xlabel() for a in ax.get_shared_x_axes().get_siblings(ax)]
+        ys = [a.get_ylabel() for a in ax.get_shared_y_axes().get_siblings(ax)]
+        for label in (max(xs, key=len), max(ys, key=len)):
+            assert label, f"{name}: an axis without a label"
+            assert "(" in label or any(w in label for w in PURE), f"{name}: {label!r}"
+            for quantity, unit in UNITS.items():
+                if quantity in label and "/\\sigma_n" not in label:
+                    assert unit in label, f"{name}: {label!r} lacks its unit {unit}"
+
+
+@pytest.mark.parametrize("name", list(plot.FIGURES))
+def test_every_colour_and_shading_that_encodes_something_is_keyed(drawn, name):
+    """Within a panel, two or more colours of data (lines or markers) mean something: each
+    is in a key of the figure; so is every shaded span's colour."""
+    from matplotlib.patches import Polygon, Rectangle
+
+    _, figs = drawn
+    fig = figs[name]
+    keyed = _key_colours(fig)
+    for ax in _all_axes(fig):
+        colours = {_rgb(ln.get_color()) for ln in _data_lines(ax)
+                   if ln.get_transform() is ax.transData}
+        if len(colours) > 1:
+            assert colours - keyed == set(), f"{name}: colours without a key {colours - keyed}"
+        spans = {_rgb(p.get_facecolor()) for p in ax.patches
+                 if isinstance(p, (Polygon, Rectangle)) and p is not ax.patch}
+        assert spans - keyed == set(), f"{name}: shading without a key {spans - keyed}"
+
+
+def test_panels_that_are_compared_share_their_ranges(drawn):
+    _, figs = drawn
+    stress = [ax for ax in figs["fig1b_stress"].axes if "sigma_x" in ax.get_ylabel()]
+    assert len(stress) == 2 and stress[0].get_ylim() == stress[1].get_ylim()
+    coherence = [ax for ax in figs["fig_contacts"].axes if ax.get_ylabel().startswith("$R")]
+    assert len(coherence) == 3 and len({ax.get_ylim() for ax in coherence}) == 1
+    panels = [ax for ax in figs["fig4a_clusters"].axes if _data_lines(ax)]
+    assert len(panels) == 3
+    assert len({ax.get_xlim() for ax in panels}) == 1
+    assert len({ax.get_ylim() for ax in panels}) == 1
+
+
+# --------------------------------------------------------------------------- item by item
+def _runs(**columns) -> SimpleNamespace:
+    n = max(len(v) if isinstance(v, list) else 1 for v in columns.values())
+    return SimpleNamespace(runs=pd.DataFrame({k: v if isinstance(v, list) else [v] * n
+                                              for k, v in columns.items()}))
+
+
+@pytest.mark.parametrize("columns,label", [
+    ({"start": "random", "companion": "partial", "until_steady": True, "t_end": 1e5},
+     "steady protocol"),
+    ({"start": "synchronized", "companion": "partial", "until_steady": True, "t_end": 64000.0},
+     "synchronized start until steady, partial companion"),
+    ({"start": "synchronized", "companion": "partial", "until_steady": "True", "t_end": 64e3},
+     "synchronized start until steady, partial companion"),
+    ({"start": "random", "companion": np.nan, "until_steady": True, "t_end": 1e5},
+     "random start until steady"),
+    ({"start": "synchronized", "companion": np.nan, "until_steady": [False, False],
+      "t_end": [1000.0, 16000.0]}, "paper's protocol, t_end = 1000, 16000"),
+    ({"start": "random", "companion": np.nan, "until_steady": "False", "t_end": 8000.0},
+     "fixed length, random start, t_end = 8000"),
+    ({"start": ["random", "synchronized"], "companion": "partial",
+      "until_steady": [True, False], "t_end": 8000.0}, "mixed protocols"),
+])
+def test_the_protocol_label_says_what_was_run(columns, label):
+    assert plot.protocol_label(_runs(**columns)) == label
+
+
+def test_the_sweeps_figures_name_the_start_it_ran(drawn):
+    """The synchronized start run until steady is not called the steady protocol anywhere."""
+    from matplotlib.text import Text
+
+    _, figs = drawn
+    for name, fig in figs.items():
+        texts = [t.get_text() for t in fig.findobj(Text)]
+        assert not any("steady protocol" in t for t in texts), name
+        if name != "fig2b_asymmetry":
+            assert any("synchronized start until steady" in t for t in texts), name
+
+
+def test_the_cluster_figures_show_fixed_phi():
+    grid = [0.1, 0.215443, 0.464159, 1.0, 2.15443, 4.64159, 10.0, 21.5443, 46.4159, 100.0,
+            215.443, 464.159, 1000.0]
+    assert plot.cluster_phis(grid) == [1000.0, 46.4159, 2.15443, 0.1]
+    assert plot.cluster_phis(grid + [3.0, 50.0]) == [1000.0, 46.4159, 2.15443, 0.1]
+    assert plot.cluster_phis([10.0, 100.0, 1000.0]) == [1000.0, 100.0, 10.0]
+    assert plot.cluster_phis([1.0, 1000.0]) == [1000.0, 1.0]
+
+
+def test_phi_colours_are_sequential_and_not_the_papers_regime_code():
+    from matplotlib.colors import rgb_to_hsv
+
+    shades = [rgb_to_hsv(plot.phi_colour(phi)[:3])[2] for phi in sorted(plot.CLUSTER_PHI)]
+    assert shades == sorted(shades, reverse=True)   # the stiffer, the darker
+    regime = {_rgb(c) for c in plot.REGIME_COLOURS.values()}
+    assert not {_rgb(plot.phi_colour(phi)) for phi in plot.CLUSTER_PHI} & regime
+
+
+def test_fig4a_draws_every_phi_visible_filled_and_counted(drawn):
+    """One panel per phi: each shows all its clusters (the count in its title is the sweep's
+    n_clusters), as filled circles in its phi's colour."""
+    data, figs = drawn
+    panels = [ax for ax in figs["fig4a_clusters"].axes if _data_lines(ax)]
+    shown = []
+    for ax in panels:
+        m = re.match(r"\$\\phi\$ = (\S+): (\d+) clusters", ax.get_title())
+        assert m, ax.get_title()
+        phi, count = float(m.group(1)), int(m.group(2))
+        shown.append(phi)
+        dots = [ln for ln in _data_lines(ax) if ln.get_marker() == "o"]
+        assert len(dots) == 1 and len(dots[0].get_xydata()) == count
+        assert count == int(data.runs_of(20, 5, phi).n_clusters.sum())
+        assert dots[0].get_markerfacecolor() not in ("none", "None", "white")
+        assert _rgb(dots[0].get_markerfacecolor()) == _rgb(plot.phi_colour(phi))
+    assert shown == [1000.0, 100.0, 10.0]
+
+
+def test_the_cluster_scatter_draws_the_densest_set_lowest_and_counts_each(drawn):
+    data, _ = drawn
+    fig = _draw(plot.cluster_scatter(data, plot.Figures(), 20, 5, [10.0, 100.0, 1000.0], "t"))
+    (ax,) = fig.axes
+    sets = [ln for ln in _data_lines(ax) if ln.get_marker() == "o"]
+    sizes = [len(ln.get_xydata()) for ln in sets]
+    assert len(sets) == 3
+    order = sorted(sets, key=lambda ln: ln.get_zorder())
+    assert [len(ln.get_xydata()) for ln in order] == sorted(sizes, reverse=True)
+    assert all(ln.get_alpha() < 1 for ln in sets)
+    keys = [t.get_text() for t in ax.get_legend().get_texts()]
+    for n in sizes:
+        assert any(f": {n} clusters" in k for k in keys), keys
+    assert _outside_or_hidden(fig) == []
+
+
+@pytest.mark.parametrize("with_drops,words", [
+    ((10.0, 100.0, 1000.0), "the stiffest of the three in (a)"),
+    ((10.0, 1000.0), "the stiffest of the two in (a)"),
+    ((1000.0,), "the only one in (a)"),
+])
+def test_fig_drops_counts_the_phi_it_drew(drawn, monkeypatch, with_drops, words):
+    data, _ = drawn
+    rng = np.random.default_rng(1)
+
+    def late_drops(data, runs):
+        phi = float(runs.phi.iloc[0])
+        if phi not in with_drops:
+            return np.empty(0), np.empty(0, bool)
+        return 0.01 + np.exp(rng.normal(-3.5, 0.8, 500)), rng.random(500) < 0.5
+
+    monkeypatch.setattr(plot, "_late_drops", late_drops)
+    with plot.style():
+        fig = plot.fig_drops(data, plot.Figures())
+    left, right = fig.axes
+    points = [ln for ln in _data_lines(left) if ln.get_marker() not in ("None", "", None)]
+    assert len(points) == len(with_drops)
+    assert right.get_title().endswith(f"({words})"), right.get_title()
+
+
+def test_fig_contacts_shows_each_phi_smoothed_over_one_stated_window(drawn):
+    _, figs = drawn
+    fig = figs["fig_contacts"]
+    tops = [ax for ax in fig.axes if ax.get_ylabel() == r"$\sigma_x/\sigma_n$"]
+    phis = [float(re.match(r"\$\\phi\$ = (\S+),", ax.get_title()).group(1)) for ax in tops]
+    assert phis == [10.0, 100.0, 1000.0]
+    said = {float(w) for leg in fig.legends for t in leg.get_texts()
+            for w in re.findall(r"mean over (\S+) time units", t.get_text())}
+    assert len(said) == 1
+    window = said.pop()
+    for ax in fig.axes:
+        dark = [ln for ln in _data_lines(ax) if _rgb(ln.get_color()) in
+                {_rgb("black"), _rgb("indigo")}]
+        assert len(dark) == 1
+        steps = np.diff(dark[0].get_xdata())
+        assert np.median(steps) == pytest.approx(window, rel=0.1)
+    assert len(fig.get_suptitle()) <= 80   # the detail is in the key and the docstring
+
+
+def test_fig1b_fits_its_range_to_the_traces_and_names_the_friction_line(drawn):
+    """One y range for both panels, fitted to the traces (they fill at least 80% of it, as
+    they did not when it reached up to mu_s sigma_n); mu_s sigma_n drawn where it lies in the
+    range, else named with its value by an annotation."""
+    from matplotlib.text import Annotation
+
+    data, figs = drawn
+    top = float(data.runs.mu_s.iloc[0] * data.runs.sigma_n.iloc[0])
+    axes = figs["fig1b_stress"].axes
+    ys = np.concatenate([ln.get_ydata() for ax in axes for ln in _data_lines(ax)
+                         if ln.get_transform() is ax.transData])
+    for ax in axes:
+        lo, hi = ax.get_ylim()
+        assert np.ptp(ys) >= 0.8 * (hi - lo), (np.ptp(ys), lo, hi)
+        lines = [ln for ln in ax.get_lines() if ln.get_transform() is not ax.transData]
+        notes = [c for c in ax.get_children() if isinstance(c, Annotation)
+                 and "mu_s" in c.get_text()]
+        if lo <= top <= hi:
+            assert any(np.allclose(ln.get_ydata(), top) for ln in lines)
+        else:
+            assert len(notes) == 1 and f"{top:.3g}" in notes[0].get_text()
+
+
+def test_fig3_shows_psi_sample_by_sample_with_its_interval(drawn):
+    data, figs = drawn
+    panel = next(ax for ax in figs["fig3_order"].axes if "1 -" in ax.get_ylabel())
+    assert panel.get_xscale() == "linear"
+    every = float(re.search(r"every (\S+) time units", panel.get_title()).group(1))
+    lines = _data_lines(panel)
+    assert lines
+    for ln in lines:
+        t = ln.get_xdata()
+        assert ln.get_marker() not in ("None", "", None)   # every sample marked
+        assert len(t) >= 10
+        assert np.median(np.diff(t)) == pytest.approx(every, rel=0.01)
+    snapshot = data.run_dir(data.runs.iloc[0]).spec().snapshot_every
+    assert every == pytest.approx(snapshot, rel=0.01)
+
+
+def test_the_potency_is_a_length(drawn):
+    _, figs = drawn
+    labels = [ax.get_xlabel() + ax.get_ylabel() for ax in figs["fig_potency"].axes]
+    assert sum("potency" in lab for lab in labels) == 2
+    for lab in labels:
+        assert "l^3" not in lab
+        if "potency" in lab:
+            assert "($l$)" in lab
+
+
+def test_fig2a_keys_its_regime_letters(drawn):
+    _, figs = drawn
+    fig = figs["fig2a_friction"]
+    letters = {(t.get_text(), _rgb(t.get_color())) for t in fig.axes[0].texts}
+    assert letters
+    from matplotlib.lines import Line2D
+
+    keyed = {(re.sub(r"\$\\mathrm\{(\w+)\}\$", r"\1", str(h.get_marker())), _rgb(h.get_color()))
+             for leg in fig.legends for h in leg.findobj(Line2D)}
+    assert letters <= keyed, letters - keyed
+
+
+def test_the_checks_find_what_they_look_for():
+    """The helpers above report a point outside its axes, a marker under a key, and an
+    unkeyed colour, and pass a figure without them."""
+    fig, (a, b) = plot.Figures().subplots(1, 2)
+    a.plot([0, 1, 2], [0, 1, 2], "o", color="tab:red")
+    a.set_ylim(0, 1.5)                                     # (2, 2) lies above the axes
+    b.plot([0.5], [0.5], "s", color="tab:blue", label="under the key")
+    b.plot([0, 1], [0, 1], color="tab:green")
+    b.legend(loc="center")                                 # over the marker at (0.5, 0.5)
+    _draw(fig)
+    found = _outside_or_hidden(fig)
+    assert sum("outside its axes" in f for f in found) == 1
+    assert sum("under a key" in f for f in found) == 1
+    assert _rgb("tab:blue") in _key_colours(fig) and _rgb("tab:green") not in _key_colours(fig)
+    fine, ax = plot.Figures().subplots()
+    ax.plot([0, 1], [0, 1], "o")
+    assert _outside_or_hidden(_draw(fine)) == []
