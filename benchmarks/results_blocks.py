@@ -632,6 +632,25 @@ BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts}
 
 
+def large_drops() -> str:
+    """The stress drops of N = 14400 at the fixed and the size-scaled threshold, run by run
+    (benchmarks/large_drops.py's record)."""
+    rec = _record("large_drops")
+    if rec is None:
+        return "(not measured yet: python benchmarks/large_drops.py)\n"
+    out = [f"`{rec['command']}`, each run's drops after the transient:", "",
+           "| phi | seed | state | threshold | drops | decades spanned | alpha | p | "
+           "power law | favoured |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rec["runs"]:
+        for which in ("fixed", "scaled"):
+            d = r[which]
+            out.append(f"| {r['phi']:g} | {r['seed']} | {r['state']} | {d['threshold']:.3g} "
+                       f"({which}) | {d['drops']} | {_g(d['decades'], '.2f')} | "
+                       f"{_g(d['alpha'], '.2f')} | {_g(d['p'], '.3f')} | {d['verdict']} | "
+                       f"{d['preferred']} |")
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------- the paper's claims
 CLAIMS = ROOT / "workflows" / "paper" / "claims.json"
 
@@ -652,6 +671,7 @@ def claims_block(name: str):
     return block
 
 
+BLOCKS["large-drops"] = large_drops
 BLOCKS.update({name: claims_block(name) for name in (
     "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other")})
 

@@ -80,6 +80,18 @@ def test_eq2_makes_rows_cheapest_for_small_slips_and_columns_past_delta_star():
     assert best[2] == "row" and best[3] == "column"
 
 
+def test_kappa_is_agreement_beyond_chance():
+    a = np.array(["row"] * 50 + ["column"] * 50)
+    assert claims.kappa(a, a) == 1.0
+    # b agrees with a on 50% of the items, as two independent labels of these frequencies do
+    b = np.array(["row", "column"] * 50)
+    assert claims.kappa(a, b) == pytest.approx(0.0)
+    # always the majority class: high raw agreement, no skill
+    c = np.array(["row"] * 90 + ["column"] * 10)
+    assert np.mean(c == np.array(["row"] * 100)) == 0.9
+    assert claims.kappa(c, np.array(["row"] * 100)) == pytest.approx(0.0)
+
+
 def _runs(rows):
     return pd.DataFrame(rows)
 

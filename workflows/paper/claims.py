@@ -219,6 +219,23 @@ def cheapest_shape(n_c, delta, lx: int, ly: int) -> np.ndarray:
     return shape_class(a[0, k], b[rows, k], lx, ly)
 
 
+#: Cohen's kappa from which the agreement of two classifications counts as substantial, and
+#: below which as slight (Landis and Koch, Biometrics 33, 159 (1977))
+KAPPA_SUBSTANTIAL, KAPPA_SLIGHT = 0.6, 0.2
+
+
+def kappa(a, b) -> float:
+    """Cohen's kappa of two classifications of the same items: their agreement beyond what
+    their class frequencies give by chance, (p_o - p_e) / (1 - p_e); 1 when they agree on
+    every item, 0 when no more than chance (NaN when chance alone makes them agree)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if not len(a):
+        return math.nan
+    p_o = float(np.mean(a == b))
+    p_e = float(sum(np.mean(a == k) * np.mean(b == k) for k in np.union1d(a, b)))
+    return (p_o - p_e) / (1 - p_e) if p_e < 1 else math.nan
+
+
 def claim6(clusters: pd.DataFrame) -> dict:
     """Per N and phi, the share of clusters whose shape is Eq. 2's cheapest for their size and
     slip, and the shares of each observed and predicted shape; clusters of the whole layer
@@ -239,7 +256,8 @@ def claim6(clusters: pd.DataFrame) -> dict:
                                **{f"predicted_{k}": _f(np.mean(best[m] == k))
                                   for k in ("row", "column", "whole", "patch")}}
         out[str(int(n))] = {"lattice": f"{lx}x{ly}", "clusters": int(len(g)),
-                            "cheapest": _f(np.mean(seen == best)), "per_phi": per}
+                            "cheapest": _f(np.mean(seen == best)),
+                            "kappa": _f(kappa(seen, best)), "per_phi": per}
     return out
 
 
@@ -389,10 +407,15 @@ def render_verdicts(rec: dict) -> str:
         if not k:
             cells.append("not run")
             continue
-        cells.append("**not reproduced**: the observed shape is Eq. 2's cheapest for "
-                     + ", ".join(f"{v['cheapest']:.0%} (N = {n})" for n, v in k.items()))
+        ks = [v["kappa"] for v in k.values() if v["kappa"] is not None]
+        word = ("reproduced" if ks and min(ks) >= KAPPA_SUBSTANTIAL else
+                "not reproduced" if not ks or max(ks) < KAPPA_SLIGHT else "partly")
+        cells.append(f"**{word}**: the observed shape is Eq. 2's cheapest for "
+                     + ", ".join(f"{v['cheapest']:.0%} (kappa {_num(v['kappa'], '.2f')}, "
+                                 f"N = {n})" for n, v in k.items()))
     row("6. Energy argument: each slip takes Eq. 2's cheapest shape",
-        "observed shape class against the cheapest one for its size and slip", cells)
+        f"observed shape against the cheapest for its size and slip: Cohen's kappa >= "
+        f"{KAPPA_SUBSTANTIAL:g} (substantial), < {KAPPA_SLIGHT:g} (slight)", cells)
     cells = []
     for c in cs:
         if not c:
