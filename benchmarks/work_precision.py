@@ -14,8 +14,10 @@ runs side by side on the 2 cores, and atom-steps.
     python benchmarks/work_precision.py [--phi 0.1 10 1000] [--size 20x5] [--seeds 3]
         [--contact-rule reset|reset/step|coulomb] [--damping implicit|half]
         [--out runs/bench/work_precision] [--plot benchmarks/work_precision.png]
+    python benchmarks/work_precision.py --from-record [CSV]
 
-Prints markdown tables (one per phi) and writes the plot.
+Prints markdown tables (one per phi), writes them to benchmarks/records/work_precision.csv
+(the record) and draws the plot; --from-record redraws the plot from the record alone.
 """
 
 from __future__ import annotations
@@ -86,39 +88,93 @@ def markdown(df: pd.DataFrame, ref, phi) -> str:
     return "\n".join(out)
 
 
-def plot(tables: dict, path: Path, n_atoms: int = RunSpec.Lx * RunSpec.Ly) -> None:
+#: the smallest error the log axes show (%): an error at or below it (a configuration that
+#: agrees with the reference to the digits of the table) is drawn on this floor, marked
+ERROR_FLOOR = 0.01
+#: the record of the measurement (every table), from which the plot is redrawn without
+#: running anything: python benchmarks/work_precision.py --from-record
+RECORD = Path(__file__).with_name("records") / "work_precision.csv"
+
+
+def plot(tables: dict, path: Path, n_atoms: int = RunSpec.Lx * RunSpec.Ly):
+    """Error against wall time per run, one column per phi, one row per observable: one
+    line per C (colour), along which t_end grows (marker size, keyed); solid the error
+    against the reference, dotted the seed spread. The key is below the panels (it covers no
+    point); an error at or below ERROR_FLOOR is drawn on the floor as a down-pointing
+    triangle. Writes ``path`` and returns the Figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     phis = list(tables)
-    fig, axes = plt.subplots(len(OBSERVABLES), len(phis), figsize=(3.2 * len(phis), 7.5),
-                             squeeze=False, sharex="col")
+    c_values = sorted({float(c) for df in tables.values() for c in df.C})
+    t_values = sorted({float(t) for df in tables.values() for t in df.t_end[~df.reference]})
+    colours = dict(zip(c_values, plt.get_cmap("viridis")(np.linspace(0, 0.9, len(c_values)))))
+    size = dict(zip(t_values, np.linspace(2.5, 6.5, len(t_values))))
+    fig, axes = plt.subplots(len(OBSERVABLES), len(phis), figsize=(3.2 * len(phis), 8.2),
+                             squeeze=False, sharex="col", layout="constrained")
+    floored = False
     for j, phi in enumerate(phis):
         df = tables[phi][~tables[phi].reference]
         for i, (o, label) in enumerate(OBSERVABLES):
             ax = axes[i, j]
             for c, g in df.groupby("C"):
                 g = g.sort_values("t_end")
-                ax.plot(g.wall_s, 100 * g[f"{o}_err"].clip(lower=1e-4), "o-", ms=3, lw=0.8,
-                        label=f"C = {c:g}")
-                ax.plot(g.wall_s, 100 * g[f"{o}_spread"], ":", lw=0.6,
-                        color=ax.lines[-1].get_color())
+                err = 100 * g[f"{o}_err"].to_numpy(float)
+                low = err <= ERROR_FLOOR
+                floored |= bool(low.any())
+                y = np.maximum(err, ERROR_FLOOR)
+                colour = colours[float(c)]
+                ax.plot(g.wall_s, y, "-", lw=0.9, color=colour)
+                for x, yy, t, lo in zip(g.wall_s, y, g.t_end, low):
+                    ax.plot(x, yy, "v" if lo else "o", ms=size[float(t)], color=colour,
+                            mfc="white" if lo else colour, mew=0.9)
+                ax.plot(g.wall_s, np.maximum(100 * g[f"{o}_spread"], ERROR_FLOOR), ":",
+                        lw=0.8, color=colour)
             ax.axhline(1.0, color="grey", lw=0.6, ls="--")
             ax.set_xscale("log")
             ax.set_yscale("log")
             if i == 0:
                 ax.set_title(f"phi = {phi:g}, N = {n_atoms}", fontsize=9)
             if j == 0:
-                ax.set_ylabel(f"{label} error (%)", fontsize=8)
+                ax.set_ylabel(f"{label}: error (%)", fontsize=8)
             if i == len(OBSERVABLES) - 1:
                 ax.set_xlabel("wall time per run (s)", fontsize=8)
             ax.tick_params(labelsize=7)
-    axes[0, 0].legend(fontsize=6, frameon=False, title="solid: error vs reference\n"
-                      "dotted: seed spread", title_fontsize=6)
-    fig.tight_layout()
+    groups = [[(Line2D([], [], color=colours[c], lw=0.9, marker="o", ms=3.5), f"C = {c:g}")
+               for c in c_values],
+              [(Line2D([], [], color="0.4", ls="none", marker="o", ms=size[t]),
+                f"t_end = {t:g}") for t in t_values],
+              [(Line2D([], [], color="0.4", lw=0.9), "error against the reference"),
+               (Line2D([], [], color="0.4", lw=0.8, ls=":"), "seed spread (standard error)"),
+               (Line2D([], [], color="grey", lw=0.6, ls="--"), "1%")]]
+    if floored:
+        groups[-1].append((Line2D([], [], color="0.4", ls="none", marker="v", mfc="white"),
+                           f"error <= {ERROR_FLOOR:g}%, drawn at {ERROR_FLOOR:g}%"))
+    # one group per row of the key (a legend fills column by column: the rows laid out so)
+    ncol = max(len(g) for g in groups)
+    rows = [g + [(Line2D([], [], alpha=0), "")] * (ncol - len(g)) for g in groups]
+    keys = [rows[r][c] for c in range(ncol) for r in range(len(rows))]
+    fig.legend(*zip(*keys), loc="outside lower center", ncol=ncol, frameon=False, fontsize=7,
+               title="one line per C (colour); along each line t_end grows (marker size)",
+               title_fontsize=7)
     fig.savefig(path, dpi=150)
+    return fig
+
+
+def write_record(tables: dict, path: Path = RECORD) -> None:
+    """The tables of a measurement, one CSV (a column phi beside each table's)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pd.concat([df.assign(phi=phi) for phi, df in tables.items()]).to_csv(path, index=False)
+
+
+def read_record(path: Path = RECORD) -> dict:
+    """phi -> table, as write_record wrote them."""
+    rec = pd.read_csv(path)
+    return {float(phi): g.drop(columns="phi").reset_index(drop=True)
+            for phi, g in rec.groupby("phi", sort=False)}
 
 
 def main(argv=None) -> None:
@@ -131,8 +187,16 @@ def main(argv=None) -> None:
     ap.add_argument("--damping", choices=DAMPING_MODES, default=RunSpec.damping)
     ap.add_argument("--out", default="runs/bench/work_precision")
     ap.add_argument("--plot", default=str(Path(__file__).with_name("work_precision.png")))
+    ap.add_argument("--from-record", nargs="?", const=str(RECORD), default=None,
+                    metavar="CSV", help="redraw the plot from the record of a measurement "
+                    f"(default {RECORD.relative_to(Path(__file__).parent.parent)}) without "
+                    "running anything")
     a = ap.parse_args(argv)
     lx, ly = parse_size(a.size)
+    if a.from_record:
+        plot(read_record(Path(a.from_record)), Path(a.plot), lx * ly)
+        print(f"plot: {a.plot} (from {a.from_record})")
+        return
     specs = specs_for(a.phi, (lx, ly), a.seeds, contact_rule=a.contact_rule,
                       damping=a.damping)
     rep = sweep(specs, a.out, jobs=a.jobs)
@@ -146,8 +210,9 @@ def main(argv=None) -> None:
         df, ref = table(runs, phi, (lx, ly))
         tables[phi] = df
         print(markdown(df, ref, phi) + "\n")
+    write_record(tables)
     plot(tables, Path(a.plot), lx * ly)
-    print(f"plot: {a.plot}")
+    print(f"plot: {a.plot}; record: {RECORD}")
 
 
 if __name__ == "__main__":

@@ -281,7 +281,18 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
     with Image.open(gif) as im:
         assert im.n_frames == len(fronts[2].steps) > 3
         cell = max(2, min(24, -(-480 // spec.Lx)))  # pixels per particle: ~480 px across
-        assert im.size == (cell * spec.Lx, cell * spec.Ly + 16)
+        # the layer inside a frame with axes, colour bar and title around it
+        assert im.size[0] > cell * spec.Lx and im.size[1] > cell * spec.Ly + 100
+    # both pictures say which run this is: its start and protocol under the slip's times
+    import bkflow
+    from bkflow.fronts import run_description
+
+    r = bkflow.load_run(tmp_path / "r")
+    title = r.front_figure(2).get_suptitle()
+    assert "slip 2 (t = " in title and title.endswith("\n" + run_description(spec))
+    assert run_description(spec).startswith(f"{spec.start} start")
+    frame_texts = [t.get_text() for t in r.front_frame(2, 1).texts]
+    assert run_description(spec) in frame_texts and any("frame 2 of" in t for t in frame_texts)
     assert (tmp_path / "r" / "fronts_slip2.png").stat().st_size > 1000
     assert "frames" in capsys.readouterr().out
     # a run without fronts, a slip not recorded, a cut file: one line each, exit 2
@@ -298,6 +309,75 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
     (tmp_path / "r" / "fronts.bin").write_bytes(data[:len(data) - 100])
     with pytest.raises(DamagedRunError, match="cut"):
         RunDir(tmp_path / "r").read_fronts()
+
+
+def _front(lx=6, ly=3, samples=5, seed=1):
+    from bkflow.io import Front
+
+    vx = np.random.default_rng(seed).normal(size=(samples, lx * ly)).astype(np.float32)
+    return Front(100, 100 + 10 * (samples - 1), np.arange(100, 100 + 10 * samples, 10), vx,
+                 False)
+
+
+def test_a_movie_frame_has_axes_a_colour_bar_with_units_and_each_particle_in_its_cell(tmp_path):
+    """Every frame of the GIF is the frame figure (axes in lattice units, a colour bar labelled
+    with the slip rate's units, the title's lines) with the layer pasted where the figure's
+    axes are: each particle's cell has the colour of its v_x on the colour bar's scale, row 0
+    at the bottom, through every frame."""
+    import matplotlib
+    from matplotlib.colors import Normalize
+    from PIL import Image
+
+    from bkflow.fronts import CMAP, front_frame_figure, front_movie
+    from bkflow.plot import PlotError
+
+    lx, ly, dt = 6, 3, 0.01
+    front = _front(lx, ly)
+    title = "line one\nline two"
+    fig, (left, top), _ = front_frame_figure(front, lx, ly, dt, title, 2, cell=10)
+    layer, bar = fig.axes
+    assert layer.get_xlabel().startswith("x / l") and layer.get_ylabel().startswith("y / l")
+    assert "slip rate" in bar.get_xlabel() and r"$l\sqrt{k_d/m}$" in bar.get_xlabel()
+    texts = [t.get_text() for t in fig.texts]
+    assert "line one" in texts and "line two" in texts
+    assert any(t.startswith("t \u2212 t_max = 0.20 sqrt(m/k_d)") for t in texts), texts
+    with pytest.raises(PlotError, match="frame 5 not recorded"):
+        front_frame_figure(front, lx, ly, dt, title, 5)
+
+    gif = tmp_path / "m.gif"
+    assert front_movie(front, lx, ly, dt, gif, title=title, cell=10) == 5
+    vmax = float(np.percentile(np.abs(front.vx), 99.5))
+    colours = matplotlib.colormaps[CMAP](Normalize(-vmax, vmax)(front.vx))[..., :3] * 255
+    with Image.open(gif) as im:
+        assert im.size == (round(fig.get_figwidth() * 100), round(fig.get_figheight() * 100))
+        for k in range(im.n_frames):
+            im.seek(k)
+            rgb = np.asarray(im.convert("RGB"), dtype=float)
+            for j in range(ly):
+                for i in range(lx):
+                    pixel = rgb[top + (ly - 1 - j) * 10 + 5, left + i * 10 + 5]
+                    # one palette of 224 colours along the map: within its step
+                    assert np.abs(pixel - colours[k, j * lx + i]).max() < 12, (k, i, j)
+
+
+def test_the_pictures_of_a_slip_name_the_runs_start_and_protocol():
+    """run_description says of a run what a reader of its front pictures needs: the start,
+    and the paper's fixed length or the steady protocol's rule with its cap."""
+    from bkflow.fronts import front_figure, run_description
+    from bkflow.params import protocol_fields
+
+    paper = RunSpec(phi=100.0, **protocol_fields("paper", t_end=1000.0))
+    steady = RunSpec(phi=100.0, **protocol_fields("steady", t_end=1000.0))
+    sync = RunSpec(phi=100.0, **protocol_fields("steady", start="synchronized"))
+    fixed = RunSpec(phi=100.0, start="random", t_end=500.0)
+    assert run_description(paper) == "synchronized start, paper's protocol (t_end = 1000)"
+    assert run_description(steady) == ("random start, steady protocol (until steady, at most "
+                                       "t = 1000)")
+    assert run_description(sync).startswith("synchronized start beside a partial companion, "
+                                            "until steady")
+    assert run_description(fixed) == "random start, a fixed length (t_end = 500)"
+    fig = front_figure(_front(), 6, 3, 0.01, title="slip\n" + run_description(steady))
+    assert fig.get_suptitle().endswith(run_description(steady))
 
 
 def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(

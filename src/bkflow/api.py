@@ -22,7 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from . import io
-from .fronts import front_figure, front_movie
+from .fronts import front_figure, front_frame_figure, front_movie, run_description
 from .io import shell_word
 from .params import AnalysisSettings, RunSpec
 from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
@@ -152,13 +152,27 @@ class Run:
                             f"have fronts (0..{len(fronts) - 1})")
         return fronts[slip]
 
+    def _front_title(self, slip: int, f) -> str:
+        """The title of a slip's pictures: the layer, the slip and its times, and on a second
+        line the run's start and protocol (``bkflow.fronts.run_description``)."""
+        s = self.spec
+        return (rf"$\phi$ = {_num(s.phi)}, {s.Lx}x{s.Ly}, slip {slip} (t = "
+                f"{f.step_max * s.dt:.1f} to {f.step_min * s.dt:.1f})"
+                + (", its first samples dropped" if f.truncated else "")
+                + "\n" + run_description(s))
+
     def front_figure(self, slip: int = 0):
         """x-t and y-t maps of the slip rate through recorded slip ``slip`` (a Figure)."""
         f = self._front(slip)
         s = self.spec
-        return front_figure(f, s.Lx, s.Ly, s.dt, title=rf"$\phi$ = {_num(s.phi)}, {s.Lx}x{s.Ly}, "
-                            f"slip {slip} (t = {f.step_max * s.dt:.1f} to "
-                            f"{f.step_min * s.dt:.1f})")
+        return front_figure(f, s.Lx, s.Ly, s.dt, title=self._front_title(slip, f))
+
+    def front_frame(self, slip: int = 0, frame: int = 0):
+        """One frame of recorded slip ``slip``'s movie (``frame``: which recorded sample) as
+        a Figure: the layer coloured by slip rate, with axes, colour bar and title."""
+        f = self._front(slip)
+        s = self.spec
+        return front_frame_figure(f, s.Lx, s.Ly, s.dt, self._front_title(slip, f), frame)[0]
 
     def movie(self, slip: int = 0, path=None, fps: float = 15.0) -> Path:
         """An animated GIF of recorded slip ``slip``: the layer coloured by slip rate.
@@ -166,7 +180,7 @@ class Run:
         f = self._front(slip)
         path = Path(path) if path is not None else self._rd.movie_file(slip)
         front_movie(f, self.spec.Lx, self.spec.Ly, self.spec.dt, path, fps,
-                    title=f"phi = {self.spec.phi:g}, slip {slip}: ")
+                    title=self._front_title(slip, f))
         return path
 
     def figure(self, window: float | None = None):

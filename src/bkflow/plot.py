@@ -73,15 +73,16 @@ MIN_FONT = 7.0
 
 def phi_colour(phi: float):
     """The colour of a phi where a figure draws a few phi as sets (fig4a, fig_drops,
-    fig_potency): viridis over log10 phi in ``PHI_RANGE``, the stiff end dark, cut at 0.85
-    (the yellow end is not seen on white). A sequential map, the same for a phi in every
+    fig_potency): plasma over log10 phi in ``PHI_RANGE``, the stiff end dark, cut at 0.85
+    (the yellow end is not seen on white; viridis made 0.1 and 2.15 two greens that a
+    translucent scatter cannot tell apart). A sequential map, the same for a phi in every
     figure, whose hues cannot be read as the paper's regime code (black C, red LC, green DP,
     blue DT: its Fig. 4a draws regimes, not phi)."""
     from matplotlib import colormaps
 
     lo, hi = (math.log10(v) for v in PHI_RANGE)
     frac = min(1.0, max(0.0, (math.log10(phi) - lo) / (hi - lo)))
-    return colormaps["viridis"](0.85 * (1.0 - frac))
+    return colormaps["plasma"](0.85 * (1.0 - frac))
 
 
 class PlotError(ValueError):

@@ -32,6 +32,7 @@ changed analysis re-analyses without running LAMMPS.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
@@ -41,13 +42,16 @@ import numpy as np
 import pandas as pd
 
 from bkflow import io
-from bkflow.clusters import box_fractions
 from bkflow.grid import phi_values, sweep_specs
+from bkflow.lattice import box_fractions
 from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
-from bkflow.plot import STATE_FILL, STYLE, SweepData, _style, cluster_scatter, plot, state_handles
+from bkflow.plot import STYLE, SweepData, _point_states, _style, cluster_scatter, plot
 from bkflow.rundir import sweep_run_dir
 from bkflow.sweep import available_cores, fmt_duration, sweep
-from bkflow.tables import SETTINGS_FILE, read_tables
+from bkflow.tables import SETTINGS_FILE, read_tables, settings_in
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import claims  # noqa: E402  (workflows/paper/claims.py, beside this script)
 
 HERE = Path(__file__).resolve().parent
 PHI = "1e-1:1e3"
@@ -117,7 +121,7 @@ def cluster_share(runs: pd.DataFrame, regime: str) -> float:
 
 def span_fraction(sweep_dir: Path) -> float:
     """The fraction of the box from which the sweep's analysis counts an axis as spanned."""
-    settings = io.read_json(Path(sweep_dir) / SETTINGS_FILE)
+    settings = settings_in(io.read_json(Path(sweep_dir) / SETTINGS_FILE))
     return AnalysisSettings.from_dict(settings).span_fraction
 
 
@@ -365,7 +369,7 @@ def slip_threshold(lx: int, ly: int) -> float:
 
 
 def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
-    """Every slip cluster after the transient of one curve's runs (their clusters.csv), with
+    """Every slip cluster after the transient of one curve's runs (RunDir.read_clusters), with
     the run's phi, Lx, Ly, N and seed, and its shape: `row` (spans x, not y), `transverse`
     (spans y, not x), `whole` (both) or `patch` (neither)."""
     name, where = CURVES[label]
@@ -374,11 +378,9 @@ def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
         return None
     parts = []
     for _, r in t[0].iterrows():
-        rd = sweep_run_dir(out / name, r.job)
-        if not rd.file("clusters.csv").exists():
-            continue
-        c = pd.read_csv(rd.file("clusters.csv"))
-        if "eq2_estimate" not in c or not len(c):
+        # clusters.csv, or the run's reduced record of them (the default scene keeps that)
+        c = sweep_run_dir(out / name, r.job).read_clusters()
+        if c is None or "eq2_estimate" not in c or not len(c):
             continue
         c = c.assign(phi=r.phi, Lx=int(r.Lx), Ly=int(r.Ly), N=int(r.N), seed=int(r.seed))
         parts.append(c)
@@ -483,55 +485,107 @@ def energy_numbers(found: dict) -> list[str]:
     return lines
 
 
+#: the energy figure's shapes: colour (Okabe and Ito's palette), marker and words
+SHAPE_STYLE = {"row": ("#0072B2", "o", "row (spans x, not y)"),
+               "transverse": ("#D55E00", "s", "transverse (spans y, not x)")}
+#: the energy figure's curves: line style
+ENERGY_LINES = {"steady protocol": "-", "paper, t_end = 16000": ":"}
+
+
+def _log_limits(*arrays) -> tuple[float, float]:
+    """Decade limits that hold every positive value of ``arrays``."""
+    v = np.concatenate([np.asarray(a, float) for a in arrays])
+    v = v[np.isfinite(v) & (v > 0)]
+    if not len(v):
+        return 1e-6, 1e3
+    return 10.0 ** math.floor(math.log10(v.min())), 10.0 ** math.ceil(math.log10(v.max()))
+
+
 def energy_figure(found: dict, figs: Path) -> Path | None:
-    """Claim 6: (a) each cluster's bond energy change against Eq. 2, by phi; (b) the share of
-    row and transverse clusters against phi at N = 100 under both protocols, with the median
-    slip against delta* (the argument's crossover)."""
+    """Claim 6: (a) each cluster's bond energy change against Eq. 2, coloured by phi, every
+    cluster with a perimeter: those whose bond energy rose above, those whose bond energy fell
+    below (their |change|, on an axis that runs downward), so that none is left off a log
+    axis; what has no place on either (no perimeter: Eq. 2 = 0; no change) is counted in the
+    figure. (b) the share of row and transverse clusters against phi at N = 100 under both
+    protocols; (c) their median slip over delta*, the slip above which Eq. 2 makes a
+    transverse slip cheaper than a row (the argument's crossover at 1)."""
     if not found:
         return None
     plt = _style()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(8.6, 3.6), layout="constrained")
+    fig = plt.figure(figsize=(8.6, 6.0))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.15, 1))
+    up = fig.add_subplot(grid[0, 0])
+    down = fig.add_subplot(grid[1, 0], sharex=up)
+    share = fig.add_subplot(grid[0, 1])
+    slip = fig.add_subplot(grid[1, 1], sharex=share)
+    g = pd.concat([f["clusters_table"] for f in found.values()], ignore_index=True)
+    e = g[g.eq2_estimate > 0]
+    rose, fell = e[e.bond_change > 0], e[e.bond_change < 0]
+    n_zero = len(e) - len(rose) - len(fell)
+    lim = _log_limits(e.eq2_estimate, rose.bond_change, -fell.bond_change)
     norm = matplotlib_lognorm(0.1, 1000.0)
-    for (label, _n), f in found.items():
-        g = f["clusters_table"]
-        e = g[(g.eq2_estimate > 0) & (g.bond_change > 0)]
-        sc = a.scatter(e.eq2_estimate, e.bond_change, c=e.phi, norm=norm, cmap="viridis", s=3,
-                       marker="o" if label.startswith("steady") else "^", alpha=0.5, lw=0)
-    lim = [1e-6, 1e3]
-    a.plot(lim, lim, "k--", lw=0.8, label="measured = Eq. 2")
-    a.set_xscale("log")
-    a.set_yscale("log")
-    a.set_xlim(*lim)
-    a.set_ylim(*lim)
-    a.set_xlabel(r"Eq. 2 from $n_x$, $n_y$, $\delta$ ($k_d l^2$)")
-    a.set_ylabel(r"bond energy change of the cluster ($k_d l^2$)")
-    a.legend(frameon=False, loc="upper left", fontsize=7,
-             title="o steady protocol, ^ paper's (t_end = 16000)", title_fontsize=7)
-    cb = fig.colorbar(sc, ax=a)
-    cb.ax.set_title(r"$\phi$", fontsize=9)
-    neg = np.mean([float(f["negative"]) for f in found.values()])
-    a.set_title(f"every cluster with a perimeter (Eq. 2 > 0); the {100 * neg:.0f}% whose\n"
-                "bond energy fell in the slip cannot be shown on log axes", fontsize=7)
-    b2 = b.twinx()
+    # the densest phi lowest is not needed: the colour is phi, each point translucent
+    for ax, part, y in ((up, rose, rose.bond_change), (down, fell, -fell.bond_change)):
+        sc = ax.scatter(part.eq2_estimate, y, c=part.phi, norm=norm, cmap="viridis", s=2,
+                        marker="o", alpha=0.5, lw=0, rasterized=True)
+        ax.plot(lim, lim, "k--", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(*lim)
+        ax.set_ylim(*lim)
+    down.invert_yaxis()   # the energy fell: its size grows downward, away from the rise above
+    up.tick_params(labelbottom=False)
+    up.set_ylabel(r"bond energy rose by ($k_d l^2$)")
+    down.set_ylabel(r"bond energy fell by ($k_d l^2$)")
+    down.set_xlabel(r"Eq. 2 from $n_x$, $n_y$, $\delta$ ($k_d l^2$)")
+    per = 100 / max(len(e), 1)
+    up.set_title(f"(a) the bond energy rose: {len(rose)} clusters, {per * len(rose):.0f}% of "
+                 f"the {len(e)}\nwith a perimeter; dashed: measured = Eq. 2", fontsize=7.5)
+    down.set_title(f"the bond energy fell: {len(fell)} clusters ({per * len(fell):.0f}%); "
+                   "Eq. 2 only adds", fontsize=7.5)
+    left = len(g) - len(e)
+    # inside the axes, below the points: what no log axis can hold, and why
+    down.text(0.02, 0.02, f"not drawn: {left} of all {len(g)} clusters "
+              f"({100 * left / max(len(g), 1):.0f}%),\nwhich span both axes: no perimeter, "
+              "Eq. 2 = 0" + (f"; {n_zero} changed by exactly 0" if n_zero else "")
+              + "\n(both protocols' clusters, every N)", transform=down.transAxes,
+              fontsize=6.5, va="bottom", ha="left")
+    cb = fig.colorbar(sc, ax=[up, down], aspect=60, fraction=0.05, pad=0.01)
+    cb.set_label(r"$\phi$")
     for (label, n), f in found.items():
         if n != 100:
             continue
         per = f["per_phi"]
-        ls = "-" if label.startswith("steady") else ":"
-        b.plot(per.phi, per.row, ls, marker="o", ms=3, color="C0",
-               label=f"row ({label})")
-        b.plot(per.phi, per.transverse, ls, marker="s", ms=3, color="C3",
-               label=f"transverse ({label})")
-        b2.plot(per.phi, per.slip_median / f["delta_star"], ls, color="0.4", lw=0.8)
-    b2.axhline(1.0, color="0.4", lw=0.6, ls="--")
-    b2.set_yscale("log")
-    b2.set_ylabel(r"median slip / $\delta^*$ (grey)")
-    b.set_xscale("log")
-    b.set_xlabel(r"$\phi$")
-    b.set_ylabel("share of the clusters")
-    b.legend(frameon=False, fontsize=6.5, loc="center left")
-    b.set_title(r"N = 100 (20x5); grey: median slip / $\delta^*$ (solid steady, dotted "
-                "paper's)", fontsize=7)
+        ls = ENERGY_LINES.get(label, "-")
+        for shape, (colour, marker, _) in SHAPE_STYLE.items():
+            share.plot(per.phi, per[shape], ls=ls, marker=marker, ms=3.5, color=colour, lw=1.1)
+        slip.plot(per.phi, per.slip_median / f["delta_star"], ls=ls, marker="o", ms=3,
+                  color="0.25", lw=1.0)
+    slip.axhline(1.0, color="0.5", lw=0.8, ls="--")
+    slip.text(0.98, 0.95, "above 1, Eq. 2 makes a transverse slip cheaper than a row",
+              transform=slip.transAxes, ha="right", va="top", fontsize=6.5, color="0.3")
+    share.set_xscale("log")
+    slip.set_yscale("log")
+    share.tick_params(labelbottom=False)
+    slip.set_xlabel(r"$\phi$")
+    share.set_ylabel("share of the clusters")
+    slip.set_ylabel(r"median slip / $\delta^*$")
+    share.set_title("(b) N = 100 (20x5): the clusters' shapes", fontsize=7.5)
+    slip.set_title(r"(c) N = 100: the clusters' median slip over $\delta^*$ (Eq. 2's "
+                   "crossover)", fontsize=7.5)
+    slip.set_ylim(top=max(2.0, slip.get_ylim()[1]))
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=c, marker=m, ms=3.5, ls="none")
+               for c, m, _ in SHAPE_STYLE.values()]
+    labels = [w for *_, w in SHAPE_STYLE.values()]
+    for label, ls in ENERGY_LINES.items():
+        if any(lab == label for lab, _ in found):
+            handles.append(Line2D([], [], color="0.25", ls=ls, lw=1.1))
+            labels.append(label.replace("paper, t_end = 16000",
+                                        "paper's protocol, t_end = 16000"))
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False,
+               fontsize=7)
     return _write(fig, figs / "energy_argument.png")
 
 
@@ -541,18 +595,53 @@ def matplotlib_lognorm(lo: float, hi: float):
     return LogNorm(lo, hi)
 
 
+#: the curves' colours in fig2a_protocols (Okabe and Ito's colour-blind-safe palette: the
+#: paper's run lengths orange, vermillion, reddish purple; the steady protocol blue and sky
+#: blue; the synchronized start until steady bluish green) and line styles (the paper's run
+#: lengths dotted, dashed, dash-dotted: told apart without colour too)
+CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
+               "paper, t_end = 4000": ("#D55E00", "--"),
+               "paper, t_end = 16000": ("#CC79A7", "-."),
+               "steady protocol": ("#0072B2", "-"),
+               "steady protocol, N = 3600": ("#56B4E9", "-"),
+               "synchronized start until steady": ("#009E73", "-")}
+#: a point's state (bkflow.plot._point_states) as its marker in fig2a_protocols: shape and
+#: fill (True: filled in the curve's colour, False: white inside), read at print size and
+#: under an error bar (a half-filled marker is not); metastable a bold cross, which no filled
+#: shape resembles
+STATE_MARKERS = {"steady": ("o", True, "steady (every seed)"),
+                 "switching": ("D", True, "switching between the layer's states (some seed)"),
+                 "drifting": ("o", False, "drifting (some seed)"),
+                 "metastable": ("x", True, "metastable: remembers its start (some seed)")}
+#: the paper's claim 1: the minimum of mu_bar lies about 40% below mu_s
+PAPER_MINIMUM_BELOW_MU_S = 0.4
+
+
+def _mu_s(tables) -> float | None:
+    """The static friction coefficient mu_s of the runs of ``tables`` (results or runs
+    DataFrames), None when they used more than one."""
+    values = {float(v) for t in tables if "mu_s" in t for v in t.mu_s.dropna()}
+    return values.pop() if len(values) == 1 else None
+
+
 def protocols_figure(out: Path, figs: Path) -> Path | None:
     """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
-    one curve per protocol and run length; markers by state (bkflow.plot.STATE_FILL)."""
+    one curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
+    marker is its state (STATE_MARKERS). Each row shares its y range across N, so that a
+    curve's depth can be compared between sizes; the right axis reads each value as a fraction
+    below mu_s (the runs' static friction coefficient), and a grey line marks the paper's
+    minimum, 40% below mu_s."""
+    from matplotlib.lines import Line2D
+
     cs = curves(out)
     if not cs:
         return None
     plt = _style()
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
-    fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns), 7.2),
-                             squeeze=False, sharex=True)
-    colours = dict(zip(CURVES, ("tab:orange", "tab:red", "darkred", "tab:blue", "tab:cyan",
-                                "tab:green")))
+    fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns) + 0.6, 7.6),
+                             squeeze=False, sharex=True, sharey="row")
+    mu_s = _mu_s([res for _, res in cs.values()])
+    present = set()
     for col, n in enumerate(ns):
         for row, (field, _, title) in enumerate(OBSERVABLES):
             ax = axes[row, col]
@@ -560,14 +649,20 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                 g = res[res.N == n].sort_values("phi")
                 if not len(g) or field not in g:
                     continue
-                states = g.state.fillna("drifting").to_numpy()
-                c = colours[label]
-                ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.8,
-                            capsize=1.5, marker="none", label=label)
-                for name, fill in STATE_FILL.items():
+                c, ls = CURVE_STYLE[label]
+                ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
+                            ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
+                states = _point_states(g)
+                for name, (marker, filled, _) in STATE_MARKERS.items():
                     k = states == name
-                    ax.plot(g.phi[k], g[field][k], "o", color=c, ms=4.5, fillstyle=fill,
-                            mfc=c if fill != "none" else "white", mfcalt="white")
+                    if k.any():
+                        present.add(name)
+                        ax.plot(g.phi[k], g[field][k], marker, ls="none", color=c, ms=5,
+                                mfc=c if filled else "white", mew=1.6 if marker == "x" else 0.9,
+                                zorder=3)
+            if mu_s is not None and field.startswith("mu_bar"):  # claim 1 is about mu_bar
+                ax.axhline((1 - PAPER_MINIMUM_BELOW_MU_S) * mu_s, color="0.55", lw=0.8,
+                           ls=(0, (6, 3)), zorder=1)
             ax.set_xscale("log")
             if col == 0:
                 ax.set_ylabel(title, fontsize=7.5)
@@ -575,12 +670,44 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                 ax.set_title(f"N = {n}", fontsize=9)
             if row == len(OBSERVABLES) - 1:
                 ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-    # one key below the panels (the curves, then the marker convention): it covers no point
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    states, words = state_handles()
-    fig.legend(handles + states, labels + words, loc="outside lower center", ncol=4,
-               frameon=False, fontsize=7)
+    if mu_s is not None:  # the right axis: how far below mu_s, the paper's measure
+        for ax in axes[:, -1]:
+            right = ax.secondary_yaxis("right", functions=(
+                lambda y: 100 * (1 - np.asarray(y) / mu_s),
+                lambda p: mu_s * (1 - np.asarray(p) / 100)))
+            right.set_ylabel(rf"below $\mu_s$ = {mu_s:g} (%)", fontsize=7.5)
+    # one key below the panels: the curves in its first rows, the paper's minimum beside
+    # them, the marker convention in its last row
+    found = {}
+    for ax in axes.flat:  # a curve drawn at some N only (N = 3600) is keyed too
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            found.setdefault(lab, h)
+    keys = [(found[lab], lab) for lab in CURVE_STYLE if lab in found]
+    if mu_s is not None:
+        keys.append((Line2D([], [], color="0.55", lw=0.8, ls=(0, (6, 3))),
+                     rf"the paper's minimum of $\overline{{\mu}}$: "
+                     rf"{100 * PAPER_MINIMUM_BELOW_MU_S:.0f}% below $\mu_s$"))
+    ncol = 4
+    keys += [(Line2D([], [], alpha=0), "")] * (-len(keys) % ncol)
+    for name, (marker, filled, words) in STATE_MARKERS.items():
+        if name in present:
+            keys.append((Line2D([], [], marker=marker, ls="none", color="0.3", ms=5,
+                                mfc="0.3" if filled else "white",
+                                mew=1.6 if marker == "x" else 0.9), words))
+    handles, labels = zip(*_row_major(keys, ncol))
+    fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
+               fontsize=7, handlelength=2.6)
     return _write(fig, figs / "fig2a_protocols.png")
+
+
+def _row_major(keys: list, ncol: int) -> list:
+    """``keys`` reordered so that a legend of ``ncol`` columns (which fills column by
+    column) shows them row by row; the last row padded with blank keys."""
+    from matplotlib.lines import Line2D
+
+    keys = list(keys) + [(Line2D([], [], alpha=0), "")] * (-len(keys) % ncol)
+    rows = len(keys) // ncol
+    return [keys[r * ncol + c] for c in range(ncol) for r in range(rows)]
 
 
 def _write(fig, path: Path) -> Path:
@@ -589,33 +716,127 @@ def _write(fig, path: Path) -> Path:
     return path
 
 
+#: the sets of runs in the relaxation figure: (protocol directory, its start and rule in
+#: words, marker)
+RELAXATION_SETS = (("paper", "synchronized start, a fixed length (the paper's protocol)", "o"),
+                   ("sync_steady", "synchronized start, until steady", "D"),
+                   ("steady", "random start, until steady (the steady protocol)", "s"),
+                   ("steady_3600", "random start, until steady (the steady protocol)", "s"))
+#: a run's verdict (runs.csv ``state``) as a colour (Okabe and Ito's palette) and words
+RELAXATION_STATES = {
+    "steady": ("#0072B2", "steady: the start forgotten"),
+    "switching": ("#009E73", "in the layer's own states (quiet / coherent): the start "
+                             "forgotten"),
+    "drifting": ("#E69F00", "drifting: not settled yet"),
+    "metastable": ("#D55E00", "metastable: still remembers its start"),
+    "none": ("0.6", "no verdict")}
+
+
+def _run_verdicts(runs: pd.DataFrame) -> np.ndarray:
+    """Each run's verdict as RELAXATION_STATES names it."""
+    from bkflow.states import SWITCHING
+
+    states = runs["state"].astype(object).where(runs["state"].notna(), "none").astype(str) \
+        if "state" in runs else pd.Series("none", index=runs.index)
+    states = np.where(states.isin(SWITCHING), "switching", states.to_numpy())
+    return np.where(np.isin(states, list(RELAXATION_STATES)), states, "none")
+
+
 def relaxation_figure(out: Path, figs: Path) -> Path | None:
-    """The equilibration time t_equil of the stress (Chodera's detection) against phi: from
-    the synchronized start (t_end = 16000) and from the random start (until stationary)."""
-    cs = curves(out)
-    plt = _style()
-    fig, ax = plt.subplots(figsize=(4.6, 3.2))
-    drawn = False
-    for label, ls in (("paper, t_end = 16000", "-"), ("steady protocol", ":"),
-                      ("steady protocol, N = 3600", ":")):
-        if label not in cs:
-            continue
-        runs = cs[label][0]
-        for (n, g), m in zip(runs.groupby("N"), "os^D"):
-            med = g.groupby("phi").t_equil.median()
-            ax.plot(med.index, med.to_numpy(), m + ls, lw=0.8, ms=3.5,
-                    mfc="none" if ls == ":" else None,
-                    label=f"{'synchronized' if ls == '-' else 'steady protocol'}, N = {n}")
-            drawn = True
-    if not drawn:
+    """How long the start is remembered, from the verdicts alone: every run (each seed) at
+    phi and at the length it ran (t_run: the paper's fixed lengths, or where a run until
+    steady stopped: steady and within its error target, or at its cap), coloured by its
+    state, one column per N. A drift or a flat plateau that still remembers the start cannot
+    pass for a forgotten start here: the verdict reads the stress's trend and the contacts'
+    phases (docs/model.md "Steady state"). No equilibration time is drawn: Chodera's
+    detection answers tens of time units on a slow drift and 0 on the synchronized plateau
+    (benchmarks/RESULTS.md, "Relaxation from the synchronized start")."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    sets = []
+    for name, words, marker in RELAXATION_SETS:
+        t = _tables(out, name)
+        if t is not None:
+            sets.append((name, words, marker, t[0]))
+    if not sets:
         return None
-    ax.set_xscale("log")
-    ax.set_yscale("symlog", linthresh=10)
-    ax.set_xlabel(r"$\phi$")
-    ax.set_ylabel(r"$t_{\rm equil}$ of $\sigma_x$ (median over seeds)")
-    ax.set_title("how long the start is remembered", fontsize=9)
-    ax.legend(frameon=False, fontsize=6)
+    ns = sorted({int(n) for *_, runs in sets for n in runs.N})
+    plt = _style()
+    ncols = min(len(ns), 2)
+    nrows = -(-len(ns) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.4 * ncols + 0.4, 2.7 * nrows + 1.3),
+                             squeeze=False, sharex=True, sharey=True)
+    for ax in axes.flat[len(ns):]:
+        ax.set_visible(False)
+    axes = axes.flat
+    present, markers, left_out = set(), {}, 0
+    for col, n in enumerate(ns):
+        ax = axes[col]
+        for _, words, marker, runs in sets:
+            g = runs[runs.N == n]
+            if not len(g):
+                continue
+            t_run = g.t_run.to_numpy(float)
+            ok = np.isfinite(t_run) & (t_run > 0)   # a log axis: a length must be > 0
+            left_out += int((~ok).sum())
+            g, t_run = g[ok], t_run[ok]
+            # the seeds of one phi side by side, within 0.2 decade (the grid's phi lie a
+            # third of a decade apart: each phi's runs stay a group of their own)
+            order = sorted(set(g.seed))
+            rank = g.seed.map({s: i for i, s in enumerate(order)}).to_numpy(float)
+            step = min(0.07, 0.2 / max(len(order) - 1, 1))
+            x = g.phi.to_numpy(float) * 10 ** (step * (rank - (len(order) - 1) / 2))
+            ms = 3.8 if len(order) <= 4 else 2.8
+            verdicts = _run_verdicts(g)
+            for v, (colour, _) in RELAXATION_STATES.items():
+                k = verdicts == v
+                if k.any():
+                    present.add(v)
+                    ax.plot(x[k], t_run[k], marker, ls="none", ms=ms, color=colour, mew=0.3,
+                            mec="white", alpha=0.9)
+            markers.setdefault(words, (marker, set()))[1].update(
+                {(n, float(t)) for t in g.t_end})
+        lx, ly = (PAPER_SIZES[n] if n in PAPER_SIZES else LARGE_SIZE)
+        ax.set_title(f"N = {n} ({lx}x{ly})", fontsize=9)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        if col >= len(ns) - ncols:
+            ax.set_xlabel(r"$\phi$")
+        if col % ncols == 0:
+            ax.set_ylabel(r"its length $t_{\rm run}$ ($\sqrt{m/k_d}$)")
+    handles = [Patch(color=RELAXATION_STATES[v][0]) for v in RELAXATION_STATES if v in present]
+    labels = [RELAXATION_STATES[v][1] for v in RELAXATION_STATES if v in present]
+    for words, (marker, ends) in markers.items():
+        handles.append(Line2D([], [], marker=marker, ls="none", color="0.35", ms=4))
+        labels.append(words + ": " + _lengths(ends, "fixed" in words))
+    # the states in the first column, the sets of runs in the second
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, frameon=False,
+               fontsize=6.5)
+    fig.suptitle("How long the start is remembered: every run's verdict at the length it ran\n"
+                 "(the verdict reads the stress's trend and the contacts' phases: neither a "
+                 "drift nor a plateau that\nremembers the start passes for steady; no "
+                 "equilibration time is drawn: a slow drift fools it)"
+                 + (f"\n{left_out} run(s) without a length left out" if left_out else ""),
+                 fontsize=7.5)
     return _write(fig, figs / "relaxation.png")
+
+
+def _lengths(ends: set, fixed: bool) -> str:
+    """The lengths (fixed) or caps of a set of runs, from its (N, t_end) pairs: one list
+    where every N has the same, else the most common and the others by N."""
+    by_n = {}
+    for n, t in ends:
+        by_n.setdefault(n, set()).add(t)
+    groups = {}
+    for n, ts in sorted(by_n.items()):
+        groups.setdefault(tuple(sorted(ts)), []).append(n)
+    common = max(groups, key=lambda k: len(groups[k]))
+    word = "t_end = " if fixed else "cap "
+    text = word + ", ".join(f"{t:g}" for t in common)
+    others = [f"{', '.join(f'{t:g}' for t in ts)} at N = {', '.join(map(str, ns))}"
+              for ts, ns in groups.items() if ts != common]
+    return text + (f" ({'; '.join(others)})" if others else "")
 
 
 def figures(out: Path, figs: Path) -> list[Path]:
@@ -639,39 +860,91 @@ def figures(out: Path, figs: Path) -> list[Path]:
 
 
 def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
-    """Share of DT clusters against phi for each aspect ratio, and the cluster scatter of
-    each aspect ratio at the phi with the most DT clusters and at phi = 0.1."""
+    """The cluster scatter of each lattice of the aspect check (ASPECT_SIZES, N = 100 in the
+    top row, N = 400 below; at phi = 0.1 and 2.15, where DT clusters are most common), and
+    the share of DT clusters against phi (aspect_share_figure)."""
     plt = _style()
     data = SweepData(aspect_dir)
     rows = (len(ASPECT_SIZES) + 2) // 3   # N = 100 above, N = 400 below
-    fig, axes = plt.subplots(rows, 3, figsize=(9.0, 3.9 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, 3, figsize=(9.0, 4.4 * rows), squeeze=False)
     for ax, (lx, ly) in zip(axes.flat, ASPECT_SIZES):
-        cluster_scatter(data, plt, lx, ly, [2.15443, 0.1], f"{lx}x{ly} (Lx/Ly = {lx / ly:g})",
-                        ax=ax)
-        ax.legend(frameon=False, fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.16),
-                  ncol=1, markerscale=1.5)
+        if cluster_scatter(data, plt, lx, ly, [2.15443, 0.1],
+                           f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})", ax=ax) is None:
+            ax.set_title(f"N = {lx * ly}: {lx}x{ly}: no clusters", fontsize=9)
+            continue
+        # short axis labels (the suptitle says what l^box is) and the key below each panel
+        # no wider than it, so that six panels keep their width
+        ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$")
+        ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$" if ax in axes[:, 0] else "")
+        _narrow_key(ax)
+    for ax in axes.flat[len(ASPECT_SIZES):]:
+        ax.set_visible(False)
+    fig.suptitle(r"Aspect-ratio check: every cluster at $\phi$ = 0.1 and 2.15 (the paper's "
+                 "protocol, t_end = 8000)\n"
+                 r"$l_x^{\mathrm{box}}$, $l_y^{\mathrm{box}}$: the extent of a slip of the whole "
+                 "box along x and across (bkflow.clusters.box_fractions)", fontsize=8.5)
     return [_write(fig, out / "aspect_clusters.png"), aspect_share_figure(aspect_dir, out)]
 
 
+def _narrow_key(ax) -> None:
+    """The key of a panel, placed below it, with each phi's regime shares on a line of its
+    own ("phi = 0.1: 5363 clusters" over "(W 13%, DP 13%, DT 74%)"): the same entries, half
+    as wide."""
+    leg = ax.get_legend()
+    if leg is None:
+        return
+    labels = [t.get_text() for t in leg.get_texts()]
+    labels = [lab.replace(" (", "\n(", 1) if lab.startswith(r"$\phi$") else lab
+              for lab in labels]
+    ax.legend(leg.legend_handles, labels, frameon=False, fontsize=6.5, loc="upper center",
+              bbox_to_anchor=(0.5, -0.2), ncol=1, title=leg.get_title().get_text(),
+              title_fontsize=6.5)
+
+
+#: the aspect ratios' colours (Okabe and Ito's palette) and markers, one per Lx/Ly
+ASPECT_STYLE = {4.0: ("#0072B2", "o"), 1.0: ("#E69F00", "s"), 0.25: ("#009E73", "D")}
+
+
 def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
+    """The share of DT clusters against phi on each lattice of the aspect check: the colour
+    and the marker are the aspect ratio Lx/Ly, the line and the fill the size (N = 100
+    solid and filled, N = 400 dashed and open)."""
     plt = _style()
     a, _ = read_tables(aspect_dir)
-    fig, ax = plt.subplots(figsize=(3.8, 2.8))
-    for (lx, ly), m, c in zip(ASPECT_SIZES, "osDosD", ["tab:blue", "tab:orange", "tab:green"] * 2):
+    fig, ax = plt.subplots(figsize=(4.2, 3.6))
+    sizes = sorted({lx * ly for lx, ly in ASPECT_SIZES})
+    for lx, ly in ASPECT_SIZES:
         s = a[(a.Lx == lx) & (a.Ly == ly)]
         rows = [(phi, cluster_share(g, "DT")) for phi, g in s.groupby("phi")]
-        if rows:
-            x, y = zip(*rows)
-            even = lx % 2 == 0 and ly % 2 == 0
-            ax.plot(x, y, marker=m, lw=0.8, color=c, ls="-" if even else "--",
-                    mfc=c if even else "none", ms=4,
-                    label=f"{lx}x{ly} (Lx/Ly = {lx / ly:g}, N = {lx * ly})")
+        if not rows:
+            continue
+        x, y = zip(*rows)
+        c, m = ASPECT_STYLE.get(lx / ly, ("0.4", "^"))
+        first = lx * ly == sizes[0]
+        ax.plot(x, y, marker=m, lw=1.0, color=c, ls="-" if first else "--",
+                mfc=c if first else "white", ms=4.5, mew=1.0,
+                label=f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})")
     ax.set_xscale("log")
+    ax.set_ylim(bottom=-0.02)
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel("share of DT clusters")
-    ax.set_title("aspect ratio check (parity-free rule)", fontsize=9)
-    ax.legend(frameon=False, fontsize=6.5)
+    ax.set_title("Aspect-ratio check: DT clusters (parity-free rule),\nthe paper's "
+                 "protocol, t_end = 8000", fontsize=8)
+    # below the axes, N = 100 in the first column, N = 400 in the second: it covers no point
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=2,
+               frameon=False, fontsize=6.5)
     return _write(fig, out / "aspect_dt_share.png")
+
+
+def claim_record(out: Path) -> dict:
+    """The claims' record (claims.py) of the sweeps under ``out``."""
+    from bkflow.provenance import record as provenance
+
+    cs = curves(out)
+    aspect = _tables(out, "aspect")
+    return claims.record(cs, {label: out / CURVES[label][0] for label in cs},
+                         (aspect[0], out / "aspect") if aspect is not None else None,
+                         ASPECT_SIZES, provenance())
 
 
 def main(argv=None) -> int:
@@ -687,6 +960,9 @@ def main(argv=None) -> int:
     p.add_argument("--figures", default=str(HERE / "figures"))
     p.add_argument("--numbers", default=str(HERE / "numbers.md"),
                    help="where the numbers REPRODUCTION.md cites go (default: beside it)")
+    p.add_argument("--claims", default=str(HERE / "claims.json"),
+                   help="the record of the claims' tests, which REPRODUCTION.md's generated "
+                        "blocks show (default: beside it)")
     a = p.parse_args(argv)
     out, figs = Path(a.out), Path(a.figures)
     figs.mkdir(parents=True, exist_ok=True)
@@ -713,7 +989,12 @@ def main(argv=None) -> int:
     written = figures(out, figs)
     for pth in written:
         print(f"wrote {pth}")
-    Path(a.numbers).write_text(numbers(out, wall))
+    # the record as the documents read it back (JSON's order and types), rendered from that
+    rec = json.loads(json.dumps(claim_record(out)))
+    with io.atomic_file(Path(a.claims)) as f:
+        f.write(json.dumps(rec, indent=1) + "\n")
+    print(f"wrote {a.claims}")
+    Path(a.numbers).write_text(numbers(out, wall) + "\n" + claims.render_all(rec))
     print(f"wrote {a.numbers}")
     return 1 if failed else 0
 

@@ -1,0 +1,312 @@
+"""The figures workflows/paper/reproduce.py and benchmarks/work_precision.py draw themselves,
+drawn from made-up tables (no run, no LAMMPS): every value drawn inside its axes and none under
+a key, nothing non-positive on a log axis, and what each figure promises its reader (shared y
+ranges, the mu_s reference, the runs left out and why, distinguishable curves)."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests.support import ROOT
+from tests.test_sweep import _hidden_points
+
+
+def _module(path, name):
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(path.parent))
+    try:
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(str(path.parent))
+    return mod
+
+
+@pytest.fixture(scope="module")
+def reproduce():
+    return _module(ROOT / "workflows" / "paper" / "reproduce.py", "paper_reproduce")
+
+
+@pytest.fixture(scope="module")
+def work_precision():
+    return _module(ROOT / "benchmarks" / "work_precision.py", "work_precision")
+
+
+@pytest.fixture()
+def figures(monkeypatch):
+    """Every Figure the figure functions save, instead of a file."""
+    from matplotlib.figure import Figure
+
+    drawn = {}
+
+    def keep(self, path, **kw):
+        drawn[getattr(path, "name", str(path))] = self
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return drawn
+
+
+PHI = [0.1, 1.0, 10.0, 100.0, 1000.0]
+
+
+def _results(n, offset, states, mu_s=0.2):
+    """One curve's results at size n: mu_bar falling with phi, lower at larger n."""
+    phi = np.array(PHI)
+    base = 0.121 - 0.002 * np.log10(phi / 0.1) - offset
+    return pd.DataFrame({"N": n, "phi": phi, "mu_bar": base, "mu_bar_sem": 3e-4,
+                         "mu_bar_large": base + 0.003, "mu_bar_large_sem": 4e-4,
+                         "mean_stress_ratio": base - 0.004, "mean_stress_ratio_sem": 2e-4,
+                         "state": states, "mu_s": mu_s})
+
+
+def _curves():
+    states = ["steady", "steady", "coherent", "drifting", "metastable"]
+    paper = pd.concat([_results(100, 0.0, states), _results(400, 0.004, states)])
+    steady = pd.concat([_results(100, 0.001, ["steady"] * 5),
+                        _results(400, 0.006, ["steady"] * 4 + [None])])
+    return {"paper, t_end = 1000": (None, paper),
+            "paper, t_end = 4000": (None, paper.assign(mu_bar=paper.mu_bar - 0.001)),
+            "steady protocol": (None, steady)}
+
+
+def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
+        reproduce, figures, monkeypatch, tmp_path):
+    """Each row one y range across N (so that a deeper curve at larger N is seen as such),
+    every point inside its axes and none under the key; the paper's minimum, 40% below mu_s,
+    drawn in the mu_bar rows and a right axis in % below mu_s; each state its own marker
+    (no half-filled one) and each curve its own colour and line style."""
+    monkeypatch.setattr(reproduce, "curves", lambda out: _curves())
+    reproduce.protocols_figure(tmp_path, tmp_path)
+    fig = figures["fig2a_protocols.png"]
+    assert _hidden_points(fig) == []
+    panels = [ax for ax in fig.axes if ax.get_lines()]
+    rows = {}
+    for ax in panels:
+        rows.setdefault(round(ax.get_position().y0, 3), []).append(ax)
+    assert len(rows) == 3 and all(len(r) == 2 for r in rows.values())
+    for r in rows.values():
+        assert r[0].get_ylim() == r[1].get_ylim()
+    top = max(rows)
+    lo, hi = rows[top][0].get_ylim()   # N = 100's panel holds N = 400's lowest point too
+    assert lo < 0.121 - 0.002 * 4 - 0.004 < 0.121 < hi
+    for y0, r in rows.items():
+        refs = [ln for ln in r[0].get_lines()   # a line across the axes (axhline) at 0.12
+                if list(ln.get_xdata()) == [0, 1]
+                and np.allclose(np.asarray(ln.get_ydata(), float), 0.6 * 0.2)]
+        assert len(refs) == (1 if y0 != min(rows) else 0), y0   # the mu_bar rows only
+    right = [c for ax in fig.axes for c in ax.child_axes if "below" in c.get_ylabel()]
+    assert len(right) == 3 and all(r"$\mu_s$ = 0.2" in ax.get_ylabel() for ax in right)
+    # the right axis: a tick at p% sits where the left axis reads (1 - p/100) mu_s
+    for parent in fig.axes:
+        for sec in parent.child_axes:
+            ticks = sec.get_yticks()
+            ticks = ticks[(ticks >= min(sec.get_ylim())) & (ticks <= max(sec.get_ylim()))]
+            assert len(ticks) >= 2
+            for p in ticks:
+                y = sec.transData.transform((0, p))[1]
+                left = parent.transData.inverted().transform((0, y))[1]
+                assert left == pytest.approx(0.2 * (1 - p / 100), rel=1e-6)
+    # the states: distinct (marker, filled) pairs, each keyed
+    styles = {(m, f) for m, f, _ in reproduce.STATE_MARKERS.values()}
+    assert len(styles) == len(reproduce.STATE_MARKERS)
+    keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    for name in ("steady", "switching", "drifting", "metastable"):
+        assert reproduce.STATE_MARKERS[name][2] in keyed, name
+    for ax in panels:
+        for ln in ax.get_lines():
+            assert ln.get_fillstyle() == "full", "a half-filled marker"
+    # the curves: no two alike; colours at least 0.25 apart in RGB where the line style is
+    # the same (two reds that only differ in shade were the complaint)
+    from matplotlib.colors import to_rgb
+
+    style = list(reproduce.CURVE_STYLE.values())
+    for i, (c1, ls1) in enumerate(style):
+        for c2, ls2 in style[i + 1:]:
+            far = np.linalg.norm(np.subtract(to_rgb(c1), to_rgb(c2))) >= 0.25
+            assert far or ls1 != ls2, (c1, c2)
+            assert far, (c1, c2)
+
+
+def _runs(n, t_end, start="synchronized"):
+    rows = []
+    for phi in PHI:
+        for seed in (1, 2, 3):
+            state = {0.1: "steady", 1.0: "steady", 10.0: "coherent", 100.0: "drifting",
+                     1000.0: "metastable"}[phi]
+            rows.append({"N": n, "phi": phi, "seed": seed, "t_end": t_end, "t_run": t_end,
+                         "state": state, "t_equil": 0.0 if phi == 1000 else -1.0,
+                         "start": start})
+    return pd.DataFrame(rows)
+
+
+def test_the_relaxation_figure_draws_verdicts_not_equilibration_times(
+        reproduce, figures, monkeypatch, tmp_path):
+    """Every run with a length is drawn at it, on a log axis that holds nothing non-positive;
+    a run without one (t_run 0 or missing) is left out and counted in the title; each
+    verdict has its colour and words in the key; no equilibration time is drawn."""
+    paper = pd.concat([_runs(100, t) for t in (1000.0, 4000.0)] + [_runs(400, 1000.0)])
+    steady = _runs(100, 1e5, "random").assign(t_run=lambda d: 600.0 * d.phi ** 0.5)
+    steady.loc[0, "t_run"] = 0.0
+    steady.loc[1, "t_run"] = math.nan
+    tables = {"paper": paper, "steady": steady}
+    monkeypatch.setattr(reproduce, "_tables",
+                        lambda out, name, where=None: (tables[name], None) if name in tables
+                        else None)
+    reproduce.relaxation_figure(tmp_path, tmp_path)
+    fig = figures["relaxation.png"]
+    assert _hidden_points(fig) == []
+    drawn = 0
+    for ax in fig.axes:
+        if ax.get_yscale() == "log":
+            for ln in ax.get_lines():
+                y = np.asarray(ln.get_ydata(), float)
+                assert (y > 0).all()
+                drawn += len(y)
+    assert drawn == len(paper) + len(steady) - 2
+    title = fig.get_suptitle()
+    assert "2 run(s) without a length left out" in title and "equilibration" in title
+    keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    for v in ("steady", "switching", "drifting", "metastable"):
+        assert reproduce.RELAXATION_STATES[v][1] in keyed, v
+    assert any("t_end = 1000, 4000" in k for k in keyed)
+    assert any("cap 100000" in k for k in keyed)
+    assert not any("equil" in (ax.get_ylabel() + ax.get_title()) for ax in fig.axes)
+
+
+def _clusters(rng, n=400):
+    eq2 = 10 ** rng.uniform(-5, 0, n)
+    change = eq2 * 10 ** rng.normal(0.5, 0.8, n) * np.where(rng.random(n) < 0.25, -1, 1)
+    eq2[:40] = 0.0             # spanning both axes: no perimeter
+    change[40:45] = 0.0        # no change
+    return pd.DataFrame({"eq2_estimate": eq2, "bond_change": change,
+                         "phi": rng.choice(PHI, n)})
+
+
+def test_the_energy_figure_shows_every_cluster_or_says_why_not(reproduce, figures, tmp_path):
+    """Rise above, fall below: every cluster with a perimeter and a change is a point (none
+    off its log axes: the fall's size on an axis that runs downward); those without a
+    perimeter and those that did not change are counted in the figure; no twin axis; the
+    key below, covering nothing."""
+    rng = np.random.default_rng(5)
+    per = pd.DataFrame({"phi": PHI, "row": [0, 0, 0.01, 0.1, 0.4],
+                        "transverse": [0.3, 0.2, 0.01, 0, 0], "slip_median": 0.1})
+    found = {(label, 100): {"clusters_table": _clusters(rng), "per_phi": per,
+                            "delta_star": 1.33}
+             for label in reproduce.ENERGY_CURVES}
+    reproduce.energy_figure(found, tmp_path)
+    fig = figures["energy_argument.png"]
+    assert _hidden_points(fig) == []
+    g = pd.concat(f["clusters_table"] for f in found.values())
+    shown = g[(g.eq2_estimate > 0) & (g.bond_change != 0)]
+    from matplotlib.collections import PathCollection
+
+    points = [c.get_offsets() for ax in fig.axes for c in ax.collections
+              if isinstance(c, PathCollection)]
+    assert sum(len(p) for p in points) == len(shown)
+    for p in points:
+        assert (np.asarray(p) > 0).all()
+    inverted = [ax for ax in fig.axes if ax.yaxis_inverted()]
+    assert len(inverted) == 1 and "fell" in inverted[0].get_ylabel()
+    notes = " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+    assert f"not drawn: {(g.eq2_estimate == 0).sum()} of all {len(g)} clusters" in notes
+    assert f"{((g.eq2_estimate > 0) & (g.bond_change == 0)).sum()} changed by exactly 0" \
+        in notes
+    boxes = [tuple(np.round(ax.get_position().bounds, 3)) for ax in fig.axes]
+    assert len(boxes) == len(set(boxes)), "two axes in one place: a twin axis"
+    assert not any(ax.get_legend() for ax in fig.axes)
+
+
+def test_the_aspect_share_figure_tells_all_six_lattices_apart(
+        reproduce, figures, monkeypatch, tmp_path):
+    """Six lattices, six styles (colour and marker: the aspect ratio; line and fill: the
+    size), each keyed with its size and N, the key below the axes."""
+    rows = []
+    for lx, ly in reproduce.ASPECT_SIZES:
+        for phi in PHI:
+            rows.append({"Lx": lx, "Ly": ly, "phi": phi, "n_clusters": 100,
+                         "regime_fractions[DT]": 0.5 / (1 + phi) * lx / (lx + ly)})
+    monkeypatch.setattr(reproduce, "read_tables", lambda d: (pd.DataFrame(rows), None))
+    reproduce.aspect_share_figure(tmp_path, tmp_path)
+    fig = figures["aspect_dt_share.png"]
+    assert _hidden_points(fig) == []
+    (ax,) = fig.axes
+    lines = ax.get_lines()
+    styles = {(ln.get_color(), ln.get_marker(), ln.get_linestyle(), ln.get_markerfacecolor())
+              for ln in lines}
+    assert len(lines) == len(styles) == 6
+    keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert keyed == [f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})"
+                     for lx, ly in reproduce.ASPECT_SIZES]
+
+
+def _wp_tables(wp, seed=0):
+    rng = np.random.default_rng(seed)
+    out = {}
+    for phi in (0.1, 1000.0):
+        rows = []
+        for c, t in [(c, t) for c in wp.C_VALUES for t in wp.T_VALUES] + [wp.REFERENCE]:
+            row = {"C": c, "t_end": t, "wall_s": t / 1000 * 0.01 / c, "atom_steps": 1.0,
+                   "reference": (c, t) == wp.REFERENCE}
+            for o, _ in wp.OBSERVABLES:
+                row[f"{o}_err"] = 0.0 if (c, t) == (0.1, 1000.0) else 10 ** rng.uniform(-4, -2)
+                row[f"{o}_spread"] = 10 ** rng.uniform(-4, -2)
+            rows.append(row)
+        out[phi] = pd.DataFrame(rows)
+    return out
+
+
+def test_work_precision_keys_what_varies_along_a_line_and_redraws_from_its_record(
+        work_precision, tmp_path, monkeypatch):
+    """The plot: every point inside its axes and none under the key, the key below the panels
+    naming C (colour) and t_end (marker size, growing along each line), an error of 0 drawn
+    on the floor and said to be; the record written by a measurement gives the same tables
+    back, and --from-record draws from it without running anything."""
+    import matplotlib.pyplot as plt
+
+    wp = work_precision
+    tables = _wp_tables(wp)
+    fig = wp.plot(tables, tmp_path / "wp.png")
+    try:
+        assert (tmp_path / "wp.png").stat().st_size > 10000
+        assert _hidden_points(fig) == []
+        (key,) = fig.legends
+        texts = [t.get_text() for t in key.get_texts()]
+        assert "t_end grows" in key.get_title().get_text()
+        assert [t for t in texts if t.startswith("t_end")] == [
+            f"t_end = {t:g}" for t in wp.T_VALUES]
+        assert f"error <= {wp.ERROR_FLOOR:g}%, drawn at {wp.ERROR_FLOOR:g}%" in texts
+        for ax in fig.axes:
+            for ln in ax.get_lines():
+                y = np.asarray(ln.get_ydata(), float)
+                assert (y >= wp.ERROR_FLOOR).all() and (y > 0).all()
+        # marker size grows with t_end along every line
+        ax = fig.axes[0]
+        sizes = {}
+        for ln in ax.get_lines():
+            if ln.get_marker() in ("o", "v") and len(ln.get_xdata()) == 1:
+                sizes.setdefault(ln.get_color() if isinstance(ln.get_color(), str)
+                                 else tuple(ln.get_color()), []).append(
+                    (float(ln.get_xdata()[0]), ln.get_markersize()))
+        for pts in sizes.values():
+            ms = [m for _, m in sorted(pts)]
+            assert ms == sorted(ms) and ms[0] < ms[-1]
+    finally:
+        plt.close(fig)
+    record = tmp_path / "record.csv"
+    wp.write_record(tables, record)
+    back = wp.read_record(record)
+    assert list(back) == list(tables)
+    for phi in tables:
+        pd.testing.assert_frame_equal(back[phi], tables[phi], check_dtype=False)
+    def no_sweep(*a, **kw):
+        raise AssertionError("--from-record ran a sweep")
+
+    monkeypatch.setattr(wp, "sweep", no_sweep)
+    wp.main(["--from-record", str(record), "--plot", str(tmp_path / "again.png")])
+    assert (tmp_path / "again.png").stat().st_size > 10000
