@@ -750,7 +750,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     pass for a forgotten start here: the verdict reads the stress's trend and the contacts'
     phases (docs/model.md "Steady state"). No equilibration time is drawn: Chodera's
     detection answers tens of time units on a slow drift and 0 on the synchronized plateau
-    (benchmarks/RESULTS.md, "Relaxation from the synchronized start")."""
+    (benchmarks/stationarity.py measures it)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
