@@ -856,14 +856,16 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
     ax = fig.axes[0]
     assert ax.get_ylim()[1] >= 6.1 / 5 and ax.get_xlim()[0] < 0 < ax.get_ylim()[1]
     labels = [t.get_text() for t in ax.get_legend().get_texts()][:2]  # then the guides' key
-    assert labels == [r"$\phi$ = 2.15 (2 clusters)", r"$\phi$ = 0.1 (501 clusters)"]
+    assert labels == [r"$\phi$ = 2.15: 2 clusters", r"$\phi$ = 0.1: 501 clusters"]
     from bkflow.plot import _num
 
     assert [_num(v) for v in (1000.0, 215.443, 0.215443, 2.15443)] == ["1000", "215", "0.215",
                                                                      "2.15"]
-    lines = {ln.get_label(): ln.get_zorder() for ln in ax.get_lines() if "clusters" in
-             ln.get_label()}
-    assert lines[labels[0]] > lines[labels[1]]  # the sparse set on top
+    from bkflow.plot import phi_colour
+
+    drawn = {tuple(ln.get_color()): ln.get_zorder() for ln in ax.get_lines()
+             if len(ln.get_xdata()) and ln.get_label() == "_nolegend_"}
+    assert drawn[tuple(phi_colour(2.15443))] > drawn[tuple(phi_colour(0.1))]  # sparse on top
     plt.close(fig)
 
 

@@ -552,13 +552,29 @@ class RunDir:
         return None
 
     # ------------------------------------------------------------------ the run's outputs
+    def recorded_threshold(self, spec: RunSpec) -> float:
+        """The zigzag threshold the run's extrema were recorded at: its deck's fix bk/reduce
+        line says it (a run made before a change of RunSpec.extrema_threshold_stress, e.g. the
+        size-scaled threshold, recorded at its own), else the spec's."""
+        import re
+
+        try:
+            deck = io.read_text(self.file(DECK), errors="replace")
+        except OSError:
+            return spec.extrema_threshold_stress
+        m = re.search(r"bk/reduce\s+\S+\s+\S+\s+threshold\s+(\S+)", deck)
+        try:
+            return float(m.group(1)) if m else spec.extrema_threshold_stress
+        except ValueError:
+            return spec.extrema_threshold_stress
+
     def read_reduced(self, spec: RunSpec):
         """The run's records of its stress and phases (``bkflow.reduced.Reduced``): fix
         bk/reduce's, or the same reduction of the raw series of a run that has no records
         (one made before bkflow reduced in the run)."""
         from . import reduced
 
-        args = (spec.stress_nevery, spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
+        args = (spec.stress_nevery, spec.block_nevery, spec.dt, self.recorded_threshold(spec))
         if self.file(BLOCKS).exists() or not self.file(STRESS).exists():
             try:
                 # a companion keeps its blocks only (no extrema.npy; a finished run's
