@@ -711,6 +711,7 @@ def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_s
 
     out, _ = tiny_sweep
     backend = matplotlib.get_backend()
+    plt.close("all")   # figures another test left open are not the user's
     mine = plt.figure()
     rc = dict(matplotlib.rcParams)
     try:
