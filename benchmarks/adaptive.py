@@ -17,9 +17,9 @@ import tempfile
 
 import numpy as np
 
-from bkflow.analysis import analyze
-from bkflow.engine import run
-from bkflow.params import ACCURACY, RunSpec
+from bkflow.analysis.summary import analyze
+from bkflow.lammps.engine import run
+from bkflow.model.params import ACCURACY, RunSpec
 
 
 def main(argv=None) -> None:

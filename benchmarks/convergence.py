@@ -20,9 +20,9 @@ import tempfile
 
 import numpy as np
 
-from bkflow.engine import run
-from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
-from bkflow.rundir import RunDir
+from bkflow.lammps.engine import run
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.store.rundir import RunDir
 
 C0 = 0.4
 

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from bkflow.lattice import lattice_for  # noqa: E402
-from bkflow.params import RunSpec  # noqa: E402
+from bkflow.model.lattice import lattice_for  # noqa: E402
+from bkflow.model.params import RunSpec  # noqa: E402
 from tests.reference import Reference  # noqa: E402
 
 CS = (0.2, 0.1, 0.05, 0.025)
@@ -118,9 +118,16 @@ def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]
 
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-    from bkflow.catalogue import balance
-    from bkflow.deck import LEDGER_SLOTS, SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
-    from bkflow.plugin import open_lammps
+    from bkflow.lammps.deck import (
+        LEDGER_SLOTS,
+        SLOTS,
+        SUBSTRATE_FIX,
+        DeckOptions,
+        data_text,
+        setup_text,
+    )
+    from bkflow.lammps.plugin import open_lammps
+    from bkflow.observables.catalogue import balance
 
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "data.bk"

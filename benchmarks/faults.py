@@ -549,8 +549,8 @@ class Fuzz:
             if "damaged" in p.stderr:
                 self.results[-1].verdict = "called the run damaged"
         # analysis settings mixed in one figure set
-        from bkflow.analysis import analyze
-        from bkflow.params import AnalysisSettings
+        from bkflow.analysis.summary import analyze
+        from bkflow.model.params import AnalysisSettings
 
         for threshold in (0.05, 0.02):
             d = self.scratch() / "s"
@@ -843,7 +843,7 @@ class Fuzz:
         rec = d / "figures" / "figures.json"
         if rec.exists():
             r = json.loads(rec.read_text())
-            from bkflow.tables import tables_digest
+            from bkflow.store.tables import tables_digest
 
             if r.get("complete") and r.get("tables_sha256") == tables_digest(d) and not all(
                     (d / "figures" / f).is_file() for f in r.get("files", [])):

@@ -9,7 +9,7 @@ benchmarks/records/fixed_cost.json (RESULTS.md's block fixed-cost is generated f
 it by results_blocks.py):
 
 - ``python``: the interpreter alone (``python -c pass``), the floor of any command;
-- ``import``: ``python -c "import bkflow.cli"``;
+- ``import``: ``python -c "import bkflow.cli.commands"``;
 - ``version``: ``bkflow --version``;
 - ``run 10``: ``bkflow run --phi 10 --t-end 10 --scene friction --no-analyze`` (MPI and
   LAMMPS start-up, the plugin's load, the deck, 10 time units; the steady protocol: the run
@@ -19,7 +19,7 @@ it by results_blocks.py):
 - ``analyze 8000``: ``bkflow analyze`` of a run of 8000 time units at phi = 10 (the default
   scene), beside that run's own simulation time (its meta.json's wall_time_s);
 - ``analyze 8000, warm``: the same analysis in a process that has imported what the analysis
-  uses (``bkflow.sweep.warm``, as a sweep's workers have): the analysis' own time, without
+  uses (``bkflow.sweeps.local.warm``, as a sweep's workers have): the analysis' own time, without
   the imports a cold process pays once (timed inside one process, median of ``--rounds``).
 """
 
@@ -49,8 +49,8 @@ def _timed(cmd: list[str], cwd: Path) -> float:
 
 WARM = """
 import json, sys, time
-from bkflow.analysis import analyze
-from bkflow.sweep import warm
+from bkflow.analysis.summary import analyze
+from bkflow.sweeps.local import warm
 warm(simulate=False)
 analyze(sys.argv[1])            # once, as the run's own analysis: what stays is in memory
 times = []
@@ -78,7 +78,7 @@ def measure(rounds: int) -> dict:
         simulation = json.loads((long / "meta.json").read_text())["wall_time_s"]
         pieces = {
             "python": lambda k: [sys.executable, "-c", "pass"],
-            "import": lambda k: [sys.executable, "-c", "import bkflow.cli"],
+            "import": lambda k: [sys.executable, "-c", "import bkflow.cli.commands"],
             "version": lambda k: [BKFLOW, "--version"],
             "run 10": lambda k: [BKFLOW, "run", "--phi", "10", "--t-end", "10", "--scene",
                                  "friction", "--no-analyze", "--quiet", "--out",

@@ -13,10 +13,10 @@ against LAMMPS running the same deck.
 
 Codes (``--codes``):
   floor    the C kernel
-  engine   today's engine: the installed plugin (``bkflow_plugin``), the deck of bkflow.deck
+  engine   today's engine: the installed plugin (``bkflow_plugin``), the deck of bkflow.lammps.deck
   dev      the same deck with the plugin of BKFLOW_PLUGIN_DIR (a development build)
   fused    the development build's fused path, ``fix bk/substrate ... fused``: the deck of
-           ``bkflow.deck.setup_text(..., path="fused")``
+           ``bkflow.lammps.deck.setup_text(..., path="fused")``
 and any of them with LAMMPS settings appended as ``+NAME`` (SETTINGS: timer, neigh50,
 newtonoff, nosort; ``+fast`` = FAST: timer, neigh50, newtonoff), e.g. ``fused+fast``,
 ``engine+timer+neigh50``.
@@ -47,10 +47,10 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bkflow.deck import FAST_SETTINGS, DeckOptions, data_text, setup_text  # noqa: E402
-from bkflow.lattice import lattice_for  # noqa: E402
-from bkflow.params import RunSpec, parse_size  # noqa: E402
-from bkflow.rundir import DATA, STRESS  # noqa: E402
+from bkflow.lammps.deck import FAST_SETTINGS, DeckOptions, data_text, setup_text  # noqa: E402
+from bkflow.model.lattice import lattice_for  # noqa: E402
+from bkflow.model.params import RunSpec, parse_size  # noqa: E402
+from bkflow.store.rundir import DATA, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
 KERNEL = Path(__file__).with_name("floor_kernel.c")
@@ -137,7 +137,8 @@ class Floor:
 
 # --------------------------------------------------------------------------------------------
 def check(dll, sizes=((8, 3), (20, 5)), phis=(10.0, 1000.0), steps=2000) -> bool:
-    """The kernel against fix bk/substrate (the plugin bkflow.plugin finds) from a lively start."""
+    """The kernel against fix bk/substrate (the plugin bkflow.lammps.plugin finds) from a lively
+    start."""
     from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 
     ok = True

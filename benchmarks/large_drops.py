@@ -7,8 +7,8 @@ At N = 100 the drops above 1% of mu_s sigma_n span about one decade, too little 
 to decide a power law. This runs the steady protocol at N = 14400 (240x60; phi = 0.1, 10,
 100, 1000, 2 seeds, at most t = 16000, scene friction: the turning points the drops are read
 from are recorded down to the size-scaled threshold, 1% x 100/N) and reads every run's drops
-at both thresholds with the analysis's own functions (bkflow.reduced events, the transient,
-analysis.drop_result: Clauset et al.'s test and the lognormal comparison). The record,
+at both thresholds with the analysis's own functions (bkflow.observables.reduced events, the
+transient, analysis.drop_result: Clauset et al.'s test and the lognormal comparison). The record,
 benchmarks/records/large_drops.json, fills REPRODUCTION.md's block `large-drops`
 (benchmarks/results_blocks.py).
 """
@@ -40,8 +40,8 @@ def drops_at(rd, spec, fraction: float) -> dict:
     analysis's power-law test of them."""
     import numpy as np
 
-    from bkflow.analysis import drop_result, transient_time
-    from bkflow.params import AnalysisSettings
+    from bkflow.analysis.summary import drop_result, transient_time
+    from bkflow.model.params import AnalysisSettings
 
     settings = AnalysisSettings(slip_threshold=fraction).resolved(spec)
     red = rd.read_reduced(spec)
@@ -58,10 +58,10 @@ def drops_at(rd, spec, fraction: float) -> dict:
 
 
 def record() -> dict:
-    from bkflow.params import SCALED_N
-    from bkflow.provenance import record as provenance
-    from bkflow.rundir import sweep_run_dir
-    from bkflow.tables import read_tables
+    from bkflow.model.params import SCALED_N
+    from bkflow.store.provenance import record as provenance
+    from bkflow.store.rundir import sweep_run_dir
+    from bkflow.store.tables import read_tables
 
     runs, _ = read_tables(OUT)
     rows = []

@@ -20,9 +20,9 @@ import tempfile
 
 CHILD = r"""
 import sys, time
-from bkflow.deck import DeckOptions, data_text, setup_text
-from bkflow.params import RunSpec, parse_size
-from bkflow.plugin import open_lammps
+from bkflow.lammps.deck import DeckOptions, data_text, setup_text
+from bkflow.model.params import RunSpec, parse_size
+from bkflow.lammps.plugin import open_lammps
 size, phi, steps, energy, d = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), *sys.argv[4:6]
 lx, ly = parse_size(size)
 spec = RunSpec(phi=phi, Lx=lx, Ly=ly, seed=1, scene="friction", start="random")

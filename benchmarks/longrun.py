@@ -34,11 +34,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-from bkflow.io import write_json_atomic
-from bkflow.params import RunSpec
-from bkflow.plugin import open_lammps
-from bkflow.stress import Zigzag
+from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.params import RunSpec
+from bkflow.observables.stress import Zigzag
+from bkflow.store.formats import write_json_atomic
 
 #: slip thresholds of the records, fractions of mu_s sigma_n
 THRESHOLDS = (0.001, 0.01, 0.03, 0.1)
@@ -268,7 +268,7 @@ def main(argv=None):
     ap.add_argument("--dt-factor", type=float, default=None)
     ap.add_argument("--block", type=float, default=1000.0)
     a = ap.parse_args(argv)
-    from bkflow.params import size_from_n
+    from bkflow.model.params import size_from_n
 
     Lx, Ly = size_from_n(a.N)
     spec = RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, start=a.start)

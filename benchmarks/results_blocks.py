@@ -123,8 +123,9 @@ def states_ergodicity() -> str:
 
 def _needed(obs: str, phi: float, n: int, rel: float) -> float:
     """The window length (time units) whose calibrated relative error of ``obs`` is ``rel``
-    (bkflow.states.window_variance, falling as 1/W beyond the longest window measured)."""
-    from bkflow.states import window_variance
+    (bkflow.observables.states.window_variance, falling as 1/W beyond the longest window
+    measured)."""
+    from bkflow.observables.states import window_variance
 
     lo, hi = math.log(1e2), math.log(1e13)
     if window_variance(obs, phi, n, 1e2) <= rel ** 2:
@@ -147,7 +148,7 @@ def states_longest() -> str:
     many stretches in each state the run had: does either state absorb the layer?"""
     import numpy as np
 
-    from bkflow.states import r_independent
+    from bkflow.observables.states import r_independent
 
     sr, runs, _ = _states()
     long = runs[runs.blocks.map(len) >= 4000]
@@ -176,7 +177,7 @@ def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
     0.2% on <sigma_x>/sigma_n and on mu_bar."""
-    from bkflow.states import calibration, window_variance
+    from bkflow.observables.states import calibration, window_variance
 
     out = ["| N | phi | error of <sigma_x>/sigma_n at T = 1e4 / 1e5 / 1e6 | of mu_bar | T for "
            "1% / 0.2% on <sigma_x>/sigma_n | on mu_bar |", "|---|---|---|---|---|---|"]
@@ -530,9 +531,9 @@ def scene_goals() -> str:
 
 # ------------------------------------------------------------------------- the presets
 def accuracy_presets() -> str:
-    """The accuracy presets as bkflow defines them now (bkflow.params.ACCURACY): the error
+    """The accuracy presets as bkflow defines them now (bkflow.model.params.ACCURACY): the error
     target, the two constants of the time-step rule, the run lengths and the target error."""
-    from bkflow.params import ACCURACY
+    from bkflow.model.params import ACCURACY
 
     out = ["| preset | target bias of the time step | c_contact (omega_c dt) | c_stable "
            "(dt omega_max) | t_end, paper protocol | cap, steady protocol | target error of "
@@ -592,7 +593,7 @@ def states_starts() -> str:
     relative deviation, the median over the seeds, per start."""
     import numpy as np
 
-    from bkflow.states import BLOCK_T
+    from bkflow.observables.states import BLOCK_T
 
     sr, runs, means = _states()
     half = BLOCK_T / 2     # the blocks' edges drift from whole thousands by rounding to steps

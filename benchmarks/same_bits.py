@@ -7,7 +7,7 @@ kernel's speed of each, side by side.
 
 DIR_A, DIR_B: directories holding a ``bkflowplugin.so`` and its ``build_info.json`` (an
 installed ``bkflow_plugin`` package, or a CMake build directory: ``cmake -S plugins -B DIR``).
-Each run is made in a subprocess with ``BKFLOW_PLUGIN_DIR`` (bkflow.plugin) and, for ``lmp``,
+Each run is made in a subprocess with ``BKFLOW_PLUGIN_DIR`` (bkflow.lammps.plugin) and, for ``lmp``,
 ``LAMMPS_PLUGIN_PATH`` pointing at one of them; the decks are the same text for both.
 
 The cases: every contact rule and damping scheme from the synchronized and the random starts
@@ -62,17 +62,17 @@ def cases() -> list[tuple[str, dict, str, str]]:
 CHILD = r'''
 import json, sys
 from pathlib import Path
-from bkflow.params import RunSpec
+from bkflow.model.params import RunSpec
 fields, path, how, out = json.loads(sys.argv[1])
 spec = RunSpec(Lx=12, Ly=4, seed=3, t_end=60.0, scene="full", **fields)
 out = Path(out)
 if how == "engine":
-    from bkflow.engine import run
+    from bkflow.lammps.engine import run
     run(spec, out, progress=False, chunk_steps=997, path=path)
 elif how == "restart":
     import contextlib
-    from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-    from bkflow.plugin import open_lammps
+    from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+    from bkflow.lammps.plugin import open_lammps
     out.mkdir(parents=True)
     with contextlib.chdir(out):
         Path("data.bk").write_text(data_text(spec))
@@ -99,8 +99,8 @@ def run_case(case, plugin: Path, out: Path) -> None:
     name, fields, path, how = case
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(plugin), "LAMMPS_PLUGIN_PATH": str(plugin)}
     if how == "mpi":
-        from bkflow.deck import DeckOptions, write_deck
-        from bkflow.params import RunSpec
+        from bkflow.lammps.deck import DeckOptions, write_deck
+        from bkflow.model.params import RunSpec
 
         spec = RunSpec(Lx=12, Ly=4, seed=3, t_end=60.0, scene="full", **fields)
         write_deck(spec, out, DeckOptions(path=path))
@@ -142,9 +142,9 @@ def loop_time(plugin: Path, n_side: int, steps: int) -> float:
 def _loop_code(n_side: int, steps: int, timed: bool) -> str:
     return (
         "import time\n"
-        "from bkflow.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text\n"
-        "from bkflow.params import RunSpec\n"
-        "from bkflow.plugin import open_lammps\n"
+        "from bkflow.lammps.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text\n"
+        "from bkflow.model.params import RunSpec\n"
+        "from bkflow.lammps.plugin import open_lammps\n"
         f"spec = RunSpec(phi=100.0, Lx={2 * n_side}, Ly={n_side // 2}, scene='friction')\n"
         "open('data.bk', 'w').write(data_text(spec))\n"
         "lmp = open_lammps(log='none')\n"

@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bkflow.params import DEFAULT_SCENE, SCENES
+from bkflow.model.params import DEFAULT_SCENE, SCENES
 
 HERE = Path(__file__).resolve().parent
 RECORD = HERE / "records" / "scene_bytes.json"
@@ -96,9 +96,9 @@ def long_run(work: Path) -> dict:
 
 def warm_analysis(size: str, phi: float, t_end: float, work: Path, rounds: int = 3) -> dict:
     """The analysis of a default-scene run in a process whose imports are paid (a sweep's
-    warm worker, a notebook): ``bkflow.analysis.analyze`` timed in-process after a first
+    warm worker, a notebook): ``bkflow.analysis.summary.analyze`` timed in-process after a first
     call, the median of ``rounds``, against the run's LAMMPS loop."""
-    from bkflow.analysis import analyze
+    from bkflow.analysis.summary import analyze
 
     bkflow = str(Path(sys.executable).parent / "bkflow")
     out = work / f"warm-{size}"
@@ -128,7 +128,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     record = json.loads(RECORD.read_text()) if RECORD.exists() else {}
     work = Path(tempfile.mkdtemp(prefix="bkscenebytes"))
-    from bkflow.provenance import record as provenance
+    from bkflow.store.provenance import record as provenance
 
     for size in a.sizes:
         if size in record.get("sizes", {}) and not a.again:

@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bkflow.params import SCENES
+from bkflow.model.params import SCENES
 
 
 def main(argv=None) -> None:

@@ -20,10 +20,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from bkflow.analysis import analyze
-from bkflow.engine import run
-from bkflow.params import SCENES, RunSpec, parse_size
-from bkflow.rundir import DATA, DECK, LOG, STRESS
+from bkflow.analysis.summary import analyze
+from bkflow.lammps.engine import run
+from bkflow.model.params import SCENES, RunSpec, parse_size
+from bkflow.store.rundir import DATA, DECK, LOG, STRESS
 
 
 def _mb(b):

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow import states
-from bkflow.states import BLOCK_T, CALIBRATION, r_independent
+from bkflow.observables import states
+from bkflow.observables.states import BLOCK_T, CALIBRATION, r_independent
 
 #: the share of each run left out as the start's transient
 TRANSIENT = 0.2
@@ -73,7 +73,7 @@ def layer_means(runs: pd.DataFrame) -> dict:
 
 def windows_of(b: pd.DataFrame, W: float):
     """Means (stress, mu_bar) of windows of W time units slid along the blocks b (a start
-    every W / 4: bkflow.states.slide)."""
+    every W / 4: bkflow.observables.states.slide)."""
     k = max(1, int(round(W / BLOCK_T)))
     stress = states.slide(b.s, k)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -84,7 +84,7 @@ def windows_of(b: pd.DataFrame, W: float):
 def window_table(runs: pd.DataFrame, means: dict, exclude_seed=None) -> dict:
     """{N: {"phi": [...], "windows": [...], "stress": [[...]], "mu_bar": [[...]]}}: the
     relative mean-square deviation of window means from the layer's long-run mean
-    (bkflow.states.calibrate), the layers of a seed left out with ``exclude_seed``."""
+    (bkflow.observables.states.calibrate), the layers of a seed left out with ``exclude_seed``."""
     out = {}
     for n, gn in runs.groupby("N"):
         entry = {}
@@ -208,7 +208,7 @@ FALSE_STEADY_OFF = 0.005
 
 
 def verdicts(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
-    """The verdict of bkflow.states on windows [0.2 T, T] of the runs from the steady
+    """The verdict of bkflow.observables.states on windows [0.2 T, T] of the runs from the steady
     protocol's starts (random, partial) for T in VERDICT_T, read from the blocks (the trend
     test over 10 groups of blocks, chi from the blocks' moments, the composition, the
     calibrated switching against the blocks' own error); per (N, phi, T): the windows, the
@@ -232,7 +232,7 @@ def verdicts(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
 
 def _verdict_row(r, lm, b: pd.DataFrame, T: float, first: bool) -> dict:
     """The verdict of one window (blocks ``b``) of run ``r`` of the layer ``lm``, as
-    bkflow.states gives it from the blocks (``block_verdict``)."""
+    bkflow.observables.states gives it from the blocks (``block_verdict``)."""
     v, mean, err = states.block_verdict(b.t0, b.t1, b.s, b.R, b.R2abs, b.Zre, b.Zim, b.n,
                                         r.phi, r.N)
     return {"N": r.N, "phi": r.phi, "T": T, "verdict": v, "first": first,
@@ -328,7 +328,8 @@ def paper_points(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
 
 
 def calibration(runs: pd.DataFrame, means: dict) -> dict:
-    """The switching calibration that bkflow.states reads (src/bkflow/switching.json)."""
+    """The switching calibration that bkflow.observables.states reads
+    (src/bkflow/observables/switching.json)."""
     sizes = window_table(runs, means)
     occ = occupancy(runs)
     for n, size in sizes.items():
@@ -339,7 +340,8 @@ def calibration(runs: pd.DataFrame, means: dict) -> dict:
         sizes[n]["memory_chi_observed"] = round(worst, 3)
     return {"comment": "written by benchmarks/stiff_states.py report: the relative mean-square "
                        "deviation of window means from the layer's long-run mean "
-                       "(bkflow.states.window_variance), and the memory threshold of chi",
+                       "(bkflow.observables.states.window_variance), and the memory threshold "
+                       "of chi",
             "transient": TRANSIENT, "block_t": BLOCK_T, "sizes": sizes}
 
 

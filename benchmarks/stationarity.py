@@ -11,7 +11,7 @@ relaxation
     N = 100 and 400: the stress's block means over time (40 blocks), and two relaxation
     times of <sigma_x>: ``tau``, fitted to the block means from t = 400 on as
     s_inf + A exp(-t / tau) (scipy.optimize.curve_fit, weighted equally), and ``t_equil``,
-    Chodera's equilibration detection (bkflow.stationarity.equilibration_time). The same
+    Chodera's equilibration detection (bkflow.observables.stationarity.equilibration_time). The same
     specs as reproduce.py's "paper" protocol: pointed at its directory, nothing is run again.
     Writes benchmarks/relaxation.png.
 cost
@@ -21,8 +21,8 @@ cost
 calibration
     The error of a correlated mean on AR(1) series with known answers (n = 100, 400, 1000;
     rho = 0 .. 0.9; 2000 series each): the mean estimate over the true error, for bkflow's
-    estimator (bkflow.stationarity.mean_error) and for the blocking it replaced; and on real
-    runs, the scatter of mu_bar over seeds against the runs' own errors (the ratio is 1 for
+    estimator (bkflow.observables.stationarity.mean_error) and for the blocking it replaced; and on
+    real runs, the scatter of mu_bar over seeds against the runs' own errors (the ratio is 1 for
     calibrated errors of independent seeds).
 """
 
@@ -36,12 +36,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.grid import parse_sizes, phi_values, sweep_specs
-from bkflow.project import open_project
-from bkflow.rundir import RunDir
-from bkflow.stationarity import block_means, equilibration_time, mean_error
-from bkflow.sweep import sweep
-from bkflow.tables import read_tables
+from bkflow.observables.stationarity import block_means, equilibration_time, mean_error
+from bkflow.store.rundir import RunDir
+from bkflow.store.tables import read_tables
+from bkflow.sweeps.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.sweeps.local import sweep
+from bkflow.sweeps.project import open_project
 
 HERE = Path(__file__).resolve().parent
 

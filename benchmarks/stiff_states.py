@@ -11,7 +11,8 @@ run
     the same command again to go on, or with a larger --t-end to extend every run). --shard
     I/K takes every K-th case from the I-th: one process per core.
 report
-    See ``bkflow.states`` for the classification; prints the tables of benchmarks/RESULTS.md.
+    See ``bkflow.observables.states`` for the classification; prints the tables of
+    benchmarks/RESULTS.md.
 
 The time step: dt = min(1 / omega_max, 0.1 / omega_c), omega_max^2 = 4 k_b + k_e + k_d + dk_d
 (the bonds' fastest mode) and omega_c^2 = k_e + k_d + dk_d (the contacts' load cycle), i.e. the
@@ -30,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from longrun import RECORDS, LongRun, case_name  # noqa: E402
 
-from bkflow.params import STARTS, RunSpec, size_from_n  # noqa: E402
+from bkflow.model.params import STARTS, RunSpec, size_from_n  # noqa: E402
 
 OUT = RECORDS / "stiff_states"
 PHI = (30.0, 100.0, 215.0, 464.0, 1000.0)

@@ -60,13 +60,13 @@ sys.path.insert(0, str(HERE.parent))
 
 from floor import CPU_USE, LOOP, Floor, build, check  # noqa: E402
 
-from bkflow.deck import DeckOptions, data_text, setup_text  # noqa: E402
-from bkflow.lattice import lattice_for  # noqa: E402
-from bkflow.params import RunSpec, parse_size  # noqa: E402
-from bkflow.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
+from bkflow.lammps.deck import DeckOptions, data_text, setup_text  # noqa: E402
+from bkflow.model.lattice import lattice_for  # noqa: E402
+from bkflow.model.params import RunSpec, parse_size  # noqa: E402
+from bkflow.store.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
-#: the engine's comm cutoff on one rank (bkflow.deck.SERIAL_COMM_CUTOFF) and today's
+#: the engine's comm cutoff on one rank (bkflow.lammps.deck.SERIAL_COMM_CUTOFF) and today's
 NEW_CUTOFF, OLD_CUTOFF = 0.1, 1.0
 
 
@@ -247,7 +247,7 @@ def _write_data(work: Path, spec: RunSpec) -> str:
 
 def compare_output(a) -> None:
     """The stress series' cost: none, fix bk/stress (buffered) and fix print (per line)."""
-    from bkflow.deck import SUBSTRATE_FIX
+    from bkflow.lammps.deck import SUBSTRATE_FIX
 
     work = Path(tempfile.mkdtemp())
     print("| N | no output | fix bk/stress | fix print | bk/stress cost | fix print cost |")

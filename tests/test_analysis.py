@@ -7,9 +7,9 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import j0, j1
 
-from bkflow import clusters, order, stress
-from bkflow.lattice import square_lattice
-from bkflow.stationarity import mean_error
+from bkflow.model.lattice import square_lattice
+from bkflow.observables import clusters, order, stress
+from bkflow.observables.stationarity import mean_error
 from tests.support import fresh_python
 
 
@@ -238,7 +238,7 @@ def test_run_regime_is_the_most_frequent_cluster_regime():
 def test_a_whole_box_slip_is_neither_dp_nor_dt_on_any_lattice(lx, ly, psi, expected):
     """The parity-free rule: every particle slipping, on odd and even sides, is C or W; its
     extents are exactly the whole box's (box_extent), and whole rows stay LC."""
-    from bkflow.lattice import square_lattice
+    from bkflow.model.lattice import square_lattice
 
     lat = square_lattice(lx, ly)
     x0 = lat.positions[:, :2].copy()
@@ -468,11 +468,12 @@ def test_bad_stress_input_is_refused():
 
 
 def test_powerlaw_is_imported_without_pyplot_and_pyplot_stays_real():
-    """The analysis imports powerlaw without matplotlib.pyplot (bkflow.stress.import_powerlaw);
-    powerlaw's own plots still work, and a later ``import matplotlib.pyplot`` is the real one."""
+    """The analysis imports powerlaw without matplotlib.pyplot
+    (bkflow.observables.stress.import_powerlaw); powerlaw's own plots still work, and a later
+    ``import matplotlib.pyplot`` is the real one."""
     code = (
         "import sys\n"
-        "from bkflow.stress import import_powerlaw\n"
+        "from bkflow.observables.stress import import_powerlaw\n"
         "pl = import_powerlaw()\n"
         "assert 'matplotlib.pyplot' not in sys.modules\n"
         "import matplotlib\n"

@@ -1,6 +1,6 @@
-"""The event catalogue (bkflow.catalogue): each column on a hand-built case whose answer is known
-exactly (a nucleation site and a front of known speed, a rigid block slip whose perimeter bonds
-carry the paper's Eq. 2 exactly, a ledger with a known budget), then on a run of the events
+"""The event catalogue (bkflow.observables.catalogue): each column on a hand-built case whose answer
+is known exactly (a nucleation site and a front of known speed, a rigid block slip whose perimeter
+bonds carry the paper's Eq. 2 exactly, a ledger with a known budget), then on a run of the events
 scene: its columns, its Parquet copy read back by pyarrow alone, damaged inputs refused (the
 first breaks on 1 and 2 ranks: tests/test_scenes.py)."""
 
@@ -10,12 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow import catalogue
-from bkflow.analysis import analyze
-from bkflow.engine import run
-from bkflow.lattice import square_lattice
-from bkflow.params import RunSpec
-from bkflow.rundir import RunDir
+from bkflow.analysis.summary import analyze
+from bkflow.lammps.engine import run
+from bkflow.model.lattice import square_lattice
+from bkflow.model.params import RunSpec
+from bkflow.observables import catalogue
+from bkflow.store.rundir import RunDir
 
 
 def _front(lat, site, speed, dt, step0=1000, reach=6.0):
@@ -199,8 +199,8 @@ def test_the_parquet_catalogue_reads_back_without_bkflow(events_run):
     the analysis's table, its counts as integers."""
     import pyarrow.parquet as pq
 
-    from bkflow.analysis import summarize
-    from bkflow.rundir import RunDir
+    from bkflow.analysis.summary import summarize
+    from bkflow.store.rundir import RunDir
 
     d, _ = events_run
     assert not (d / "events.csv").exists()
@@ -246,7 +246,7 @@ def test_another_threshold_never_mixes_two_slips_in_one_row(events_run, tmp_path
     """Analysed with a slip threshold other than the run's, a slip's frames are used only when
     they are that very slip's (its maximum and its minimum): no row takes its size from a
     shorter slip recorded at the run's threshold."""
-    from bkflow.params import AnalysisSettings
+    from bkflow.model.params import AnalysisSettings
 
     d = _copy(events_run, tmp_path)
     recorded = RunDir(d).read_events()
@@ -261,7 +261,7 @@ def test_another_threshold_never_mixes_two_slips_in_one_row(events_run, tmp_path
 
 @pytest.mark.parametrize("damage", ["garbage", "outside"])
 def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
-    from bkflow.rundir import DamagedRunError
+    from bkflow.store.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     lines = (d / "slips.lammpstrj").read_text().splitlines()
@@ -279,7 +279,7 @@ def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
 def test_a_damaged_record_is_refused(events_run, tmp_path):
     """A record of the run (extrema.npy) damaged in place, its size kept: refused, naming
     it."""
-    from bkflow.rundir import DamagedRunError
+    from bkflow.store.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     data = bytearray((d / "extrema.npy").read_bytes())
@@ -294,7 +294,7 @@ def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_p
     sizes and digests): either one gone, cut or replaced, and the catalogue is refused with
     the repair named (DamagedRunError), never read half; bkflow analyze makes them again."""
     from bkflow.api import load_run
-    from bkflow.rundir import DamagedRunError
+    from bkflow.store.rundir import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     whole = load_run(d).events
@@ -320,7 +320,7 @@ def test_all_slips_at_once_are_each_slip_alone():
     """catalogue.slip_rows (vectorised over the slips) gives slip_row's columns for every slip,
     to rounding: random slips of a 12x5 layer, several clusters each, across the periodic
     edges, unwrapped positions far from the box (a long run's)."""
-    from bkflow.lattice import square_lattice
+    from bkflow.model.lattice import square_lattice
 
     rng = np.random.default_rng(4)
     lat = square_lattice(12, 5)

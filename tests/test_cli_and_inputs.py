@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bkflow.cli import main
-from bkflow.deck import STANDARD_DECKS, write_standard_decks
-from bkflow.engine import RunError, run
-from bkflow.lattice import lattice_for, square_lattice
-from bkflow.params import RunSpec, SpecError
-from bkflow.rundir import RunDir
+from bkflow.cli.commands import main
+from bkflow.lammps.deck import STANDARD_DECKS, write_standard_decks
+from bkflow.lammps.engine import RunError, run
+from bkflow.model.lattice import lattice_for, square_lattice
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.store.rundir import RunDir
 from tests.support import ROOT, tool
 
 
@@ -152,9 +152,9 @@ def test_a_decks_header_gives_the_steps_the_deck_runs(tmp_path, stopped):
     """in.bk's header gives the steps of its ``run`` line: the whole run, or, in the deck the
     engine writes at the end of an adaptive run that stopped by its rule, the steps it ran
     (the header gave the cap's, "t_end = 64000 (4615106 steps)", above ``run 533614``)."""
-    from bkflow.deck import DeckOptions
-    from bkflow.engine import _write_inputs
-    from bkflow.params import protocol_fields
+    from bkflow.lammps.deck import DeckOptions
+    from bkflow.lammps.engine import _write_inputs
+    from bkflow.model.params import protocol_fields
 
     spec = RunSpec(phi=10.0, Lx=20, Ly=5, seed=1, **protocol_fields("steady", t_end=64000.0))
     rd = RunDir(tmp_path)
@@ -176,7 +176,7 @@ def test_checked_in_decks_are_current(lammps, tmp_path):
             fresh = (tmp_path / name / f).read_text()
             kept = (ROOT / "lammps_inputs" / name / f).read_text()
             assert fresh == kept, (f"lammps_inputs/{name}/{f} is stale: regenerate with "
-                                   "python -m bkflow.deck lammps_inputs")
+                                   "python -m bkflow.lammps.deck lammps_inputs")
 
 
 @pytest.mark.slow
@@ -221,7 +221,7 @@ def test_standalone_deck_runs_under_lmp(lammps, tmp_path):
 def test_the_progress_bar_shows_steps_and_the_stress(capsys):
     """A run's progress goes through tqdm.auto (a line on a terminal, a widget in a notebook);
     outside both it is off unless asked for."""
-    from bkflow.engine import _Progress, in_notebook
+    from bkflow.lammps.engine import _Progress, in_notebook
 
     assert not in_notebook()
     bar = _Progress("phi=1, 20x5, seed 1", 1000, enabled=True)

@@ -1,4 +1,4 @@
-"""A longer run continues a shorter one from its restart file (bkflow.engine.continuation):
+"""A longer run continues a shorter one from its restart file (bkflow.lammps.engine.continuation):
 never simulating again what it has, and the very run a longer request makes from the start,
 bit for bit on the fused path; a continuation cut short is undone; a sweep with a longer
 --t-end continues its shorter runs."""
@@ -10,9 +10,9 @@ import subprocess
 
 import pytest
 
-from bkflow.engine import continuation, run
-from bkflow.params import RunSpec, protocol_fields
-from bkflow.rundir import CONTINUING, RunDir
+from bkflow.lammps.engine import continuation, run
+from bkflow.model.params import RunSpec, protocol_fields
+from bkflow.store.rundir import CONTINUING, RunDir
 from tests.support import tool
 
 pytestmark = pytest.mark.usefixtures("lammps")
@@ -106,7 +106,7 @@ def test_a_continuation_stopped_after_it_committed_is_kept(tmp_path):
 
 
 def test_analyze_undoes_a_continuation_cut_short(tmp_path):
-    from bkflow.analysis import analyze
+    from bkflow.analysis.summary import analyze
 
     short = _spec(t_end=1000.0, scene="figures")
     run(short, tmp_path / "c", progress=False)

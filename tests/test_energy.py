@@ -13,8 +13,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bkflow.lattice import lattice_for
-from bkflow.params import RunSpec
+from bkflow.model.lattice import lattice_for
+from bkflow.model.params import RunSpec
 from tests.reference import Reference
 
 

@@ -73,7 +73,7 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
     boot = ("import sys; sys.meta_path[:] = [f for f in sys.meta_path "
             "if not type(f).__module__.startswith('_editable_')]; "
             f"sys.path.insert(0, {str(scratch / 'src')!r}); sys.path.insert(0, {str(scratch)!r});"
-            " import bkflow.params as p; assert 'halve' in p.CONTACT_RULES, p.__file__; "
+            " import bkflow.model.params as p; assert 'halve' in p.CONTACT_RULES, p.__file__; "
             "import pytest; sys.exit(pytest.main(sys.argv[1:]))")
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(build)}
     proc = subprocess.run(

@@ -18,14 +18,14 @@ from pathlib import Path
 
 import pytest
 
-from bkflow.cli import (
+from bkflow.cli.commands import (
     EXIT_BAD_INPUT,
     EXIT_BUSY,
     EXIT_FILE_SYSTEM,
     EXIT_INTERRUPTED,
     EXIT_RUN_FAILED,
 )
-from bkflow.rundir import META, SUMMARY, RunDir
+from bkflow.store.rundir import META, SUMMARY, RunDir
 from tests.support import fresh_python, tool
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -236,7 +236,7 @@ def test_cluster_file_systems_without_flock_fsync_and_unique_temporaries(tmp_pat
                                                                           capsys):
     import fcntl
 
-    from bkflow import io, rundir
+    from bkflow.store import formats, rundir
 
     def no_flock(fd, op):
         raise OSError(errno.ENOSYS, "Function not implemented")
@@ -254,8 +254,8 @@ def test_cluster_file_systems_without_flock_fsync_and_unique_temporaries(tmp_pat
     real_replace = os.replace
     monkeypatch.setattr(os, "replace", lambda a, b: (seen.append(Path(a).name),
                                                      real_replace(a, b)))
-    io.write_json_atomic(tmp_path / "x.json", {"a": 1})
-    io.write_json_atomic(tmp_path / "x.json", {"a": 2})
+    formats.write_json_atomic(tmp_path / "x.json", {"a": 1})
+    formats.write_json_atomic(tmp_path / "x.json", {"a": 2})
     assert len(synced) == 2 and len(set(seen)) == 2  # flushed to disk; a fresh name each time
     assert json.loads((tmp_path / "x.json").read_text()) == {"a": 2}
 
@@ -286,7 +286,7 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
         "signal.signal(signal.SIGINT, lambda *a: None)\n"
         "faulthandler.register(signal.SIGTERM)\n"   # a handler Python's signal does not know
         "before = [handler(s) for s in (1, 2, 15)]\n"
-        "from bkflow.plugin import load_mpi\n"
+        "from bkflow.lammps.plugin import load_mpi\n"
         "t = threading.Thread(target=load_mpi)\n"   # from a thread, as an API user may
         "t.start(); t.join()\n"
         "print(before == [handler(s) for s in (1, 2, 15)], before)\n")
@@ -468,9 +468,9 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    from bkflow import plot
-    from bkflow.fronts import front_movie
-    from bkflow.io import Front
+    from bkflow.figures import plot
+    from bkflow.figures.fronts import front_movie
+    from bkflow.store.formats import Front
 
     fig = Figure()
     fig.add_subplot().plot([0, 1], [1, 0])
@@ -567,7 +567,7 @@ def test_bkflow_under_mpirun_is_refused_not_hung(lammps, tmp_path):
 def test_odd_process_states_are_one_line(lammps, tmp_path):
     """stderr closed, the current directory deleted, a name that is not UTF-8, a memory
     limit, and a bug of bkflow's own: one line each, a documented exit code, no traceback."""
-    from bkflow.cli import EXIT_INTERNAL, EXIT_RESOURCES
+    from bkflow.cli.commands import EXIT_INTERNAL, EXIT_RESOURCES
 
     short = ["--phi", "1", "--t-end", "20", "--scene", "friction", "--quiet"]
     # stderr closed: the run runs (it has nowhere to complain)
@@ -605,7 +605,7 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
     one_line(p, "out of memory")
     def analyze_raising(error: str):  # `bkflow analyze` whose command raises ``error``
         return subprocess.run(
-            [sys.executable, "-c", "import bkflow.cli as c, sys\n"
+            [sys.executable, "-c", "import bkflow.cli.commands as c, sys\n"
              f"def f(a):\n    raise {error}\n"
              "c._analyze = f\nsys.exit(c.main(['analyze', '/nonexistent']))"],
             capture_output=True, text=True)
@@ -615,7 +615,7 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
     assert oom.returncode == EXIT_RESOURCES
     one_line(oom, "out of memory")
     # a bug: one line, exit 70, the traceback kept in a file
-    from bkflow import cli
+    from bkflow.cli import commands as cli
 
     boom = analyze_raising("ZeroDivisionError('division by zero')")
     assert boom.returncode == EXIT_INTERNAL == cli.EXIT_INTERNAL
@@ -714,8 +714,8 @@ def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
     """An interrupted `collect --analysis` leaves some runs re-analysed and the tables old:
     plot refuses, naming the cure; after it, plot draws. A second sweep that changes the
     tables removes the figures of the old ones (and only those)."""
-    from bkflow.analysis import analyze
-    from bkflow.params import AnalysisSettings
+    from bkflow.analysis.summary import analyze
+    from bkflow.model.params import AnalysisSettings
 
     d = tmp_path / "s"
     shutil.copytree(small_sweep, d)
@@ -853,7 +853,7 @@ def test_plot_and_movie_never_replace_a_users_file(lammps, tmp_path, small_sweep
 def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
     """Below what MPI needs, its start aborts from C (exit 134 or 143, a stack of lines):
     bkflow names the limit first (exit 5)."""
-    from bkflow.cli import EXIT_RESOURCES
+    from bkflow.cli.commands import EXIT_RESOURCES
 
     p = subprocess.run(f"{limit}; '{tool('bkflow')}' run --phi 10 {' '.join(SHORT)} "
                        f"--out '{tmp_path}/r'", shell=True, capture_output=True, text=True)
@@ -920,7 +920,7 @@ def test_a_plot_and_a_collect_exclude_each_other_and_the_record_is_of_what_was_r
     file it lists is there."""
     import json
 
-    from bkflow.tables import tables_digest
+    from bkflow.store.tables import tables_digest
 
     s = _small_sweep(tmp_path / "s")
     plot = subprocess.Popen([tool("bkflow"), "plot", str(s)], stdout=subprocess.PIPE,
@@ -945,7 +945,7 @@ def test_a_collect_cut_short_leaves_no_mixed_set_that_reads(lammps, tmp_path):
     written last: tables from two collects (one cut short, here its first table written over
     the set before) are refused by every reader, one line and the repair; collect repairs."""
     from bkflow.api import load_sweep
-    from bkflow.tables import StaleTablesError
+    from bkflow.store.tables import StaleTablesError
 
     s = _small_sweep(tmp_path / "s")
     runs = (s / "runs.csv").read_text()
@@ -969,7 +969,7 @@ def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps,
     Run.clusters refuse them (DamagedRunError), and collect, or the sweep's own command again,
     makes the analysis again (exit 0) rather than drawing from half a table."""
     from bkflow.api import load_sweep
-    from bkflow.rundir import DamagedRunError
+    from bkflow.store.rundir import DamagedRunError
 
     s = _small_sweep(tmp_path / "s")
     before = (s / "results.csv").read_text()
@@ -1013,7 +1013,7 @@ def test_a_companion_that_is_not_the_runs_is_refused(pair, tmp_path, stand_in):
     another length) is not this run's: analyze and the API refuse it in one line, never a
     gap of zero and 'steady'."""
     from bkflow.api import load_run
-    from bkflow.rundir import DamagedRunError
+    from bkflow.store.rundir import DamagedRunError
 
     run = tmp_path / "run"
     shutil.copytree(pair / "run", run)
@@ -1066,7 +1066,7 @@ def test_set_goes_through_the_options_checks(tmp_path, option, setting):
 def test_a_sweep_varies_the_start_as_the_option_does(tmp_path):
     """--vary start=random,partial under the steady protocol: each start gets the protocol's
     companion from the other side (as --start partial does), not a refusal."""
-    from bkflow.project import open_project, spec_of
+    from bkflow.sweeps.project import open_project, spec_of
 
     p = bk("sweep", "--phi", "10", "--seeds", "1", "--vary", "start=random,partial",
            "--scene", "friction", "--out", tmp_path / "s", "--init")
@@ -1094,7 +1094,7 @@ def test_printed_commands_are_safe_to_paste(tmp_path, name):
     assert sh.returncode == 0, sh.stderr
     assert Path(sh.stdout.strip()) == (tmp_path / name).resolve()
     assert not list(tmp_path.rglob("PWNED"))
-    from bkflow.io import shell_word
+    from bkflow.store.formats import shell_word
 
     for word in (name, f"/abs/{name}"):   # and the helper every printed command uses
         assert shlex.split(shell_word(word)) in ([word], [f"./{word}"])

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow import plot
+from bkflow.figures import plot
 from tests.support import tool
 
 SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",

@@ -16,10 +16,10 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-from bkflow.lattice import Lattice, contact_start
-from bkflow.params import CONTACT_RULES, DAMPING_MODES, RunSpec
-from bkflow.plugin import open_lammps
+from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.lattice import Lattice, contact_start
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec
 from tests.reference import Reference, step_watching_the_box
 from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
 
@@ -286,7 +286,7 @@ def test_scene_outputs_match_the_general_path(workdir):
     """stress.csv, the slip frames of bk/slips and the snapshots, written by lmp -in from the
     fused deck with its settings, are those of the general path (events at the same steps;
     positions to the %.9g of the dump)."""
-    from bkflow.io import read_frames
+    from bkflow.store.formats import read_frames
 
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="full", seed=3,
                    snapshot_every=5.0)
@@ -354,7 +354,7 @@ def test_what_the_fused_path_cannot_do_is_refused(workdir):
     with_nve = "\n".join(ln + " fused" if " bk/substrate " in ln else ln
                           for ln in base.splitlines()) + "\n"
     assert "remove fix nve (nve)" in _refusal(workdir, spec, with_nve)
-    from bkflow.lattice import lattice_for
+    from bkflow.model.lattice import lattice_for
 
     lat = lattice_for(spec)
     only_x = Lattice(lat.Lx, lat.Ly, lat.positions, lat.bonds[0::2], lat.k_d)

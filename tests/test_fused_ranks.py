@@ -13,9 +13,9 @@ import subprocess
 
 import pytest
 
-from bkflow.deck import PROCESSORS, DeckOptions, continue_text, data_text, setup_text
-from bkflow.params import RunSpec
-from bkflow.plugin import block_rows
+from bkflow.lammps.deck import PROCESSORS, DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.plugin import block_rows
+from bkflow.model.params import RunSpec
 from tests.support import lively_start, tool
 
 pytestmark = pytest.mark.usefixtures("lammps")

@@ -12,32 +12,33 @@ import pandas as pd
 import pytest
 
 import bkflow
-from bkflow.params import AnalysisSettings, RunSpec, SpecError
-from bkflow.rundir import META, STRESS, SUMMARY, RunDir
+from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
+from bkflow.store.rundir import META, STRESS, SUMMARY, RunDir
 
 SRC = Path(bkflow.__file__).parent
 ROOT = Path(__file__).resolve().parents[1]
 
-#: the data flow of the package, bottom to top: a module imports only modules before it
-#: (docs/develop.md, "Layout"). The pure analysis functions sit low, beside the parameters, so that
-#: the engine's adaptive stop rule can use them.
-ORDER = ("params", "provenance", "limits", "lattice", "stationarity", "phases", "states",
-         "stress", "reduced",
-         "order", "clusters", "catalogue", "io", "rundir", "deck", "plugin", "engine",
-         "analysis", "grid", "job", "flowcompat", "project", "cluster", "tables", "sweep", "plot",
-         "fronts", "api", "report", "cli")
+#: the layers of the package, bottom to top (docs/develop.md, "Layout"): a module imports
+#: modules of its own group and of groups below it, never one above. The faces at the top
+#: (``bkflow/__init__.py``, ``bkflow/cluster.py``) only hand names on.
+LAYERS = ("model", "observables", "store", "lammps", "analysis", "sweeps", "figures", "api",
+          "cli", "cluster")
+#: what each group is for, in the words of its __init__
+GROUPS = ("model", "observables", "store", "lammps", "analysis", "sweeps", "figures", "cli")
+
+
+def _group(path: Path) -> str:
+    rel = path.relative_to(SRC)
+    return rel.parts[0] if len(rel.parts) > 1 else rel.stem
 
 
 def _bkflow_imports(path: Path) -> set[str]:
-    """The bkflow modules a source file imports, anywhere in it (lazy imports included)."""
+    """The groups of bkflow a source file imports, anywhere in it (lazy imports included)."""
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom):
-            if node.level == 1 and node.module:
-                found.add(node.module.split(".")[0])
-            elif node.level == 1:
-                found.update(a.name for a in node.names)
-            elif node.module and node.module.startswith("bkflow."):
+            assert node.level == 0, f"{path}:{node.lineno}: a relative import; name the group"
+            if node.module and node.module.startswith("bkflow."):
                 found.add(node.module.split(".")[1])
         elif isinstance(node, ast.Import):
             found.update(a.name.split(".")[1] for a in node.names
@@ -45,26 +46,40 @@ def _bkflow_imports(path: Path) -> set[str]:
     return found - {"__init__"}
 
 
-def test_every_module_is_placed_in_the_data_flow():
-    modules = {p.stem for p in SRC.glob("*.py")} - {"__init__", "__main__"}
-    assert modules == set(ORDER), (f"place these in ORDER (and in docs/develop.md's layout): "
-                                   f"{sorted(modules ^ set(ORDER))}")
+MODULES = sorted(p for p in SRC.rglob("*.py") if p.name not in ("__init__.py", "__main__.py"))
 
 
-@pytest.mark.parametrize("module", ORDER)
-def test_no_module_imports_one_above_it(module):
-    above = set(ORDER[ORDER.index(module):])
-    wrong = _bkflow_imports(SRC / f"{module}.py") & above
-    assert not wrong, f"bkflow.{module} imports {sorted(wrong)}, which come after it"
+def test_every_module_belongs_to_a_layer():
+    loose = [str(p.relative_to(SRC)) for p in MODULES if _group(p) not in LAYERS]
+    assert not loose, f"place these in a group of LAYERS (and docs/develop.md): {loose}"
+    for group in GROUPS:
+        doc = ast.get_docstring(ast.parse((SRC / group / "__init__.py").read_text()))
+        assert doc, f"bkflow.{group} says in its __init__ what it is for"
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(SRC)))
+def test_no_module_imports_a_layer_above_its_own(path):
+    group = _group(path)
+    above = set(LAYERS[LAYERS.index(group) + 1:])
+    wrong = _bkflow_imports(path) & above
+    assert not wrong, f"{path.relative_to(SRC)} ({group}) imports {sorted(wrong)}, above it"
+
+
+def test_observables_are_pure_numerics():
+    """Arrays in, arrays out: no files, no LAMMPS, no flow."""
+    for path in (SRC / "observables").glob("*.py"):
+        assert _bkflow_imports(path) <= {"model", "observables"}, path.name
+        text = path.read_text()
+        for lib in ("lammps", "signac", "flow"):
+            assert f"import {lib}" not in text and f"from {lib} " not in text, (path.name, lib)
 
 
 def test_figures_never_analyse_and_never_need_flow():
-    imports = _bkflow_imports(SRC / "plot.py")
-    assert not imports & {"analysis", "stress", "stationarity", "order", "clusters", "project",
-                          "sweep",
-                          "job", "flowcompat"}
-    text = (SRC / "plot.py").read_text()
-    assert "import flow" not in text and "from flow" not in text
+    for path in (SRC / "figures").glob("*.py"):
+        assert not _bkflow_imports(path) & {"analysis", "lammps", "sweeps"}, path.name
+        text = path.read_text()
+        assert "import flow" not in text and "from flow" not in text
+        assert "import signac" not in text and "signac_project_document" not in text, path.name
 
 
 def test_no_run_file_name_is_written_outside_rundir():
@@ -72,7 +87,7 @@ def test_no_run_file_name_is_written_outside_rundir():
              "slips.lammpstrj", "log.lammps", "meta.json", "summary.json", "events.csv",
              "events.parquet", "psi.csv", "clusters.csv", "extrema.npy", "blocks.npy",
              "psi.npy")
-    for path in SRC.glob("*.py"):
+    for path in SRC.rglob("*.py"):
         if path.stem == "rundir":
             continue
         code = ast.parse(path.read_text())
@@ -83,7 +98,7 @@ def test_no_run_file_name_is_written_outside_rundir():
             if isinstance(node, ast.Constant) and isinstance(node.value, str) \
                     and id(node) not in docstrings:
                 hits = [n for n in names if n in node.value]
-                assert not hits, f"{path.name}:{node.lineno} names {hits}: use bkflow.rundir"
+                assert not hits, f"{path.name}:{node.lineno} names {hits}: use bkflow.store.rundir"
 
 
 #: calls that create or fill a file
@@ -95,9 +110,9 @@ ALLOWED = {
     ("rundir.py", "touch"): "the empty marker that claims a new run directory",
     ("plot.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
     ("rundir.py", "open"): "the lock file: created empty, locked (flock), never written",
-    ("cli.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
+    ("commands.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
                         "(and stdout or stderr when the caller closed them)",
-    ("cli.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
+    ("commands.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
     ("rundir.py", "replace"): "a record kept whole (atomic_file) while a continuation rewrote "
                               "it in place, renamed back over it when the continuation is "
                               "undone",
@@ -138,8 +153,8 @@ def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
     full disk leaves the old file or the new one, never half of one. The only exceptions are
     named above with their reason, and LAMMPS's own outputs of a run under way (not Python's)."""
     bad = []
-    for path in sorted(SRC.glob("*.py")):
-        if path.name == "io.py":
+    for path in sorted(SRC.rglob("*.py")):
+        if path.name == "formats.py":
             continue
         for node, name, guarded in _writes(ast.parse(path.read_text())):
             if guarded or (path.name, name) in ALLOWED:
@@ -164,8 +179,8 @@ def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
 
 
 def test_flow_internals_we_use_still_exist(tmp_path):
-    from bkflow.flowcompat import check
-    from bkflow.project import TEMPLATE_DIR, ClusterProject, open_project
+    from bkflow.sweeps.flowcompat import check
+    from bkflow.sweeps.project import TEMPLATE_DIR, ClusterProject, open_project
 
     open_project(tmp_path)
     project = ClusterProject.get_project(str(tmp_path), search=False)
@@ -227,7 +242,7 @@ def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
     import fcntl
     import os
 
-    from bkflow.rundir import LOCK, RunBusyError
+    from bkflow.store.rundir import LOCK, RunBusyError
 
     rd = RunDir(tmp_path)
     fd = os.open(tmp_path / LOCK, os.O_RDWR | os.O_CREAT)
@@ -245,12 +260,13 @@ def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
 # --------------------------------------------------------------------------- re-analysis
 def test_changing_an_analysis_setting_reanalyses_a_finished_sweep_without_lammps(
         lammps, tmp_path, monkeypatch):
-    from bkflow import engine, job
-    from bkflow.cli import main
-    from bkflow.grid import sweep_specs
-    from bkflow.project import open_project
-    from bkflow.sweep import sweep
-    from bkflow.tables import RESULTS_FILE, RUNS_FILE, SETTINGS_FILE
+    from bkflow.cli.commands import main
+    from bkflow.lammps import engine
+    from bkflow.store.tables import RESULTS_FILE, RUNS_FILE, SETTINGS_FILE
+    from bkflow.sweeps import job
+    from bkflow.sweeps.grid import sweep_specs
+    from bkflow.sweeps.local import sweep
+    from bkflow.sweeps.project import open_project
 
     out = tmp_path / "s"
     specs = sweep_specs([1.0, 1000.0], [(20, 5)], 1, t_end=300.0, scene="full")
@@ -348,7 +364,7 @@ def unrendered_markup(html: str) -> list[str]:
 
 def test_the_docs_show_an_image_of_every_figure():
     """docs/sweeps.md shows each figure ``bkflow plot`` draws, and the image is there."""
-    from bkflow.plot import FIGURES
+    from bkflow.figures.plot import FIGURES
 
     text = (ROOT / "docs" / "sweeps.md").read_text()
     for name in FIGURES:

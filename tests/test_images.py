@@ -13,12 +13,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-from bkflow.engine import run
-from bkflow.io import read_frames
-from bkflow.params import RunSpec
-from bkflow.plugin import open_lammps
-from bkflow.rundir import RunDir
+from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.engine import run
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.params import RunSpec
+from bkflow.store.formats import read_frames
+from bkflow.store.rundir import RunDir
 from tests.support import INTEGRATION_PATHS, global_vector, tool, unwrapped_state
 
 pytestmark = pytest.mark.usefixtures("lammps")

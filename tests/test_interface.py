@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import re
 
-from bkflow.deck import SLOTS
-from bkflow.params import CONTACT_RULES, DAMPING_MODES
-from bkflow.plugin import ERROR_TOKENS, PATH_CODES
+from bkflow.lammps.deck import SLOTS
+from bkflow.lammps.plugin import ERROR_TOKENS, PATH_CODES
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES
 from tests.support import ROOT
 
 INTERFACE = (ROOT / "plugins" / "bk_interface.h").read_text()

@@ -5,9 +5,9 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-from bkflow.params import RunSpec
-from bkflow.plugin import open_lammps
+from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.params import RunSpec
 from tests.support import global_vector, lammps_with, lively_start, tool, unwrapped_state
 
 pytestmark = pytest.mark.usefixtures("lammps")
@@ -89,7 +89,7 @@ def test_run_in_chunks_follows_one_run(workdir):
 
 
 def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
-    from bkflow.lattice import Lattice
+    from bkflow.model.lattice import Lattice
 
     lat = Lattice(lattice.Lx, lattice.Ly, x_perturbed, lattice.bonds, lattice.k_d)
     data = workdir / "data.bk"
@@ -112,7 +112,7 @@ def _energy_series(spec, lattice, x_perturbed, steps, every, workdir):
 def test_energy_is_conserved_to_second_order(workdir):
     """gamma = 0, no drive, no friction, phi = 1000: bounded energy error, O(dt^2)."""
     spec = RunSpec(phi=1000.0, Lx=6, Ly=6, seed=1, gamma=0.0, dt_factor=0.1)
-    from bkflow.lattice import lattice_for
+    from bkflow.model.lattice import lattice_for
 
     lattice = lattice_for(spec)
     rng = np.random.default_rng(11)

@@ -1,5 +1,5 @@
 """The automatic choice of the integration path (``fix bk/substrate ... integrate``, the default
-deck of bkflow.deck and of the engine) and what meta.json says of it.
+deck of bkflow.lammps.deck and of the engine) and what meta.json says of it.
 
 - one rank and bkflow's lattice: the fused path, the very bits of ``fused``;
 - anything else (several ranks, a lattice the fused path cannot take): the general path
@@ -14,11 +14,11 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.deck import PROCESSORS, DeckOptions, data_text, deck_text, setup_text
-from bkflow.lattice import Lattice, lattice_for
-from bkflow.params import RunSpec
-from bkflow.plugin import open_lammps
-from bkflow.rundir import RunDir
+from bkflow.lammps.deck import PROCESSORS, DeckOptions, data_text, deck_text, setup_text
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.lattice import Lattice, lattice_for
+from bkflow.model.params import RunSpec
+from bkflow.store.rundir import RunDir
 from tests.support import RULE_COVER, global_vector, lively_start, tool, unwrapped_state
 
 STEPS = 1500
@@ -132,7 +132,7 @@ def test_the_default_deck_integrates_by_itself():
 
 
 def _engine_run(tmp_path, name, path, **kw):
-    from bkflow.engine import run
+    from bkflow.lammps.engine import run
 
     spec = RunSpec(phi=100.0, Lx=8, Ly=3, t_end=40.0, scene="series", **kw)
     res = run(spec, tmp_path / name, progress=False, path=path)
@@ -174,7 +174,7 @@ def test_meta_records_provenance(lammps, tmp_path):
     assert prov["libraries"]["scipy"] == scipy.__version__
     import importlib.metadata as md
 
-    from bkflow.provenance import LIBRARIES
+    from bkflow.store.provenance import LIBRARIES
 
     for name in LIBRARIES:  # the fast reading of dist-info names against importlib.metadata
         assert prov["libraries"][name] == md.version(name), name

@@ -10,10 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.deck import DeckOptions, continue_text, data_text, setup_text
-from bkflow.lattice import contact_start
-from bkflow.params import CONTACT_RULES, STARTS, RunSpec
-from bkflow.plugin import open_lammps
+from bkflow.lammps.deck import DeckOptions, continue_text, data_text, setup_text
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.lattice import contact_start
+from bkflow.model.params import CONTACT_RULES, STARTS, RunSpec
 from tests.reference import Reference, phase_statistics
 from tests.support import INTEGRATION_PATHS, lively_start, tool
 

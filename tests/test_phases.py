@@ -1,5 +1,5 @@
-"""The contacts' phase statistics (bkflow.phases) on synthetic series whose answers are known:
-the phase fluctuation of independent contacts is 1 - |c|^2 whatever their common
+"""The contacts' phase statistics (bkflow.observables.phases) on synthetic series whose answers are
+known: the phase fluctuation of independent contacts is 1 - |c|^2 whatever their common
 distribution, contacts that keep a common phase give N R^2 (the verdict that reads them:
 tests/test_states.py)."""
 
@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from bkflow.phases import coherence
-from bkflow.states import MEMORY_CHI_DEFAULT
+from bkflow.observables.phases import coherence
+from bkflow.observables.states import MEMORY_CHI_DEFAULT
 
 
 def independent_phases(rng, n_contacts, n_times, sampler):

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from bkflow.plugin import PLUGIN_FILE, PluginError, build_info, check_plugin, open_lammps
+from bkflow.lammps.plugin import PLUGIN_FILE, PluginError, build_info, check_plugin, open_lammps
 from tests.support import ROOT, tool
 
 

@@ -13,7 +13,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.cli import subcommands, synopsis
+from bkflow.cli.commands import subcommands, synopsis
 from tests.support import ROOT, tool
 
 README = ROOT / "README.md"
@@ -183,8 +183,8 @@ def test_retired_options_are_gone_from_the_docs(flag):
 
 
 def test_the_exit_codes_are_the_clis():
-    """docs/running.md's table of exit codes is bkflow.cli.EXIT_CODES, row for row."""
-    from bkflow.cli import EXIT_CODES
+    """docs/running.md's table of exit codes is bkflow.cli.commands.EXIT_CODES, row for row."""
+    from bkflow.cli.commands import EXIT_CODES
 
     text = RUNNING.read_text()
     table = text[text.index("| exit code | meaning |"):]
@@ -239,11 +239,11 @@ def test_the_readmes_scaling_numbers_are_the_measured_and_the_models():
 
 def test_the_readmes_sweeps_are_within_the_cost_limits(monkeypatch, tmp_path, capsys):
     """Every ``bkflow sweep`` the README and the docs show is accepted, without --force, by the
-    limits a run or sweep is checked against before it starts (bkflow.limits), on a machine with
-    32 GB of free disk and 8 GB of memory: the estimates follow the presets' caps, and a command
-    a reader copies is not refused (the jobs are only created, --init)."""
-    from bkflow import limits
-    from bkflow.cli import main
+    limits a run or sweep is checked against before it starts (bkflow.lammps.limits), on a machine
+    with 32 GB of free disk and 8 GB of memory: the estimates follow the presets' caps, and a
+    command a reader copies is not refused (the jobs are only created, --init)."""
+    from bkflow.cli.commands import main
+    from bkflow.lammps import limits
 
     monkeypatch.setattr(limits, "_free_disk", lambda path: 32e9)
     monkeypatch.setattr(limits, "_available_memory", lambda: 8e9)

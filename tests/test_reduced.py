@@ -1,6 +1,6 @@
 """The run's records of its stress and phases, reduced in the run (fix bk/reduce,
-bkflow.reduced): the slips at every threshold at or above the recorded one are exactly those
-of the whole series; the records are the reduction of the raw series, bit for bit, on both
+bkflow.observables.reduced): the slips at every threshold at or above the recorded one are exactly
+those of the whole series; the records are the reduction of the raw series, bit for bit, on both
 paths, on two ranks and across a continuation; an analysis from the records is the analysis
 from the raw series; block means give the verdicts the raw series gives."""
 
@@ -12,14 +12,14 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow import reduced, stationarity
-from bkflow.analysis import summarize
-from bkflow.deck import DeckOptions, data_text, setup_text
-from bkflow.engine import run
-from bkflow.lattice import square_lattice
-from bkflow.params import RunSpec, protocol_fields
-from bkflow.rundir import LEDGER_COLUMNS, RunDir
-from bkflow.stress import slip_events
+from bkflow.analysis.summary import summarize
+from bkflow.lammps.deck import DeckOptions, data_text, setup_text
+from bkflow.lammps.engine import run
+from bkflow.model.lattice import square_lattice
+from bkflow.model.params import RunSpec, protocol_fields
+from bkflow.observables import reduced, stationarity
+from bkflow.observables.stress import slip_events
+from bkflow.store.rundir import LEDGER_COLUMNS, RunDir
 from tests.support import tool
 
 
@@ -208,11 +208,11 @@ def test_the_analysis_of_the_records_is_the_analysis_of_the_raw_series(tmp_path)
 @pytest.mark.usefixtures("lammps")
 @pytest.mark.parametrize("path,ranks", [("auto", 1), ("general", 1), ("auto", 2)])
 def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
-    """fix bk/psi against bkflow.order.psi of full-precision frames of the same steps (the
-    frames of scene full are written to 9 digits: Psi from them differs by ~1e-8)."""
-    from bkflow import io
-    from bkflow.analysis import order_result
-    from bkflow.params import AnalysisSettings
+    """fix bk/psi against bkflow.observables.order.psi of full-precision frames of the same steps
+    (the frames of scene full are written to 9 digits: Psi from them differs by ~1e-8)."""
+    from bkflow.analysis.summary import order_result
+    from bkflow.model.params import AnalysisSettings
+    from bkflow.store import formats
 
     spec = _spec(scene="order", snapshot_every=10.0, start="random")
     lattice = square_lattice(spec.Lx, spec.Ly)
@@ -223,7 +223,7 @@ def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
     (tmp_path / "in.bk").write_text(deck)
     _lmp(tmp_path, ranks)
     steps, psi = RunDir(tmp_path).read_psi_record(spec)
-    frames = io.read_frames(tmp_path / "exact.lammpstrj", spec.N)
+    frames = formats.read_frames(tmp_path / "exact.lammpstrj", spec.N)
     offline = order_result(spec, AnalysisSettings().resolved(spec), frames.steps,
                            frames.positions)
     assert np.array_equal(steps, frames.steps) and len(steps) == spec.n_steps // \
@@ -235,11 +235,12 @@ def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
 @pytest.mark.usefixtures("lammps")
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path, ranks):
-    """fix bk/slips ``catalogue`` (scene figures) against bkflow.catalogue.slip_rows of the
-    same slips' frames written to 17 digits: every row and cluster, on one and two ranks, on a
+    """fix bk/slips ``catalogue`` (scene figures) against bkflow.observables.catalogue.slip_rows of
+    the same slips' frames written to 17 digits: every row and cluster, on one and two ranks, on a
     soft layer whose slips break into several clusters."""
-    from bkflow import catalogue, io
-    from bkflow.params import S_X
+    from bkflow.model.params import S_X
+    from bkflow.observables import catalogue
+    from bkflow.store import formats
 
     spec = RunSpec(phi=1.0, Lx=16, Ly=6, t_end=600, scene="figures", seed=4, start="random")
     (tmp_path / "data.bk").write_text(data_text(spec, square_lattice(spec.Lx, spec.Ly)))
@@ -251,7 +252,7 @@ def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path
     (tmp_path / "in.bk").write_text(deck + f"\nrun {spec.n_steps}\n")
     _lmp(tmp_path, ranks)
     slips, clusters = RunDir(tmp_path).read_slip_rows()
-    frames = io.read_frames(tmp_path / "frames.lammpstrj", spec.N)
+    frames = formats.read_frames(tmp_path / "frames.lammpstrj", spec.N)
     want, per = catalogue.slip_rows(frames.positions[0::2], frames.positions[1::2],
                                     square_lattice(spec.Lx, spec.Ly), S_X, spec.k_b)
     assert len(slips) == len(frames) // 2 >= 5
@@ -272,10 +273,10 @@ def test_the_slips_reduced_in_the_run_give_the_clusters_of_their_frames(tmp_path
 @pytest.mark.usefixtures("lammps")
 def test_a_long_run_on_a_small_lattice_stays_under_its_byte_budget(tmp_path):
     """10^6 time units at phi = 1000 in the default scene on a 4 x 3 lattice: the run writes
-    at most what bkflow.limits budgets for it (a few tens of bytes a time unit, whatever the
+    at most what bkflow.lammps.limits budgets for it (a few tens of bytes a time unit, whatever the
     length: every record grows with the slips, none with the samples), and its analysis
     reads back every slip."""
-    from bkflow import limits
+    from bkflow.lammps import limits
 
     spec = RunSpec(phi=1000.0, Lx=4, Ly=3, seed=1, t_end=1e6, **{
         k: v for k, v in protocol_fields("paper").items() if k != "t_end"})
@@ -287,7 +288,7 @@ def test_a_long_run_on_a_small_lattice_stays_under_its_byte_budget(tmp_path):
     grows = {n: b for n, b in res.meta["file_bytes"].items() if n.endswith(".npy")}
     per_t = sum(grows.values()) / spec.t_end
     assert per_t <= limits.RECORD_BYTES_PER_T + limits.SLIP_ROW_BYTES_PER_T + 1, grows
-    from bkflow.analysis import analyze
+    from bkflow.analysis.summary import analyze
 
     s = analyze(tmp_path)
     assert s["n_slips"] > 1000 and s["n_cluster_events"] == s["n_slips"]
@@ -300,10 +301,10 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
     threshold are that analysis's slips' (matched by maximum and minimum); a record damaged
     in its header (a field renamed, another shape) is damage, not a crash; a companion's
     stress is its blocks."""
-    from bkflow.analysis import analyze
+    from bkflow.analysis.summary import analyze
     from bkflow.api import load_run
-    from bkflow.params import AnalysisSettings
-    from bkflow.rundir import AnalysisError, DamagedRunError
+    from bkflow.model.params import AnalysisSettings
+    from bkflow.store.rundir import AnalysisError, DamagedRunError
 
     base = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
                       "t_end": 1500.0})
@@ -335,9 +336,9 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
 def test_the_energy_of_slips_below_the_recorded_threshold_comes_from_the_raw_ledger(tmp_path):
     """Scene full, re-analysed at a threshold below the records': the slips come from the raw
     series, and so does each one's energy budget (not another extremum's ledger)."""
-    from bkflow.analysis import analyze
+    from bkflow.analysis.summary import analyze
     from bkflow.api import load_run
-    from bkflow.params import AnalysisSettings
+    from bkflow.model.params import AnalysisSettings
 
     spec = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
                       "t_end": 1000.0, "scene": "full"})

@@ -11,7 +11,7 @@ every position to 1e-9, and on the number of contact breaks exactly.
 import numpy as np
 import pytest
 
-from bkflow.params import RunSpec
+from bkflow.model.params import RunSpec
 from tests.reference import Reference, step_watching_the_box
 from tests.support import RULE_COVER, global_vector, lammps_with, lively_start, unwrapped_state
 

@@ -58,7 +58,7 @@ def _close(a, b) -> bool:
 
 
 def test_the_installed_switching_calibration_is_the_records(blocks):
-    from bkflow.states import CALIBRATION
+    from bkflow.observables.states import CALIBRATION
 
     sr, runs, means = blocks._states()
     made = json.loads(sr.calibration_text(runs, means))

@@ -7,14 +7,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.analysis import analyze
-from bkflow.cli import main
-from bkflow.deck import write_deck
-from bkflow.engine import run
-from bkflow.io import read_frames
-from bkflow.params import RunSpec
-from bkflow.rundir import RunDir
-from bkflow.stress import slip_events
+from bkflow.analysis.summary import analyze
+from bkflow.cli.commands import main
+from bkflow.lammps.deck import write_deck
+from bkflow.lammps.engine import run
+from bkflow.model.params import RunSpec
+from bkflow.observables.stress import slip_events
+from bkflow.store.formats import read_frames
+from bkflow.store.rundir import RunDir
 from tests.support import tool
 
 REQUIRED = ("mu_bar", "mu_bar_err", "n_slips", "mean_stress_ratio", "mu_bar_by_threshold",
@@ -126,7 +126,7 @@ def test_slip_frames_are_the_same_on_two_ranks(lammps, tmp_path, path):
     """The frames of fix bk/slips, and with `breaks` (scene events) each contact's first break
     in the slip: the same on 1 and 2 ranks, on the fused path (each rank its rows) and on the
     general one (the first break travels with its atom between ranks)."""
-    from bkflow.deck import DeckOptions
+    from bkflow.lammps.deck import DeckOptions
 
     spec = RunSpec(phi=10.0, Lx=12, Ly=3, t_end=150, scene="events", seed=3)
     write_deck(spec, tmp_path, DeckOptions(path=path))
@@ -169,10 +169,10 @@ def test_full_scene_of_the_largest_paper_lattice_stays_small(lammps, tmp_path):
 
 
 def test_the_fast_dump_reader_agrees_with_mdanalysis(lammps, tmp_path):
-    """bkflow.io.read_regular_frames (bkflow's own reader, for speed) gives the frames
+    """bkflow.store.formats.read_regular_frames (bkflow's own reader, for speed) gives the frames
     MDAnalysis gives, to MDAnalysis's single precision; a file it does not recognise in full
     (cut, frames of another size, columns missing) is left to MDAnalysis (None)."""
-    from bkflow.io import read_frames_mdanalysis, read_regular_frames
+    from bkflow.store.formats import read_frames_mdanalysis, read_regular_frames
 
     spec = RunSpec(phi=30.0, t_end=300, scene="full")
     run(spec, tmp_path, progress=False)
@@ -212,8 +212,8 @@ def _fronts_against_a_velocity_dump(spec, workdir, ranks, path="auto"):
     """Run the deck of ``spec`` standalone (``ranks`` MPI ranks) with a dump of every
     particle's v_x at every stress sample beside fix bk/fronts; (fronts, {step: v_x by id},
     stress series)."""
-    from bkflow.deck import DeckOptions, data_text, setup_text
-    from bkflow.io import read_fronts
+    from bkflow.lammps.deck import DeckOptions, data_text, setup_text
+    from bkflow.store.formats import read_fronts
 
     (workdir / "data.bk").write_text(data_text(spec))
     deck = setup_text(spec, DeckOptions(thermo_every=10**6, path=path))
@@ -244,7 +244,7 @@ def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tm
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
     assert "bk/fronts" in deck_line(spec) and "bk/slips" not in deck_line(spec)
     fronts, vel, red = _fronts_against_a_velocity_dump(spec, tmp_path, ranks, path)
-    # the slips of the run's records (bkflow.reduced: exactly those of the whole series)
+    # the slips of the run's records (bkflow.observables.reduced: exactly those of the whole series)
     events = red.events(spec.slip_threshold_stress).after(spec.slips_start_step * spec.dt)
     assert len(fronts) == len(events) >= 3
     for f, i_max, i_min in zip(fronts, events.i_max, events.i_min):
@@ -259,7 +259,7 @@ def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tm
 
 
 def deck_line(spec):
-    from bkflow.deck import deck_text
+    from bkflow.lammps.deck import deck_text
 
     return deck_text(spec)
 
@@ -267,8 +267,8 @@ def deck_line(spec):
 def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_path, capsys):
     from PIL import Image
 
-    from bkflow.params import FRONTS_IN_FULL
-    from bkflow.rundir import DamagedRunError
+    from bkflow.model.params import FRONTS_IN_FULL
+    from bkflow.store.rundir import DamagedRunError
 
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=1500, scene="full", seed=2)
     meta = run(spec, tmp_path / "r", progress=False).meta
@@ -285,7 +285,7 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
         assert im.size[0] > cell * spec.Lx and im.size[1] > cell * spec.Ly + 100
     # both pictures say which run this is: its start and protocol under the slip's times
     import bkflow
-    from bkflow.fronts import run_description
+    from bkflow.figures.fronts import run_description
 
     r = bkflow.load_run(tmp_path / "r")
     title = r.front_figure(2).get_suptitle()
@@ -312,7 +312,7 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
 
 
 def _front(lx=6, ly=3, samples=5, seed=1):
-    from bkflow.io import Front
+    from bkflow.store.formats import Front
 
     vx = np.random.default_rng(seed).normal(size=(samples, lx * ly)).astype(np.float32)
     return Front(100, 100 + 10 * (samples - 1), np.arange(100, 100 + 10 * samples, 10), vx,
@@ -328,8 +328,8 @@ def test_a_movie_frame_has_axes_a_colour_bar_with_units_and_each_particle_in_its
     from matplotlib.colors import Normalize
     from PIL import Image
 
-    from bkflow.fronts import CMAP, front_frame_figure, front_movie
-    from bkflow.plot import PlotError
+    from bkflow.figures.fronts import CMAP, front_frame_figure, front_movie
+    from bkflow.figures.plot import PlotError
 
     lx, ly, dt = 6, 3, 0.01
     front = _front(lx, ly)
@@ -363,8 +363,8 @@ def test_a_movie_frame_has_axes_a_colour_bar_with_units_and_each_particle_in_its
 def test_the_pictures_of_a_slip_name_the_runs_start_and_protocol():
     """run_description says of a run what a reader of its front pictures needs: the start,
     and the paper's fixed length or the steady protocol's rule with its cap."""
-    from bkflow.fronts import front_figure, run_description
-    from bkflow.params import protocol_fields
+    from bkflow.figures.fronts import front_figure, run_description
+    from bkflow.model.params import protocol_fields
 
     paper = RunSpec(phi=100.0, **protocol_fields("paper", t_end=1000.0))
     steady = RunSpec(phi=100.0, **protocol_fields("steady", t_end=1000.0))
@@ -383,7 +383,7 @@ def test_the_pictures_of_a_slip_name_the_runs_start_and_protocol():
 def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(
         lammps, tmp_path, capsys):
     import bkflow
-    from bkflow.params import SpecError
+    from bkflow.model.params import SpecError
 
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
     run(spec, tmp_path / "r", progress=False)

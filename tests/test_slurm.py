@@ -11,9 +11,9 @@ import time
 
 import pytest
 
-from bkflow.cli import main
-from bkflow.project import finished, open_project
-from bkflow.rundir import EXTREMA, META
+from bkflow.cli.commands import main
+from bkflow.store.rundir import EXTREMA, META
+from bkflow.sweeps.project import finished, open_project
 from tests import slurm_local
 from tests.slurm_local import INSTALL_OPTION, jobs, local_slurm, squeue, why_not
 

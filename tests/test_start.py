@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bkflow.deck import data_text, deck_text
-from bkflow.lattice import contact_start, lattice_for
-from bkflow.params import CONTACT_RULES, RunSpec, SpecError
+from bkflow.lammps.deck import data_text, deck_text
+from bkflow.model.lattice import contact_start, lattice_for
+from bkflow.model.params import CONTACT_RULES, RunSpec, SpecError
 from tests.reference import Reference
 from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 

@@ -1,6 +1,6 @@
-"""The states of a layer and the error that covers its switching (bkflow.states), on synthetic
-series whose truth is known: a slow two-state component (a telegraph process between a quiet
-and a coherent level, residence times longer than the windows) under fast noise."""
+"""The states of a layer and the error that covers its switching (bkflow.observables.states), on
+synthetic series whose truth is known: a slow two-state component (a telegraph process between a
+quiet and a coherent level, residence times longer than the windows) under fast noise."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from bkflow import states
-from bkflow.stationarity import mean_error
+from bkflow.observables import states
+from bkflow.observables.stationarity import mean_error
 
 QUIET, COHERENT = 0.1030, 0.1048     # the two levels (stress ratio), as at phi = 1000
 TAU_Q, TAU_C = 40, 40                # mean residence (blocks of 1000 time units)

@@ -1,7 +1,7 @@
 """The verdict on recorded long runs of each state (benchmarks/records/stiff_states: blocks of
-1000 time units, bkflow.states.block_verdict): a stiff layer's quiet and coherent stretches
-are named as such, a window across a switch names both, a soft layer's window is steady, and
-the synchronized start's plateau is its memory; each error covers the layer's long-run mean,
+1000 time units, bkflow.observables.states.block_verdict): a stiff layer's quiet and coherent
+stretches are named as such, a window across a switch names both, a soft layer's window is steady,
+and the synchronized start's plateau is its memory; each error covers the layer's long-run mean,
 which the records hold (every start of the layer pooled)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from bkflow import states
+from bkflow.observables import states
 from tests.support import ROOT
 
 RECORDS = ROOT / "benchmarks" / "records" / "stiff_states"

@@ -9,7 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from bkflow.stationarity import block_means, equilibration_time, mean_error, stationarity
+from bkflow.observables.stationarity import (
+    block_means,
+    equilibration_time,
+    mean_error,
+    stationarity,
+)
 
 
 def ar1(rng, n, rho, m=1):
@@ -127,7 +132,7 @@ def test_the_statistical_inefficiency_is_pymbars(rho, fast):
     """bkflow's own statistical inefficiency and equilibration detection against pymbar's, on
     AR(1) series and a series with a transient: the same numbers (to rounding: one FFT here, a
     sum per lag there) and the same start."""
-    from bkflow.stationarity import detect_equilibration, statistical_inefficiency
+    from bkflow.observables.stationarity import detect_equilibration, statistical_inefficiency
 
     ts = _pymbar()
     rng = np.random.default_rng(int(100 * rho) + fast)
@@ -151,7 +156,7 @@ def test_the_t_test_and_the_line_are_scipys():
     """bkflow's Student-t tail and least-squares line against scipy.stats (t.sf, linregress)."""
     from scipy import stats
 
-    from bkflow.stationarity import linear_fit, t_sf
+    from bkflow.observables.stationarity import linear_fit, t_sf
 
     for dof in (1, 2, 3, 8, 30, 1000):
         for t in (0.0, 0.3, 1.0, 2.31, 4.0, 12.0, 80.0, -2.0):

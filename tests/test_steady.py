@@ -10,9 +10,9 @@ import subprocess
 import pandas as pd
 import pytest
 
-from bkflow.analysis import analyze
-from bkflow.engine import run
-from bkflow.params import (
+from bkflow.analysis.summary import analyze
+from bkflow.lammps.engine import run
+from bkflow.model.params import (
     STEADY_AGREEMENT,
     STEADY_COMPANION,
     STEADY_DRIFT_BOUND,
@@ -20,7 +20,7 @@ from bkflow.params import (
     RunSpec,
     protocol_fields,
 )
-from bkflow.rundir import BLOCKS, COMPANION, EXTREMA, RunDir
+from bkflow.store.rundir import BLOCKS, COMPANION, EXTREMA, RunDir
 from tests.support import tool
 
 
@@ -65,10 +65,10 @@ def test_the_steady_protocol_stops_steady_and_equals_fixed_runs(lammps, tmp_path
 
 def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
     """The synchronized start of a stiff layer stays on its metastable plateau past a short
-    cap: the run says so, in meta.json (as data) and in its report (bkflow.report), and names
+    cap: the run says so, in meta.json (as data) and in its report (bkflow.cli.report), and names
     every cause with the value the last check found (here also an unreachable mu_bar error)."""
-    from bkflow.report import stop_line
-    from bkflow.states import memory_chi
+    from bkflow.cli.report import stop_line
+    from bkflow.observables.states import memory_chi
 
     spec = _steady(phi=1000.0, start="synchronized", t_end=1500.0, target_error=1e-7)
     ad = run(spec, tmp_path, progress=False).meta["adaptive"]
@@ -90,8 +90,8 @@ def test_a_switching_layer_stops_on_its_states_error_and_says_so(lammps, tmp_pat
     averages over that, so the steady protocol stops once the mean of the states visited is
     within the target (the run's own error), names them, and reports the long-run mean's
     error that covers the switching, larger, with the run length that would need."""
-    from bkflow.report import stop_line
-    from bkflow.states import SWITCHING
+    from bkflow.cli.report import stop_line
+    from bkflow.observables.states import SWITCHING
 
     fields = protocol_fields("steady")
     spec = RunSpec(phi=1000.0, scene="friction", **fields)

@@ -20,15 +20,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.cli import main
-from bkflow.grid import parse_sizes, phi_values, sweep_specs
-from bkflow.job import run_one
-from bkflow.params import RunSpec, SpecError
-from bkflow.project import finished, open_project
-from bkflow.rundir import LOCK as LOCK_FILE
-from bkflow.rundir import RunBusyError, RunDir
-from bkflow.sweep import sweep
-from bkflow.tables import results_table
+from bkflow.cli.commands import main
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.store.rundir import LOCK as LOCK_FILE
+from bkflow.store.rundir import RunBusyError, RunDir
+from bkflow.store.tables import results_table
+from bkflow.sweeps.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.sweeps.job import run_one
+from bkflow.sweeps.local import sweep
+from bkflow.sweeps.project import finished, open_project
 from tests.support import ROOT, tool
 
 
@@ -187,7 +187,7 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     specs = sweep_specs([10.0], [(20, 5)], 1, t_end=200.0, scene="friction")
     rep = sweep(specs, tmp_path / "s", jobs=1, progress=False)
     assert len(rep.finished) == 1
-    from bkflow.plot import plot
+    from bkflow.figures.plot import plot
 
     written, skipped = plot(tmp_path / "s", formats=("png",))
     assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops",
@@ -311,7 +311,7 @@ def test_the_tables_write_each_float_as_its_shortest_text_and_read_it_back_exact
     """runs.csv and results.csv give every float as the shortest text that reads back as the
     same double: phi = 0.1 as ``0.1`` (``%.17g`` wrote 0.10000000000000001), and reading the
     tables back gives the very floats that were written, bit for bit."""
-    from bkflow.tables import read_tables, write_tables
+    from bkflow.store.tables import read_tables, write_tables
 
     awkward = (1 / 3, 2.15443469003188, 1e-300, 0.1 + 0.2, -0.0, math.inf, math.nan)
     finished = []
@@ -457,8 +457,14 @@ def test_a_runs_cost_counts_its_companion(tmp_path):
     """The steady protocol's companion runs beside the run, step for step: its atom-steps,
     memory and series are counted, and the refusal says so and what the time is at the
     estimate's rate (the request that was told 1.35 h for one of its two halves)"""
-    from bkflow.limits import ATOM_STEPS_PER_SECOND, MAX_ATOM_STEPS, CostError, check_cost, cost
-    from bkflow.params import protocol_fields
+    from bkflow.lammps.limits import (
+        ATOM_STEPS_PER_SECOND,
+        MAX_ATOM_STEPS,
+        CostError,
+        check_cost,
+        cost,
+    )
+    from bkflow.model.params import protocol_fields
 
     spec = RunSpec(phi=1000, Lx=240, Ly=60, seed=1, **{**protocol_fields("steady"),
                                                        "t_end": 240000.0, "scene": "friction"})
@@ -480,7 +486,7 @@ def test_a_refusal_names_what_would_lift_it(tmp_path):
     """The advice follows the cause: the frames (snapshots, slip frames) are lifted by
     --scene friction, so is a long raw series (scene series), the records of a very long run
     only by a shorter one; a long time is said in whole hours"""
-    from bkflow.limits import Cost, CostError, check, check_cost
+    from bkflow.lammps.limits import Cost, CostError, check, check_cost
 
     def said(spec):
         with pytest.raises(CostError) as e:
@@ -504,10 +510,10 @@ def test_force_lets_a_sweeps_runs_above_the_cost_limits(lammps, tmp_path, monkey
     """--force of a sweep reaches its runs (each run checks its own cost again): without it a
     run above the limits fails with the limit named, with it the run is made; a later sweep
     without it takes the permission back"""
-    import bkflow.limits
+    import bkflow.lammps.limits
 
     spec = sweep_specs([10.0], [(20, 5)], 1, t_end=100.0)[0]
-    monkeypatch.setattr(bkflow.limits, "MAX_ATOM_STEPS", spec.N * spec.n_steps / 2)
+    monkeypatch.setattr(bkflow.lammps.limits, "MAX_ATOM_STEPS", spec.N * spec.n_steps / 2)
     out = tmp_path / "s"
     rep = sweep([spec], out, jobs=1, progress=False)
     (job_id, msg), = rep.failed.items()
@@ -664,7 +670,7 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
     at phi = 1000 (lognormal favoured): one fitted line (phi = 1's), the rejection written in
     phi = 1000's key, and the stiff layer's two populations beside it adding up to all its
     drops."""
-    from bkflow import plot
+    from bkflow.figures import plot
 
     out, _ = tiny_sweep
     data = plot.SweepData(out)
@@ -755,7 +761,7 @@ def test_the_readmes_sweep_example_runs_as_written(tiny_sweep, tmp_path):
 
 def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):
     import bkflow
-    from bkflow.rundir import AnalysisError
+    from bkflow.store.rundir import AnalysisError
 
     with pytest.raises(AnalysisError, match="no finished run"):
         bkflow.load_run(tmp_path)
@@ -840,7 +846,7 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
     import matplotlib
 
     matplotlib.use("Agg")
-    from bkflow.plot import _style, cluster_scatter
+    from bkflow.figures.plot import _style, cluster_scatter
 
     clusters = {0.1: pd.DataFrame({"l_x": [4.0] * 500 + [2.0], "l_y": [6.1] * 500 + [1.0]}),
                 2.15443: pd.DataFrame({"l_x": [20.0, 10.0], "l_y": [5.0, 2.0]})}
@@ -858,11 +864,11 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
     assert ax.get_ylim()[1] >= 6.1 / 5 and ax.get_xlim()[0] < 0 < ax.get_ylim()[1]
     labels = [t.get_text() for t in ax.get_legend().get_texts()][:2]  # then the guides' key
     assert labels == [r"$\phi$ = 2.15: 2 clusters", r"$\phi$ = 0.1: 501 clusters"]
-    from bkflow.plot import _num
+    from bkflow.figures.plot import _num
 
     assert [_num(v) for v in (1000.0, 215.443, 0.215443, 2.15443)] == ["1000", "215", "0.215",
                                                                      "2.15"]
-    from bkflow.plot import phi_colour
+    from bkflow.figures.plot import phi_colour
 
     drawn = {tuple(ln.get_color()): ln.get_zorder() for ln in ax.get_lines()
              if len(ln.get_xdata()) and ln.get_label() == "_nolegend_"}
@@ -881,7 +887,7 @@ def test_a_sweep_is_selected_by_numbers_from_python(tiny_sweep):
     assert len(load_sweep(out, where={"Lx": lx}).runs) == len(every) > 0
     assert len(load_sweep(out, where={"Lx": float(lx)}).runs) == len(every)
     assert len(load_sweep(out, where={"phi": 1}).runs) == int((every.phi == 1).sum()) > 0
-    from bkflow.plot import PlotError
+    from bkflow.figures.plot import PlotError
 
     with pytest.raises(PlotError, match=f"no finished run has Lx = {lx + 1}"):
         load_sweep(out, where={"Lx": lx + 1})

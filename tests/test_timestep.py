@@ -4,10 +4,10 @@ a run's own parameters; a run whose step is too long for its friction law stoppe
 
 import pytest
 
-from bkflow.deck import DeckOptions, data_text, setup_text
-from bkflow.engine import RunError, run
-from bkflow.params import ACCURACY, DT_FACTOR_MAX, RunSpec, SpecError
-from bkflow.plugin import open_lammps
+from bkflow.lammps.deck import DeckOptions, data_text, setup_text
+from bkflow.lammps.engine import RunError, run
+from bkflow.lammps.plugin import open_lammps
+from bkflow.model.params import ACCURACY, DT_FACTOR_MAX, RunSpec, SpecError
 from tests import reference
 from tests.support import INTEGRATION_PATHS
 

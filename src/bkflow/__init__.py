@@ -7,7 +7,7 @@ def __getattr__(name):
     # bkflow.load_run / bkflow.load_sweep (bkflow.api) without importing pandas and matplotlib
     # for every user of the package (the engine, the command line)
     if name in ("load_run", "load_sweep", "Run", "Sweep"):
-        from . import api
+        from bkflow import api
 
         return getattr(api, name)
     raise AttributeError(f"module 'bkflow' has no attribute {name!r}")

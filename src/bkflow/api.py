@@ -10,7 +10,7 @@
 Tables are pandas DataFrames read from the files bkflow wrote (nothing is recomputed);
 figures are ``matplotlib.figure.Figure`` objects made without pyplot: building one neither
 switches the backend, nor changes rcParams, nor touches the figures a user has open
-(``bkflow.plot.Figures``). A notebook displays the Figure it is given; in a script, save
+(``bkflow.figures.plot.Figures``). A notebook displays the Figure it is given; in a script, save
 it (``fig.savefig("f.png")``): it belongs to no pyplot window.
 """
 
@@ -21,12 +21,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from . import io
-from .fronts import front_figure, front_frame_figure, front_movie, run_description
-from .io import shell_word
-from .params import AnalysisSettings, RunSpec
-from .plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
-from .rundir import SUMMARY, AnalysisError, DamagedRunError, RunDir, sweep_run_dir
+from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
+from bkflow.figures.plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
+from bkflow.model.params import AnalysisSettings, RunSpec
+from bkflow.store import formats
+from bkflow.store.formats import shell_word
+from bkflow.store.rundir import SUMMARY, AnalysisError, DamagedRunError, RunDir, sweep_run_dir
 
 
 class Run:
@@ -73,7 +73,7 @@ class Run:
         s = rd.summary()
         why = None if s is None else rd.table_problem(s)
         if why is None and s is not None and rd.is_complete() and \
-                s.get("params") != io.json_ready(rd.spec().to_dict()):
+                s.get("params") != formats.json_ready(rd.spec().to_dict()):
             why = (f"{SUMMARY} is the analysis of other parameters (the run was continued "
                    "since, or redone)")
         if why is not None:
@@ -84,7 +84,7 @@ class Run:
     def analyze(self, **settings) -> dict:
         """Analyse the run (``bkflow analyze``) under these analysis settings, e.g.
         ``run.analyze(s_x=0.05)``; returns the summary."""
-        from .analysis import analyze
+        from bkflow.analysis.summary import analyze
 
         return analyze(self.path, AnalysisSettings(**settings))
 
@@ -106,8 +106,8 @@ class Run:
 
     @property
     def blocks(self) -> pd.DataFrame:
-        """The run's block means (blocks.npy, bkflow.reduced): ``t`` (each block's start),
-        ``sigma_x`` and, where recorded, the contacts' phase statistics: what the analysis
+        """The run's block means (blocks.npy, bkflow.observables.reduced): ``t`` (each block's
+        start), ``sigma_x`` and, where recorded, the contacts' phase statistics: what the analysis
         reads of the series."""
         t, sigma, phase = self._intact().read_reduced(self.spec).series()
         df = pd.DataFrame({"t": t, "sigma_x": sigma})
@@ -138,7 +138,7 @@ class Run:
     @functools.cached_property
     def fronts(self):
         """The rupture fronts the run recorded (scenes fronts, full): a list of
-        ``bkflow.io.Front``, one per slip, in the order of the slips (read once: the
+        ``bkflow.store.formats.Front``, one per slip, in the order of the slips (read once: the
         file of a long run holds hundreds of megabytes)."""
         return self._rd.read_fronts()
 
@@ -154,7 +154,7 @@ class Run:
 
     def _front_title(self, slip: int, f) -> str:
         """The title of a slip's pictures: the layer, the slip and its times, and on a second
-        line the run's start and protocol (``bkflow.fronts.run_description``)."""
+        line the run's start and protocol (``bkflow.figures.fronts.run_description``)."""
         s = self.spec
         return (rf"$\phi$ = {_num(s.phi)}, {s.Lx}x{s.Ly}, slip {slip} (t = "
                 f"{f.step_max * s.dt:.1f} to {f.step_min * s.dt:.1f})"
@@ -253,8 +253,8 @@ class Sweep:
         job id and parameters first (None when no run has events), made from the runs' own
         catalogues (workspace/JOB/events.parquet: stored once; DuckDB or polars read them
         there too, with runs.csv's job column to join the parameters)."""
-        from .rundir import SIGNAC_FILES
-        from .tables import catalogue_table, check_tables
+        from bkflow.store.rundir import SIGNAC_FILES
+        from bkflow.store.tables import catalogue_table, check_tables
 
         check_tables(self.path)   # runs.csv as the last collect wrote it, or a typed error
         parts = []
@@ -262,7 +262,7 @@ class Sweep:
             rd = sweep_run_dir(self.path, job)
             why = rd.problem()
             try:
-                statepoint = io.read_json(rd.file(SIGNAC_FILES[0]))
+                statepoint = formats.read_json(rd.file(SIGNAC_FILES[0]))
             except (OSError, ValueError) as exc:
                 why = why or f"its parameters are unreadable ({exc})"
             if why is not None:

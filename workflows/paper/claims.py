@@ -18,8 +18,8 @@ The tests (errors are standard errors over seeds; a difference is significant at
    combined errors.
 3. <l_x>/<l_y> peaks where mu_bar dips: the phi of each, per curve and N.
 4. Four regimes C, LC, DP, DT in this order from stiff to soft (20x5): the share of each
-   (bkflow.clusters.regime, parity-free) per phi, which appear (5% of the clusters at some
-   phi), and the order of the phi where each is most frequent.
+   (bkflow.observables.clusters.regime, parity-free) per phi, which appear (5% of the clusters
+   at some phi), and the order of the phi where each is most frequent.
 5. With Lx <= Ly no DT: the DT share of each lattice (all phi), its error over seeds.
 6. The energy argument: for every cluster, is its shape (row, column, whole box, patch) the
    one Eq. 2 makes cheapest for its size and mean slip?
@@ -217,7 +217,7 @@ def cheapest_shape(n_c, delta, lx: int, ly: int) -> np.ndarray:
     """The class (``shape_class``) of the rectangle that holds n_c sites, a <= n_c columns by
     ceil(n_c / a) rows inside the box, whose Eq. 2 energy (k_b set to 1: it scales every
     shape alike) is lowest at mean slip delta: what the paper's energy argument predicts."""
-    from bkflow.catalogue import eq2_estimate
+    from bkflow.observables.catalogue import eq2_estimate
 
     n_c, delta = np.asarray(n_c, float), np.asarray(delta, float)
     a = np.arange(1, lx + 1, dtype=float)[None, :]
@@ -274,7 +274,7 @@ def claim6(clusters: pd.DataFrame) -> dict:
 def claim7(runs: pd.DataFrame) -> dict:
     v = runs.drop_power_law.value_counts()
     e = runs.drop_exponent[np.isfinite(runs.drop_exponent)]
-    # Vuong's test: R < 0 favours the lognormal, significant at p < 0.1 (bkflow.stress)
+    # Vuong's test: R < 0 favours the lognormal, significant at p < 0.1 (bkflow.observables.stress)
     lognormal = (runs.drop_vs_lognormal < 0) & (runs.drop_vs_lognormal_p < 0.1)
     return {"runs": int(len(runs)), **{k: int(v.get(k, 0)) for k in
                                        ("rejected", "plausible", "no fit")},
@@ -284,7 +284,7 @@ def claim7(runs: pd.DataFrame) -> dict:
 
 def clusters_of(sweep_dir: Path, runs: pd.DataFrame) -> pd.DataFrame | None:
     """Every slip cluster of ``runs`` (Run.read_clusters), with its run's phi, Lx, Ly, N, seed."""
-    from bkflow.rundir import sweep_run_dir
+    from bkflow.store.rundir import sweep_run_dir
 
     parts = []
     for _, r in runs.iterrows():

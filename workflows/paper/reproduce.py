@@ -41,14 +41,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow import io
-from bkflow.grid import phi_values, sweep_specs
-from bkflow.lattice import box_fractions
-from bkflow.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
-from bkflow.plot import STYLE, SweepData, _point_states, _style, cluster_scatter, plot
-from bkflow.rundir import sweep_run_dir
-from bkflow.sweep import available_cores, fmt_duration, sweep
-from bkflow.tables import SETTINGS_FILE, read_tables, settings_in
+from bkflow.figures.plot import STYLE, SweepData, _point_states, _style, cluster_scatter, plot
+from bkflow.model.lattice import box_fractions
+from bkflow.model.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
+from bkflow.store import formats
+from bkflow.store.rundir import sweep_run_dir
+from bkflow.store.tables import SETTINGS_FILE, read_tables, settings_in
+from bkflow.sweeps.grid import phi_values, sweep_specs
+from bkflow.sweeps.local import available_cores, fmt_duration, sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import claims  # noqa: E402  (workflows/paper/claims.py, beside this script)
@@ -121,7 +121,7 @@ def cluster_share(runs: pd.DataFrame, regime: str) -> float:
 
 def span_fraction(sweep_dir: Path) -> float:
     """The fraction of the box from which the sweep's analysis counts an axis as spanned."""
-    settings = settings_in(io.read_json(Path(sweep_dir) / SETTINGS_FILE))
+    settings = settings_in(formats.read_json(Path(sweep_dir) / SETTINGS_FILE))
     return AnalysisSettings.from_dict(settings).span_fraction
 
 
@@ -266,7 +266,8 @@ def numbers(out: Path, wall: dict) -> str:
                          f"{arg('mean_stress_ratio', 'idxmin')} |")
 
     lines += ["", "## Regimes: share of slip clusters (all seeds), N = 100 (20x5)", "",
-              "The parity-free rule of bkflow.clusters.regime: each extent against the whole "
+              "The parity-free rule of bkflow.observables.clusters.regime: each extent against the "
+              "whole "
               "box's own on its side; a slip spanning both axes is C in a crystalline layer and "
               "W otherwise, never DP or DT. 'x not spanned' = DP + DT.", "",
               "| curve | phi | C | W | LC | DP | DT | x not spanned | clusters |",
@@ -334,7 +335,8 @@ def aspect_numbers(aspect_dir: Path, a: pd.DataFrame) -> list[str]:
     out.append("| all phi | " + " | ".join(tot) + " |")
     span = span_fraction(aspect_dir)
     out += ["", "## Aspect ratio: cluster shapes over all phi and seeds", "",
-            "DT and 'spans both axes' by the parity-free rule (bkflow.clusters.regime: each "
+            "DT and 'spans both axes' by the parity-free rule "
+            "(bkflow.observables.clusters.regime: each "
             f"extent against the whole box's own on its side, spanning from {span:g}); a slip "
             "that spans both axes is C or W, never DT.", "",
             "| size | clusters | DT | x not spanned (DP + DT) | spans both axes | "
@@ -605,7 +607,7 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
-#: a point's state (bkflow.plot._point_states) as its marker in fig2a_protocols: shape and
+#: a point's state (bkflow.figures.plot._point_states) as its marker in fig2a_protocols: shape and
 #: fill (True: filled in the curve's colour, False: white inside), read at print size and
 #: under an error bar (a half-filled marker is not); metastable a bold cross, which no filled
 #: shape resembles
@@ -734,7 +736,7 @@ RELAXATION_STATES = {
 
 def _run_verdicts(runs: pd.DataFrame) -> np.ndarray:
     """Each run's verdict as RELAXATION_STATES names it."""
-    from bkflow.states import SWITCHING
+    from bkflow.observables.states import SWITCHING
 
     states = runs["state"].astype(object).where(runs["state"].notna(), "none").astype(str) \
         if "state" in runs else pd.Series("none", index=runs.index)
@@ -882,7 +884,7 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
     fig.suptitle(r"Aspect-ratio check: every cluster at $\phi$ = 0.1 and 2.15 (the paper's "
                  "protocol, t_end = 8000)\n"
                  r"$l_x^{\mathrm{box}}$, $l_y^{\mathrm{box}}$: the extent of a slip of the whole "
-                 "box along x and across (bkflow.clusters.box_fractions)", fontsize=8.5)
+                 "box along x and across (bkflow.observables.clusters.box_fractions)", fontsize=8.5)
     return [_write(fig, out / "aspect_clusters.png"), aspect_share_figure(aspect_dir, out)]
 
 
@@ -938,7 +940,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
 
 def claim_record(out: Path) -> dict:
     """The claims' record (claims.py) of the sweeps under ``out``."""
-    from bkflow.provenance import record as provenance
+    from bkflow.store.provenance import record as provenance
 
     cs = curves(out)
     aspect = _tables(out, "aspect")
@@ -991,7 +993,7 @@ def main(argv=None) -> int:
         print(f"wrote {pth}")
     # the record as the documents read it back (JSON's order and types), rendered from that
     rec = json.loads(json.dumps(claim_record(out)))
-    with io.atomic_file(Path(a.claims)) as f:
+    with formats.atomic_file(Path(a.claims)) as f:
         f.write(json.dumps(rec, indent=1) + "\n")
     print(f"wrote {a.claims}")
     Path(a.numbers).write_text(numbers(out, wall) + "\n" + claims.render_all(rec))

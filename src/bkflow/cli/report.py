@@ -1,0 +1,281 @@
+"""What bkflow says of its results, in words: every sentence of the command line's reports
+(a run's summary, its stop, a sweep's table) is made here, from the data the engine and the
+analysis return; neither of them writes prose.
+
+The verdicts are those of ``bkflow.observables.states.VERDICTS`` (docs/model.md "Steady state").
+"""
+
+from __future__ import annotations
+
+import math
+
+from bkflow.model.params import STEADY_AGREEMENT, STEADY_DRIFT_BOUND
+from bkflow.observables.states import SWITCHING
+
+
+def _num(s: dict, key: str, scale: float = 1.0) -> float:
+    v = s.get(key)
+    return float("nan") if v is None else scale * v
+
+
+def _g(s: dict, key: str, fmt: str) -> str:
+    v = s.get(key)
+    return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) \
+        else format(v, fmt)
+
+
+# ------------------------------------------------------------------------- a run's stop
+def stop_rules(ad: dict, companion: str | None) -> str:
+    """The stop rule of an adaptive run, in words."""
+    rules = []
+    if ad.get("target_error") is not None:
+        rules.append(f"mu_bar error <= {ad['target_error']:g}")
+    if ad.get("until_steady"):
+        rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g}"
+                     + (f", the companion run from the {companion} start steady and agreeing"
+                        if companion else "") + ")")
+    return " and ".join(rules)
+
+
+def stop_line(ad: dict, companion: str | None = None) -> str:
+    """Why an adaptive run stopped where it did (meta.json's ``adaptive`` record)."""
+    head = f"ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
+    rules = stop_rules(ad, companion)
+    state = ad.get("state_at_stop")
+    switching = bool(ad.get("until_steady")) and state in SWITCHING
+    if ad.get("reached") and switching:
+        own, err, need = (ad.get(k) for k in ("mu_bar_own_err_at_stop", "mu_bar_err_at_stop",
+                                               "t_needed"))
+        line = (head + f"stopped at t = {ad['t_run']:g} in the states it visited ({state}): "
+                "the layer switches between a quiet and a coherent state, so a run gives the "
+                "mean of the states it visited")
+        if own is not None and ad.get("target_error") is not None:
+            line += f" (mu_bar error {own:.2g} <= {ad['target_error']:g})"
+        if err is not None and math.isfinite(err):
+            line += f"; the long-run mean's error, covering the switching, is {err:.2g}"
+            if need:
+                line += f" (the target needs a run of about t = {need:.2g})"
+        return line
+    if ad.get("reached"):
+        return head + f"stopped because {rules} at t = {ad['t_run']:g}"
+    missed = []
+    err = ad.get("mu_bar_own_err_at_stop" if switching else "mu_bar_err_at_stop")
+    target = ad.get("target_error")
+    if target is not None and not (err is not None and err <= target):
+        if err is None or not math.isfinite(err):
+            missed.append("mu_bar error not measurable yet (too few slips after the transient)")
+        else:
+            need = None if switching else ad.get("t_needed")
+            missed.append(f"mu_bar error {err:.3g} > {target:g}" + (
+                f" of the states visited ({state})" if switching else "") + (
+                f" (the layer's slow fluctuations, measured in long runs, alone need a run "
+                f"of about t = {need:.2g} for it)" if need else ""))
+    if ad.get("until_steady"):
+        if state is None or ad.get("drift_at_stop") is None or \
+                not math.isfinite(ad["drift_at_stop"]):
+            missed.append("the state not testable yet")
+        elif state in SWITCHING:
+            pass   # a switching layer stops on its states' error (above)
+        elif state == "drifting":
+            missed.append(f"drifting: the stress still drifts ({100 * ad['drift_at_stop']:+.2f}%"
+                          f" +- {100 * (ad.get('drift_err_at_stop') or math.nan):.2f}%)")
+        elif state == "metastable":
+            missed.append(f"metastable: the contacts still hold the start's common phase "
+                          f"(phase fluctuation {ad.get('phase_fluctuation_at_stop', math.nan):.3g}"
+                          f" > {ad.get('memory_chi', math.nan):g})")
+        elif (ad.get("drift_bound_at_stop") or 0) > STEADY_DRIFT_BOUND:
+            missed.append(f"a drift up to {100 * ad['drift_bound_at_stop']:.2g}% not excluded "
+                          f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
+        gap = ad.get("companion_gap_at_stop")
+        if companion and ad.get("pair_disagrees_at_stop"):
+            missed.append(f"the companion run ({companion} start) disagrees: its mean stress "
+                          + (f"{100 * gap:+.2f}% off" if gap is not None and math.isfinite(gap)
+                             else "not measurable")
+                          + f" (agreement within {100 * STEADY_AGREEMENT:g}% or both errors)")
+    return head + "the cap came first: " + "; ".join(missed or [f"not {rules}"])
+
+
+# ------------------------------------------------------------------------- a run's state
+def composition(s: dict) -> str:
+    """The states a run visited: the share of time in each, with its mean stress."""
+    parts = []
+    for name in ("quiet", "coherent"):
+        share = s.get(f"time_{name}")
+        if share:
+            parts.append(f"{name} {100 * share:.0f}% of the time (<sigma_x>/sigma_n "
+                         f"{_g(s, f'mean_stress_ratio_{name}', '.4f')})")
+    return ", ".join(parts)
+
+
+def state_line(s: dict) -> str:
+    """One line of what a summary says of its run's state (docs/model.md "Steady state"):
+    the verdict, and the stress trend, the contacts' phases and the states it rests on."""
+    window = f"t = {_num(s, 't_transient'):.0f}..{_num(s, 't_run'):.0f}"
+    trend = (f"drift {_num(s, 'drift', 100):+.2f}% +- {_num(s, 'drift_err', 100):.2f}%, "
+             f"z = {_num(s, 'drift_z'):.1f}")
+    contacts = (f"phase fluctuation {_num(s, 'phase_fluctuation'):.3g}, R = "
+                f"{_num(s, 'phase_coherence'):.3f}") if s.get("contacts_recorded") else \
+        "contacts not recorded: the verdict rests on the stress alone"
+    state = s.get("state") or "drifting"
+    pair = ""
+    if s.get("companion_start"):
+        pair = (f"; the companion run from the {s['companion_start']} start is "
+                f"{s.get('companion_state')}, its mean stress "
+                f"{_num(s, 'companion_gap', -100):+.2f}% from this run's")
+    if s.get("drift") is None:
+        return (f"DRIFTING (untested) over {window}: too short for the trend test's blocks; "
+                "run longer")
+    if state in SWITCHING:
+        why = s.get("switching_not_calibrated_because")
+        errors = ("its errors cover the switching (calibrated on long runs)" if not why else
+                  f"its errors are the run's own ({why})")
+        return (f"{state.upper()} over {window}: the layer switches between a quiet and a "
+                f"coherent state more slowly than this window averages over them; it visited "
+                f"{composition(s) or 'n/a'}; {errors}{pair}")
+    if state == "drifting":
+        return (f"DRIFTING over {window}: the stress still drifts ({trend}); its numbers are "
+                "a transient's")
+    if state == "metastable" and s.get("contacts_coherent"):
+        return (f"METASTABLE over {window}: the contacts still hold the start's common phase "
+                f"({contacts}): the start is not forgotten, its numbers are not the steady "
+                f"state's{pair}")
+    if state == "metastable":
+        return (f"METASTABLE over {window}: the stress disagrees with the other start's{pair} "
+                f"(beyond {100 * STEADY_AGREEMENT:g}% and both errors): a start is not "
+                "forgotten yet; run longer")
+    return (f"steady over {window}: the stress is flat ({trend}; a drift up to "
+            f"{_num(s, 'drift_bound', 100):.1f}% not excluded) and the contacts have forgotten "
+            f"the start ({contacts}){pair}")
+
+
+def power_law_line(s: dict, key: str, what: str) -> str:
+    """The report's line on a power law of the summary's ``key``_* entries."""
+    exponent = (f"exponent {_g(s, f'{key}_exponent', '.2f')} +- "
+                f"{_g(s, f'{key}_exponent_err', '.2f')}")
+    p = _g(s, f"{key}_fit_p", ".3f")
+    if s.get(f"{key}_power_law") == "rejected":
+        R = s.get(f"{key}_vs_lognormal")
+        vs = (f", against a lognormal R = {R:.1f}" if R is not None and math.isfinite(R)
+              else "")
+        return (f"  {what}: power law rejected (p = {p}{vs}); the fitted {exponent} does not "
+                "describe them")
+    if s.get(f"{key}_power_law") == "plausible":
+        R, Rp = s.get(f"{key}_vs_lognormal"), s.get(f"{key}_vs_lognormal_p")
+        if R is not None and Rp is not None and R < 0 and Rp < 0.1:
+            return (f"  {what}: the bootstrap does not rule a power law out (p = {p}), but a "
+                    f"lognormal is favoured (R = {R:.1f}, p = {Rp:.2g}); the fitted {exponent} "
+                    "is no law")
+        return f"  {what}: power law, {exponent} (p = {p})"
+    return f"  {what}: no power-law fit"
+
+
+def summary_lines(s: dict) -> list[str]:
+    """The report of a run's summary (``bkflow run``, ``bkflow analyze``)."""
+    state = s.get("state") or "drifting"
+    lines = ["  " + state_line(s),
+             f"  mu_bar = {_g(s, 'mu_bar', '.4f')} +- {_g(s, 'mu_bar_err', '.4f')} ({state}) "
+             f"over {s['n_slips']} slips (threshold {s['slip_threshold_stress']:g}); "
+             f"<sigma_x>/sigma_n = {_g(s, 'mean_stress_ratio', '.4f')} +- "
+             f"{_g(s, 'mean_stress_ratio_err', '.4f')} ({state})"]
+    if state in SWITCHING:
+        per = [f"{name}: mu_bar {_g(s, f'mu_bar_{name}', '.4f')}, <sigma_x>/sigma_n "
+               f"{_g(s, f'mean_stress_ratio_{name}', '.4f')}"
+               for name in ("quiet", "coherent") if s.get(f"time_{name}")]
+        lines.append("  by state: " + "; ".join(per))
+    lines += [f"  mu_bar over large drops (> {_g(s, 'large_drop_threshold', '.3g')}) = "
+              f"{_g(s, 'mu_bar_large', '.4f')} +- {_g(s, 'mu_bar_large_err', '.4f')} over "
+              f"{s.get('n_slips_large')} slips"]
+    by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
+                   for k, v in s["mu_bar_by_threshold"].items())
+    lines.append(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}")
+    if s.get("psi_inf") is not None:
+        lines.append(f"  Psi(inf) = {s['psi_inf']:.4f}")
+    if s.get("n_clusters") is not None:
+        lines.append(f"  clusters: {s['n_clusters']} in {s['n_cluster_events']} slips, "
+                     f"<l_x/Lx> = {_g(s, 'lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
+                     f"{_g(s, 'ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = "
+                     f"{_g(s, 'lx_over_ly', '.3f')}, regime {s.get('regime') or 'n/a'}")
+        lines.append(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
+                     f"{_g(s, 'lx_over_ly_large', '.3f')}, regime "
+                     f"{s.get('regime_large') or 'n/a'}")
+    lines.append(power_law_line(s, "drop", f"stress drops ({s['drop_n_tail']} above "
+                                f"{_g(s, 'drop_x_min', '.3g')})"))
+    if s.get("potency_power_law") is not None:
+        lines.append(power_law_line(s, "potency", f"potencies ({s['potency_n_tail']} above "
+                                    f"{_g(s, 'potency_x_min', '.3g')})"))
+    if s.get("energy_residual") is not None:
+        lines.append(f"  energy: the balance (plate work = change of elastic and kinetic energy "
+                     f"+ dissipation) closes to {_g(s, 'energy_residual', '.1e')} of the "
+                     "plate's work over the analysed run")
+    return lines
+
+
+# ------------------------------------------------------------------------- a sweep's table
+def cost_line(total, jobs: int, adaptive: bool) -> str:
+    """What a sweep will cost (``bkflow.lammps.limits.Cost`` of all its runs), before it starts."""
+    from bkflow.lammps.limits import ATOM_STEPS_PER_SECOND, fmt_bytes
+    from bkflow.sweeps.local import fmt_duration
+
+    seconds = total.atom_steps / ATOM_STEPS_PER_SECOND / max(1, jobs)
+    return (f"cost: {total.atom_steps:.3g} atom-steps, at most {fmt_duration(seconds)} on "
+            f"{jobs} core(s) at {ATOM_STEPS_PER_SECOND:.0e} atom-steps/s"
+            + (" if every run goes to its cap (a run stops earlier once its rule is met)"
+               if adaptive else "") + f", about {fmt_bytes(total.disk_bytes)} on disk")
+
+
+
+def states_line(res) -> str:
+    """How many runs of a results table are steady, switching, drifting, metastable, and what
+    to do."""
+    total = int(res.n_seeds.sum())
+
+    def count(name):
+        return int(res[f"n_{name}"].sum()) if f"n_{name}" in res else 0
+
+    n = {k: count(k) for k in ("steady", "switching", "drifting", "metastable")}
+    line = (f"{n['steady']} of {total} runs are steady over their analysed window, "
+            f"{n['switching']} switching between states (named in column 'state', their "
+            f"errors covering the switching), {n['drifting']} drifting, {n['metastable']} "
+            "metastable")
+    if n["drifting"] + n["metastable"]:
+        line += ("; the numbers of the drifting and metastable ones are not the steady "
+                 "state's: run longer (raise --t-end)")
+    return line
+
+
+def cell_state(r) -> str:
+    """A point's state for the printed table: the state, with the count of its seeds' runs
+    when not all are steady."""
+    state = r.get("state") if isinstance(r.get("state"), str) else "drifting"
+    if state == "steady":
+        return "steady"
+    key = "n_switching" if state in SWITCHING else f"n_{state}"
+    return f"{state} {int(r.get(key, 0))}/{int(r.n_seeds)}"
+
+
+def results_lines(res, axes=()) -> list[str]:
+    """The table a sweep prints: one row per point, every number with its error."""
+    def pm(v, e, fmt):
+        if v != v:
+            return "n/a"
+        return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
+
+    def err(r, f):
+        return r.get(f"{f}_err", r.get(f"{f}_sem"))
+
+    extra = "".join(f" {k:>10}" for k in axes)
+    lines = [f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'state':>20}  {'mu_bar':>18}  "
+             f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
+             f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime"]
+    for _, r in res.iterrows():
+        cells = "".join(f" {str(r[k]):>10}" for k in axes)
+        lines.append(
+            f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6}{cells} {r.n_seeds:>5} "
+            f"{cell_state(r):>20}  "
+            f"{pm(r.mu_bar, err(r, 'mu_bar'), '.4f'):>18}  "
+            f"{pm(r.mu_bar_large, err(r, 'mu_bar_large'), '.4f'):>18}  "
+            f"{pm(r.mean_stress_ratio, err(r, 'mean_stress_ratio'), '.4f'):>18}  "
+            f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>16}  "
+            f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
+            f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
+    return lines

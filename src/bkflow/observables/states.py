@@ -1,0 +1,523 @@
+"""The long-lived states a layer visits, and the error of a mean that covers its switching
+between them (docs/model.md, "The stiff end's states"; measured by benchmarks/stiff_states.py,
+its records benchmarks/records/stiff_states/).
+
+Pure functions on arrays, like ``bkflow.observables.stress``.
+
+States. A stiff layer (phi >= 215 at N = 100) spends long stretches, 10^4-10^5 time units, in
+one of two kinds of state, told apart by the coherence of its contacts' load phases over a
+block of ``BLOCK_T`` time units, R = |Z| with Z = <exp(2 pi i u)>:
+
+- **quiet**: R below ``r_independent(N)`` = sqrt(pi / 4N), the level of N independent uniform
+  phases: the phases are spread more evenly than chance, contacts break one at a time, and the
+  stress is flat at its lowest (0.1027-0.1031 sigma_n at phi = 1000, N = 100);
+- **coherent**: R above it: groups of contacts share their phase and break together, and the
+  stress rises with R (up to 5% above the quiet level at phi = 1000). Soft layers are always
+  here: their contacts keep a static, uneven phase distribution (R about 0.23 at phi = 30,
+  at any N).
+
+Error of a mean. A window of length W shorter than the switching's time scale cannot show,
+from its own samples, how far its mean is from the layer's long-run mean: a layer that sat in
+the quiet state throughout looks precise and is not. The variance of W-window means about the
+long-run mean of the same layer, relative, was measured on long runs (10^6-10^7 time units,
+benchmarks/stiff_states.py) for the model's default parameters at N = 100 and 400, at several
+phi and W: ``CALIBRATION`` (switching.json, written by ``benchmarks/stiff_states.py report``).
+``window_variance`` interpolates it (log phi, log W); the error of a run's mean is the larger of
+its own estimate (``bkflow.observables.stationarity.mean_error``) and the calibrated one. Where the
+calibration does not reach (another N, other model parameters), only the run's own estimate
+is left, and the result says so.
+
+>>> round(r_independent(100), 4)
+0.0886
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+#: the states (the verdict names those a window visited)
+QUIET, COHERENT = "quiet", "coherent"
+STATE_NAMES = (QUIET, COHERENT)
+#: block length (time units) over which the coherence R is averaged to name the state
+BLOCK_T = 1000.0
+#: the calibration of the switching variance (benchmarks/stiff_states.py report writes it)
+CALIBRATION = Path(__file__).with_name("switching.json")
+#: the parameters the calibration holds for: the model's defaults (RunSpec) of these fields
+CALIBRATED_FIELDS = ("k_e", "mu_s", "sigma_n", "area", "V_d", "gamma", "mass", "k_d", "dk_d",
+                     "contact_rule", "damping")
+
+
+def r_independent(n: int) -> float:
+    """E|Z| of n independent uniform phases, sqrt(pi / 4n) (the Rayleigh mean, n large)."""
+    return math.sqrt(math.pi / (4 * n))
+
+
+@dataclass(frozen=True)
+class Blocks:
+    """Block averages of a window: edges (t0, t1), the mean coherence R and stress ratio of
+    each block, and its state (``QUIET`` or ``COHERENT``)."""
+
+    t0: np.ndarray
+    t1: np.ndarray
+    R: np.ndarray
+    stress: np.ndarray
+    state: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t0)
+
+
+def blocks(t_phase, R, t_stress, ratio, t_start: float, n_contacts: int,
+           block_t: float = BLOCK_T) -> Blocks:
+    """The blocks of [t_start, end]: as many whole blocks of about ``block_t`` as fit (at
+    least one), each with its mean R (phase samples) and stress ratio (stress samples)."""
+    t_phase, R = np.asarray(t_phase, float), np.asarray(R, float)
+    t_stress, ratio = np.asarray(t_stress, float), np.asarray(ratio, float)
+    t_end = float(t_stress[-1]) if len(t_stress) else t_start
+    span = t_end - t_start
+    n = max(1, int(round(span / block_t))) if span > 0 else 0
+    edges = np.linspace(t_start, t_end, n + 1)
+
+    def means(t, x):
+        # samples in time order: block k is the slice [edge k, edge k + 1), the last closed
+        cut = np.searchsorted(t, edges, side="left")
+        cut[-1] = np.searchsorted(t, t_end, side="right")
+        c = np.concatenate([[0.0], np.cumsum(x[cut[0]:cut[-1]])])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (c[cut[1:] - cut[0]] - c[cut[:-1] - cut[0]]) / np.diff(cut)
+
+    r = means(t_phase, R) if n else np.array([])
+    s = means(t_stress, ratio) if n else np.array([])
+    # a block without a phase sample (the phase series lags the stress's) has no state
+    state = np.where(np.isnan(r), "", np.where(r < r_independent(n_contacts), QUIET, COHERENT))
+    return Blocks(edges[:-1], edges[1:], r, s, state)
+
+
+@dataclass(frozen=True)
+class Composition:
+    """Which states a window visited: the share of its time in each, and each state's mean
+    stress ratio and mu_bar (NaN where the state was not visited, or saw no slip)."""
+
+    fraction: dict
+    mean_stress: dict
+    mu_bar: dict
+
+    @property
+    def visited(self) -> tuple:
+        return tuple(s for s in STATE_NAMES if self.fraction.get(s, 0.0) > 0)
+
+    @property
+    def name(self) -> str:
+        """The states visited, joined by '+' (``quiet+coherent``)."""
+        return "+".join(self.visited) or "none"
+
+    def row(self) -> dict:
+        out = {"states_visited": self.name}
+        for s in STATE_NAMES:
+            out[f"time_{s}"] = self.fraction.get(s, 0.0)
+            out[f"mean_stress_ratio_{s}"] = self.mean_stress.get(s, math.nan)
+            out[f"mu_bar_{s}"] = self.mu_bar.get(s, math.nan)
+        return out
+
+
+def composition(b: Blocks, t_fail=None, sigma_fail_ratio=None) -> Composition:
+    """The composition of a window's blocks; with the slips' times and sigma_fail / sigma_n,
+    each state's mu_bar over the slips whose maximum falls in its blocks."""
+    frac, stress, mu = {}, {}, {}
+    w = b.t1 - b.t0
+    total = w[b.state != ""].sum()   # the blocks whose state is known
+    t_fail = None if t_fail is None else np.asarray(t_fail, float)
+    for s in STATE_NAMES:
+        m = b.state == s
+        frac[s] = float(w[m].sum() / total) if total > 0 else 0.0
+        stress[s] = float(np.average(b.stress[m], weights=w[m])) if m.any() else math.nan
+        mu[s] = math.nan
+        if t_fail is not None and m.any() and len(t_fail):
+            k = np.clip(np.searchsorted(b.t0, t_fail, side="right") - 1, 0, len(b) - 1)
+            inside = m[k] & (t_fail >= b.t0[0]) & (t_fail <= b.t1[-1])
+            if inside.any():
+                mu[s] = float(np.mean(np.asarray(sigma_fail_ratio, float)[inside]))
+    return Composition(frac, stress, mu)
+
+
+# ------------------------------------------------------------------------- the calibration
+@lru_cache(maxsize=1)
+def calibration() -> dict:
+    """The switching calibration (switching.json), or {} when absent."""
+    try:
+        return json.loads(CALIBRATION.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def calibrated(spec) -> str | None:
+    """Why the calibration does not hold for ``spec`` (a RunSpec), or None when it does."""
+    cal = calibration()
+    if not cal:
+        return "no calibration of the switching is installed"
+    from bkflow.model.params import RunSpec
+
+    default = RunSpec(phi=1.0)
+    other = [f for f in CALIBRATED_FIELDS if getattr(spec, f) != getattr(default, f)]
+    if other:
+        return f"the switching is calibrated for the model's defaults, not {', '.join(other)}"
+    if str(spec.N) not in cal.get("sizes", {}):
+        sizes = ", ".join(sorted(cal.get("sizes", {}), key=int))
+        return f"the switching is calibrated at N = {sizes}, not N = {spec.N}"
+    return None
+
+
+def _interp(x, xs, ys):
+    """Linear interpolation of ys(xs) at x, held constant beyond the ends."""
+    return float(np.interp(x, xs, ys, left=ys[0], right=ys[-1]))
+
+
+def window_variance(observable: str, phi: float, n: int, window: float,
+                    size: dict | None = None) -> float | None:
+    """The calibrated relative variance of a window mean of ``observable`` ("stress" or
+    "mu_bar") over ``window`` time units at (phi, N = n) about the layer's long-run mean;
+    None where the calibration has no such size. ``size``: a calibration's entry for one size
+    ({"phi", "windows", observable: table}) instead of the installed one's. Interpolated in
+    log phi and log window (held at the ends in phi; beyond the longest window it falls as
+    1 / window, below the shortest it is held); None for an empty window."""
+    size = size if size is not None else calibration().get("sizes", {}).get(str(n))
+    if not size or not window > 0:   # no calibration, or no window (a run shorter than it)
+        return None
+    windows = np.log(np.asarray(size["windows"], float))
+    phis = np.log(np.asarray(size["phi"], float))
+    table = np.log(np.asarray(size[observable], float))   # [phi][window]
+    lw = math.log(window)
+    tail = max(0.0, lw - windows[-1])   # beyond the longest window: 1 / W
+    at_w = np.array([_interp(min(lw, windows[-1]), windows, row) for row in table]) - tail
+    return math.exp(_interp(math.log(phi), phis, at_w))
+
+
+# ------------------------------------------------------------------------- the verdict
+#: what a window's verdict may say (docs/model.md "Steady state"): steady (its own statistics
+#: give the long-run mean), drifting (the stress trends, and no switching explains it),
+#: metastable (the start's memory is shown), or the states it visited where the layer switches
+#: between states more slowly than the window averages over them
+VERDICTS = ("steady", "drifting", "metastable", QUIET, COHERENT, f"{QUIET}+{COHERENT}")
+#: the windows whose verdict names the states they visited
+SWITCHING = (QUIET, COHERENT, f"{QUIET}+{COHERENT}")
+#: the calibrated error dominates the run's own when it is more than this times larger
+DOMINATES = 2.0
+#: the phase fluctuation chi above which the contacts hold the start's common phase (the
+#: synchronized start's memory) where no calibration gives a threshold of its own
+MEMORY_CHI_DEFAULT = 10.0
+
+
+def memory_chi(n: int) -> float:
+    """The phase fluctuation above which a window's contacts still hold the start's common
+    phase, at N = n: the calibration's, the largest chi of a window of the long runs from
+    every start once their start was forgotten, with a margin (of the nearest calibrated N);
+    MEMORY_CHI_DEFAULT without a calibration."""
+    sizes = calibration().get("sizes", {})
+    if not sizes:
+        return MEMORY_CHI_DEFAULT
+    nearest = min(sizes, key=lambda k: abs(math.log(int(k) / n)))
+    return float(sizes[nearest].get("memory_chi", MEMORY_CHI_DEFAULT))
+
+
+#: a layer has two states where the calibrated share of time in the rarer one is at least this
+TWO_STATES = 0.01
+
+
+def two_states(phi: float, n: int) -> bool | None:
+    """Whether the calibration shows the layer at (phi, N = n) in both states (the rarer one
+    at least TWO_STATES of the time, interpolated in log phi); None where it has no such N."""
+    size = calibration().get("sizes", {}).get(str(n))
+    if not size or "quiet" not in size:
+        return None
+    q = _interp(math.log(phi), np.log(size["phi"]), np.asarray(size["quiet"], float))
+    return min(q, 1 - q) >= TWO_STATES
+
+
+#: a window's mean is taken for the long-run mean (steady) only where the layer's slow
+#: fluctuations over a window of its length move the mean by less than this, relative (a 95%
+#: band of 0.5%: the false-steady tolerance the verdict is calibrated for); beyond it the
+#: window names the states it visited even in a layer with one state (N = 400's stiff end
+#: wanders in its coherent state)
+SLOW_FLUCTUATION = 0.0025
+
+
+def not_averaged(calibrated_var: float | None, own_err: float, mean: float, phi: float,
+                 n: int) -> bool:
+    """Whether a window has not averaged over the layer's slow dynamics, so that its numbers
+    are those of the states it visited: the calibrated switching error dominates its own
+    (``dominates``), and the layer has two states (``two_states``) or its slow fluctuations
+    alone exceed SLOW_FLUCTUATION."""
+    if not dominates(calibrated_var, own_err, mean):
+        return False
+    return bool(two_states(phi, n)) or math.sqrt(calibrated_var) > SLOW_FLUCTUATION
+
+
+def dominates(calibrated_var: float | None, own_err: float, mean: float) -> bool:
+    """Whether the calibrated relative variance of a window's mean says more than the window's
+    own error does: the window has not averaged over the layer's switching."""
+    if calibrated_var is None or not (mean and math.isfinite(mean)):
+        return False
+    own = own_err / abs(mean) if own_err is not None and math.isfinite(own_err) else 0.0
+    return math.sqrt(calibrated_var) > DOMINATES * own
+
+
+def verdict(stationary: bool, chi: float | None, comp: Composition | None, n: int,
+            switching_dominates: bool, pair_disagrees: bool = False) -> str:
+    """The verdict of a window (``VERDICTS``), in this order: the start's memory shown
+    (``metastable``: the contacts' phase fluctuation above ``memory_chi``, or a companion run
+    from another start whose mean differs beyond both errors); the states visited, where
+    the window saw both, or where it has not averaged over the layer's slow dynamics
+    (``switching_dominates``: ``not_averaged``); ``drifting`` where the stress trends; else
+    ``steady``."""
+    if (chi is not None and chi > memory_chi(n)) or pair_disagrees:
+        return "metastable"
+    if comp is not None and (len(comp.visited) == 2 or switching_dominates):
+        return comp.name
+    return "steady" if stationary else "drifting"
+
+
+@dataclass(frozen=True)
+class Window:
+    """One run's analysed window [t0, t1]: its mean stress ratio with the run's own error and
+    the calibrated switching variance, the error that covers both (``err``), the stress's
+    trend test, the contacts' phase statistics, the states visited, and the verdict."""
+
+    t0: float
+    t1: float
+    mean: float
+    err_run: float              # the run's own error (stationarity.mean_error), or NaN
+    err_block: float            # ... from the trend test's block means: what the verdict reads
+    var_switching: float | None
+    calibration: str | None     # why the switching is not calibrated here (None: it is)
+    trend: object               # bkflow.observables.stationarity.Stationarity
+    contacts: object | None     # bkflow.observables.phases.Coherence, None without a phase series
+    comp: Composition | None
+    state: str
+    n: int                      # the layer's contacts
+
+    @property
+    def err(self) -> float:
+        """The error of the mean as an estimate of the layer's long-run mean: the larger of
+        the run's own and the calibrated switching's."""
+        if self.var_switching is None:
+            return self.err_run
+        cal = math.sqrt(self.var_switching) * abs(self.mean)
+        return cal if not math.isfinite(self.err_run) else max(self.err_run, cal)
+
+    @property
+    def err_verdict(self) -> float:
+        """The error the verdict compares with (the block means' own, or the calibrated)."""
+        cal = 0.0 if self.var_switching is None else math.sqrt(self.var_switching) * abs(
+            self.mean)
+        return max(self.err_block, cal) if math.isfinite(self.err_block) else cal
+
+    def err_of(self, observable: str, value: float, own: float, phi: float, n: int) -> float:
+        """The error of another window mean (``observable`` "mu_bar") in the same way."""
+        if self.calibration is not None or not math.isfinite(value):
+            return own
+        v = window_variance(observable, phi, n, self.t1 - self.t0)
+        cal = math.sqrt(v) * abs(value) if v is not None else math.nan
+        if not math.isfinite(cal):
+            return own
+        return cal if own is None or not math.isfinite(own) else max(own, cal)
+
+
+def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
+           alpha: float = 0.05, t_fail=None, sigma_fail=None, own_error: bool = True,
+           weights=None) -> Window:
+    """The window [t0, end] of one run (a RunSpec ``spec``; its stress series ``t``,
+    ``sigma``; its phase series ``phase`` with columns t, R, Z_re, Z_im (and R2, u_std), or
+    None), with the slips' times and sigma_fail for each state's mu_bar. The verdict reads
+    only the trend test's block means, the contacts and the calibration (the same at every
+    check of a run in progress and in its summary); ``own_error`` False leaves out the run's
+    own error of the mean (the costly part, which only the summary reports); ``weights``: the
+    samples behind each value of a series of block means (bkflow.observables.reduced), for its
+    mean."""
+    from bkflow.observables.phases import coherence
+    from bkflow.observables.stationarity import mean_error, stationarity
+
+    t, sigma = np.asarray(t, float), np.asarray(sigma, float)
+    ratio = sigma / spec.sigma_n
+    late = t >= t0
+    w = None if weights is None else np.asarray(weights, float)[late]
+    mean = float(np.average(ratio[late], weights=w)) if late.any() else math.nan
+    err_run = mean_error(ratio[late]).error if own_error else math.nan
+    trend = stationarity(t, sigma, t0, n_blocks, alpha)
+    why = calibrated(spec)
+    t1 = float(t[-1]) if len(t) else t0
+    if why is None:
+        trend = trend_within_fluctuations(trend, window_variance(
+            "stress", spec.phi, spec.N, (t1 - t0) / 2))
+    bm = np.asarray(trend.block_means, float) / spec.sigma_n
+    err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
+        if len(bm) > 1 and np.isfinite(bm).all() else math.nan
+    var = None if why is not None else window_variance("stress", spec.phi, spec.N, t1 - t0)
+    contacts = comp = None
+    if phase is not None and len(phase["t"]):
+        contacts = coherence(phase["t"], np.asarray(phase["Z_re"]) + 1j * np.asarray(
+            phase["Z_im"]), t0, spec.N, phase.get("R2"), phase.get("u_std"), n_blocks, alpha,
+            phase.get("R"), phase.get("Z2"))
+        if late.any():
+            b = blocks(phase["t"], phase["R"], t, ratio, t0, spec.N)
+            fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.sigma_n
+            comp = composition(b, t_fail, fail)
+    chi = None if contacts is None or not math.isfinite(contacts.fluctuation) \
+        else contacts.fluctuation
+    switching = not_averaged(var, err_block, mean, spec.phi, spec.N)
+    state = verdict(bool(trend.stationary), chi, comp, spec.N, switching)
+    return Window(float(t0), t1, mean, err_run, err_block, var, why, trend, contacts, comp,
+                  state, spec.N)
+
+
+def trend_within_fluctuations(trend, half_var: float | None):
+    """The trend test with the drift's error no smaller than the layer's calibrated
+    fluctuations imply. A layer whose stress wanders on times longer than a block of the test
+    (10^3-10^4 time units at phi >= 30) gives block means that scatter more, and more alike,
+    than the test's independent-blocks error says, and the test alone calls such a window
+    drifting far more often than its 5%. With ``half_var`` the calibrated relative variance of
+    the mean of half the window about the long-run mean: the two halves' means differ by half
+    the drift (a straight line's), and by chance with a variance of at most 2 half_var (their
+    fluctuations alike or independent), so the drift's error is at least 2 sqrt(2 half_var);
+    a drift within it is not one. None: the test as it is."""
+    import dataclasses
+
+    from bkflow.observables.stationarity import t_sf
+
+    if half_var is None or not math.isfinite(trend.drift):
+        return trend
+    err = 2.0 * math.sqrt(2.0 * half_var)
+    if not err > trend.drift_err:
+        return trend
+    dof = len(trend.block_t) - 2
+    z = trend.drift / err
+    p = 2.0 * t_sf(abs(z), dof)
+    return dataclasses.replace(trend, drift_err=err, drift_z=z, p_value=p,
+                               stationary=bool(p >= trend.alpha))
+
+
+def pair_disagrees(a: Window, b: Window, agreement: float) -> bool:
+    """Whether two windows of one layer (a run and its companion from another start) differ
+    by more than ``agreement`` (relative) and more than twice their combined error: one of
+    them still remembers its start."""
+    if not (math.isfinite(a.mean) and math.isfinite(b.mean) and b.mean):
+        return False
+    gap = abs(a.mean / b.mean - 1)
+    ea, eb = a.err_verdict, b.err_verdict
+    both = math.hypot(ea / abs(a.mean), eb / abs(b.mean)) \
+        if math.isfinite(ea) and math.isfinite(eb) else 0.0
+    return gap > max(agreement, 2 * both)
+
+
+def needed_length(spec, mu_bar: float) -> float | None:
+    """The run length at which the calibrated switching error of mu_bar falls to the run's
+    target_error (what the layer's physics asks of a run, the cap aside); None where the
+    calibration does not hold or gives no switching error."""
+    if calibrated(spec) is not None or spec.target_error is None or not mu_bar > 0:
+        return None
+    want = (spec.target_error / mu_bar) ** 2
+    lo, hi = math.log(10.0), math.log(1e12)
+    if (window_variance("mu_bar", spec.phi, spec.N, math.exp(lo)) or 0.0) <= want:
+        return None
+    for _ in range(60):   # the variance falls with the window: bisect in log W
+        mid = 0.5 * (lo + hi)
+        if window_variance("mu_bar", spec.phi, spec.N, math.exp(mid)) > want:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(hi) / (1 - spec.transient)
+
+
+# ------------------------------------------------------------------------- calibrating
+def slide(x, k: int, step: int | None = None) -> np.ndarray:
+    """Means of ``x`` over windows of k consecutive entries, a window starting every ``step``
+    (default k / 4): the windows a calibration slides along a long run's blocks."""
+    x = np.asarray(x, float)
+    step = max(1, k // 4) if step is None else step
+    if len(x) < k:
+        return np.empty(0)
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    a = np.arange(0, len(x) - k + 1, step)
+    return (c[a + k] - c[a]) / k
+
+
+def window_deviations(runs, truth: float, k: int) -> np.ndarray:
+    """Relative squared deviations from ``truth`` (the layer's long-run mean) of the means of
+    windows of k blocks slid along each of ``runs`` (arrays of block means of one layer, or
+    pairs (sums, counts) of a ratio such as mu_bar: a window's sum over its count)."""
+    out = []
+    for r in runs:
+        if isinstance(r, tuple):
+            with np.errstate(invalid="ignore", divide="ignore"):
+                m = slide(r[0], k) / slide(r[1], k)
+            m = m[np.isfinite(m)]
+        else:
+            m = slide(r, k)
+        out.append((m / truth - 1) ** 2)
+    return np.concatenate(out) if out else np.empty(0)
+
+
+def calibrate(layers: dict, windows, block_t: float = BLOCK_T) -> dict:
+    """The window-variance table of ``window_variance`` for one size: ``layers`` maps phi to
+    a list of layers (one disorder each), each a pair (long-run mean, [each of its runs: block
+    means, or (block sums, block counts) of a ratio]); for each phi and window W (time
+    units), the largest over the layers of the mean relative squared deviation of W-window
+    means from their layer's long-run mean: the disorder changes how a layer switches (one
+    seed's layer spends more of its time coherent than another's), and the error must cover
+    the layer that switches most. A window
+    longer than every run takes the last one's value times W_last / W (the 1/W of a window
+    much longer than the switching)."""
+    phis = sorted(layers)
+    table = []
+    for phi in phis:
+        row = []
+        for W in windows:
+            k = max(1, int(round(W / block_t)))
+            per_layer = [window_deviations(runs, truth, k) for truth, runs in layers[phi]]
+            per_layer = [d.mean() for d in per_layer if len(d)]
+            row.append(float(np.max(per_layer)) if per_layer else math.nan)
+        for j in range(1, len(row)):
+            if not math.isfinite(row[j]):
+                row[j] = row[j - 1] * windows[j - 1] / windows[j]
+        table.append(row)
+    return {"phi": phis, "windows": list(windows), "table": table}
+
+
+def block_verdict(t0, t1, stress, R, R2abs, Zre, Zim, samples, phi: float, n: int,
+                  n_blocks: int = 10, alpha: float = 0.05):
+    """The verdict of ``window`` from block averages of a window instead of its series (the
+    long runs' records: blocks of BLOCK_T): per block its edges, mean stress ratio, mean R,
+    mean |Z|^2, mean Z and sample count. The trend test's ``n_blocks`` blocks are groups of
+    these, chi comes from the blocks' moments; the calibration is the installed one (the
+    model's defaults). Returns (verdict, mean stress ratio, its error as ``Window.err``
+    with the groups' scatter as the run's own)."""
+    from bkflow.observables.stationarity import Stationarity, linear_fit
+
+    t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
+    w = np.asarray(samples, float)
+    s = np.asarray(stress, float)
+    mean = float(np.average(s, weights=w))
+    groups = np.array_split(np.arange(len(s)), n_blocks)
+    gm = np.array([np.average(s[g], weights=w[g]) for g in groups])
+    gt = np.array([0.5 * (t0[g[0]] + t1[g[-1]]) for g in groups])
+    slope, stderr, p = linear_fit(gt, gm)
+    span, level = float(t1[-1] - t0[0]), float(gm.mean())
+    trend = Stationarity(float(t0[0]), float(t1[-1]), gt, gm, slope * span / level,
+                         stderr * span / level, slope / stderr if stderr else 0.0, p,
+                         p >= alpha, alpha)
+    trend = trend_within_fluctuations(trend, window_variance("stress", phi, n, span / 2))
+    err_block = float(gm.std(ddof=1) / math.sqrt(len(gm)))
+    chi = n * (np.average(R2abs, weights=w) - np.average(Zre, weights=w) ** 2
+               - np.average(Zim, weights=w) ** 2)
+    quiet = float(np.mean(np.asarray(R, float) < r_independent(n)))
+    comp = Composition({QUIET: quiet, COHERENT: 1 - quiet}, {}, {})
+    var = window_variance("stress", phi, n, span)
+    switching = not_averaged(var, err_block, mean, phi, n)
+    state = verdict(bool(trend.stationary), float(chi), comp, n, switching)
+    err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
+    return state, mean, err

@@ -1,0 +1,141 @@
+"""A sweep on a cluster: ``python -m bkflow.cluster status|run|submit|exec ...``, run inside a
+sweep directory (``bkflow sweep ... --out DIR --init`` creates one without running it).
+
+This is signac-flow's command line for ``bkflow.sweeps.project.ClusterProject``, whose
+operations ``simulate`` and ``analyze`` are the ones ``bkflow sweep`` runs locally, and whose
+job-script template ships with the package (``bkflow/sweeps/templates/script.sh``): it works from a
+wheel as from a checkout. The job scripts it submits call ``python -m bkflow.cluster`` again
+(the python that submitted, whose environment holds bkflow):
+
+    bkflow sweep --phi 1e-1:1e3 --sizes 100,400,900 --seeds 3 --out grid --init
+    cd grid
+    python -m bkflow.cluster status
+    python -m bkflow.cluster submit --bundle 16 --parallel --pretend   # show the scripts
+    python -m bkflow.cluster submit --bundle 16 --parallel             # sbatch
+    python -m bkflow.cluster run -p 2                                # or here, 2 at a time
+    bkflow collect .
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import sys
+from pathlib import Path
+
+
+def project(path=None):
+    """The cluster project of the sweep directory ``path`` (default: the current one), whose
+    submitted commands are ``<this python> -m bkflow.cluster ...``."""
+    from bkflow.sweeps.project import ClusterProject
+
+    return ClusterProject.get_project(
+        os.getcwd() if path is None else str(path),
+        entrypoint={"executable": sys.executable, "path": "-m bkflow.cluster"})
+
+
+def main(argv=None) -> None:
+    if argv is not None:
+        sys.argv[1:] = list(argv)
+    from bkflow.lammps.limits import mpi_refusal
+
+    why = mpi_refusal()
+    if why:  # K copies of one command in one MPI world: they would wait forever
+        print(f"bkflow.cluster: error: {why}", file=sys.stderr)
+        sys.exit(2)
+    env = os.environ.get("SIGNAC_FLOW_ENVIRONMENT")
+    if env:
+        from flow.environment import get_environment
+
+        try:
+            get_environment()
+        except ValueError:
+            from flow.environment import ComputeEnvironment
+
+            known = sorted(c.__name__ for c in _subclasses(ComputeEnvironment))
+            print(f"bkflow.cluster: error: SIGNAC_FLOW_ENVIRONMENT={env} is no environment "
+                  f"signac-flow knows (it knows {', '.join(known)}): unset it, or name one of "
+                  "those", file=sys.stderr)
+            sys.exit(2)
+    try:
+        p = project()
+    except LookupError:
+        if Path(".signac").is_dir():   # a sweep directory whose signac records are damaged
+            from bkflow.sweeps.project import workspace_problem
+
+            why = workspace_problem(Path.cwd())
+            if why is not None:
+                print(f"bkflow.cluster: error: {why}", file=sys.stderr)
+                sys.exit(2)
+        if {"-h", "--help"} & set(sys.argv[1:]):
+            with contextlib.suppress(BrokenPipeError):
+                print(__doc__)
+            sys.exit(0)
+        print(f"bkflow.cluster: error: {os.getcwd()} is not a sweep directory (no signac "
+              "project here): run it inside the --out directory of bkflow sweep ... --init",
+              file=sys.stderr)
+        sys.exit(2)  # bad input, as bkflow's own commands
+    from bkflow.model.params import SpecError
+    from bkflow.sweeps.project import check_workspace
+
+    try:
+        check_workspace(p.path)  # a hand-edited workspace: named with its repair
+    except SpecError as exc:
+        print(f"bkflow.cluster: error: {exc}", file=sys.stderr)
+        sys.exit(2)
+    # flow logs a scheduler's failure before raising it: the one line below says it instead
+    logging.getLogger("flow").setLevel(logging.CRITICAL)
+    try:
+        p.main()
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except (LookupError, ValueError, TypeError) as exc:  # no such job, a bad option value
+        first = " ".join((str(exc).strip().splitlines() or [type(exc).__name__])[0].split())
+        print(f"bkflow.cluster: error: {first}: check the job ids and options "
+              "(python -m bkflow.cluster COMMAND --help)", file=sys.stderr)
+        sys.exit(2)  # bad input, as bkflow's own commands
+    except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        hint = (" (if this machine has no working scheduler, "
+                "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment runs without one)"
+                if _from_scheduler(exc) else
+                f" ({type(exc).__name__}; bkflow.cluster did not expect it: please report it)")
+        print(f"bkflow.cluster: error: {first}{hint}", file=sys.stderr)
+        sys.exit(1)
+
+
+#: the commands of the schedulers signac-flow drives
+SCHEDULER_COMMANDS = ("squeue", "sbatch", "scancel", "sinfo", "qstat", "qsub", "bjobs", "bsub")
+
+
+def _from_scheduler(exc: BaseException) -> bool:
+    """Whether ``exc`` (or what caused it) is a scheduler's failure: one of its commands
+    failed or is missing, or flow says submitting failed."""
+    import subprocess
+
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, subprocess.CalledProcessError):
+            cmd = exc.cmd[0] if isinstance(exc.cmd, (list, tuple)) else str(exc.cmd).split()[0]
+            if os.path.basename(str(cmd)) in SCHEDULER_COMMANDS:
+                return True
+        if isinstance(exc, FileNotFoundError) and os.path.basename(
+                str(exc.filename or "")) in SCHEDULER_COMMANDS:
+            return True
+        if type(exc).__name__ in ("SubmitError", "NoSchedulerError"):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _subclasses(cls) -> list:
+    out = []
+    for sub in cls.__subclasses__():
+        out += [sub, *_subclasses(sub)]
+    return out
+
+
+if __name__ == "__main__":
+    main()
