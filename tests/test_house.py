@@ -82,6 +82,48 @@ def test_figures_never_analyse_and_never_need_flow():
         assert "import signac" not in text and "signac_project_document" not in text, path.name
 
 
+#: the limits a maintainer can read a file and a function within (docs/develop.md, "Layout")
+MAX_LINES, MAX_COMPLEXITY = 500, 15
+#: a function above MAX_COMPLEXITY says why on the comment line right above it (above its
+#: decorators), beginning with this marker
+WHY_COMPLEX = ("# complexity:", "// complexity:")
+
+
+def _sources():
+    return sorted([*SRC.rglob("*.py"), *(ROOT / "plugins").glob("*.[ch]*"),
+                   *(ROOT / "plugins").glob("*.inc")])
+
+
+def test_no_file_over_500_lines():
+    long = [f"{p.relative_to(ROOT)}: {n}" for p in _sources()
+            if (n := len(p.read_text().splitlines())) > MAX_LINES]
+    assert not long, f"split these by what they do (at most {MAX_LINES} lines): {long}"
+
+
+def _says_why(lines: list[str], start: int) -> bool:
+    i = start - 2                      # the line above the definition (lines count from 1)
+    while i >= 0 and lines[i].lstrip().startswith("@"):
+        i -= 1
+    return i >= 0 and lines[i].lstrip().startswith(WHY_COMPLEX)
+
+
+def test_no_function_over_complexity_15_without_a_reason():
+    lizard = pytest.importorskip("lizard")
+    bad = []
+    for p in _sources():
+        if p.suffix not in (".py", ".cpp", ".h", ".inc"):
+            continue
+        text = p.read_text()
+        lines = text.splitlines()
+        name = p.name if p.suffix != ".inc" else p.with_suffix(".cpp").name
+        for f in lizard.analyze_file.analyze_source_code(name, text).function_list:
+            if f.cyclomatic_complexity > MAX_COMPLEXITY and not _says_why(lines, f.start_line):
+                bad.append(f"{p.relative_to(ROOT)}:{f.start_line} {f.name} "
+                           f"({f.cyclomatic_complexity})")
+    assert not bad, (f"split these, or say why above them ({WHY_COMPLEX[0]} ...): "
+                     + "; ".join(bad))
+
+
 def test_no_run_file_name_is_written_outside_rundir():
     names = ("in.bk", "data.bk", "params.json", "stress.csv", "phase.csv", "snapshots.lammpstrj",
              "slips.lammpstrj", "log.lammps", "meta.json", "summary.json", "events.csv",
