@@ -1,6 +1,7 @@
-"""The generated blocks of benchmarks/RESULTS.md and workflows/paper/REPRODUCTION.md: every
-number there that comes from a benchmark's records is written by a function here from those
-records, between ``<!-- generated: NAME -->`` and ``<!-- end -->``.
+"""The generated blocks of benchmarks/RESULTS.md, workflows/paper/REPRODUCTION.md and
+docs/analysis.md: every number there that comes from a benchmark's records, and the table of
+the summary's keys (from bkflow.analysis.registry), is written by a function here, between
+``<!-- generated: NAME -->`` and ``<!-- end -->``.
 
     python benchmarks/results_blocks.py            # check: exit 1 when a block differs
     python benchmarks/results_blocks.py --write    # (re)write every block
@@ -22,7 +23,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 ROOT = HERE.parent
-DOCUMENTS = (HERE / "RESULTS.md", ROOT / "workflows" / "paper" / "REPRODUCTION.md")
+DOCUMENTS = (HERE / "RESULTS.md", ROOT / "workflows" / "paper" / "REPRODUCTION.md",
+             ROOT / "docs" / "analysis.md")
 BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(<!-- end -->)", re.S)
 
 
@@ -673,6 +675,16 @@ def claims_block(name: str):
 
 
 BLOCKS["large-drops"] = large_drops
+
+
+def summary_keys() -> str:
+    """docs/analysis.md's table of every summary key, from the registry that declares them."""
+    from bkflow.analysis.registry import keys_table
+
+    return keys_table() + "\n"
+
+
+BLOCKS["summary-keys"] = summary_keys
 BLOCKS.update({name: claims_block(name) for name in (
     "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other")})
 

@@ -40,7 +40,7 @@ def _hunks_by_file(diff: str) -> dict[str, int]:
 def test_a_new_contact_rule_touches_at_most_four_places():
     hunks = _hunks_by_file(_rule_diff())
     outside = {f: n for f, n in hunks.items() if not f.startswith(("tests/", "docs/"))}
-    assert set(outside) == {"plugins/bk_model.h", "src/bkflow/params.py"}
+    assert set(outside) == {"plugins/bk_model.h", "src/bkflow/model/params.py"}
     assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
     assert "tests/reference.py" in hunks  # the independent check learns the rule too
 

@@ -20,11 +20,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from bkflow.analysis.results import results_table
 from bkflow.cli.commands import main
 from bkflow.model.params import RunSpec, SpecError
 from bkflow.store.rundir import LOCK as LOCK_FILE
 from bkflow.store.rundir import RunBusyError, RunDir
-from bkflow.store.tables import results_table
 from bkflow.sweeps.grid import parse_sizes, phi_values, sweep_specs
 from bkflow.sweeps.job import run_one
 from bkflow.sweeps.local import sweep
@@ -311,7 +311,8 @@ def test_the_tables_write_each_float_as_its_shortest_text_and_read_it_back_exact
     """runs.csv and results.csv give every float as the shortest text that reads back as the
     same double: phi = 0.1 as ``0.1`` (``%.17g`` wrote 0.10000000000000001), and reading the
     tables back gives the very floats that were written, bit for bit."""
-    from bkflow.store.tables import read_tables, write_tables
+    from bkflow.analysis.results import write_tables
+    from bkflow.store.tables import read_tables
 
     awkward = (1 / 3, 2.15443469003188, 1e-300, 0.1 + 0.2, -0.0, math.inf, math.nan)
     finished = []

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bkflow import __version__
+from bkflow.analysis import registry
 from bkflow.model.lattice import square_lattice
 from bkflow.model.params import (
     S_X,
@@ -218,10 +219,7 @@ class StateResult:
         if w.comp is None:
             row["states_visited"] = None
         if c is None:
-            return {**row, "phase_coherence": math.nan, "phase_coherence_static": math.nan,
-                    "phase_fluctuation": math.nan, "phase_r2": math.nan,
-                    "phase_u_std": math.nan, "phase_drift": math.nan,
-                    "phase_drift_z": math.nan, "contacts_coherent": None}
+            return {**row, **{k.name: k.missing for k in registry.CONTACT_KEYS}}
         return {**row, "phase_coherence": c.R, "phase_coherence_static": c.R_static,
                 "phase_fluctuation": c.fluctuation, "phase_r2": c.R2, "phase_u_std": c.u_std,
                 "phase_drift": c.trend.drift, "phase_drift_z": c.trend.drift_z,
@@ -301,19 +299,6 @@ class ClusterResult:
                 "regime_fractions_large": g.regime_fractions}
 
 
-#: the keys of an observable a scene did not record (None in summary.json, empty in tables)
-_NOT_MEASURED = {"psi_inf": math.nan, "lx_mean_over_Lx": math.nan, "ly_mean_over_Ly": math.nan,
-                 "lx_over_ly": math.nan, "n_clusters": None, "n_cluster_events": None,
-                 "n_slips_without_snapshots": None, "regime": None, "regime_fractions": None,
-                 "lx_mean_over_Lx_large": math.nan, "ly_mean_over_Ly_large": math.nan,
-                 "lx_over_ly_large": math.nan, "n_clusters_large": None, "regime_large": None,
-                 "regime_fractions_large": None, "potency_exponent": math.nan,
-                 "potency_exponent_err": math.nan, "potency_x_min": math.nan,
-                 "potency_n_tail": None, "potency_power_law": None, "potency_fit_p": math.nan,
-                 "potency_vs_lognormal": math.nan, "potency_vs_lognormal_p": math.nan,
-                 "energy_residual": math.nan}
-
-
 @dataclass(frozen=True)
 class RunAnalysis:
     """What ``summarize`` returns: one result per observable (None: not recorded by the
@@ -338,7 +323,7 @@ class RunAnalysis:
         row = {"bkflow": __version__, "params": self.spec.to_dict(),
                "settings": self.settings.to_dict(), "N": self.spec.N,
                "t_run": self.spec.t_end, "dt": self.spec.dt, "dt_rule": self.spec.dt_rule,
-               **_NOT_MEASURED}
+               **registry.not_measured()}
         for part in (self.friction, self.steady, self.state, self.large, self.drops, self.order,
                      self.clusters):
             if part is not None:
@@ -636,8 +621,10 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     clus = cluster_from_rows(spec, settings, events, t0, *slip_rows, psi_inf, large.large) \
         if slip_rows is not None else None if slip_frames is None else cluster_result(
             spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
+    extra = registry.compute_added(registry.Context(spec, settings, t, sigma, events.after(t0),
+                                                    t0)) if registry.added() else {}
     return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus,
-                       ledger=red if red.has_ledger else None)
+                       extra, ledger=red if red.has_ledger else None)
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:

@@ -19,10 +19,11 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from bkflow.analysis.results import write_tables
 from bkflow.lammps.engine import RunError, in_notebook
 from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
 from bkflow.store.rundir import RunDir
-from bkflow.store.tables import retire_figures, write_tables
+from bkflow.store.tables import retire_figures
 from bkflow.sweeps import flowcompat
 from bkflow.sweeps.grid import run_cost
 from bkflow.sweeps.project import (

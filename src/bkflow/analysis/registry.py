@@ -1,0 +1,309 @@
+"""Every key of a run's summary, declared once: its observable, unit, meaning, the value it
+holds where the run did not measure it, and whether the sweep's results average it over seeds.
+
+The consumers read this registry rather than lists of their own: the summary fills in the
+keys of the observables a scene did not record (``not_measured``), ``results.csv`` averages the
+``averaged`` keys (``averaged_keys``), the power-law verdicts are read by their declared names
+(``power_law_keys``), docs/analysis.md's table of keys is rendered from it (``keys_table``),
+and an observable added by the recipe of docs/develop.md ("Adding an observable") is computed,
+printed, tabled and drawn from its declaration alone (``compute``, ``line``, ``figure``).
+
+An observable's declaration::
+
+    Observable("mean_drop", keys=(Key("mean_drop", "sigma_n", "the mean stress drop ...",
+                                      averaged=True),),
+               compute=my_function, line="mean stress drop {mean_drop:.4g} sigma_n",
+               figure="mean_drop")
+
+``compute(ctx)`` takes a ``Context`` (the run's parameters, settings, analysed series and
+slips) and returns {key: value} for the observable's keys; the observables of bkflow itself
+are computed by ``bkflow.analysis.summary`` (their ``compute`` is None).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+NAN = math.nan
+
+
+@dataclass(frozen=True)
+class Key:
+    """One key of a run's summary."""
+
+    name: str
+    unit: str          # "sigma_n": a stress ratio; "stress", "time", "l" (lattice spacing),
+    #                    "" (a pure number), "label" (a word), "count", "bool", "map" (by key)
+    meaning: str
+    missing: object = NAN   # its value where the run did not measure it
+    #: results.csv gives its mean over the seeds with a standard error: True, or for
+    #: bkflow's own keys the place of its column (1, 2, ...; added observables' come after)
+    averaged: bool | int = False
+
+
+@dataclass(frozen=True)
+class Context:
+    """What an added observable's ``compute`` gets: the run (``spec``, ``settings`` resolved
+    for it), its analysed stress series (``t``, ``sigma``, sigma_x in stress units), the slips
+    after the transient (``events``: bkflow.observables.stress.SlipEvents) and the transient's
+    end ``t_transient``."""
+
+    spec: object
+    settings: object
+    t: object
+    sigma: object
+    events: object
+    t_transient: float
+
+
+@dataclass(frozen=True)
+class Observable:
+    """An observable and its summary keys. ``needs``: the record without which its keys hold
+    their ``missing`` values ("snapshots", "slips", "ledger"; None: every run has it).
+    ``compute``: for an added observable, Context -> {key: value}. ``line``: the line
+    ``bkflow run`` and ``bkflow analyze`` print, a format string of its keys. ``figure``: the
+    key ``bkflow plot`` draws against phi, one series per size (figure ``fig_<key>``)."""
+
+    name: str
+    keys: tuple[Key, ...]
+    needs: str | None = None
+    compute: Callable | None = field(default=None, compare=False)
+    line: str | None = None
+    figure: str | None = None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(k.name for k in self.keys)
+
+
+def power_law_keys(prefix: str, what: str, ks: bool = True) -> tuple[Key, ...]:
+    """The keys of a power-law test of ``what`` (the fit, its plausibility, the lognormal
+    against it; bkflow.observables.stress.power_law_test), named ``<prefix>_...``."""
+    keys = [Key(f"{prefix}_exponent", "", f"the maximum-likelihood exponent of the {what} "
+                "above x_min (Clauset, Shalizi, Newman 2009, Eq. 3.1)",
+                averaged=9 if prefix == "drop" else 0),
+            Key(f"{prefix}_exponent_err", "", "its error, (alpha - 1)/sqrt(n_tail)"),
+            Key(f"{prefix}_x_min", "stress" if prefix == "drop" else "l",
+                "the lower end of the fitted tail"),
+            Key(f"{prefix}_n_tail", "count", "the slips in the fitted tail", missing=None)]
+    if ks:
+        keys.append(Key(f"{prefix}_ks", "", "the Kolmogorov-Smirnov distance of the fit"))
+    keys += [Key(f"{prefix}_power_law", "label", "plausible, rejected (bootstrap p below 0.1) "
+                 "or no fit", missing=None),
+             Key(f"{prefix}_fit_p", "", "the bootstrap p-value of the fit"),
+             Key(f"{prefix}_vs_lognormal", "", "the normalised log-likelihood ratio against a "
+                 "lognormal over the same tail (< 0 favours the lognormal)"),
+             Key(f"{prefix}_vs_lognormal_p", "", "its p-value")]
+    return tuple(keys)
+
+
+def _power_law_verdicts(prefix: str) -> tuple[str, str, str, str]:
+    return (f"{prefix}_power_law", f"{prefix}_fit_p", f"{prefix}_vs_lognormal",
+            f"{prefix}_vs_lognormal_p")
+
+
+def _shape_keys(suffix: str, whose: str) -> tuple[Key, ...]:
+    large = bool(suffix)
+    return (Key(f"lx_mean_over_Lx{suffix}", "", f"<l_x/Lx> over {whose}",
+                averaged=0 if large else 7),
+            Key(f"ly_mean_over_Ly{suffix}", "", f"<l_y/Ly> over {whose}",
+                averaged=0 if large else 8),
+            Key(f"lx_over_ly{suffix}", "", f"<l_x>/<l_y> over {whose}", averaged=6 if large else 5))
+
+
+def _state_keys() -> tuple[Key, ...]:
+    per_state = []
+    for i, s in enumerate(("quiet", "coherent")):
+        per_state += [Key(f"time_{s}", "", f"the fraction of the window's time spent {s}",
+                          averaged=17 + i),
+                      Key(f"mean_stress_ratio_{s}", "sigma_n", f"<sigma_x>/sigma_n while {s}",
+                          averaged=19 + i),
+                      Key(f"mu_bar_{s}", "sigma_n", f"mu_bar of the slips while {s}",
+                          averaged=21 + i)]
+    return (
+        Key("state", "label", "the verdict over the analysed window: steady, drifting, "
+            "metastable, or the states visited (docs/model.md \"Steady state\")"),
+        Key("state_evidence", "label", "pair (a run and its companion) or single run"),
+        Key("state_own", "label", "the run's own verdict, without its companion"),
+        Key("contacts_recorded", "bool", "whether the run recorded its contacts' phases"),
+        Key("switching_calibrated", "bool", "whether the switching error is calibrated here"),
+        Key("switching_not_calibrated_because", "label", "why not, or None"),
+        Key("switching_error", "sigma_n", "the calibrated error of switching between states"),
+        Key("companion_start", "label", "the companion run's start (steady protocol)"),
+        Key("companion_state", "label", "the companion's own state"),
+        Key("companion_mean_stress_ratio", "sigma_n", "the companion's <sigma_x>/sigma_n"),
+        Key("companion_mean_stress_ratio_err", "sigma_n", "its error"),
+        Key("companion_gap", "", "this run's <sigma_x> / the companion's - 1"),
+        Key("states_visited", "label", "the states the blocks of the window visited"),
+        *per_state)
+
+
+#: the contacts' phase statistics (bkflow.observables.phases); missing without a phase record
+CONTACT_KEYS = (
+    Key("phase_coherence", "", "the mean of R over the window", averaged=15),
+    Key("phase_coherence_static", "", "|<Z>|"),
+    Key("phase_fluctuation", "", "the phase fluctuation chi = N <|Z - <Z>|^2> (coherent "
+        "above 3)", averaged=16),
+    Key("phase_r2", "", "the second harmonic"),
+    Key("phase_u_std", "", "the spread of u"),
+    Key("phase_drift", "", "the trend of R"),
+    Key("phase_drift_z", "", "its ratio to its error"),
+    Key("contacts_coherent", "bool", "chi above the memory threshold", missing=None),
+)
+
+OBSERVABLES: list[Observable] = [
+    Observable("record", (
+        Key("bkflow", "label", "the version of bkflow that analysed the run"),
+        Key("analysis_revision", "count", "the revision of the analysis code"),
+        Key("params", "map", "the run's parameters (RunSpec)"),
+        Key("settings", "map", "the analysis settings, resolved for the run"),
+        Key("tables", "label", "the run's tables written beside the summary"),
+        Key("table_files", "map", "their sizes and digests"),
+        Key("wall_time_s", "time", "the run's wall-clock time in seconds"),
+        Key("bytes_written", "count", "the bytes of the run's files"),
+    )),
+    Observable("run", (
+        Key("N", "count", "the particles, Lx Ly"),
+        Key("t_run", "time", "the length of the run", averaged=14),
+        Key("dt", "time", "the time step"),
+        Key("dt_rule", "label", "the rule the time step came from"),
+    )),
+    Observable("order", (Key("psi_inf", "", "the mean of Psi(t) over the last 20% of the run",
+                             averaged=4),), needs="snapshots"),
+    Observable("clusters", (
+        *_shape_keys("", "all slip clusters (N_c >= 2)"),
+        Key("n_clusters", "count", "the clusters", missing=None),
+        Key("n_cluster_events", "count", "the slips whose frames were found", missing=None),
+        Key("n_slips_without_snapshots", "count", "the slips without frames", missing=None),
+        Key("regime", "label", "the most frequent of C, LC, DP, DT, W "
+            "(bkflow.observables.clusters.regime)", missing=None),
+        Key("regime_fractions", "map", "the share of each regime", missing=None),
+        *_shape_keys("_large", "the clusters of the large slips"),
+        Key("n_clusters_large", "count", "the clusters of the large slips", missing=None),
+        Key("regime_large", "label", "their most frequent regime", missing=None),
+        Key("regime_fractions_large", "map", "the share of each regime", missing=None),
+    ), needs="slips"),
+    Observable("potency", power_law_keys("potency", "slips' potencies", ks=False),
+               needs="slips"),
+    Observable("energy", (Key("energy_residual", "", "(plate work - change of energy - "
+                              "dissipation) / plate work over the analysed run"),),
+               needs="ledger"),
+    Observable("friction", (
+        Key("mu_bar", "sigma_n", "<sigma_fail>/sigma_n over the slips after the transient",
+            averaged=1),
+        Key("mu_bar_err", "sigma_n", "its error, covering the switching between states"),
+        Key("mu_bar_err_run", "sigma_n", "its error from the run's own correlated slips"),
+        Key("mu_bar_err_reliable", "bool", "at least 10 effectively independent slips"),
+        Key("n_slips", "count", "the slips after the transient", averaged=10),
+        Key("mean_stress_ratio", "sigma_n", "the time average of sigma_x/sigma_n after the "
+            "transient", averaged=3),
+        Key("mean_stress_ratio_err", "sigma_n", "its error, covering the switching"),
+        Key("mean_stress_ratio_err_run", "sigma_n", "its error over its correlated samples"),
+        Key("slip_threshold_stress", "stress", "the slip threshold"),
+        Key("t_transient", "time", "the transient's end"),
+        Key("mu_bar_by_threshold", "map", "mu_bar at each report threshold (fraction of "
+            "mu_s sigma_n)"),
+        Key("mu_bar_scaled", "sigma_n", "mu_bar at the size-scaled threshold"),
+        Key("slip_threshold_scaled", "stress", "the size-scaled threshold"),
+        Key("mu_bar_err_by_threshold", "map", "their errors"),
+        Key("n_slips_by_threshold", "map", "their slips"),
+    )),
+    Observable("stationarity", (
+        Key("stationary", "bool", "the stress is trend-free over the window"),
+        Key("drift", "", "the relative change of the stress across the window",
+            averaged=12),
+        Key("drift_err", "", "its standard error"),
+        Key("drift_z", "", "its ratio to its error"),
+        Key("drift_p", "", "its p-value"),
+        Key("drift_bound", "", "the drift the test can resolve"),
+        Key("block_t", "time", "the block means' times"),
+        Key("block_means", "stress", "the block means the test rests on"),
+        Key("t_equil", "time", "where the stationary part starts (equilibration detection)",
+            averaged=13),
+    )),
+    Observable("state", _state_keys() + CONTACT_KEYS),
+    Observable("large", (
+        Key("mu_bar_large", "sigma_n", "mu_bar over the slips whose drop exceeds the run's "
+            "mean drop", averaged=2),
+        Key("mu_bar_large_err", "sigma_n", "its error, covering the switching"),
+        Key("mu_bar_large_err_run", "sigma_n", "its error from the run alone"),
+        Key("n_slips_large", "count", "the large slips", averaged=11),
+        Key("large_drop_threshold", "stress", "the drop that counts as large"),
+    )),
+    Observable("drops", power_law_keys("drop", "stress drops")),
+]
+
+#: the averaged keys that carry each run's own error (``<key>_err``, covering the switching)
+WITHIN_RUN_ERRORS = ("mu_bar", "mu_bar_large", "mean_stress_ratio")
+
+
+def keys() -> dict[str, Key]:
+    """Every declared key by name."""
+    return {k.name: k for o in OBSERVABLES for k in o.keys}
+
+
+def observable(name: str) -> Observable:
+    return next(o for o in OBSERVABLES if o.name == name)
+
+
+def not_measured(*needs: str) -> dict:
+    """{key: its missing value} of the observables that need one of ``needs`` (default: every
+    observable that needs a record some scenes do not keep)."""
+    return {k.name: k.missing for o in OBSERVABLES
+            if o.needs is not None and (not needs or o.needs in needs) for k in o.keys}
+
+
+def averaged_keys() -> tuple[str, ...]:
+    """The keys results.csv averages over seeds: bkflow's own in their column order, then
+    those of added observables in the order they were declared."""
+    declared = [k for o in OBSERVABLES for k in o.keys if k.averaged]
+    own = sorted((k for k in declared if k.averaged is not True), key=lambda k: k.averaged)
+    return tuple(k.name for k in own) + tuple(k.name for k in declared if k.averaged is True)
+
+
+def added() -> list[Observable]:
+    """The observables computed from their declaration (``compute``)."""
+    return [o for o in OBSERVABLES if o.compute is not None]
+
+
+def compute_added(ctx: Context) -> dict:
+    """The keys of every added observable for one run, checked against their declaration."""
+    out = {}
+    for o in added():
+        values = o.compute(ctx)
+        if set(values) != set(o.names):
+            raise ValueError(f"observable {o.name} returned {sorted(values)}, not its declared "
+                             f"keys {list(o.names)}")
+        out.update((n, values[n]) for n in o.names)
+    return out
+
+
+def lines(summary: dict) -> list[str]:
+    """The printed lines of the added observables a summary holds."""
+    return [o.line.format(**{n: summary[n] for n in o.names}) for o in OBSERVABLES
+            if o.line is not None and all(summary.get(n) is not None for n in o.names)]
+
+
+def figures() -> dict[str, str]:
+    """{figure name: the key it draws against phi} of the observables that declare one."""
+    return {f"fig_{o.figure}": o.figure for o in OBSERVABLES if o.figure is not None}
+
+
+def power_law_names(prefix: str) -> tuple[str, str, str, str]:
+    """The names of a power-law test's verdict, bootstrap p, lognormal ratio and its p."""
+    names = _power_law_verdicts(prefix)
+    missing = [n for n in names if n not in keys()]
+    if missing:
+        raise KeyError(f"no power-law test {prefix!r} is declared ({missing})")
+    return names
+
+
+def keys_table() -> str:
+    """docs/analysis.md's table of the summary's keys (Markdown), one row per key."""
+    rows = ["| key | observable | unit | meaning |", "|---|---|---|---|"]
+    for o in OBSERVABLES:
+        for k in o.keys:
+            rows.append(f"| `{k.name}` | {o.name} | {k.unit} | {k.meaning} |")
+    return "\n".join(rows)
