@@ -75,38 +75,59 @@ def results_table(runs: pd.DataFrame) -> pd.DataFrame:
         row = dict(zip(params, key))
         row["N"] = int(row["Lx"] * row["Ly"])
         row["n_seeds"] = len(g)
-        for f in RESULT_FIELDS:
-            if f not in g:  # a field the runs did not record
-                row[f] = row[f"{f}_sem"] = math.nan
-                continue
-            v = pd.to_numeric(g[f], errors="coerce").to_numpy(dtype=float)
-            v = v[np.isfinite(v)]
-            row[f] = v.mean() if len(v) else math.nan
-            row[f"{f}_sem"] = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else math.nan
-        for f in WITHIN_RUN_ERRORS:
-            err = pd.to_numeric(g[f"{f}_err"], errors="coerce").to_numpy(dtype=float) \
-                if f"{f}_err" in g else np.full(1, math.nan)
-            ok = err[np.isfinite(err)]
-            row[f"{f}_err_within_run"] = float(ok.mean()) if len(ok) else math.nan
-            combined = math.sqrt((ok ** 2).sum()) / len(ok) if len(ok) else math.nan
-            row[f"{f}_err"] = float(np.nanmax([row[f"{f}_sem"], combined])) \
-                if math.isfinite(row[f"{f}_sem"]) or math.isfinite(combined) else math.nan
+        row.update(_means(g))
+        row.update(_errors(g, row))
         regimes = g["regime"].dropna()
         row["regime"] = regimes.mode().iloc[0] if len(regimes) else None
-        stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
-            else pd.Series(False, index=g.index)
-        row["n_stationary"] = int(stationary.sum())
-        states = g["state"].fillna("drifting") if "state" in g \
-            else pd.Series("drifting", index=g.index)
-        for name in STATE_COUNTS:
-            row[f"n_{name}"] = int(states.isin(SWITCHING).sum()) if name == "switching" \
-                else int((states == name).sum())
-        row["state"] = point_state(states)
+        row.update(_state_counts(g))
         rows.append(row)
     first = ["phi", "Lx", "Ly", "N", "n_seeds"]
     df = pd.DataFrame(rows)
     return df[first + [c for c in df.columns if c not in first]].sort_values(
         ["Lx", "Ly", "phi"], kind="stable").reset_index(drop=True)
+
+
+def _means(g: pd.DataFrame) -> dict:
+    """The seeds' mean and standard error of each result field (NaN where not recorded)."""
+    row = {}
+    for f in RESULT_FIELDS:
+        if f not in g:  # a field the runs did not record
+            row[f] = row[f"{f}_sem"] = math.nan
+            continue
+        v = pd.to_numeric(g[f], errors="coerce").to_numpy(dtype=float)
+        v = v[np.isfinite(v)]
+        row[f] = v.mean() if len(v) else math.nan
+        row[f"{f}_sem"] = v.std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else math.nan
+    return row
+
+
+def _errors(g: pd.DataFrame, means: dict) -> dict:
+    """The runs' own errors of WITHIN_RUN_ERRORS, and the point's error of each."""
+    row = {}
+    for f in WITHIN_RUN_ERRORS:
+        err = pd.to_numeric(g[f"{f}_err"], errors="coerce").to_numpy(dtype=float) \
+            if f"{f}_err" in g else np.full(1, math.nan)
+        ok = err[np.isfinite(err)]
+        row[f"{f}_err_within_run"] = float(ok.mean()) if len(ok) else math.nan
+        combined = math.sqrt((ok ** 2).sum()) / len(ok) if len(ok) else math.nan
+        sem = means[f"{f}_sem"]
+        row[f"{f}_err"] = float(np.nanmax([sem, combined])) \
+            if math.isfinite(sem) or math.isfinite(combined) else math.nan
+    return row
+
+
+def _state_counts(g: pd.DataFrame) -> dict:
+    """The seeds' runs that are trend-free, in each verdict, and the point's state."""
+    stationary = g["stationary"].fillna(False).astype(bool) if "stationary" in g \
+        else pd.Series(False, index=g.index)
+    row = {"n_stationary": int(stationary.sum())}
+    states = g["state"].fillna("drifting") if "state" in g \
+        else pd.Series("drifting", index=g.index)
+    for name in STATE_COUNTS:
+        row[f"n_{name}"] = int(states.isin(SWITCHING).sum()) if name == "switching" \
+            else int((states == name).sum())
+    row["state"] = point_state(states)
+    return row
 
 
 def point_state(states) -> str:

@@ -11,7 +11,6 @@ in every summary, so that a summary made under other settings is known to be sta
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -19,9 +18,21 @@ import numpy as np
 
 from bkflow import __version__
 from bkflow.analysis import registry
+from bkflow.analysis.cluster_results import cluster_from_rows, cluster_result
+from bkflow.analysis.run_results import (
+    ClusterResult,
+    CompanionResult,
+    DropResult,
+    FrictionResult,
+    LargeDropResult,
+    OrderResult,
+    StateResult,
+    StationarityResult,
+    pair_state,
+    threshold_key,
+)
 from bkflow.model.lattice import square_lattice
 from bkflow.model.params import (
-    S_X,
     SCALED_N,
     STEADY_AGREEMENT,
     AnalysisSettings,
@@ -30,9 +41,7 @@ from bkflow.model.params import (
 )
 from bkflow.observables import (
     catalogue,
-    clusters,
     order,
-    phases,
     reduced,
     states,
     stationarity,
@@ -52,251 +61,6 @@ from bkflow.store.rundir import (  # noqa: F401
     DamagedRunError,
     RunDir,
 )
-
-
-def _key(fraction: float) -> str:
-    return f"{fraction:g}"
-
-
-@dataclass(frozen=True)
-class FrictionResult:
-    """mu_bar over the slips after the transient with its standard error, the time-averaged
-    stress ratio with its standard error over the correlated samples (threshold-free: once,
-    not per threshold), and mu_bar at each of the report thresholds (docs/model.md
-    "Macroscopic friction"). The errors are the run's own (``..._err_run``) until
-    ``covering`` widens them to cover the layer's switching between states
-    (``bkflow.observables.states``): each is then an error of the layer's long-run mean."""
-
-    friction: stress.MacroscopicFriction
-    by_threshold: dict  # fraction of mu_s sigma_n -> MacroscopicFriction
-    mean_stress_ratio_err: float
-    #: at the size-scaled threshold (params.SCALED_N), None where the records do not reach it
-    scaled: stress.MacroscopicFriction | None = None
-    mean_stress_ratio_err_run: float = math.nan
-    mu_bar_err: float = math.nan
-    mu_bar_err_by_threshold: dict = field(default_factory=dict)
-
-    def covering(self, window: states.Window, spec: RunSpec) -> FrictionResult:
-        f = self.friction
-
-        def cover(value, own):
-            return window.err_of("mu_bar", value, own, spec.phi, spec.N)
-
-        return dataclasses.replace(
-            self, mean_stress_ratio_err=window.err,
-            mean_stress_ratio_err_run=self.mean_stress_ratio_err,
-            mu_bar_err=cover(f.mu_bar, f.mu_bar_err),
-            mu_bar_err_by_threshold={k: cover(v.mu_bar, v.mu_bar_err)
-                                     for k, v in self.by_threshold.items()})
-
-    def row(self) -> dict:
-        f = self.friction
-        covered = bool(self.mu_bar_err_by_threshold)
-        return {"mu_bar": f.mu_bar, "mu_bar_err": self.mu_bar_err if covered else f.mu_bar_err,
-                "mu_bar_err_run": f.mu_bar_err,
-                "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
-                "mean_stress_ratio": f.mean_stress_ratio,
-                "mean_stress_ratio_err": self.mean_stress_ratio_err,
-                "mean_stress_ratio_err_run": (self.mean_stress_ratio_err_run if covered
-                                              else self.mean_stress_ratio_err),
-                "slip_threshold_stress": f.threshold,
-                "t_transient": f.t_transient,
-                "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
-                "mu_bar_scaled": self.scaled.mu_bar if self.scaled is not None else math.nan,
-                "slip_threshold_scaled": (self.scaled.threshold if self.scaled is not None
-                                          else math.nan),
-                "mu_bar_err_by_threshold": (dict(self.mu_bar_err_by_threshold) if covered else
-                                            {k: v.mu_bar_err
-                                             for k, v in self.by_threshold.items()}),
-                "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()}}
-
-
-@dataclass(frozen=True)
-class LargeDropResult:
-    """mu_bar over the run's large drops only (docs/model.md "Macroscopic friction", the relative
-    reading): slips after the transient whose drop exceeds ``factor`` times the mean drop of
-    those slips. The paper averages sigma_fail "right before large stress drops" and never says
-    what large is; the run's own mean drop needs no scale and adapts to every phi: a stiff
-    layer's bimodal drops (small reloading drops, system-wide ones) are split between the
-    modes, and of a broad distribution its upper part is kept. Its error covers the switching
-    as mu_bar's does (``covering``: the calibration of mu_bar at the 1% threshold)."""
-
-    threshold: float          # the drop that counts as large (stress units)
-    large: np.ndarray         # per event (all events): large or not
-    estimate: stationarity.MeanEstimate
-    err: float = math.nan
-
-    def covering(self, window: states.Window, spec: RunSpec) -> LargeDropResult:
-        e = self.estimate
-        return dataclasses.replace(self, err=window.err_of("mu_bar", e.mean, e.error, spec.phi,
-                                                           spec.N))
-
-    def row(self) -> dict:
-        e = self.estimate
-        return {"mu_bar_large": e.mean,
-                "mu_bar_large_err": self.err if math.isfinite(self.err) else e.error,
-                "mu_bar_large_err_run": e.error,
-                "n_slips_large": e.n, "large_drop_threshold": self.threshold}
-
-
-@dataclass(frozen=True)
-class StationarityResult:
-    """The trend test of the stress over the analysed window, and the detected transient."""
-
-    test: stationarity.Stationarity
-    t_equil: float
-
-    def row(self) -> dict:
-        s = self.test
-        return {"stationary": s.stationary, "drift": s.drift, "drift_err": s.drift_err,
-                "drift_z": s.drift_z, "drift_p": s.p_value, "drift_bound": s.drift_bound,
-                "block_t": s.block_t.tolist(), "block_means": s.block_means.tolist(),
-                "t_equil": self.t_equil}
-
-
-@dataclass(frozen=True)
-class CompanionResult:
-    """The companion run over the same window (RunSpec.companion): its own window (state,
-    mean stress, errors; ``bkflow.observables.states.Window``) and the gap main / companion - 1 of
-    the two mean stresses."""
-
-    start: str
-    window: states.Window
-    gap: float
-
-    @property
-    def state(self) -> str:
-        return self.window.state
-
-    @property
-    def mean_stress_ratio(self) -> float:
-        return self.window.mean
-
-
-def pair_state(main: str, other: str, disagree: bool) -> str:
-    """The verdict of a run and its companion (``bkflow.observables.states.VERDICTS``): metastable
-    when either is, or their means disagree beyond both errors; the states either visited where
-    either names its states; drifting when either drifts; steady when both are."""
-    if disagree or "metastable" in (main, other):
-        return "metastable"
-    if main in states.SWITCHING or other in states.SWITCHING:
-        seen = {s for v in (main, other) if v in states.SWITCHING for s in v.split("+")}
-        return "+".join(s for s in states.STATE_NAMES if s in seen)
-    return "drifting" if "drifting" in (main, other) else "steady"
-
-
-@dataclass(frozen=True)
-class StateResult:
-    """The state of the run over its analysed window (docs/model.md "Steady state",
-    ``bkflow.observables.states.VERDICTS``): steady, drifting, metastable, or the states it visited
-    where the layer switches between states more slowly than the window averages over them, from the
-    stress's trend test, the contacts' phases (``contacts`` None for a run made before bkflow
-    recorded them) and the calibrated switching (``bkflow.observables.states``); with a companion
-    run, from the pair (``pair_state``)."""
-
-    state: str
-    window: states.Window
-    companion: CompanionResult | None = None
-
-    @property
-    def contacts(self) -> phases.Coherence | None:
-        return self.window.contacts
-
-    def row(self) -> dict:
-        c, k, w = self.contacts, self.companion, self.window
-        row = {"state": self.state, "state_evidence": "pair" if k is not None else "single run",
-               "state_own": w.state, "contacts_recorded": c is not None,
-               "switching_calibrated": w.calibration is None,
-               "switching_not_calibrated_because": w.calibration,
-               "switching_error": (math.sqrt(w.var_switching) * abs(w.mean)
-                                   if w.var_switching is not None else math.nan),
-               "companion_start": None if k is None else k.start,
-               "companion_state": None if k is None else k.state,
-               "companion_mean_stress_ratio": math.nan if k is None else k.mean_stress_ratio,
-               "companion_mean_stress_ratio_err": math.nan if k is None else k.window.err,
-               "companion_gap": math.nan if k is None else k.gap}
-        row.update((w.comp or states.Composition({}, {}, {})).row())
-        if w.comp is None:
-            row["states_visited"] = None
-        if c is None:
-            return {**row, **{k.name: k.missing for k in registry.CONTACT_KEYS}}
-        return {**row, "phase_coherence": c.R, "phase_coherence_static": c.R_static,
-                "phase_fluctuation": c.fluctuation, "phase_r2": c.R2, "phase_u_std": c.u_std,
-                "phase_drift": c.trend.drift, "phase_drift_z": c.trend.drift_z,
-                "contacts_coherent": bool(c.fluctuation > states.memory_chi(w.n))}
-
-
-@dataclass(frozen=True)
-class DropResult:
-    """The power law of stress-drop sizes after the transient, and whether it is plausible at
-    all (Clauset et al. 2009: the fit, its bootstrap p-value, the test against a lognormal)."""
-
-    test: stress.PowerLawTest
-
-    @property
-    def fit(self) -> stress.PowerLawFit:
-        return self.test.fit
-
-    def row(self) -> dict:
-        f, t = self.fit, self.test
-        return {"drop_exponent": f.alpha, "drop_exponent_err": f.alpha_err,
-                "drop_x_min": f.x_min, "drop_n_tail": f.n_tail, "drop_ks": f.ks,
-                "drop_power_law": t.verdict, "drop_fit_p": t.p,
-                "drop_vs_lognormal": t.lognormal_R, "drop_vs_lognormal_p": t.lognormal_p}
-
-
-@dataclass(frozen=True)
-class OrderResult:
-    """Psi(t) and its plateau Psi(inf)."""
-
-    t: np.ndarray
-    psi: np.ndarray
-    psi_inf: float
-    # computed in the run (psi.npy, fix bk/psi): a record of the run, not a table to write
-    recorded: bool = False
-
-    def row(self) -> dict:
-        return {"psi_inf": self.psi_inf}
-
-
-@dataclass(frozen=True)
-class ClusterResult:
-    """Every cluster of the slips after the transient, their mean shape and the regime; the
-    same for the clusters of the large slips only (keys ``..._large``)."""
-
-    table: dict              # columns of clusters.csv
-    shape: clusters.ClusterShape
-    n_events: int            # slips whose frames were found
-    n_without_snapshots: int
-    shape_large: clusters.ClusterShape
-    # the catalogue's columns of every event (NaN where a slip has no frames): the size and
-    # shape (catalogue.SIZE_COLUMNS), and with the breaks recorded the nucleation and front
-    events_table: dict = field(default_factory=dict)
-    # the magnitude-frequency view: the power law of the potencies of the slips after the
-    # transient (as the stress drops')
-    potency: stress.PowerLawTest | None = None
-    # the clusters' rows are the run's own (clusters.npy, fix bk/slips ``catalogue``): a
-    # record of the run, not a table to write again
-    recorded: bool = False
-
-    def row(self) -> dict:
-        s, g = self.shape, self.shape_large
-        p = self.potency
-        magnitude = {} if p is None else {
-            "potency_exponent": p.fit.alpha, "potency_exponent_err": p.fit.alpha_err,
-            "potency_x_min": p.fit.x_min, "potency_n_tail": p.fit.n_tail,
-            "potency_power_law": p.verdict, "potency_fit_p": p.p,
-            "potency_vs_lognormal": p.lognormal_R, "potency_vs_lognormal_p": p.lognormal_p}
-        return {**magnitude,
-                "lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
-                "lx_over_ly": s.lx_over_ly, "n_clusters": s.n_clusters,
-                "n_cluster_events": self.n_events,
-                "n_slips_without_snapshots": self.n_without_snapshots,
-                "regime": s.regime, "regime_fractions": s.regime_fractions,
-                "lx_mean_over_Lx_large": g.lx_mean_over_Lx,
-                "ly_mean_over_Ly_large": g.ly_mean_over_Ly, "lx_over_ly_large": g.lx_over_ly,
-                "n_clusters_large": g.n_clusters, "regime_large": g.regime,
-                "regime_fractions_large": g.regime_fractions}
 
 
 @dataclass(frozen=True)
@@ -382,7 +146,8 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Redu
     reachable = red.raw is not None or (red.has_extrema and
                                         scaled * unit >= red.threshold * (1 - 1e-12))
     return FrictionResult(at(settings.slip_threshold),
-                          {_key(f): at(f) for f in settings.report_thresholds}, ratio_err.error,
+                          {threshold_key(f): at(f) for f in settings.report_thresholds},
+                          ratio_err.error,
                           scaled=at(scaled) if reachable else None)
 
 
@@ -454,135 +219,6 @@ def order_from_record(spec: RunSpec, settings: AnalysisSettings, steps, psi) -> 
     return OrderResult(ts, p, order.psi_inf(ts, p, settings.psi_late_fraction), recorded=True)
 
 
-def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
-                   t_transient: float, steps, positions, psi_inf: float,
-                   large=None, breaks=None) -> ClusterResult:
-    """Clusters of every slip after the transient whose frames (maximum, minimum) fix
-    bk/slips wrote; frames are matched to events by step. ``large`` (per event): which slips
-    are large, for the shape of their clusters alone. ``breaks`` (frames, N): each contact's
-    first break in the slip (fix bk/slips ``breaks``), for the nucleation site and the
-    front's speed. Also the event catalogue's columns of those slips
-    (bkflow.observables.catalogue)."""
-    steps = np.asarray(steps)
-    if len(steps) % 2:
-        raise ValueError(f"slip snapshots come in pairs (maximum, minimum); got "
-                         f"{len(steps)} frames: the file is truncated")
-    lat = square_lattice(spec.Lx, spec.Ly)
-    shifts = order.lattice_shifts(lat.positions, lat.bonds, lat.box)
-    # events of stress.csv by step: sample k of stress.csv is step k * stress_nevery
-    index = {int(i) * spec.stress_nevery: k for k, i in enumerate(events.i_max)}
-    rows = {"event": [], "t": [], "n_c": [], "l_x": [], "l_y": [], "n_x": [], "n_y": [],
-            "slip": [], "bond_change": [], "eq2_estimate": []}
-    with_breaks = spec.writes_energy
-    if with_breaks and breaks is None and len(steps):
-        raise DamagedRunError(f"{SLIPS} has no column brk, which the scene writes: the file is "
-                              "damaged; run the run again")
-    columns = catalogue.SIZE_COLUMNS + (catalogue.BREAK_COLUMNS[1:] if with_breaks else ())
-    table = {c: np.full(len(events), np.nan) for c in columns}
-    pairs, evs = [], []   # the frame pairs that are slips of this analysis, and their events
-    for k in range(0, len(steps), 2):
-        ev = index.get(int(steps[k]))
-        if ev is None or events.t_max[ev] < t_transient:
-            continue
-        if int(steps[k + 1]) != int(events.i_min[ev]) * spec.stress_nevery:
-            # the recorded slip ends elsewhere (an analysis threshold other than the run's):
-            # its frames are not this slip's
-            continue
-        if with_breaks:
-            b = breaks[k + 1]
-            if ((b != -1) & ((b <= steps[k]) | (b > steps[k + 1]))).any() or \
-                    not np.isfinite(b).all():
-                raise DamagedRunError(
-                    f"{SLIPS}: a first break (column brk) outside its slip, steps "
-                    f"{int(steps[k])}..{int(steps[k + 1])}: the file is damaged; run the run "
-                    "again")
-        pairs.append(k)
-        evs.append(ev)
-    matched = len(pairs)
-    if matched:  # every slip at once (catalogue.slip_rows)
-        k = np.asarray(pairs)
-        slips_, per = catalogue.slip_rows(np.asarray(positions)[k], np.asarray(positions)[k + 1],
-                                          lat, settings.s_x, spec.k_b, shifts)
-        ev = np.asarray(evs)
-        for c in catalogue.SIZE_COLUMNS:
-            table[c][ev] = slips_[c]
-        if with_breaks:
-            for j, (kk, e) in enumerate(zip(pairs, evs)):
-                found = catalogue.nucleation_and_front(breaks[kk + 1], lat.positions, lat.box,
-                                                       spec.dt, slips_["slipping"][j])
-                for c, v in zip(catalogue.BREAK_COLUMNS[1:], found):
-                    table[c][e] = v
-        at = per.pop("slip_index")
-        rows["event"] = ev[at].tolist()
-        rows["t"] = events.t_max[ev[at]].astype(float).tolist()
-        for c in rows:
-            if c not in ("event", "t"):
-                rows[c] = np.asarray(per[c]).tolist()
-    return _cluster_summary(spec, settings, events, t_transient, rows, table, matched, psi_inf,
-                            large)
-
-
-def _cluster_summary(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
-                     t_transient: float, rows: dict, table: dict, matched: int,
-                     psi_inf: float, large=None) -> ClusterResult:
-    """The clusters' shape (all, and the large slips'), the potencies' power law, from the
-    clusters' rows and the catalogue's columns of every event."""
-    box = (float(spec.Lx), float(spec.Ly))
-    shape = clusters.cluster_shape(rows["l_x"], rows["l_y"], box, psi_inf,
-                                   settings.span_fraction, settings.psi_crystal)
-    big = np.zeros(len(rows["event"]), bool) if large is None else \
-        np.asarray(large, bool)[np.asarray(rows["event"], dtype=int)]
-    shape_large = clusters.cluster_shape(np.asarray(rows["l_x"])[big],
-                                         np.asarray(rows["l_y"])[big], box, psi_inf,
-                                         settings.span_fraction, settings.psi_crystal)
-    n_late = int(np.sum(events.t_max >= t_transient))
-    potency = table["potency"][np.isfinite(table["potency"])]
-    test = stress.power_law_test(potency[potency > 0])
-    return ClusterResult(rows, shape, matched, n_late - matched, shape_large, table, test)
-
-
-#: the clusters' columns of clusters.csv after event and t, as the run's rows name them
-CLUSTER_ROW_COLUMNS = ("n_c", "l_x", "l_y", "n_x", "n_y", "slip", "bond_change",
-                       "eq2_estimate")
-
-
-def cluster_from_rows(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
-                      t_transient: float, slip_rows, cluster_rows, psi_inf: float,
-                      large=None) -> ClusterResult:
-    """``cluster_result`` from what the run computed of each slip (fix bk/slips
-    ``catalogue``, scene figures: slips.npy and clusters.npy, at s_x = S_X): rows matched
-    to the events by the steps of their maximum and minimum, as frames are."""
-    if settings.s_x != S_X:
-        raise AnalysisError(f"the run computed its slips' clusters at s_x = {S_X:g} (scene "
-                            f"figures); s_x = {settings.s_x:g} needs the positions at each "
-                            "slip (scene clusters, events or full)")
-    nevery = spec.stress_nevery
-    ev_max = np.asarray(events.i_max, np.int64) * nevery   # increasing, as the slips come
-    ev_min = np.asarray(events.i_min, np.int64) * nevery
-    smax = np.asarray(slip_rows["step_max"], np.int64)
-    smin = np.asarray(slip_rows["step_min"], np.int64)
-    table = {c: np.full(len(events), np.nan) for c in catalogue.SIZE_COLUMNS}
-    if len(events):
-        at = np.minimum(np.searchsorted(ev_max, smax), len(events) - 1)
-        # a row of another threshold than this analysis's matches no slip of its own
-        ok = (ev_max[at] == smax) & (ev_min[at] == smin) & \
-            (np.asarray(events.t_max)[at] >= t_transient)
-    else:
-        at, ok = np.zeros(len(smax), np.int64), np.zeros(len(smax), bool)
-    for c in catalogue.SIZE_COLUMNS:
-        table[c][at[ok]] = np.asarray(slip_rows[c], float)[ok]
-    matched, first = np.unique(smax[ok], return_index=True)
-    cstep = np.asarray(cluster_rows["step_max"], np.int64)
-    keep = np.isin(cstep, matched)
-    ev_of = at[ok][first][np.searchsorted(matched, cstep[keep])].astype(np.int64)
-    rows = {"event": ev_of.tolist(), "t": events.t_max[ev_of].astype(float).tolist()}
-    for c in CLUSTER_ROW_COLUMNS:
-        rows[c] = np.asarray(cluster_rows[c][keep]).tolist()
-    return dataclasses.replace(
-        _cluster_summary(spec, settings, events, t_transient, rows, table, len(matched),
-                         psi_inf, large), recorded=True)
-
-
 def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(), companion=None,
               slip_breaks=None, psi=None, slip_rows=None) -> RunAnalysis:
@@ -649,67 +285,87 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
     for d in (rd, rd.companion()):
         if d.path.is_dir():
             d.undo_continuation()
-    meta = rd.meta() if rd.is_complete() else None
-    if meta is None:
-        from bkflow.lammps.deck import SIGNATURE, written_by_bkflow
-
-        # which file was changed since bkflow deck wrote the pair decides the advice: an
-        # edited deck ran something its params.json does not describe; an intact deck with
-        # another params.json ran what the deck says
-        deck = rd.file(DECK)
-        try:
-            signed = SIGNATURE in formats.read_text(deck, errors="replace")[-400:]
-        except FileNotFoundError:
-            signed = False
-        if signed and not written_by_bkflow(deck):
-            raise AnalysisError(f"{deck} was edited after bkflow deck wrote it, so {PARAMS} "
-                                "need not describe the run it made, and bkflow analyses a "
-                                f"run by its {PARAMS}: write the deck again with the change "
-                                "(bkflow deck ... --set NAME=VALUE) and run that")
-        if signed and not written_by_bkflow(rd.file(PARAMS)):
-            raise AnalysisError(f"{rd.file(PARAMS)} is not the one bkflow deck wrote "
-                                f"beside {deck.name} (its digest on the deck's last line does "
-                                "not match): the run was made with the deck's parameters; "
-                                f"restore {PARAMS}, or write the deck again")
-        why = rd.finished_standalone()
-        if why is not None:
-            raise AnalysisError(why)
-        meta = {}
-    else:
-        why = rd.problem()  # every file as large as the run left it
-        if why is not None:
-            raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
-                                  "(bkflow run --overwrite, or the sweep redoes it)")
+    meta = _finished_meta(rd)
     spec = rd.spec()
     red = rd.read_reduced(spec)
-    if rd.is_complete():   # a finished run's records hold every sample of its steps
-        last = spec.n_steps // spec.stress_nevery * spec.stress_nevery
-        if red.n_samples != last // spec.stress_nevery + 1 or \
-                len(red.blocks) != last // spec.block_nevery + 1:
-            raise DamagedRunError(f"{rd.path}: its records ({EXTREMA}, {BLOCKS}) hold "
-                                  f"{red.n_samples} samples in {len(red.blocks)} blocks, not the "
-                                  f"run's {last // spec.stress_nevery + 1}: the run is "
-                                  "damaged; run it again (bkflow run --overwrite, or the sweep "
-                                  "redoes it)")
-    snaps = slips = slip_breaks = None
-    psi = rd.read_psi_record(spec) if spec.writes_snapshots else None
-    if spec.writes_snapshots and psi is None:   # a run made before bkflow computed Psi in it
-        f = rd.read_snapshots(spec.N)
-        snaps = (f.steps, f.positions)
-    slip_rows = None
-    if spec.writes_slips and spec.writes_slip_frames:
-        f = rd.read_slip_frames(spec.N)
-        slips, slip_breaks = (f.steps, f.positions), f.breaks
-    elif spec.writes_slips:
-        slip_rows = rd.read_slip_rows()
-    companion = None
-    if spec.companion is not None:
-        companion = rd.companion().read_reduced(spec.companion_spec)
+    if rd.is_complete():
+        _check_every_sample(rd, spec, red)
     try:
-        res = summarize(spec, red, snaps, slips, settings, companion, slip_breaks, psi,
-                        slip_rows)
+        res = summarize(spec, red, settings=settings, **_recorded_inputs(rd, spec))
     except reduced.ReducedError as exc:
         raise AnalysisError(f"{rd.path}: {exc}") from None
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
     return rd.write_analysis(summary, res.tables())
+
+
+def _finished_meta(rd: RunDir) -> dict:
+    """The run's meta.json, checked whole; {} for a deck run standalone (``lmp -in``), checked
+    finished and run from the decks bkflow wrote. AnalysisError or DamagedRunError saying why
+    the run cannot be analysed otherwise."""
+    meta = rd.meta() if rd.is_complete() else None
+    if meta is not None:
+        why = rd.problem()  # every file as large as the run left it
+        if why is not None:
+            raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
+                                  "(bkflow run --overwrite, or the sweep redoes it)")
+        return meta
+    _check_decks_unchanged(rd)
+    why = rd.finished_standalone()
+    if why is not None:
+        raise AnalysisError(why)
+    return {}
+
+
+def _check_decks_unchanged(rd: RunDir) -> None:
+    """A standalone run's deck and params.json as bkflow deck wrote them. Which of the two
+    was changed decides the advice: an edited deck ran something its params.json does not
+    describe; an intact deck with another params.json ran what the deck says."""
+    from bkflow.lammps.deck import SIGNATURE, written_by_bkflow
+
+    deck = rd.file(DECK)
+    try:
+        signed = SIGNATURE in formats.read_text(deck, errors="replace")[-400:]
+    except FileNotFoundError:
+        signed = False
+    if signed and not written_by_bkflow(deck):
+        raise AnalysisError(f"{deck} was edited after bkflow deck wrote it, so {PARAMS} "
+                            "need not describe the run it made, and bkflow analyses a "
+                            f"run by its {PARAMS}: write the deck again with the change "
+                            "(bkflow deck ... --set NAME=VALUE) and run that")
+    if signed and not written_by_bkflow(rd.file(PARAMS)):
+        raise AnalysisError(f"{rd.file(PARAMS)} is not the one bkflow deck wrote "
+                            f"beside {deck.name} (its digest on the deck's last line does "
+                            "not match): the run was made with the deck's parameters; "
+                            f"restore {PARAMS}, or write the deck again")
+
+
+def _check_every_sample(rd: RunDir, spec: RunSpec, red: reduced.Reduced) -> None:
+    """A finished run's records hold every sample of its steps (DamagedRunError if not)."""
+    last = spec.n_steps // spec.stress_nevery * spec.stress_nevery
+    if red.n_samples != last // spec.stress_nevery + 1 or \
+            len(red.blocks) != last // spec.block_nevery + 1:
+        raise DamagedRunError(f"{rd.path}: its records ({EXTREMA}, {BLOCKS}) hold "
+                              f"{red.n_samples} samples in {len(red.blocks)} blocks, not the "
+                              f"run's {last // spec.stress_nevery + 1}: the run is "
+                              "damaged; run it again (bkflow run --overwrite, or the sweep "
+                              "redoes it)")
+
+
+def _recorded_inputs(rd: RunDir, spec: RunSpec) -> dict:
+    """What the run's scene recorded besides its stress, as ``summarize``'s arguments."""
+    out = {"snapshots": None, "slip_frames": None, "slip_breaks": None, "psi": None,
+           "slip_rows": None, "companion": None}
+    if spec.writes_snapshots:
+        out["psi"] = rd.read_psi_record(spec)
+        if out["psi"] is None:   # a run directory without psi.npy: Psi from its snapshots
+            f = rd.read_snapshots(spec.N)
+            out["snapshots"] = (f.steps, f.positions)
+    if spec.writes_slips and spec.writes_slip_frames:
+        f = rd.read_slip_frames(spec.N)
+        out["slip_frames"], out["slip_breaks"] = (f.steps, f.positions), f.breaks
+    elif spec.writes_slips:
+        out["slip_rows"] = rd.read_slip_rows()
+    if spec.companion is not None:
+        out["companion"] = rd.companion().read_reduced(spec.companion_spec)
+    return out
