@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.observables import states
+from bkflow.observables import states, switching
 from bkflow.observables.states import BLOCK_T, CALIBRATION, r_independent
 
 #: the share of each run left out as the start's transient
@@ -73,18 +73,19 @@ def layer_means(runs: pd.DataFrame) -> dict:
 
 def windows_of(b: pd.DataFrame, W: float):
     """Means (stress, mu_bar) of windows of W time units slid along the blocks b (a start
-    every W / 4: bkflow.observables.states.slide)."""
+    every W / 4: bkflow.observables.switching.slide)."""
     k = max(1, int(round(W / BLOCK_T)))
-    stress = states.slide(b.s, k)
+    stress = switching.slide(b.s, k)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mu = states.slide(b["sfail_0.01"], k) / states.slide(b["nslip_0.01"], k)
+        mu = switching.slide(b["sfail_0.01"], k) / switching.slide(b["nslip_0.01"], k)
     return stress, mu
 
 
 def window_table(runs: pd.DataFrame, means: dict, exclude_seed=None) -> dict:
     """{N: {"phi": [...], "windows": [...], "stress": [[...]], "mu_bar": [[...]]}}: the
     relative mean-square deviation of window means from the layer's long-run mean
-    (bkflow.observables.states.calibrate), the layers of a seed left out with ``exclude_seed``."""
+    (bkflow.observables.switching.calibrate), the layers of a seed left out with
+    ``exclude_seed``."""
     out = {}
     for n, gn in runs.groupby("N"):
         entry = {}
@@ -103,7 +104,7 @@ def window_table(runs: pd.DataFrame, means: dict, exclude_seed=None) -> dict:
                     layers.setdefault(phi, []).append((lm["mu_bar"], [
                         (b["sfail_0.01"].to_numpy(), b["nslip_0.01"].to_numpy(float))
                         for b in g.blocks]))
-            cal = states.calibrate(layers, WINDOWS, BLOCK_T)
+            cal = switching.calibrate(layers, WINDOWS, BLOCK_T)
             entry.update(phi=cal["phi"], windows=cal["windows"])
             entry[name] = cal["table"]
         out[str(n)] = entry

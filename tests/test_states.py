@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from bkflow.observables import states
+from bkflow.observables import states, switching
 from bkflow.observables.stationarity import mean_error
 
 QUIET, COHERENT = 0.1030, 0.1048     # the two levels (stress ratio), as at phi = 1000
@@ -44,7 +44,7 @@ def _calibration(rng):
     for _ in range(3):
         runs = [telegraph(rng, 2000)[0] for _ in range(4)]
         layers.append((float(np.mean(np.concatenate(runs))), runs))
-    cal = states.calibrate({1000.0: layers}, WINDOWS)
+    cal = switching.calibrate({1000.0: layers}, WINDOWS)
     return {"phi": cal["phi"], "windows": cal["windows"], "stress": cal["table"]}
 
 
