@@ -100,7 +100,7 @@ class Run:
     def phase(self) -> pd.DataFrame | None:
         """``t, R, Z_re, Z_im, R2, u_mean, u_std``: the contacts' load phases, the raw series
         where the run's scene kept it (phase.npy), else their means over the blocks of
-        blocks.npy; None for a run made before bkflow recorded them."""
+        blocks.npy; None for a run directory without a phase record."""
         p = self._intact().phase_series(self.spec)
         return None if p is None else pd.DataFrame(p)
 

@@ -158,8 +158,8 @@ class StateResult:
     """The state of the run over its analysed window (docs/model.md "Steady state",
     ``bkflow.observables.states.VERDICTS``): steady, drifting, metastable, or the states it visited
     where the layer switches between states more slowly than the window averages over them, from the
-    stress's trend test, the contacts' phases (``contacts`` None for a run made before bkflow
-    recorded them) and the calibrated switching (``bkflow.observables.states``); with a companion
+    stress's trend test, the contacts' phases (``contacts`` None for a run directory without
+    a phase record) and the calibrated switching (``bkflow.observables.states``); with a companion
     run, from the pair (``pair_state``)."""
 
     state: str

@@ -265,8 +265,8 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:
     """Analyse a finished run directory: write summary.json, events.parquet (and
-    clusters.csv where the run kept slip frames; psi.csv for a run of an older bkflow's
-    snapshots); return the summary as written (None where not measured).
+    clusters.csv where the run kept slip frames; psi.csv for a run directory with snapshots
+    but no psi.npy); return the summary as written (None where not measured).
 
     The directory is a ``bkflow run`` output (meta.json) or a deck run standalone with
     ``lmp -in in.bk`` (params.json from ``bkflow deck``, finished when stress.csv reaches

@@ -1,6 +1,6 @@
 """What a run keeps of its shear stress and of its contacts' phases: the records of fix
 bk/reduce, reduced in the run (plugins/fix_bk_reduce.cpp), and the same reduction of a raw
-series (a run of the ``series`` scene, or one made before bkflow reduced in the run).
+series (a run of the ``series`` scene, or a run directory without fix bk/reduce's records).
 
 Two NumPy files (``numpy.load`` reads them):
 
