@@ -20,8 +20,9 @@ import tempfile
 
 import numpy as np
 
+from bkflow.cli.assignments import parse_size
 from bkflow.lammps.engine import run
-from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec
 from bkflow.store.rundir import RunDir
 
 C0 = 0.4

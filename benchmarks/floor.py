@@ -47,9 +47,10 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from bkflow.cli.assignments import parse_size  # noqa: E402
 from bkflow.lammps.deck import FAST_SETTINGS, DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.model.lattice import lattice_for  # noqa: E402
-from bkflow.model.params import RunSpec, parse_size  # noqa: E402
+from bkflow.model.params import RunSpec  # noqa: E402
 from bkflow.store.rundir import DATA, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent

@@ -21,7 +21,8 @@ import tempfile
 CHILD = r"""
 import sys, time
 from bkflow.lammps.deck import DeckOptions, data_text, setup_text
-from bkflow.model.params import RunSpec, parse_size
+from bkflow.cli.assignments import parse_size
+from bkflow.model.params import RunSpec
 from bkflow.lammps.plugin import open_lammps
 size, phi, steps, energy, d = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), *sys.argv[4:6]
 lx, ly = parse_size(size)

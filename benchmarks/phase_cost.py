@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from bkflow.cli.assignments import parse_size
 from bkflow.lammps.deck import SERIAL_COMM_CUTOFF, DeckOptions, data_text, setup_text
 from bkflow.lammps.plugin import open_lammps
-from bkflow.model.params import RunSpec, parse_size
+from bkflow.model.params import RunSpec
 
 
 def loop_time(spec: RunSpec, phase: bool, work: Path) -> float:

@@ -226,7 +226,7 @@ def blocks(record: dict) -> dict[str, str]:
 
 def _synopses() -> dict[str, str]:
     sys.path.insert(0, str(ROOT / "src"))
-    from bkflow.cli.commands import subcommands, synopsis
+    from bkflow.cli.parser import subcommands, synopsis
 
     return {cmd: synopsis(cmd) for cmd in subcommands()}
 

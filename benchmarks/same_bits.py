@@ -99,7 +99,8 @@ def run_case(case, plugin: Path, out: Path) -> None:
     name, fields, path, how = case
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(plugin), "LAMMPS_PLUGIN_PATH": str(plugin)}
     if how == "mpi":
-        from bkflow.lammps.deck import DeckOptions, write_deck
+        from bkflow.lammps.deck import DeckOptions
+        from bkflow.lammps.deckfiles import write_deck
         from bkflow.model.params import RunSpec
 
         spec = RunSpec(Lx=12, Ly=4, seed=3, t_end=60.0, scene="full", **fields)

@@ -21,8 +21,9 @@ import time
 from pathlib import Path
 
 from bkflow.analysis.summary import analyze
+from bkflow.cli.assignments import parse_size
 from bkflow.lammps.engine import run
-from bkflow.model.params import SCENES, RunSpec, parse_size
+from bkflow.model.params import SCENES, RunSpec
 from bkflow.store.rundir import DATA, DECK, LOG, STRESS
 
 

@@ -36,10 +36,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from bkflow.cli.assignments import parse_sizes
 from bkflow.observables.stationarity import block_means, equilibration_time, mean_error
 from bkflow.store.rundir import RunDir
 from bkflow.store.tables import read_tables
-from bkflow.sweeps.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.sweeps.grid import phi_values, sweep_specs
 from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import open_project
 

@@ -60,9 +60,10 @@ sys.path.insert(0, str(HERE.parent))
 
 from floor import CPU_USE, LOOP, Floor, build, check  # noqa: E402
 
+from bkflow.cli.assignments import parse_size  # noqa: E402
 from bkflow.lammps.deck import DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.model.lattice import lattice_for  # noqa: E402
-from bkflow.model.params import RunSpec, parse_size  # noqa: E402
+from bkflow.model.params import RunSpec  # noqa: E402
 from bkflow.store.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec, parse_size
+from bkflow.cli.assignments import parse_size
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec
 from bkflow.store.tables import read_tables
 from bkflow.sweeps.grid import sweep_specs
 from bkflow.sweeps.local import sweep

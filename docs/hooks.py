@@ -23,7 +23,8 @@ def on_files(files, config):
 
 def _cli_page() -> str:
     """docs' cli.md, from the program itself: the help of every command, and the exit codes."""
-    from bkflow.cli.commands import EXIT_CODES, build_parser
+    from bkflow.cli.guards import EXIT_CODES
+    from bkflow.cli.parser import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bkflow.cli.commands import main
-from bkflow.lammps.deck import STANDARD_DECKS, write_standard_decks
+from bkflow.lammps.deckfiles import STANDARD_DECKS, write_standard_decks
 from bkflow.lammps.engine import RunError, run
 from bkflow.model.lattice import lattice_for, square_lattice
 from bkflow.model.params import RunSpec, SpecError

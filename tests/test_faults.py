@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from bkflow.cli.commands import (
+from bkflow.cli.guards import (
     EXIT_BAD_INPUT,
     EXIT_BUSY,
     EXIT_FILE_SYSTEM,
@@ -236,13 +236,13 @@ def test_cluster_file_systems_without_flock_fsync_and_unique_temporaries(tmp_pat
                                                                           capsys):
     import fcntl
 
-    from bkflow.store import formats, rundir
+    from bkflow.store import formats, lock
 
     def no_flock(fd, op):
         raise OSError(errno.ENOSYS, "Function not implemented")
 
     monkeypatch.setattr(fcntl, "flock", no_flock)
-    monkeypatch.setattr(rundir, "_WARNED_NO_FLOCK", set())
+    monkeypatch.setattr(lock, "_WARNED_NO_FLOCK", set())
     for _ in range(2):
         with RunDir(tmp_path / "a").lock(), RunDir(tmp_path / "b").lock():
             pass
@@ -468,13 +468,13 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    from bkflow.figures import plot
     from bkflow.figures.fronts import front_movie
+    from bkflow.figures.registry import _save
     from bkflow.store.formats import Front
 
     fig = Figure()
     fig.add_subplot().plot([0, 1], [1, 0])
-    plot._save(fig, tmp_path, "fig", ["png", "pdf"])
+    _save(fig, tmp_path, "fig", ["png", "pdf"])
     front = Front(10, 20, np.arange(10, 20), np.random.default_rng(1).normal(size=(10, 12)),
                   False)
     gif = tmp_path / "slip.gif"
@@ -490,7 +490,7 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
     monkeypatch.setattr(Image.Image, "save", lambda self, f, **kw: (f.write(b"GIF8"),
                                                                   failing()))
     raised = (KeyboardInterrupt, SystemExit, OSError)
-    for call in (lambda: plot._save(fig, tmp_path, "fig", ["png", "pdf"]),
+    for call in (lambda: _save(fig, tmp_path, "fig", ["png", "pdf"]),
                  lambda: front_movie(front, 4, 3, 0.01, gif)):
         with pytest.raises(raised):
             call()
@@ -567,7 +567,7 @@ def test_bkflow_under_mpirun_is_refused_not_hung(lammps, tmp_path):
 def test_odd_process_states_are_one_line(lammps, tmp_path):
     """stderr closed, the current directory deleted, a name that is not UTF-8, a memory
     limit, and a bug of bkflow's own: one line each, a documented exit code, no traceback."""
-    from bkflow.cli.commands import EXIT_INTERNAL, EXIT_RESOURCES
+    from bkflow.cli.guards import EXIT_INTERNAL, EXIT_RESOURCES
 
     short = ["--phi", "1", "--t-end", "20", "--scene", "friction", "--quiet"]
     # stderr closed: the run runs (it has nowhere to complain)
@@ -615,10 +615,10 @@ def test_odd_process_states_are_one_line(lammps, tmp_path):
     assert oom.returncode == EXIT_RESOURCES
     one_line(oom, "out of memory")
     # a bug: one line, exit 70, the traceback kept in a file
-    from bkflow.cli import commands as cli
+    from bkflow.cli import guards
 
     boom = analyze_raising("ZeroDivisionError('division by zero')")
-    assert boom.returncode == EXIT_INTERNAL == cli.EXIT_INTERNAL
+    assert boom.returncode == EXIT_INTERNAL == guards.EXIT_INTERNAL
     one_line(boom, "internal error (ZeroDivisionError: division by zero)")
     saved = boom.stderr.split("the traceback is in ")[1].split(":")[0]
     assert "ZeroDivisionError" in Path(saved).read_text()
@@ -853,7 +853,7 @@ def test_plot_and_movie_never_replace_a_users_file(lammps, tmp_path, small_sweep
 def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
     """Below what MPI needs, its start aborts from C (exit 134 or 143, a stack of lines):
     bkflow names the limit first (exit 5)."""
-    from bkflow.cli.commands import EXIT_RESOURCES
+    from bkflow.cli.guards import EXIT_RESOURCES
 
     p = subprocess.run(f"{limit}; '{tool('bkflow')}' run --phi 10 {' '.join(SHORT)} "
                        f"--out '{tmp_path}/r'", shell=True, capture_output=True, text=True)

@@ -17,7 +17,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.figures import plot
+from bkflow.figures import clusters, drops, registry, style
+from bkflow.figures.data import SweepData
+from bkflow.figures.keys import protocol_label
 from tests.support import tool
 
 SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",
@@ -43,11 +45,11 @@ def drawn(sweep):
     """The sweep's data and every figure, drawn (tick labels and layout made) as saved."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    data = plot.SweepData(sweep)
+    data = SweepData(sweep)
     figs = {}
-    for name in plot.FIGURES:
-        fig = plot.figure(data, name)
-        with plot.style():
+    for name in registry.FIGURES:
+        fig = registry.figure(data, name)
+        with style.style():
             FigureCanvasAgg(fig).draw()
         figs[name] = fig
     return data, figs
@@ -56,7 +58,7 @@ def drawn(sweep):
 def _draw(fig):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    with plot.style():
+    with style.style():
         FigureCanvasAgg(fig).draw()
     return fig
 
@@ -136,24 +138,24 @@ def _outside_or_hidden(fig) -> list[str]:
 
 
 # --------------------------------------------------------------------------- every figure
-@pytest.mark.parametrize("name", list(plot.FIGURES))
+@pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
     from matplotlib.text import Text
 
     _, figs = drawn
     small = [(t.get_text(), t.get_fontsize()) for t in figs[name].findobj(Text)
              if t.get_visible() and t.get_text().strip()
-             and t.get_fontsize() < plot.MIN_FONT - 1e-9]
-    assert small == [], f"{name}: text under {plot.MIN_FONT} pt: {small[:5]}"
+             and t.get_fontsize() < style.MIN_FONT - 1e-9]
+    assert small == [], f"{name}: text under {style.MIN_FONT} pt: {small[:5]}"
 
 
-@pytest.mark.parametrize("name", list(plot.FIGURES))
+@pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_every_point_lies_inside_its_axes_and_off_the_keys(drawn, name):
     _, figs = drawn
     assert _outside_or_hidden(figs[name]) == [], name
 
 
-@pytest.mark.parametrize("name", list(plot.FIGURES))
+@pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
     _, figs = drawn
     for ax in _all_axes(figs[name]):
@@ -170,7 +172,7 @@ def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
                     assert unit in label, f"{name}: {label!r} lacks its unit {unit}"
 
 
-@pytest.mark.parametrize("name", list(plot.FIGURES))
+@pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_every_colour_and_shading_that_encodes_something_is_keyed(drawn, name):
     """Within a panel, two or more colours of data (lines or markers) mean something: each
     is in a key of the figure; so is every shaded span's colour."""
@@ -225,7 +227,7 @@ def _runs(**columns) -> SimpleNamespace:
       "until_steady": [True, False], "t_end": 8000.0}, "mixed protocols"),
 ])
 def test_the_protocol_label_says_what_was_run(columns, label):
-    assert plot.protocol_label(_runs(**columns)) == label
+    assert protocol_label(_runs(**columns)) == label
 
 
 def test_the_sweeps_figures_name_the_start_it_ran(drawn):
@@ -243,19 +245,19 @@ def test_the_sweeps_figures_name_the_start_it_ran(drawn):
 def test_the_cluster_figures_show_fixed_phi():
     grid = [0.1, 0.215443, 0.464159, 1.0, 2.15443, 4.64159, 10.0, 21.5443, 46.4159, 100.0,
             215.443, 464.159, 1000.0]
-    assert plot.cluster_phis(grid) == [1000.0, 46.4159, 2.15443, 0.1]
-    assert plot.cluster_phis(grid + [3.0, 50.0]) == [1000.0, 46.4159, 2.15443, 0.1]
-    assert plot.cluster_phis([10.0, 100.0, 1000.0]) == [1000.0, 100.0, 10.0]
-    assert plot.cluster_phis([1.0, 1000.0]) == [1000.0, 1.0]
+    assert clusters.cluster_phis(grid) == [1000.0, 46.4159, 2.15443, 0.1]
+    assert clusters.cluster_phis(grid + [3.0, 50.0]) == [1000.0, 46.4159, 2.15443, 0.1]
+    assert clusters.cluster_phis([10.0, 100.0, 1000.0]) == [1000.0, 100.0, 10.0]
+    assert clusters.cluster_phis([1.0, 1000.0]) == [1000.0, 1.0]
 
 
 def test_phi_colours_are_sequential_and_not_the_papers_regime_code():
     from matplotlib.colors import rgb_to_hsv
 
-    shades = [rgb_to_hsv(plot.phi_colour(phi)[:3])[2] for phi in sorted(plot.CLUSTER_PHI)]
+    shades = [rgb_to_hsv(style.phi_colour(phi)[:3])[2] for phi in sorted(clusters.CLUSTER_PHI)]
     assert shades == sorted(shades, reverse=True)   # the stiffer, the darker
-    regime = {_rgb(c) for c in plot.REGIME_COLOURS.values()}
-    assert not {_rgb(plot.phi_colour(phi)) for phi in plot.CLUSTER_PHI} & regime
+    regime = {_rgb(c) for c in style.REGIME_COLOURS.values()}
+    assert not {_rgb(style.phi_colour(phi)) for phi in clusters.CLUSTER_PHI} & regime
 
 
 def test_fig4a_draws_every_phi_visible_filled_and_counted(drawn):
@@ -273,13 +275,13 @@ def test_fig4a_draws_every_phi_visible_filled_and_counted(drawn):
         assert len(dots) == 1 and len(dots[0].get_xydata()) == count
         assert count == int(data.runs_of(20, 5, phi).n_clusters.sum())
         assert dots[0].get_markerfacecolor() not in ("none", "None", "white")
-        assert _rgb(dots[0].get_markerfacecolor()) == _rgb(plot.phi_colour(phi))
+        assert _rgb(dots[0].get_markerfacecolor()) == _rgb(style.phi_colour(phi))
     assert shown == [1000.0, 100.0, 10.0]
 
 
 def test_the_cluster_scatter_draws_the_densest_set_lowest_and_counts_each(drawn):
     data, _ = drawn
-    fig = _draw(plot.cluster_scatter(data, plot.Figures(), 20, 5, [10.0, 100.0, 1000.0], "t"))
+    fig = _draw(clusters.cluster_scatter(data, style.Figures(), 20, 5, [10.0, 100.0, 1000.0], "t"))
     (ax,) = fig.axes
     sets = [ln for ln in _data_lines(ax) if ln.get_marker() == "o"]
     sizes = [len(ln.get_xydata()) for ln in sets]
@@ -308,9 +310,9 @@ def test_fig_drops_counts_the_phi_it_drew(drawn, monkeypatch, with_drops, words)
             return np.empty(0), np.empty(0, bool)
         return 0.01 + np.exp(rng.normal(-3.5, 0.8, 500)), rng.random(500) < 0.5
 
-    monkeypatch.setattr(plot, "_late_drops", late_drops)
-    with plot.style():
-        fig = plot.fig_drops(data, plot.Figures())
+    monkeypatch.setattr(drops, "_late_drops", late_drops)
+    with style.style():
+        fig = drops.fig_drops(data, style.Figures())
     left, right = fig.axes
     points = [ln for ln in _data_lines(left) if ln.get_marker() not in ("None", "", None)]
     assert len(points) == len(with_drops)
@@ -400,7 +402,7 @@ def test_fig2a_keys_its_regime_letters(drawn):
 def test_the_checks_find_what_they_look_for():
     """The helpers above report a point outside its axes, a marker under a key, and an
     unkeyed colour, and pass a figure without them."""
-    fig, (a, b) = plot.Figures().subplots(1, 2)
+    fig, (a, b) = style.Figures().subplots(1, 2)
     a.plot([0, 1, 2], [0, 1, 2], "o", color="tab:red")
     a.set_ylim(0, 1.5)                                     # (2, 2) lies above the axes
     b.plot([0.5], [0.5], "s", color="tab:blue", label="under the key")
@@ -411,6 +413,6 @@ def test_the_checks_find_what_they_look_for():
     assert sum("outside its axes" in f for f in found) == 1
     assert sum("under a key" in f for f in found) == 1
     assert _rgb("tab:blue") in _key_colours(fig) and _rgb("tab:green") not in _key_colours(fig)
-    fine, ax = plot.Figures().subplots()
+    fine, ax = style.Figures().subplots()
     ax.plot([0, 1], [0, 1], "o")
     assert _outside_or_hidden(_draw(fine)) == []

@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 import bkflow
+from bkflow.cli.assignments import analysis_assignments
 from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
 from bkflow.store.rundir import META, STRESS, SUMMARY, RunDir
 
@@ -75,8 +76,17 @@ def test_observables_are_pure_numerics():
 
 
 def test_figures_never_analyse_and_never_need_flow():
+    """Figures read tables; of the analysis only the registry's declarations (which keys an
+    observable draws, their units)."""
     for path in (SRC / "figures").glob("*.py"):
-        assert not _bkflow_imports(path) & {"analysis", "lammps", "sweeps"}, path.name
+        assert not _bkflow_imports(path) & {"lammps", "sweeps"}, path.name
+        tree = ast.parse(path.read_text())
+        analysis = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+                    and n.module and n.module.startswith("bkflow.analysis")}
+        analysis |= {f"{n.module}.{a.name}" for n in ast.walk(tree)
+                     if isinstance(n, ast.ImportFrom) and n.module == "bkflow.analysis"
+                     for a in n.names}
+        assert analysis <= {"bkflow.analysis", "bkflow.analysis.registry"}, (path.name, analysis)
         text = path.read_text()
         assert "import flow" not in text and "from flow" not in text
         assert "import signac" not in text and "signac_project_document" not in text, path.name
@@ -130,7 +140,7 @@ def test_no_run_file_name_is_written_outside_rundir():
              "events.parquet", "psi.csv", "clusters.csv", "extrema.npy", "blocks.npy",
              "psi.npy")
     for path in SRC.rglob("*.py"):
-        if path.stem == "rundir":
+        if path.stem in ("layout", "rundir"):
             continue
         code = ast.parse(path.read_text())
         docstrings = {id(n.body[0].value) for n in ast.walk(code)
@@ -150,11 +160,11 @@ WRITERS = {"write_text", "write_bytes", "savefig", "save", "to_csv", "to_json", 
 #: the writes outside io.py that do not go through the atomic writer, and why that is right
 ALLOWED = {
     ("rundir.py", "touch"): "the empty marker that claims a new run directory",
-    ("plot.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
-    ("rundir.py", "open"): "the lock file: created empty, locked (flock), never written",
-    ("commands.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
+    ("style.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
+    ("lock.py", "open"): "the lock file: created empty, locked (flock), never written",
+    ("guards.py", "open"): "/dev/null, which stdout becomes when the reader of a pipe has gone "
                         "(and stdout or stderr when the caller closed them)",
-    ("commands.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
+    ("guards.py", "mkstemp"): "an internal error's traceback, in a new file of its own",
     ("rundir.py", "replace"): "a record kept whole (atomic_file) while a continuation rewrote "
                               "it in place, renamed back over it when the continuation is "
                               "undone",
@@ -236,13 +246,13 @@ def test_analysis_settings_defer_to_the_run_and_name_bad_values():
     r = AnalysisSettings().resolved(spec)
     assert (r.slip_threshold, r.transient) == (0.02, 0.3)
     assert AnalysisSettings(s_x=0.05).resolved(spec).s_x == 0.05
-    s = AnalysisSettings().with_assignments(["s_x=0.02", "report_thresholds=0.01,0.1"])
+    s = analysis_assignments(["s_x=0.02", "report_thresholds=0.01,0.1"])
     assert s.s_x == 0.02 and s.report_thresholds == (0.01, 0.1)
     assert AnalysisSettings.from_dict(s.to_dict()) == s
     for bad, needle in ((["s_x=-1"], "s_x must be a number > 0"), (["sx=1"], "NAME one of"),
                         (["s_x=abc"], "not a number"), (["transient=1.5"], "[0, 1)")):
         with pytest.raises(SpecError, match=needle.replace("[", r"\[").replace(")", r"\)")):
-            AnalysisSettings().with_assignments(bad)
+            analysis_assignments(bad)
 
 
 # --------------------------------------------------------------------------- run directory
@@ -406,7 +416,7 @@ def unrendered_markup(html: str) -> list[str]:
 
 def test_the_docs_show_an_image_of_every_figure():
     """docs/sweeps.md shows each figure ``bkflow plot`` draws, and the image is there."""
-    from bkflow.figures.plot import FIGURES
+    from bkflow.figures.registry import FIGURES
 
     text = (ROOT / "docs" / "sweeps.md").read_text()
     for name in FIGURES:

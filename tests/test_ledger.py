@@ -219,3 +219,24 @@ def test_the_fused_ledger_goes_on_across_a_restart_file(workdir):
     assert end["diss_break"] > 0
     for k in LEDGER_SLOTS:
         assert after[k] == pytest.approx(end[k], rel=1e-12, abs=1e-15), k
+
+
+def test_fix_bk_stress_header_names_the_ledger_columns():
+    """fix bk/stress ``energy`` writes stress.csv's header from its own text (plugins/
+    fix_bk_stress.cpp): it names the same columns in the same order as
+    bkflow.observables.reduced.LEDGER_COLUMNS, which the readers expect (after t, sigma_x);
+    LEDGER_SLOTS are those columns but the breaks."""
+    import re
+    from pathlib import Path
+
+    from bkflow.observables.reduced import LEDGER_COLUMNS
+
+    source = (Path(__file__).resolve().parents[1] / "plugins" / "fix_bk_stress.cpp").read_text()
+    code = re.sub(r"/\*.*?\*/", "", source, flags=re.S)  # the code, not its comment
+    # every string of the code, C's adjacent literals joined: the header is the one of t,
+    # sigma_x and more
+    strings = ["".join(re.findall(r'"([^"]*)"', run))
+               for run in re.findall(r'(?:"[^"\n]*"\s*)+', code)]
+    headers = [s for s in strings if s.startswith("t,sigma_x,")]
+    assert headers == [",".join(("t", "sigma_x", *LEDGER_COLUMNS)) + "\\n"], headers
+    assert LEDGER_COLUMNS == ("breaks", *LEDGER_SLOTS)

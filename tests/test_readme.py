@@ -13,7 +13,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.cli.commands import subcommands, synopsis
+from bkflow.cli.parser import subcommands, synopsis
 from tests.support import ROOT, tool
 
 README = ROOT / "README.md"
@@ -183,8 +183,8 @@ def test_retired_options_are_gone_from_the_docs(flag):
 
 
 def test_the_exit_codes_are_the_clis():
-    """docs/running.md's table of exit codes is bkflow.cli.commands.EXIT_CODES, row for row."""
-    from bkflow.cli.commands import EXIT_CODES
+    """docs/running.md's table of exit codes is bkflow.cli.guards.EXIT_CODES, row for row."""
+    from bkflow.cli.guards import EXIT_CODES
 
     text = RUNNING.read_text()
     table = text[text.index("| exit code | meaning |"):]

@@ -9,7 +9,7 @@ import pytest
 
 from bkflow.analysis.summary import analyze
 from bkflow.cli.commands import main
-from bkflow.lammps.deck import write_deck
+from bkflow.lammps.deckfiles import write_deck
 from bkflow.lammps.engine import run
 from bkflow.model.params import RunSpec
 from bkflow.observables.stress import slip_events
@@ -329,7 +329,7 @@ def test_a_movie_frame_has_axes_a_colour_bar_with_units_and_each_particle_in_its
     from PIL import Image
 
     from bkflow.figures.fronts import CMAP, front_frame_figure, front_movie
-    from bkflow.figures.plot import PlotError
+    from bkflow.figures.style import PlotError
 
     lx, ly, dt = 6, 3, 0.01
     front = _front(lx, ly)

@@ -21,11 +21,12 @@ import pandas as pd
 import pytest
 
 from bkflow.analysis.results import results_table
+from bkflow.cli.assignments import parse_sizes
 from bkflow.cli.commands import main
 from bkflow.model.params import RunSpec, SpecError
 from bkflow.store.rundir import LOCK as LOCK_FILE
 from bkflow.store.rundir import RunBusyError, RunDir
-from bkflow.sweeps.grid import parse_sizes, phi_values, sweep_specs
+from bkflow.sweeps.grid import phi_values, sweep_specs
 from bkflow.sweeps.job import run_one
 from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import finished, open_project
@@ -187,7 +188,7 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     specs = sweep_specs([10.0], [(20, 5)], 1, t_end=200.0, scene="friction")
     rep = sweep(specs, tmp_path / "s", jobs=1, progress=False)
     assert len(rep.finished) == 1
-    from bkflow.figures.plot import plot
+    from bkflow.figures.registry import plot
 
     written, skipped = plot(tmp_path / "s", formats=("png",))
     assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops",
@@ -671,10 +672,12 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
     at phi = 1000 (lognormal favoured): one fitted line (phi = 1's), the rejection written in
     phi = 1000's key, and the stiff layer's two populations beside it adding up to all its
     drops."""
-    from bkflow.figures import plot
+    from bkflow.figures import drops as drop_figures
+    from bkflow.figures.data import SweepData
+    from bkflow.figures.style import Figures, style
 
     out, _ = tiny_sweep
-    data = plot.SweepData(out)
+    data = SweepData(out)
     one = np.isclose(data.runs.phi, 1.0)
     data.runs["drop_power_law"] = np.where(one, "plausible", "rejected")
     data.runs["drop_fit_p"] = np.where(one, 0.43, 0.0)
@@ -691,9 +694,9 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
         phi = float(runs.phi.iloc[0])
         return drops[phi], whole[phi]
 
-    monkeypatch.setattr(plot, "_late_drops", fake)
-    with plot.style():
-        fig = plot.fig_drops(data, plot.Figures())
+    monkeypatch.setattr(drop_figures, "_late_drops", fake)
+    with style():
+        fig = drop_figures.fig_drops(data, Figures())
     left, right = fig.axes
     fits = [ln for ln in left.get_lines() if ln.get_marker() in ("None", "", None)]
     assert len(fits) == 1
@@ -847,7 +850,8 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
     import matplotlib
 
     matplotlib.use("Agg")
-    from bkflow.figures.plot import _style, cluster_scatter
+    from bkflow.figures.clusters import cluster_scatter
+    from bkflow.figures.style import _style
 
     clusters = {0.1: pd.DataFrame({"l_x": [4.0] * 500 + [2.0], "l_y": [6.1] * 500 + [1.0]}),
                 2.15443: pd.DataFrame({"l_x": [20.0, 10.0], "l_y": [5.0, 2.0]})}
@@ -865,11 +869,11 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
     assert ax.get_ylim()[1] >= 6.1 / 5 and ax.get_xlim()[0] < 0 < ax.get_ylim()[1]
     labels = [t.get_text() for t in ax.get_legend().get_texts()][:2]  # then the guides' key
     assert labels == [r"$\phi$ = 2.15: 2 clusters", r"$\phi$ = 0.1: 501 clusters"]
-    from bkflow.figures.plot import _num
+    from bkflow.figures.style import _num
 
     assert [_num(v) for v in (1000.0, 215.443, 0.215443, 2.15443)] == ["1000", "215", "0.215",
                                                                      "2.15"]
-    from bkflow.figures.plot import phi_colour
+    from bkflow.figures.style import phi_colour
 
     drawn = {tuple(ln.get_color()): ln.get_zorder() for ln in ax.get_lines()
              if len(ln.get_xdata()) and ln.get_label() == "_nolegend_"}
@@ -888,7 +892,7 @@ def test_a_sweep_is_selected_by_numbers_from_python(tiny_sweep):
     assert len(load_sweep(out, where={"Lx": lx}).runs) == len(every) > 0
     assert len(load_sweep(out, where={"Lx": float(lx)}).runs) == len(every)
     assert len(load_sweep(out, where={"phi": 1}).runs) == int((every.phi == 1).sum()) > 0
-    from bkflow.figures.plot import PlotError
+    from bkflow.figures.style import PlotError
 
     with pytest.raises(PlotError, match=f"no finished run has Lx = {lx + 1}"):
         load_sweep(out, where={"Lx": lx + 1})

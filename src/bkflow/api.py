@@ -10,7 +10,7 @@
 Tables are pandas DataFrames read from the files bkflow wrote (nothing is recomputed);
 figures are ``matplotlib.figure.Figure`` objects made without pyplot: building one neither
 switches the backend, nor changes rcParams, nor touches the figures a user has open
-(``bkflow.figures.plot.Figures``). A notebook displays the Figure it is given; in a script, save
+(``bkflow.figures.style.Figures``). A notebook displays the Figure it is given; in a script, save
 it (``fig.savefig("f.png")``): it belongs to no pyplot window.
 """
 
@@ -21,8 +21,10 @@ from pathlib import Path
 
 import pandas as pd
 
+from bkflow.figures.data import SweepData
 from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
-from bkflow.figures.plot import FIGURES, Figures, PlotError, SweepData, _num, figure, style
+from bkflow.figures.registry import FIGURES, figure
+from bkflow.figures.style import Figures, PlotError, _num, style
 from bkflow.model.params import AnalysisSettings, RunSpec
 from bkflow.store import formats
 from bkflow.store.formats import shell_word

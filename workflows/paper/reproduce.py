@@ -41,7 +41,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.figures.plot import STYLE, SweepData, _point_states, _style, cluster_scatter, plot
+from bkflow.figures.clusters import cluster_scatter
+from bkflow.figures.data import SweepData, _point_states
+from bkflow.figures.registry import plot
+from bkflow.figures.style import STYLE, _style
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
 from bkflow.store import formats
@@ -607,7 +610,7 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
-#: a point's state (bkflow.figures.plot._point_states) as its marker in fig2a_protocols: shape and
+#: a point's state (bkflow.figures.data._point_states) as its marker in fig2a_protocols: shape and
 #: fill (True: filled in the curve's colour, False: white inside), read at print size and
 #: under an error bar (a half-filled marker is not); metastable a bold cross, which no filled
 #: shape resembles

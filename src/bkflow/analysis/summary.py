@@ -321,7 +321,7 @@ def _check_decks_unchanged(rd: RunDir) -> None:
     """A standalone run's deck and params.json as bkflow deck wrote them. Which of the two
     was changed decides the advice: an edited deck ran something its params.json does not
     describe; an intact deck with another params.json ran what the deck says."""
-    from bkflow.lammps.deck import SIGNATURE, written_by_bkflow
+    from bkflow.lammps.deckfiles import SIGNATURE, written_by_bkflow
 
     deck = rd.file(DECK)
     try:

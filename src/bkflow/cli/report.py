@@ -1,6 +1,7 @@
-"""What bkflow says of its results, in words: every sentence of the command line's reports
-(a run's summary, its stop, a sweep's table) is made here, from the data the engine and the
-analysis return; neither of them writes prose.
+"""What bkflow says of its results, in words: every line the command line prints about what a
+command did (a run's summary, its stop, a deck or figures written, a sweep's plan, table and
+outcome) is made here, from the data the engine, the analysis and the sweep return; neither
+of them writes prose.
 
 The verdicts are those of ``bkflow.observables.states.VERDICTS`` (docs/model.md "Steady state").
 """
@@ -11,6 +12,8 @@ import math
 
 from bkflow.model.params import STEADY_AGREEMENT, STEADY_DRIFT_BOUND
 from bkflow.observables.states import SWITCHING
+from bkflow.store import rundir as rd
+from bkflow.store.formats import shell_word
 
 
 def _num(s: dict, key: str, scale: float = 1.0) -> float:
@@ -37,6 +40,69 @@ def stop_rules(ad: dict, companion: str | None) -> str:
     return " and ".join(rules)
 
 
+def _switching_stop(ad: dict, head: str, state: str) -> str:
+    """A run until steady that stopped in the states a switching layer visited."""
+    own, err, need = (ad.get(k) for k in ("mu_bar_own_err_at_stop", "mu_bar_err_at_stop",
+                                           "t_needed"))
+    line = (head + f"stopped at t = {ad['t_run']:g} in the states it visited ({state}): "
+            "the layer switches between a quiet and a coherent state, so a run gives the "
+            "mean of the states it visited")
+    if own is not None and ad.get("target_error") is not None:
+        line += f" (mu_bar error {own:.2g} <= {ad['target_error']:g})"
+    if err is not None and math.isfinite(err):
+        line += f"; the long-run mean's error, covering the switching, is {err:.2g}"
+        if need:
+            line += f" (the target needs a run of about t = {need:.2g})"
+    return line
+
+
+def _error_missed(ad: dict, switching: bool, state: str | None) -> str | None:
+    """How mu_bar's error missed its target at the cap (None: it did not)."""
+    err = ad.get("mu_bar_own_err_at_stop" if switching else "mu_bar_err_at_stop")
+    target = ad.get("target_error")
+    if target is None or (err is not None and err <= target):
+        return None
+    if err is None or not math.isfinite(err):
+        return "mu_bar error not measurable yet (too few slips after the transient)"
+    need = None if switching else ad.get("t_needed")
+    return (f"mu_bar error {err:.3g} > {target:g}" + (
+        f" of the states visited ({state})" if switching else "") + (
+        f" (the layer's slow fluctuations, measured in long runs, alone need a run "
+        f"of about t = {need:.2g} for it)" if need else ""))
+
+
+def _state_missed(ad: dict, state: str | None) -> str | None:
+    """How the run's state missed steady at the cap (None: a switching layer, which stops
+    on its states' error, or a run steady but for the companion)."""
+    if state is None or ad.get("drift_at_stop") is None or \
+            not math.isfinite(ad["drift_at_stop"]):
+        return "the state not testable yet"
+    if state in SWITCHING:
+        return None
+    if state == "drifting":
+        return (f"drifting: the stress still drifts ({100 * ad['drift_at_stop']:+.2f}%"
+                f" +- {100 * (ad.get('drift_err_at_stop') or math.nan):.2f}%)")
+    if state == "metastable":
+        return (f"metastable: the contacts still hold the start's common phase "
+                f"(phase fluctuation {ad.get('phase_fluctuation_at_stop', math.nan):.3g}"
+                f" > {ad.get('memory_chi', math.nan):g})")
+    if (ad.get("drift_bound_at_stop") or 0) > STEADY_DRIFT_BOUND:
+        return (f"a drift up to {100 * ad['drift_bound_at_stop']:.2g}% not excluded "
+                f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
+    return None
+
+
+def _pair_missed(ad: dict, companion: str | None) -> str | None:
+    """How the companion run disagreed at the cap (None: it did not)."""
+    gap = ad.get("companion_gap_at_stop")
+    if not (companion and ad.get("pair_disagrees_at_stop")):
+        return None
+    return (f"the companion run ({companion} start) disagrees: its mean stress "
+            + (f"{100 * gap:+.2f}% off" if gap is not None and math.isfinite(gap)
+               else "not measurable")
+            + f" (agreement within {100 * STEADY_AGREEMENT:g}% or both errors)")
+
+
 def stop_line(ad: dict, companion: str | None = None) -> str:
     """Why an adaptive run stopped where it did (meta.json's ``adaptive`` record)."""
     head = f"ran to t = {ad['t_run']:.0f} of at most {ad['t_cap']:g}: "
@@ -44,55 +110,50 @@ def stop_line(ad: dict, companion: str | None = None) -> str:
     state = ad.get("state_at_stop")
     switching = bool(ad.get("until_steady")) and state in SWITCHING
     if ad.get("reached") and switching:
-        own, err, need = (ad.get(k) for k in ("mu_bar_own_err_at_stop", "mu_bar_err_at_stop",
-                                               "t_needed"))
-        line = (head + f"stopped at t = {ad['t_run']:g} in the states it visited ({state}): "
-                "the layer switches between a quiet and a coherent state, so a run gives the "
-                "mean of the states it visited")
-        if own is not None and ad.get("target_error") is not None:
-            line += f" (mu_bar error {own:.2g} <= {ad['target_error']:g})"
-        if err is not None and math.isfinite(err):
-            line += f"; the long-run mean's error, covering the switching, is {err:.2g}"
-            if need:
-                line += f" (the target needs a run of about t = {need:.2g})"
-        return line
+        return _switching_stop(ad, head, state)
     if ad.get("reached"):
         return head + f"stopped because {rules} at t = {ad['t_run']:g}"
-    missed = []
-    err = ad.get("mu_bar_own_err_at_stop" if switching else "mu_bar_err_at_stop")
-    target = ad.get("target_error")
-    if target is not None and not (err is not None and err <= target):
-        if err is None or not math.isfinite(err):
-            missed.append("mu_bar error not measurable yet (too few slips after the transient)")
-        else:
-            need = None if switching else ad.get("t_needed")
-            missed.append(f"mu_bar error {err:.3g} > {target:g}" + (
-                f" of the states visited ({state})" if switching else "") + (
-                f" (the layer's slow fluctuations, measured in long runs, alone need a run "
-                f"of about t = {need:.2g} for it)" if need else ""))
+    missed = [_error_missed(ad, switching, state)]
     if ad.get("until_steady"):
-        if state is None or ad.get("drift_at_stop") is None or \
-                not math.isfinite(ad["drift_at_stop"]):
-            missed.append("the state not testable yet")
-        elif state in SWITCHING:
-            pass   # a switching layer stops on its states' error (above)
-        elif state == "drifting":
-            missed.append(f"drifting: the stress still drifts ({100 * ad['drift_at_stop']:+.2f}%"
-                          f" +- {100 * (ad.get('drift_err_at_stop') or math.nan):.2f}%)")
-        elif state == "metastable":
-            missed.append(f"metastable: the contacts still hold the start's common phase "
-                          f"(phase fluctuation {ad.get('phase_fluctuation_at_stop', math.nan):.3g}"
-                          f" > {ad.get('memory_chi', math.nan):g})")
-        elif (ad.get("drift_bound_at_stop") or 0) > STEADY_DRIFT_BOUND:
-            missed.append(f"a drift up to {100 * ad['drift_bound_at_stop']:.2g}% not excluded "
-                          f"(> {100 * STEADY_DRIFT_BOUND:g}%)")
-        gap = ad.get("companion_gap_at_stop")
-        if companion and ad.get("pair_disagrees_at_stop"):
-            missed.append(f"the companion run ({companion} start) disagrees: its mean stress "
-                          + (f"{100 * gap:+.2f}% off" if gap is not None and math.isfinite(gap)
-                             else "not measurable")
-                          + f" (agreement within {100 * STEADY_AGREEMENT:g}% or both errors)")
+        missed += [_state_missed(ad, state), _pair_missed(ad, companion)]
+    missed = [m for m in missed if m is not None]
     return head + "the cap came first: " + "; ".join(missed or [f"not {rules}"])
+
+
+# ------------------------------------------------------------------------- a run, a deck
+def run_line(out, meta: dict) -> str:
+    """What a finished run took: its steps, wall time, rate, path and contact breaks."""
+    eng = meta["engine"]
+    pair = " (and as many for its companion)" if meta.get("companion") else ""
+    return (f"{out}: {meta['derived']['n_steps']} steps{pair} in {meta['wall_time_s']:.1f} s "
+            f"({meta['atom_steps_per_s']:.3g} atom-steps/s, {eng['path']} path"
+            + (f", {eng['kernel']} kernel" if eng["kernel"] else "")
+            + f"), {meta['contact_breaks']} contact breaks")
+
+
+def adaptive_line(ad: dict, companion: str | None) -> str:
+    """The stop of an adaptive run, and the advice when its cap came first."""
+    return "  adaptive: " + stop_line(ad, companion) + ("" if ad["reached"] else "; raise --t-end")
+
+
+def analysing_again_line(out) -> str:
+    return f"{out}: this run finished earlier; analysing it"
+
+
+def analysed_line(run_dir, why: str | None) -> str:
+    """bkflow analyze's summary written, and why it was made again (``why``: what made the
+    one there stale)."""
+    return (f"{run_dir}/{rd.SUMMARY} written"
+            + (f" (re-analysed: {why})" if why and not why.startswith("no ") else ""))
+
+
+def deck_line(paths: dict, n_steps: int) -> str:
+    return f"wrote {paths['deck']} and {paths['data']} ({n_steps} steps)"
+
+
+def print_summary(s: dict) -> None:
+    """A run's summary, printed (``summary_lines``)."""
+    print("\n".join(summary_lines(s)))
 
 
 # ------------------------------------------------------------------------- a run's state
@@ -224,6 +285,99 @@ def cost_line(total, jobs: int, adaptive: bool) -> str:
 
 
 
+def sweep_plan_lines(phis, n_sizes: int, axes: dict, seeds: int, n_runs: int, out,
+                     jobs: int, cost: str) -> list[str]:
+    """What a sweep is about to run, before it starts (``cost``: ``cost_line``'s)."""
+    extra = "".join(f" x {len(v)} {k}" for k, v in axes.items())
+    return [f"sweep: {len(phis)} phi x {n_sizes} size(s){extra} x {seeds} seed(s) = "
+            f"{n_runs} runs into {out}, {jobs} at a time",
+            f"  phi = {', '.join(f'{p:g}' for p in phis)}",
+            "  " + cost] + [f"  {k} = {', '.join(map(str, v))}" for k, v in axes.items()]
+
+
+def jobs_created_lines(out, n_jobs: int, done: int) -> list[str]:
+    """``bkflow sweep --init``: the jobs created, and how to run them."""
+    where = shell_word(out)
+    return [f"{out}: {n_jobs} jobs ({done} finished); run them here with",
+            f"  (cd {where} && python -m bkflow.cluster run)",
+            "or submit them to the cluster's scheduler with",
+            f"  (cd {where} && python -m bkflow.cluster submit)"]
+
+
+def sweep_done_line(rep) -> str:
+    """What a sweep ran (``bkflow.sweeps.local.SweepReport``)."""
+    from bkflow.sweeps.local import fmt_duration
+
+    return (f"{len(rep.finished)} run(s) done in {fmt_duration(rep.wall_time_s)}, "
+            f"{rep.finished_before} finished earlier (skipped), {len(rep.failed)} failed"
+            + (f" ({len(rep.reanalysed)} of them only re-analysed)" if rep.reanalysed else "")
+            + (f", {len(rep.unfinished)} not finished" if rep.unfinished else "")
+            + (f" ({len(rep.busy)} of them written by another process)" if rep.busy else ""))
+
+
+def tables_line(out) -> str:
+    """A sweep's tables written, and the command that draws its figures."""
+    from bkflow.store.tables import RESULTS_FILE, RUNS_FILE
+
+    return (f"wrote {out}/{RUNS_FILE} and {out}/{RESULTS_FILE}; figures: bkflow plot "
+            f"{shell_word(out)}")
+
+
+def retired_lines(root, removed) -> list[str]:
+    """The figure files removed because the tables they were drawn from changed."""
+    if not removed:
+        return []
+    return [f"removed {len(removed)} figure file(s) of {root}/figures drawn from the tables "
+            "before (they no longer match them): bkflow plot "
+            f"{shell_word(root)} draws them again"]
+
+
+def run_failed_lines(rep) -> list[str]:
+    """A sweep's runs that failed or were refused, one line each."""
+    return [f"bkflow: {'refused' if job_id in rep.refused else 'run failed'}: {msg} "
+            f"(job {job_id})" for job_id, msg in rep.failed.items()]
+
+
+def sweep_outcome(rep) -> tuple[str, str] | None:
+    """A sweep that did not finish every run: ("busy", "refused" or "failed", the line that
+    says what to do); None when every run finished."""
+    if rep.busy and not rep.failed and len(rep.busy) == len(rep.unfinished):
+        return "busy", (f"bkflow: busy: {len(rep.busy)} run(s) are being written by another "
+                        "process (e.g. python -m bkflow.cluster run); run the same command once "
+                        "it is done")
+    if rep.refused and len(rep.refused) == len(rep.failed) and not rep.unfinished:
+        return "refused", (f"bkflow: {len(rep.refused)} run(s) refused: their directories hold "
+                           "what bkflow does not replace or read (the lines above name it); "
+                           "move that away, then the same command runs them")
+    if rep.failed or rep.unfinished:
+        return "failed", (f"bkflow: {len(rep.failed) + len(rep.unfinished)} run(s) did not "
+                          "finish; the same command retries them"
+                          + (f" ({len(rep.refused)} of them refused: move away what the lines "
+                             "above name)" if rep.refused else ""))
+    return None
+
+
+def collect_line(sweep_dir, c) -> str:
+    """What bkflow collect found (``bkflow.sweeps.local.collect``)."""
+    return (f"{sweep_dir}: {c.jobs} jobs, {c.finished} finished, {len(c.failed)} failed, "
+            f"{c.jobs - c.finished - len(c.failed)} not run; {len(c.reanalysed)} re-analysed")
+
+
+def collected_tables_line(sweep_dir, c) -> str:
+    from bkflow.store.tables import RESULTS_FILE, RUNS_FILE
+
+    return (f"wrote {sweep_dir}/{RUNS_FILE} ({len(c.runs)} rows) and {sweep_dir}/"
+            f"{RESULTS_FILE} ({len(c.results)} rows)")
+
+
+def collect_problem_lines(sweep_dir, c) -> list[str]:
+    """bkflow collect's failed jobs and damaged runs, for stderr."""
+    return [f"  failed {j.id}: {j.document['error']}" for j in c.failed] + [
+        f"bkflow: warning: run {job_id} is damaged ({why}) and left out of the tables: "
+        f"collect does not run LAMMPS; the sweep's own command (bkflow sweep ... --out "
+        f"{shell_word(sweep_dir)}) runs it again" for job_id, why in c.damaged]
+
+
 def states_line(res) -> str:
     """How many runs of a results table are steady, switching, drifting, metastable, and what
     to do."""
@@ -279,3 +433,16 @@ def results_lines(res, axes=()) -> list[str]:
             f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
             f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
     return lines
+
+
+# ------------------------------------------------------------------------- figures
+def plot_lines(paths, skipped: dict) -> list[str]:
+    """bkflow plot's figures written, and those it could not draw, with why."""
+    return [f"wrote {p}" for p in paths] + [f"skipped {name}: {why}"
+                                           for name, why in skipped.items()]
+
+
+def movie_line(path, fronts, dt: float, maps) -> str:
+    """bkflow movie's GIF of one slip (``fronts``: its front record) and its maps."""
+    return (f"wrote {path} ({len(fronts.steps)} frames, t = {fronts.step_max * dt:g} to "
+            f"{fronts.step_min * dt:g}) and {maps}")

@@ -2,7 +2,7 @@
 of the layer through the slip (``bkflow movie``, ``Run.front_figure``, ``Run.movie``).
 
 From the fronts a run recorded (fix bk/fronts, ``bkflow.store.rundir.RunDir.read_fronts``), never
-re-computed; figures are made without pyplot (``bkflow.figures.plot.Figures``). The GIF's frame
+re-computed; figures are made without pyplot (``bkflow.figures.style.Figures``). The GIF's frame
 (axes in lattice units, a colour bar with its units, the title) is drawn once by matplotlib
 (``front_frame_figure``); each frame pastes the layer, coloured with NumPy, into it and writes
 its time with Pillow: no figure is drawn per frame.
@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from bkflow.figures.plot import Figures, PlotError, style
+from bkflow.figures.style import Figures, PlotError, style
 
 #: the colour map of the slip rate: blue backward, white still, red forward
 CMAP = "RdBu_r"

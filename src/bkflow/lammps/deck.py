@@ -1,9 +1,9 @@
 """LAMMPS data file and input deck of one run, as pure text (docs/model.md, "Forces on particle i").
 
 Nothing here runs LAMMPS or touches the disk: ``data_text`` and ``deck_text`` return
-strings that ``write_deck`` saves, that the engine feeds to the LAMMPS Python API, and
-that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the bkflow plugin
-through the ``lammps.plugins`` entry point).
+strings that ``bkflow.lammps.deckfiles.write_deck`` saves, that the engine feeds to the LAMMPS
+Python API, and that run standalone with ``lmp -in in.bk`` (the wheel's ``lmp`` auto-loads the
+bkflow plugin through the ``lammps.plugins`` entry point).
 
 The forces of docs/model.md are all applied by ``fix bk/substrate`` (plugins/README.md): bonds,
 drive, friction and damping in one pass. The bond topology comes from the data file with no
@@ -23,15 +23,13 @@ from dataclasses import dataclass
 from bkflow import __version__
 from bkflow.model.lattice import Lattice, contact_start, lattice_for
 from bkflow.model.params import PATHS, S_X, RunSpec
-from bkflow.store import formats
+from bkflow.observables.reduced import LEDGER_SLOTS  # noqa: F401  (the energy ledger's slots)
 from bkflow.store.rundir import (
     BLOCKS,
     CLUSTER_ROWS,
     DATA,
-    DECK,
     EXTREMA,
     FRONTS,
-    PARAMS,
     PSI_RECORD,
     SERIES_PHASE,
     SERIES_STRESS,
@@ -43,16 +41,12 @@ from bkflow.store.rundir import (
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
 #: the slots of fix bk/substrate's global vector, 0-based (f_bk[slot + 1] in a deck): the
-#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/test_plugin.py checks
+#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/test_interface.py checks
 #: that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
          "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
          "diss_break": 11, "diss_damp": 12, "image_base": 13,
          "overshoot": 14}
-#: the energy ledger's slots (docs/model.md "Energy"): the energies of the step, then the running
-#: sums that the keyword ``energy`` of fix bk/substrate keeps
-LEDGER_SLOTS = ("e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
-                "diss_damp")
 #: fix ID of fix bk/slips (scenes clusters, full); its vector is [events, events written]
 SLIPS_FIX = "slips"
 #: fix ID of fix bk/fronts (scenes fronts, full); its vector is [events, events written]
@@ -301,66 +295,98 @@ def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
               series with the ledger included, and whole position frames every
               snapshot_nevery steps (``snapshots.lammpstrj``, for OVITO and the like).
     """
-    lines = []
     more = " append" if files.append_from is not None else ""
-    if files.blocks:
-        lines += [  # what the analysis reads of sigma_x and the phases, reduced in the run
-            f"fix             reduce all bk/reduce {spec.stress_nevery} {SUBSTRATE_FIX} "
+    parts = (_reduce_fix(spec, files, contact, more), _stress_fix(spec, files, more),
+             _phase_fix(spec, files, contact, more), _psi_fix(spec, files, more),
+             _snapshot_dump(spec, files), _slips_fix(spec, files, more),
+             _fronts_fix(spec, files, more), _thermo(spec, thermo_every))
+    return [line for part in parts for line in part]
+
+
+def _reduce_fix(spec: RunSpec, files: DeckOptions, contact: bool, more: str) -> list[str]:
+    """What the analysis reads of sigma_x and the phases, reduced in the run (every scene)."""
+    if not files.blocks:
+        return []
+    return [f"fix             reduce all bk/reduce {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"threshold {_f(spec.extrema_threshold_stress)} block {spec.block_nevery} "
             f"extrema {files.extrema or 'none'} blocks {files.blocks}"
             + (f" phase {spec.phase_nevery}" if contact else "")
-            + (" energy" if _energy(spec, files) else "") + more,
-        ]
-    if files.stress and spec.writes_series:
-        lines += [  # buffered by the plugin: fix print (a write and flush per line) cost 4-24%
-            f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
-            f"file {files.stress}" + (" energy" if _energy(spec, files) else "") + more,
-        ]
-    if files.phase and contact and spec.writes_series:
-        lines += [  # the contacts' load phases: what the steady-state verdict reads
-            f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
-            f"file {files.phase}{more}",
-        ]
-    if spec.writes_snapshots and files.psi:
-        lines += [  # Psi(t), computed in the run from the positions every snapshot_nevery
-            f"fix             psi all bk/psi {spec.snapshot_nevery} {spec.Lx} {spec.Ly} "
-            f"file {files.psi}{more}",
-        ]
-    if spec.writes_frames and files.snapshots:
-        lines += [
-            f"dump            snap all custom {spec.snapshot_nevery} {files.snapshots} "
-            "id type x y z ix iy iz",
-            'dump_modify     snap sort id format float %.9g',
-        ] + ([f"dump_modify     snap append yes delay {files.append_from + 1}"]
-             if more else [])
-    if spec.writes_slips and files.slips:
-        frames = files.slips if spec.writes_slip_frames else "none"
-        rows = "" if spec.writes_slip_frames else (
-            f" catalogue {files.slip_rows} {files.cluster_rows} sx {_f(S_X)} kb {_f(spec.k_b)} "
-            f"lattice {spec.Lx} {spec.Ly}")
-        lines += [
-            f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
+            + (" energy" if _energy(spec, files) else "") + more]
+
+
+def _stress_fix(spec: RunSpec, files: DeckOptions, more: str) -> list[str]:
+    """The raw sigma_x series, buffered by the plugin (fix print would write and flush every
+    line)."""
+    if not (files.stress and spec.writes_series):
+        return []
+    return [f"fix             stress all bk/stress {spec.stress_nevery} {SUBSTRATE_FIX} "
+            f"file {files.stress}" + (" energy" if _energy(spec, files) else "") + more]
+
+
+def _phase_fix(spec: RunSpec, files: DeckOptions, contact: bool, more: str) -> list[str]:
+    """The contacts' load phases: what the steady-state verdict reads."""
+    if not (files.phase and contact and spec.writes_series):
+        return []
+    return [f"fix             phase all bk/phase {spec.phase_nevery} {SUBSTRATE_FIX} "
+            f"file {files.phase}{more}"]
+
+
+def _psi_fix(spec: RunSpec, files: DeckOptions, more: str) -> list[str]:
+    """Psi(t), computed in the run from the positions every snapshot_nevery steps."""
+    if not (spec.writes_snapshots and files.psi):
+        return []
+    return [f"fix             psi all bk/psi {spec.snapshot_nevery} {spec.Lx} {spec.Ly} "
+            f"file {files.psi}{more}"]
+
+
+def _snapshot_dump(spec: RunSpec, files: DeckOptions) -> list[str]:
+    """Whole position frames every snapshot_nevery steps (scene full)."""
+    if not (spec.writes_frames and files.snapshots):
+        return []
+    return [
+        f"dump            snap all custom {spec.snapshot_nevery} {files.snapshots} "
+        "id type x y z ix iy iz",
+        'dump_modify     snap sort id format float %.9g',
+    ] + ([f"dump_modify     snap append yes delay {files.append_from + 1}"]
+         if files.append_from is not None else [])
+
+
+def _slips_fix(spec: RunSpec, files: DeckOptions, more: str) -> list[str]:
+    """Each slip's two frames (scenes clusters, events, full), or its row of the catalogue
+    and its clusters computed in the run (scene figures)."""
+    if not (spec.writes_slips and files.slips):
+        return []
+    frames = files.slips if spec.writes_slip_frames else "none"
+    rows = "" if spec.writes_slip_frames else (
+        f" catalogue {files.slip_rows} {files.cluster_rows} sx {_f(S_X)} kb {_f(spec.k_b)} "
+        f"lattice {spec.Lx} {spec.Ly}")
+    return [f"fix             {SLIPS_FIX} all bk/slips {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {frames} start {spec.slips_start_step}"
-            + rows
-            + (" breaks" if spec.writes_energy else "") + more,
-        ]
-    if spec.writes_fronts and files.fronts:
-        limit = "" if spec.fronts_limit is None else f" limit {spec.fronts_limit}"
-        lines += [
-            f"fix             {FRONTS_FIX} all bk/fronts {spec.stress_nevery} {SUBSTRATE_FIX} "
+            + rows + (" breaks" if spec.writes_energy else "") + more]
+
+
+def _fronts_fix(spec: RunSpec, files: DeckOptions, more: str) -> list[str]:
+    """Every particle's x velocity through each slip (scenes fronts, full)."""
+    if not (spec.writes_fronts and files.fronts):
+        return []
+    limit = "" if spec.fronts_limit is None else f" limit {spec.fronts_limit}"
+    return [f"fix             {FRONTS_FIX} all bk/fronts {spec.stress_nevery} {SUBSTRATE_FIX} "
             f"{_f(spec.slip_threshold_stress)} file {files.fronts} start "
-            f"{spec.slips_start_step}{limit}{more}",
-        ]
+            f"{spec.slips_start_step}{limit}{more}"]
+
+
+def _thermo(spec: RunSpec, thermo_every: int | None) -> list[str]:
+    """The thermo lines: sigma_x, the breaks and the longest bond, every 1% of the run unless
+    ``thermo_every``."""
     thermo = thermo_every or max(1, spec.n_steps // 100)
     cols = "".join(f"f_{SUBSTRATE_FIX}[{SLOTS[k] + 1}] "
                    for k in ("sigma_x", "breaks_step", "breaks_total", "bond_max"))
-    lines += [
+    return [
         f"thermo          {thermo}",
         f"thermo_style    custom step time {cols}cpuremain",
         "thermo_modify   lost error norm no flush yes",
         "",
     ]
-    return lines
 
 
 def _energy(spec: RunSpec, o: DeckOptions) -> bool:
@@ -406,99 +432,10 @@ def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions(),
     return setup_text(spec, options.replace(), n) + f"run             {n}\n"
 
 
-#: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.lammps.deck
-#: lammps_inputs)
-STANDARD_DECKS = {
-    "N100_phi10": RunSpec(phi=10.0, Lx=20, Ly=5, seed=1),
-    "N900_phi10": RunSpec(phi=10.0, Lx=60, Ly=15, seed=1),
-    # the random start of the contacts (the model's "Starting state"): a stiff layer that
-    # reaches its steady state without the paper's long synchronized transient
-    "N100_phi1000_random": RunSpec(phi=1000.0, Lx=20, Ly=5, seed=1, start="random"),
-}
-
-
-def write_standard_decks(root) -> list[str]:
-    """Write every deck of ``STANDARD_DECKS`` into ``root/NAME/``."""
-    from pathlib import Path
-
-    return [write_deck(spec, Path(root) / name)["deck"] for name, spec in STANDARD_DECKS.items()]
-
-
-#: the signature bkflow deck puts on the files it writes, so that it replaces only its own:
-#: in.bk ends with this line, data.bk's title line ends with it, over a SHA-256 of the rest
-SIGNATURE = "bkflow-sha256:"
-
-
-def _digest(text: str) -> str:
-    import hashlib
-
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _signed(name: str, text: str, params: str = "") -> str:
-    if name == DECK:  # and params.json, which cannot carry a comment
-        return text + f"# {SIGNATURE}{_digest(text)} {PARAMS}:{_digest(params)}\n"
-    title, rest = text.split("\n", 1)
-    return f"{title} {SIGNATURE}{_digest(text)}\n{rest}"
-
-
-def _params_text(spec: RunSpec) -> str:
-    import json
-
-    return json.dumps(spec.to_dict(), indent=2, sort_keys=True) + "\n"
-
-
-def written_by_bkflow(path) -> bool:
-    """Whether ``path`` (an in.bk, data.bk or params.json) is exactly as bkflow deck wrote it:
-    its signature matches its text (params.json: it is a RunSpec written the canonical way).
-    A hand-written or hand-edited file is the user's, and bkflow deck does not replace it."""
-    from pathlib import Path
-
-    path = Path(path)
-    try:
-        text = formats.read_text(path)
-    except (OSError, UnicodeDecodeError):
-        return False
-    if path.name == PARAMS:  # its digest is on in.bk's signature line
-        deck = path.with_name(DECK)
-        if deck.exists():
-            return (written_by_bkflow(deck) and formats.read_text(deck).rstrip("\n").endswith(
-                f" {PARAMS}:{_digest(text)}"))
-        import json
-
-        try:  # without its deck: at least written the way bkflow writes it
-            return _params_text(RunSpec.from_dict(json.loads(text))) == text
-        except Exception:  # anything unreadable is not provably ours
-            return False
-    if path.name == DECK:
-        body, sep, last = text.rstrip("\n").rpartition("\n")
-        return bool(sep) and last.startswith(f"# {SIGNATURE}{_digest(body + chr(10))} ")
-    if path.name == DATA:  # the signature ends the title line, over the whole text
-        title, sep, rest = text.partition("\n")
-        plain, mark, sig = title.rpartition(f" {SIGNATURE}")
-        return bool(sep and mark) and sig == _digest(f"{plain}\n{rest}")
-    return False
-
-
-def write_deck(spec: RunSpec, directory, options: DeckOptions = DeckOptions()) -> dict[str, str]:
-    """Write ``in.bk`` (with ``options``), ``data.bk`` and ``params.json`` into
-    ``directory``, each atomically and signed (``written_by_bkflow``); return
-    {name: path}."""
-    from pathlib import Path
-
-    from bkflow.store.formats import write_text_atomic
-
-    d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
-    params = _params_text(spec)
-    write_text_atomic(d / DATA, _signed(DATA, data_text(spec)))
-    write_text_atomic(d / PARAMS, params)
-    write_text_atomic(d / DECK, _signed(DECK, deck_text(spec, options.replace()), params))
-    return {"deck": str(d / DECK), "data": str(d / DATA), "params": str(d / PARAMS)}
-
-
-if __name__ == "__main__":
+if __name__ == "__main__":  # python -m bkflow.lammps.deck lammps_inputs: the standard decks
     import sys
+
+    from bkflow.lammps.deckfiles import write_standard_decks
 
     for path in write_standard_decks(sys.argv[1] if len(sys.argv) > 1 else "lammps_inputs"):
         print("wrote", path)

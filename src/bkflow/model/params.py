@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -301,65 +300,6 @@ def check_fields(obj, prefix: str = "") -> None:
             check(prefix + f.name, getattr(obj, f.name))
 
 
-# ------------------------------------------------------------------------ NAME=VALUE
-def split_assignment(item, option: str, values: bool = False) -> tuple[str, list[str] | str]:
-    """(NAME, VALUE) of ``NAME=VALUE`` (``-`` in NAME reads as ``_``), or with ``values``
-    (NAME, [V1, V2, ...]) of ``NAME=V1,V2,...``: the one parser of bkflow's NAME=VALUE
-    options (--set, --vary, --analysis, --where)."""
-    name, sep, text = str(item).partition("=")
-    name = name.strip().replace("-", "_")
-    if not values:
-        if not sep or not name:
-            raise SpecError(f"{option} {item!r}: give NAME=VALUE")
-        return name, text
-    if not sep or not name or not text.strip():
-        raise SpecError(f"{option} {item!r}: give NAME=V1,V2,...")
-    parts = text.split(",")
-    if any(not v.strip() for v in parts):
-        raise SpecError(f"{option} {item!r}: an empty value in the list")
-    return name, parts
-
-
-def parse_typed(kind: str, text: str, what: str, none_words=("none",)):
-    """``text`` as a value of the type annotation ``kind`` (bool, int, float, str, tuple of
-    floats, X | None); ``kind`` "any" guesses (a number, true/false, none or a word).
-    ``what`` names the value in the SpecError (e.g. "--set gamma=x")."""
-    t = str(text).strip()
-    if t == "":
-        raise SpecError(f"{what}: give a value after '='")
-    if ("None" in kind or kind == "any") and t.lower() in none_words:
-        return None
-    try:
-        if kind == "any":
-            try:
-                return float(t)
-            except ValueError:
-                return {"true": True, "false": False}.get(t.lower(), t)
-        if kind.startswith("bool"):
-            if t.lower() not in ("true", "false", "yes", "no", "1", "0"):
-                raise ValueError
-            return t.lower() in ("true", "yes", "1")
-        if kind.startswith("int"):
-            return int(t)
-        if kind.startswith("float"):
-            return float(t)
-        if kind.startswith("tuple"):
-            return tuple(float(v) for v in t.strip("[]()").split(",") if v.strip())
-    except ValueError:
-        shown = ("true or false" if kind.startswith("bool") else "numbers"
-                 if kind.startswith("tuple") else f"a {kind.split()[0]}")
-        raise SpecError(f"{what}: must be {shown}") from None
-    return t
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """``"20x5"`` -> ``(20, 5)``; a clear ``SpecError`` for anything else."""
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", str(text))
-    if not m:
-        raise SpecError(f"size {text!r} is not of the form LXxLY (e.g. 20x5)")
-    return int(m.group(1)), int(m.group(2))
-
-
 def size_from_n(n: int) -> tuple[int, int]:
     """The paper's lattice for N = 100, 400 or 900 particles."""
     if n not in PAPER_SIZES:
@@ -492,56 +432,6 @@ class RunSpec:
             raise SpecError(f"a {self.Lx}x{self.Ly} lattice has {self.N:.3g} particles, more "
                             f"than a LAMMPS run of bkflow indexes ({MAX_ATOMS:.3g}); choose a "
                             "smaller --size")
-
-    # ------------------------------------------------------------------ NAME=VALUE settings
-    #: fields with an axis or option of their own in the CLI (--phi, --size, --seed); every
-    #: other field can be set with --set NAME=VALUE and swept with --vary NAME=V1,V2,...
-    OWN_OPTIONS = {"phi": "--phi", "Lx": "--size", "Ly": "--size", "seed": "--seed/--seeds"}
-
-    @classmethod
-    def parse_value(cls, name: str, text: str, option: str = "--set"):
-        """The value of field ``name`` written as ``text`` (a number, a word, true/false,
-        none), converted to the field's type; a SpecError naming ``option`` otherwise."""
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        if name not in fields:
-            settable = sorted(f for f in fields if f not in cls.OWN_OPTIONS)
-            raise SpecError(f"{option} {name}: not a parameter; parameters: "
-                            f"{', '.join(settable)}")
-        if name in cls.OWN_OPTIONS:
-            raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
-        kind = str(fields[name].type)
-        try:
-            return parse_typed(kind, text, f"{option} {name}={str(text).strip()}")
-        except SpecError as exc:  # "must be a float" of the field, by name
-            raise SpecError(str(exc).replace(": must be", f": {name} must be")) from None
-
-    @classmethod
-    def assignments(cls, items, option: str = "--set") -> dict:
-        """{name: value} of ``NAME=VALUE`` strings; a name given twice is refused."""
-        out = {}
-        for item in items:
-            name, text = split_assignment(item, option)
-            value = cls.parse_value(name, text, option)
-            if name in out:
-                raise SpecError(f"{option} {name} given twice")
-            out[name] = value
-        return out
-
-    @classmethod
-    def variations(cls, items, option: str = "--vary") -> dict[str, list]:
-        """{name: [values]} of ``NAME=V1,V2,...`` strings (a sweep's extra axes)."""
-        out = {}
-        for item in items:
-            name, texts = split_assignment(item, option, values=True)
-            if name in cls.OWN_OPTIONS:
-                raise SpecError(f"{option} {name}: use {cls.OWN_OPTIONS[name]} for it")
-            if name in out:
-                raise SpecError(f"{option} {name} given twice")
-            values = [cls.parse_value(name, v, option) for v in texts]
-            if len(set(map(repr, values))) != len(values):
-                raise SpecError(f"{option} {name}: a value is given twice")
-            out[name] = values
-        return out
 
     # derived quantities -------------------------------------------------------------------
     @property
@@ -819,9 +709,6 @@ class AnalysisSettings:
     drop_x_min_over_threshold: float | None = checked(1.0, number(gt=0, optional=True,
                                                                   noun="a number "))
 
-    #: words that mean "the run's own" for the settings that default to it
-    RUN_WORDS = ("none", "run")
-
     def __post_init__(self):
         try:
             thresholds = tuple(float(v) for v in self.report_thresholds)
@@ -854,23 +741,3 @@ class AnalysisSettings:
             raise SpecError(f"unknown analysis setting(s): {', '.join(sorted(unknown))}; "
                             f"known: {', '.join(sorted(names))}")
         return cls(**d)
-
-    def with_assignments(self, items) -> AnalysisSettings:
-        """These settings changed by ``NAME=VALUE`` strings (the CLI's ``--analysis``)."""
-        names = {f.name: f for f in dataclasses.fields(self)}
-        changes = {}
-        for item in items:
-            name, text = split_assignment(item, "--analysis")
-            if name not in names:
-                raise SpecError(f"--analysis {item!r}: give NAME=VALUE with NAME one of "
-                                f"{', '.join(sorted(names))}")
-            kind = str(names[name].type)
-            try:
-                changes[name] = parse_typed(kind, text, f"--analysis {item!r}",
-                                            none_words=self.RUN_WORDS)
-            except SpecError as exc:
-                if "must be" not in str(exc):
-                    raise
-                raise SpecError(f"--analysis {item!r}: {text.strip()!r} is not a number") \
-                    from None
-        return dataclasses.replace(self, **changes)

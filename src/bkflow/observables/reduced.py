@@ -34,6 +34,10 @@ from bkflow.observables.stress import SlipEvents, Zigzag, slip_events
 #: stress.csv has after t, sigma_x there (fix bk/stress ``energy``)
 LEDGER_COLUMNS = ("breaks", "e_bond", "e_drive", "e_contact", "e_kinetic", "work", "diss_break",
                   "diss_damp")
+#: the energy ledger's slots of fix bk/substrate's global vector (bkflow.lammps.deck.SLOTS): the
+#: energies of the step, then the running sums that its keyword ``energy`` keeps; the ledger's
+#: columns but the breaks (slot breaks_total)
+LEDGER_SLOTS = LEDGER_COLUMNS[1:]
 #: the phase statistics summed over a block (bkflow.store.rundir.PHASE_COLUMNS but t, and |Z|^2)
 PHASE_SUMS = ("R", "Z_re", "Z_im", "Z2", "R2", "u_mean", "u_std")
 

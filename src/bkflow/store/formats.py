@@ -2,10 +2,10 @@
 
 Which file of a run directory holds what is ``bkflow.store.rundir``'s business; this module only
 knows formats. Tables are read and written with pandas; LAMMPS dumps are read by
-``read_regular_frames``, a vectorised reader of the regular dumps bkflow writes (kept for
-speed: MDAnalysis's reader, used for any other dump, parses line by line and made reading a
-full-scene run cost as much as running it; the two are checked against each other in
-tests/test_scenes.py), unwrapped with the image flags. Positions come back to the 9
+``read_regular_frames``, a vectorised reader of the regular dumps bkflow writes (for speed:
+MDAnalysis's reader, used for any other dump, parses line by line, and reading a full-scene
+run's dumps with it costs as much as running the run; the two are checked against each other
+in tests/test_scenes.py), unwrapped with the image flags. Positions come back to the 9
 significant digits the dumps are written with (1e-7 l at the 200 l a layer drifts by
 t = 8000), far below S_x = 0.01 l and the Psi resolution that matters.
 """
@@ -26,7 +26,7 @@ import numpy as np
 
 def float_text(x) -> str:
     """A float as every table bkflow writes it: the shortest text that reads back as the same
-    double (Python's repr: 0.1, where ``%.17g`` wrote 0.10000000000000001)."""
+    double (Python's repr: 0.1, where ``%.17g`` writes 0.10000000000000001)."""
     return repr(float(x))
 
 
@@ -137,14 +137,40 @@ def read_regular_frames(path) -> Frames | None:
     file (it is then MDAnalysis's to read, or to refuse).
 
     Why not MDAnalysis here: its reader parses each line in Python, 18 ms per frame of 900
-    atoms, which made reading a full-scene run's dumps cost as much as running it; this reads
-    the same frames ~50x faster, in double precision (MDAnalysis keeps single), and
-    tests/test_analysis.py checks the two agree on every frame."""
-    import pandas as pd
-
+    atoms (reading a full-scene run's dumps so costs as much as running it); this reads the
+    same frames ~50x faster, in double precision (MDAnalysis keeps single), and
+    tests/test_scenes.py checks the two agree on every frame."""
     lines = read_bytes(path).split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()
+    layout = _regular_layout(lines)
+    if layout is None:
+        return None
+    n, cols = layout
+    heads = _frame_heads(lines, n)
+    if heads is None:
+        return None
+    steps, box = heads
+    n_frames = len(steps)
+    table = _atom_table(lines, n, cols, n_frames)
+    if table is None:
+        return None
+    get = {c: table[c].to_numpy().reshape(n_frames, n) for c in ("id", "x", "y", "ix", "iy")}
+    lengths = box[:, :, 1] - box[:, :, 0]  # (F, 2)
+    pos = np.stack([get["x"] + get["ix"] * lengths[:, :1], get["y"] + get["iy"] * lengths[:, 1:]],
+                   axis=-1)
+    order = np.argsort(get["id"], axis=1, kind="stable")
+    pos = np.take_along_axis(pos, order[:, :, None], axis=1)
+    brk = None
+    if "brk" in table:
+        brk = np.take_along_axis(table["brk"].to_numpy().reshape(n_frames, n), order, axis=1)
+    return Frames(steps, pos, brk)
+
+
+def _regular_layout(lines: list[bytes]) -> tuple[int, list[bytes]] | None:
+    """(atoms per frame, column names) of a dump's ``lines`` whose first frame has the header
+    of bkflow's dumps (id, x, y, ix, iy among the columns) and that are whole frames of it;
+    None otherwise."""
     if len(lines) < 9 or lines[0] != _HEAD[0] or lines[2] != _HEAD[2] \
             or not lines[4].startswith(_HEAD[4]) or not lines[8].startswith(b"ITEM: ATOMS "):
         return None
@@ -158,6 +184,14 @@ def read_regular_frames(path) -> Frames | None:
     cols = lines[8].split()[2:]
     if not {b"id", b"x", b"y", b"ix", b"iy"} <= set(cols):
         return None
+    return n, cols
+
+
+def _frame_heads(lines: list[bytes], n: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The steps (F,) and the boxes' x and y bounds (F, 2, 2) of the frames of ``n`` atoms
+    in ``lines``, when every frame's header is the first's but for its step and box; None
+    otherwise."""
+    per = n + 9
     n_frames = len(lines) // per
     head = [lines[k * per: k * per + 9] for k in range(n_frames)]
     if any(h[0] != lines[0] or h[2] != lines[2] or h[3] != lines[3] or h[4] != lines[4]
@@ -169,6 +203,15 @@ def read_regular_frames(path) -> Frames | None:
                         for d in (0, 1)]).reshape(n_frames, 2, 2)
     except ValueError:
         return None
+    return steps, box
+
+
+def _atom_table(lines: list[bytes], n: int, cols: list[bytes], n_frames: int):
+    """The atom lines of every frame as one DataFrame of float columns ``cols`` (pandas' C
+    parser), or None when one is missing or is not a number."""
+    import pandas as pd
+
+    per = n + 9
     body = b"\n".join(b"\n".join(lines[k * per + 9:(k + 1) * per]) for k in range(n_frames))
     try:
         table = pd.read_csv(io_bytes(body), sep=" ", header=None, names=[c.decode() for c in cols],
@@ -177,16 +220,7 @@ def read_regular_frames(path) -> Frames | None:
         return None
     if len(table) != n_frames * n or table.isna().to_numpy().any():
         return None
-    get = {c: table[c].to_numpy().reshape(n_frames, n) for c in ("id", "x", "y", "ix", "iy")}
-    lengths = box[:, :, 1] - box[:, :, 0]  # (F, 2)
-    pos = np.stack([get["x"] + get["ix"] * lengths[:, :1], get["y"] + get["iy"] * lengths[:, 1:]],
-                   axis=-1)
-    order = np.argsort(get["id"], axis=1, kind="stable")
-    pos = np.take_along_axis(pos, order[:, :, None], axis=1)
-    brk = None
-    if "brk" in table:
-        brk = np.take_along_axis(table["brk"].to_numpy().reshape(n_frames, n), order, axis=1)
-    return Frames(steps, pos, brk)
+    return table
 
 
 def io_bytes(data: bytes):

@@ -86,6 +86,18 @@ def settings_in(record: dict) -> dict:
     return {k: v for k, v in record.items() if k != TABLES_KEY}
 
 
+def sweep_analysis_settings(root) -> dict | None:
+    """The analysis settings the sweep's project document records (its ``analysis_settings``,
+    {} where it records none), as given; None where the document is missing or unreadable."""
+    import json
+
+    try:
+        doc = json.loads(formats.read_text(Path(root) / "signac_project_document.json"))
+        return dict(doc.get("analysis_settings", {}))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return None
+
+
 def tables_problem(root) -> str | None:
     """Why the sweep's tables are not the set its last collect wrote (None: they are): a
     member missing, cut or replaced since, or no record of them (analysis.json of an older

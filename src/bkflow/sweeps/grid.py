@@ -14,7 +14,7 @@ import itertools
 import math
 
 from bkflow.lammps.limits import cost
-from bkflow.model.params import PAPER_SIZES, RunSpec, SpecError, parse_size
+from bkflow.model.params import RunSpec, SpecError
 
 #: default sampling of a --phi range
 POINTS_PER_DECADE = 3
@@ -41,83 +41,47 @@ def phi_values(text: str, points_per_decade: int = POINTS_PER_DECADE) -> list[fl
     if not isinstance(points_per_decade, int) or points_per_decade < 1:
         raise SpecError(f"--points-per-decade must be a whole number >= 1, "
                         f"got {points_per_decade!r}")
-
-    def number(s):
-        try:
-            v = float(s)
-        except ValueError:
-            raise SpecError(f"--phi {text}: {s!r} is not a number") from None
-        if not (math.isfinite(v) and v > 0):
-            raise SpecError(f"--phi {text}: phi must be > 0 (phi = k_b / dk_d), got {s}")
-        return v
-
     if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 2:
-            raise SpecError(f"--phi {text}: a range is A:B (e.g. 1e-1:1e3)")
-        a, b = number(parts[0]), number(parts[1])
-        if not b > a:
-            example = (f"--phi {parts[1]}:{parts[0]}" if b < a
-                       else f"--phi {parts[0]} for the one value")
-            raise SpecError(f"--phi {text}: the range must increase (A < B), e.g. {example}")
-        decades = math.log10(b) - math.log10(a)  # b / a may overflow
-        n = int(math.floor(decades * points_per_decade + 1e-9))
-        if n > MAX_PHI_VALUES:
-            raise SpecError(f"--phi {text} with {points_per_decade} points per decade is "
-                            f"{n + 1} values (at most {MAX_PHI_VALUES}): lower "
-                            "--points-per-decade")
-        vals = [10 ** (math.log10(a) + k / points_per_decade) for k in range(n + 1)]
-        if b / vals[-1] > 1 + 1e-9:
-            vals.append(b)  # the end of the range is always swept
-        return sorted({_sig(v) for v in vals})
+        return _phi_range(text, points_per_decade)
     items = text.split(",")
     if not text or any(not s.strip() for s in items):
         raise SpecError(f"--phi {text}: an empty item; give a range A:B or a list a,b,c" if text
                         else "--phi: give a range A:B or a list a,b,c")
-    vals = [number(s) for s in items]
+    vals = [_phi_number(text, s) for s in items]
     return sorted({_sig(v) for v in vals})
 
 
-def parse_aspect(text) -> float | None:
-    """``--aspect``: Lx / Ly that every size must have (a number), or ``any`` (None)."""
-    if text is None:
-        return ASPECT
-    if str(text).strip().lower() == "any":
-        return None
+def _phi_number(text: str, s: str) -> float:
+    """The phi value ``s`` (an item of the --phi ``text``), or a SpecError naming it."""
     try:
-        v = float(text)
+        v = float(s)
     except ValueError:
-        raise SpecError(f"--aspect {text!r}: give Lx/Ly as a number (e.g. 1) or 'any'") \
-            from None
+        raise SpecError(f"--phi {text}: {s!r} is not a number") from None
     if not (math.isfinite(v) and v > 0):
-        raise SpecError(f"--aspect must be > 0, got {text}")
+        raise SpecError(f"--phi {text}: phi must be > 0 (phi = k_b / dk_d), got {s}")
     return v
 
 
-def parse_sizes(text: str, aspect: float | None = ASPECT) -> list[tuple[int, int]]:
-    """``"20x5,40x10"`` -> [(20, 5), (40, 10)]; ``100,400`` picks the paper's lattices.
-    Every size must have Lx = aspect * Ly unless ``aspect`` is None."""
-    sizes = []
-    for item in str(text).split(","):
-        item = item.strip()
-        if not item:
-            continue
-        if item.isdigit():
-            n = int(item)
-            if n not in PAPER_SIZES:
-                raise SpecError(f"--sizes {item}: a bare number names one of the paper's "
-                                f"lattices N = {', '.join(map(str, PAPER_SIZES))}; else LXxLY")
-            lx, ly = PAPER_SIZES[n]
-        else:
-            lx, ly = parse_size(item)
-        if aspect is not None and not math.isclose(lx, aspect * ly):
-            raise SpecError(f"--sizes {item}: Lx/Ly = {lx / ly:g}, not {aspect:g} (the "
-                            f"paper's lattices have Ly = Lx/4); pass --aspect {lx / ly:g} or "
-                            f"--aspect any to sweep other shapes")
-        sizes.append((lx, ly))
-    if not sizes:
-        raise SpecError("--sizes: give at least one LXxLY")
-    return list(dict.fromkeys(sizes))
+def _phi_range(text: str, points_per_decade: int) -> list[float]:
+    """The phi values of the range ``"A:B"`` (``phi_values``)."""
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise SpecError(f"--phi {text}: a range is A:B (e.g. 1e-1:1e3)")
+    a, b = _phi_number(text, parts[0]), _phi_number(text, parts[1])
+    if not b > a:
+        example = (f"--phi {parts[1]}:{parts[0]}" if b < a
+                   else f"--phi {parts[0]} for the one value")
+        raise SpecError(f"--phi {text}: the range must increase (A < B), e.g. {example}")
+    decades = math.log10(b) - math.log10(a)  # b / a may overflow
+    n = int(math.floor(decades * points_per_decade + 1e-9))
+    if n > MAX_PHI_VALUES:
+        raise SpecError(f"--phi {text} with {points_per_decade} points per decade is "
+                        f"{n + 1} values (at most {MAX_PHI_VALUES}): lower "
+                        "--points-per-decade")
+    vals = [10 ** (math.log10(a) + k / points_per_decade) for k in range(n + 1)]
+    if b / vals[-1] > 1 + 1e-9:
+        vals.append(b)  # the end of the range is always swept
+    return sorted({_sig(v) for v in vals})
 
 
 def sweep_specs(phis, sizes, seeds, axes: dict | None = None, fields=None,

@@ -31,6 +31,7 @@ from bkflow.sweeps.project import (
     SIMULATE,
     analysed,
     check_sweep_dir,
+    clear_failure,
     finished,
     open_project,
     permit_above_limits,
@@ -135,7 +136,9 @@ def _work(path: str, job_id: str, names: list) -> None:
         project = _WORKER_PROJECT[path] = open_project(path, create=False)
     from flow.errors import UserOperationError
 
-    with flowcompat.quiet_flow_bars():
+    from bkflow.lammps import plugin
+
+    with flowcompat.quiet_flow_bars(), plugin.interrupts(()):  # no signal is Ctrl-C here
         try:
             project.run(jobs=[project.open_job(id=job_id)], names=names)
         except UserOperationError as exc:
@@ -153,9 +156,6 @@ def _worker_signals() -> None:
     ignores (started under nohup) the worker ignores too."""
     import signal
 
-    from bkflow.lammps import plugin
-
-    plugin.INTERRUPT_SIGNALS = ()
     for sig in (signal.SIGTERM, signal.SIGHUP):
         if signal.getsignal(sig) != signal.SIG_IGN:
             signal.signal(sig, signal.SIG_DFL)
@@ -194,15 +194,21 @@ def warm(simulate: bool = True) -> None:
 
 def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> None:
     """The pending operations of ``jobs``, most expensive run first: in this process when
-    ``np_`` is 1, else in ``np_`` worker processes, each running many runs. A worker that
-    dies (SIGKILL, the out-of-memory killer) stops the sweep within a second: the others are
-    terminated and ``WorkerDied`` names the runs that were under way. (flow's own pool,
-    multiprocessing.Pool, would wait for the dead worker's result for ever.)"""
+    ``np_`` is 1, else in ``np_`` worker processes (``_run_in_workers``)."""
     jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
     if np_ <= 1:
         with flowcompat.quiet_flow_bars():
             project.run(jobs=jobs, names=names)
         return
+    _run_in_workers(project, jobs, names, np_)
+
+
+def _run_in_workers(project, jobs, names, np_: int) -> None:
+    """The pending operations of ``jobs``, in this order, in ``np_`` worker processes, each
+    running many runs. A worker that dies (SIGKILL, the out-of-memory killer) stops the sweep
+    within a second: the others are terminated and ``WorkerDied`` names the runs that were
+    under way. (flow's own pool, multiprocessing.Pool, would wait for the dead worker's result
+    for ever.)"""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -217,23 +223,14 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
         pending = {pool.submit(_work, str(project.path), j.id, list(names)): j for j in jobs}
         while pending:
             finished_now, _ = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-            while not _STARTED.empty():
-                job_id, pid = _STARTED.get()
-                started[job_id] = pid
+            _note_started(started)
             for fut in finished_now:
                 job = pending.pop(fut)
                 done.add(job.id)
                 fut.result()  # BrokenProcessPool, or what the task raised (an interrupt)
     except BrokenProcessPool:
-        while not _STARTED.empty():
-            job_id, pid = _STARTED.get()
-            started[job_id] = pid
-        under_way = [j for j in jobs if j.id in started and j.id not in done
-                     and not finished(j) and "error" not in j.document]
-        labels = ", ".join(spec_of(j).label for j in under_way) or "none started"
-        raise WorkerDied(f"a worker process of the sweep died (killed, or out of memory) "
-                         f"while running: {labels}; the sweep stopped its other runs; the same "
-                         "command resumes them") from None
+        _note_started(started)
+        raise _worker_died(jobs, started, done) from None
     except BaseException:  # Ctrl-C, SIGTERM or SIGHUP to the sweep: its runs stop now too
         for proc in list(getattr(pool, "_processes", {}).values()):
             with contextlib.suppress(OSError):
@@ -241,6 +238,24 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _note_started(started: dict) -> None:
+    """Move the (job id, pid) the workers have put since into ``started``."""
+    while not _STARTED.empty():
+        job_id, pid = _STARTED.get()
+        started[job_id] = pid
+
+
+def _worker_died(jobs, started: dict, done: set) -> WorkerDied:
+    """The error of a worker's death, naming the runs of ``jobs`` that were under way (started,
+    not done, neither finished nor failed)."""
+    under_way = [j for j in jobs if j.id in started and j.id not in done
+                 and not finished(j) and "error" not in j.document]
+    labels = ", ".join(spec_of(j).label for j in under_way) or "none started"
+    return WorkerDied(f"a worker process of the sweep died (killed, or out of memory) "
+                      f"while running: {labels}; the sweep stopped its other runs; the same "
+                      "command resumes them")
 
 
 def sweep(specs, out, jobs: int | None = None, progress: bool | None = None,
@@ -268,9 +283,7 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
         set_settings(project, settings)
     selected = [project.open_job(s.to_dict()).init() for s in specs]
     for job in selected:  # a previous failure is retried
-        for key in ("error", "busy", "refused"):
-            if key in job.document:
-                del job.document[key]
+        clear_failure(job)
         permit_above_limits(job, force)
     todo = [j for j in selected if not finished(j)]
     stale = {j.id for j in todo if simulated(j)}
@@ -278,12 +291,26 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
     t0 = time.perf_counter()
     cost = {j.id: run_cost(spec_of(j)) for j in todo}
     if todo:
-        axes = tuple(f for f in RunSpec.__dataclass_fields__
-                     if f not in ("phi", "Lx", "Ly", "seed")
-                     and len({repr(getattr(s, f)) for s in specs}) > 1)
-        with _SweepBar(todo, report.finished_before, report.total, progress, axes):
+        with _SweepBar(todo, report.finished_before, report.total, progress, _varied(specs)):
             _run_pending(project, todo, [SIMULATE, ANALYZE], min(jobs, len(todo)), cost)
     report.wall_time_s = time.perf_counter() - t0
+    _tally(report, todo, stale)
+    done = collect(project, jobs=jobs)
+    report.results, report.retired_figures = done.results, done.retired_figures
+    return report
+
+
+def _varied(specs) -> tuple:
+    """The parameters besides phi, size and seed whose values differ among ``specs`` (the
+    progress lines name them)."""
+    return tuple(f for f in RunSpec.__dataclass_fields__
+                 if f not in ("phi", "Lx", "Ly", "seed")
+                 and len({repr(getattr(s, f)) for s in specs}) > 1)
+
+
+def _tally(report: SweepReport, todo, stale: set) -> None:
+    """Sort the jobs the sweep ran (``todo``) into ``report``: finished (and of those, the
+    ``stale`` ones only analysed again), failed (refused), or unfinished (busy)."""
     for job in todo:
         if finished(job):
             report.finished.append(job.id)
@@ -297,9 +324,6 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
             report.unfinished.append(job.id)
             if "busy" in job.document:
                 report.busy.append(job.id)
-    done = collect(project, jobs=jobs)
-    report.results, report.retired_figures = done.results, done.retired_figures
-    return report
 
 
 @dataclass
@@ -338,16 +362,22 @@ def _collect(project, settings, jobs) -> Collection:
         project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
         settings.to_dict())
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
+    damaged = _damaged(all_jobs)
+    retired = retire_figures(project.path)
+    return Collection(len(all_jobs), len(done), failed,
+                      [j.id for j in stale if finished(j)], runs, results, retired, damaged)
+
+
+def _damaged(jobs) -> list:
+    """(job id, why) of every run of ``jobs`` that finished once and is no longer intact."""
     damaged = []
-    for j in all_jobs:
+    for j in jobs:
         rd = RunDir(j.path)
         if not finished(j) and rd.is_complete():   # it finished once: say what broke it
             why = rd.problem()
             if why is not None:
                 damaged.append((j.id, why))
-    retired = retire_figures(project.path)
-    return Collection(len(all_jobs), len(done), failed,
-                      [j.id for j in stale if finished(j)], runs, results, retired, damaged)
+    return damaged
 
 
 def available_cores() -> int:

@@ -115,6 +115,14 @@ def _record_failure(job, exc: Exception) -> None:
         job.document["error"] = (f"{type(exc).__name__}: {exc} ({spec.label}; see {job.path})")
 
 
+def clear_failure(job) -> None:
+    """Remove from the job's document what its last attempt recorded (``_record_failure``):
+    a run that finishes, or is tried again, has none."""
+    for key in ("error", "busy", "refused"):
+        if key in job.document:
+            del job.document[key]
+
+
 def _shorter(job) -> list:
     """The run directories of the project's other jobs with the same parameters but the
     length (t_end): the runs a longer one may continue."""
@@ -143,9 +151,7 @@ def simulate(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    for key in ("error", "busy", "refused"):
-        if key in job.document:
-            del job.document[key]
+    clear_failure(job)
 
 
 @SweepProject.pre(simulated)
@@ -160,9 +166,7 @@ def analyze(job):
     except Exception as exc:
         _record_failure(job, exc)
         return
-    for key in ("error", "busy", "refused"):
-        if key in job.document:
-            del job.document[key]
+    clear_failure(job)
 
 
 #: project-document key that marks a signac project as a bkflow sweep (its version)
@@ -183,7 +187,8 @@ def _project_document(path: Path) -> dict:
 
 
 def _jobs_are_runs(path: Path) -> bool:
-    """Whether the workspace's jobs are bkflow runs (a sweep made before the mark)."""
+    """Whether the workspace's jobs are bkflow runs (a sweep directory written before bkflow
+    marked its sweeps with ``SWEEP_MARK``)."""
     import json
 
     found = list((path / "workspace").glob("*/signac_statepoint.json"))[:3]
@@ -219,7 +224,7 @@ def sweep_dir_problem(path) -> str | None:
         return None
     if ".signac" not in names:
         return f"holds files that are not a bkflow sweep ({listing(names)})"
-    if _jobs_are_runs(path):  # a sweep of bkflow before the mark
+    if _jobs_are_runs(path):  # a sweep written before bkflow marked its sweeps
         return None
     return "is a signac project that is not a bkflow sweep"
 
@@ -242,22 +247,27 @@ def workspace_problem(path) -> str | None:
     when they are whole. Checked before signac opens them (it raises on the first, from deep
     inside): its config, its project document, and every job folder (a state point that
     reads, whose hash is the folder's name, and a readable job document)."""
-    import json
-
-    from signac.job import calc_id
-
     path = Path(path)
+    why = _config_problem(path)
+    if why is None:
+        why = _document_problem(path)
+    if why is None:
+        why = _jobs_problem(path)
+    return why
+
+
+def _config_problem(path: Path) -> str | None:
+    """What is wrong with the sweep's signac config (.signac/config), or None."""
     config = path / ".signac" / "config"
     restore = ("remove it and write a file in its place whose whole content is "
                "`schema_version = 2`")
     if config.is_symlink():
         return f"{config} is a symbolic link, not the sweep's own config: {restore}"
-    if not config.exists():
-        if (path / ".signac").is_dir() and (
-                (path / "workspace").is_dir()
-                or (path / "signac_project_document.json").exists()):
-            return (f"{config} is missing from a sweep directory: write it: its whole content "
-                    "is `schema_version = 2`")
+    if not config.exists() and (path / ".signac").is_dir() and (
+            (path / "workspace").is_dir()
+            or (path / "signac_project_document.json").exists()):
+        return (f"{config} is missing from a sweep directory: write it: its whole content "
+                "is `schema_version = 2`")
     try:
         from signac._config import _read_config_file
 
@@ -267,6 +277,13 @@ def workspace_problem(path) -> str | None:
         return (f"{config} is not a signac config ({' '.join(str(exc).split())}); restore "
                 "it: its whole content is "
                 "`schema_version = 2`")
+    return None
+
+
+def _document_problem(path: Path) -> str | None:
+    """What is wrong with the sweep's project document (not a JSON object), or None."""
+    import json
+
     doc = path / "signac_project_document.json"
     if doc.exists():
         try:
@@ -275,40 +292,19 @@ def workspace_problem(path) -> str | None:
         except (ValueError, OSError) as exc:
             return (f"{doc} is cut or damaged ({exc}); delete it: it holds the sweep's "
                     "analysis settings, which bkflow collect --analysis NAME=VALUE sets again")
-    bad = []
+    return None
+
+
+def _jobs_problem(path: Path) -> str | None:
+    """What is wrong with the first job folder of the sweep's workspace that signac cannot
+    read (and how many more there are), with its repair; None when every one reads."""
     workspace = path / "workspace"
     if workspace.is_symlink():
         return (f"{workspace} is a symbolic link: bkflow writes a sweep's runs only inside its "
                 "directory; replace it with the folder itself")
+    bad = []
     for job in sorted(workspace.iterdir()) if workspace.is_dir() else []:
-        sp = job / "signac_statepoint.json"
-        try:
-            if job.is_symlink():
-                why = "is a symbolic link (bkflow writes runs only inside the sweep)"
-            elif not job.is_dir():
-                why = "is not a folder"
-            elif not sp.exists():
-                why = "has no signac_statepoint.json"
-            else:
-                point = json.loads(formats.read_text(sp))
-                why = (None if calc_id(point) == job.name else
-                       "holds a state point whose hash is not its name (edited, or renamed)")
-                if why is None:
-                    try:   # a consistent state point must still be a run bkflow can make
-                        RunSpec.from_dict(point)
-                    except SpecError as exc:
-                        why = f"holds a state point that is no run ({exc})"
-                    except (TypeError, ValueError, KeyError) as exc:
-                        why = f"holds a state point that is no run ({type(exc).__name__}: {exc})"
-                jd = job / "signac_job_document.json"
-                if why is None and jd.exists():
-                    try:
-                        json.loads(formats.read_text(jd))
-                    except ValueError:
-                        why = "has a cut signac_job_document.json (delete that file: it holds " \
-                              "only the run's last error)"
-        except (ValueError, OSError) as exc:
-            why = f"has an unreadable signac_statepoint.json ({exc})"
+        why = _job_problem(job)
         if why is not None:
             bad.append((job, why))
     if bad:
@@ -318,6 +314,41 @@ def workspace_problem(path) -> str | None:
                ": move it out of workspace/ (the sweep then redoes that run) or restore it")
         return f"{job} {why}{more}{fix}"
     return None
+
+
+def _job_problem(job: Path) -> str | None:
+    """Why signac cannot read the job folder ``job`` as a run of the sweep, or None."""
+    import json
+
+    from signac.job import calc_id
+
+    sp = job / "signac_statepoint.json"
+    try:
+        if job.is_symlink():
+            return "is a symbolic link (bkflow writes runs only inside the sweep)"
+        if not job.is_dir():
+            return "is not a folder"
+        if not sp.exists():
+            return "has no signac_statepoint.json"
+        point = json.loads(formats.read_text(sp))
+        if calc_id(point) != job.name:
+            return "holds a state point whose hash is not its name (edited, or renamed)"
+        try:   # a consistent state point must still be a run bkflow can make
+            RunSpec.from_dict(point)
+        except SpecError as exc:
+            return f"holds a state point that is no run ({exc})"
+        except (TypeError, ValueError, KeyError) as exc:
+            return f"holds a state point that is no run ({type(exc).__name__}: {exc})"
+        jd = job / "signac_job_document.json"
+        if jd.exists():
+            try:
+                json.loads(formats.read_text(jd))
+            except ValueError:
+                return ("has a cut signac_job_document.json (delete that file: it holds only "
+                        "the run's last error)")
+        return None
+    except (ValueError, OSError) as exc:
+        return f"has an unreadable signac_statepoint.json ({exc})"
 
 
 def check_workspace(path) -> None:

@@ -44,6 +44,24 @@ def main(argv=None) -> None:
     if why:  # K copies of one command in one MPI world: they would wait forever
         print(f"bkflow.cluster: error: {why}", file=sys.stderr)
         sys.exit(2)
+    _check_environment()
+    p = _sweep_project()
+    from bkflow.model.params import SpecError
+    from bkflow.sweeps.project import check_workspace
+
+    try:
+        check_workspace(p.path)  # a hand-edited workspace: named with its repair
+    except SpecError as exc:
+        print(f"bkflow.cluster: error: {exc}", file=sys.stderr)
+        sys.exit(2)
+    # flow logs a scheduler's failure before raising it: the one line below says it instead
+    logging.getLogger("flow").setLevel(logging.CRITICAL)
+    _run(p)
+
+
+def _check_environment() -> None:
+    """Exit 2 naming the environments signac-flow knows when SIGNAC_FLOW_ENVIRONMENT names
+    none of them."""
     env = os.environ.get("SIGNAC_FLOW_ENVIRONMENT")
     if env:
         from flow.environment import get_environment
@@ -58,8 +76,13 @@ def main(argv=None) -> None:
                   f"signac-flow knows (it knows {', '.join(known)}): unset it, or name one of "
                   "those", file=sys.stderr)
             sys.exit(2)
+
+
+def _sweep_project():
+    """The cluster project of the current directory; where there is none, exit: 2 naming
+    the damaged records of a sweep or saying it is no sweep directory, 0 after the help."""
     try:
-        p = project()
+        return project()
     except LookupError:
         if Path(".signac").is_dir():   # a sweep directory whose signac records are damaged
             from bkflow.sweeps.project import workspace_problem
@@ -76,16 +99,11 @@ def main(argv=None) -> None:
               "project here): run it inside the --out directory of bkflow sweep ... --init",
               file=sys.stderr)
         sys.exit(2)  # bad input, as bkflow's own commands
-    from bkflow.model.params import SpecError
-    from bkflow.sweeps.project import check_workspace
 
-    try:
-        check_workspace(p.path)  # a hand-edited workspace: named with its repair
-    except SpecError as exc:
-        print(f"bkflow.cluster: error: {exc}", file=sys.stderr)
-        sys.exit(2)
-    # flow logs a scheduler's failure before raising it: the one line below says it instead
-    logging.getLogger("flow").setLevel(logging.CRITICAL)
+
+def _run(p) -> None:
+    """flow's command line of the project ``p``; its failures as one line and an exit code:
+    130 after Ctrl-C, 2 for a bad job id or option, 1 for anything else."""
     try:
         p.main()
     except KeyboardInterrupt:

@@ -1,0 +1,149 @@
+"""The memory of the start, run by run (``fig_contacts``): the shear stress and the contacts'
+phase coherence R(t) over the whole run of a soft, an intermediate and a stiff phi, smoothed
+alike in every panel, the analysed window shaded by the run's state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from bkflow.figures.data import SweepData, _nearest
+from bkflow.figures.keys import protocol_label
+from bkflow.figures.style import MIN_FONT, _num, _size_label
+
+
+def _smooth(t, x, width: float):
+    """x averaged over consecutive windows of ``width`` time units: (centres, means)."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    if len(t) < 2 or width <= 0:
+        return t, x
+    k = ((t - t[0]) // width).astype(int)
+    n = np.bincount(k)
+    keep = n > 0
+    if keep.sum() > 1 and t[-1] - (t[0] + k[-1] * width) < 0.5 * width:
+        keep[k[-1]] = False  # a last window under half the width: an edge artefact
+    return (np.bincount(k, t)[keep] / n[keep], np.bincount(k, x)[keep] / n[keep])
+
+
+def _contact_phis(phis) -> list[float]:
+    """A soft, an intermediate and a stiff phi of those swept: the softest, the stiffest,
+    and the one nearest their geometric mean (0.1, 10, 1000 on the default grid; all three
+    of a sweep of three phi, such as 10, 100, 1000, where fixed targets would leave its middle
+    one out), each once."""
+    phis = sorted(set(float(p) for p in phis))
+    middle = _nearest(phis, math.sqrt(phis[0] * phis[-1]))
+    return list(dict.fromkeys([phis[0], middle, phis[-1]]))
+
+
+def _window(shortest: float, block: float) -> float:
+    """The smoothing window of fig_contacts, in time units: the largest 1, 2 or 5 times a
+    power of ten at most a twentieth of the shortest run shown, or, where that is shorter than
+    one block of the records, the smallest such number at least one block: one window for
+    every panel, so that their curves are smoothed alike."""
+    decade = math.floor(math.log10(max(shortest / 20.0, 1e-12)))
+    steps = [m * 10.0 ** e for e in range(decade - 1, decade + 12) for m in (1.0, 2.0, 5.0)]
+    below = [w for w in steps if w <= shortest / 20.0 * (1 + 1e-9)]
+    if below and below[-1] >= block * (1 - 1e-9):
+        return below[-1]
+    return min(w for w in steps if w >= block * (1 - 1e-9))
+
+
+
+def fig_contacts(data: SweepData, plt):
+    """The memory of the start, run by run: sigma_x(t)/sigma_n and the contacts' phase
+    coherence R(t) (docs/model.md "Contact phase") over the whole run, for a soft, an
+    intermediate and a stiff phi of the smallest size (``_contact_phis``; seed 1, or the
+    first). The dark curves are means over one window of time (``_window``, the same in every
+    panel and said in the key: a window of a fixed share of each run would make runs of
+    different lengths look alike when they are not smoothed alike); the light curve is R's
+    block means as recorded. The analysed window (from the end of the transient) is shaded,
+    green where the run is steady and orange where it is not (its state in the panel's title),
+    keyed below."""
+    lx, ly = data.sizes[0]
+    chosen = _contact_phis(data.runs_of(lx, ly).phi)
+    fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 4.1),
+                             sharex="col", squeeze=False)
+    panels = _contact_records(data, axes, (lx, ly), chosen)
+    if not panels:
+        return None
+    block = max(b for *_, b in panels)   # the records' block, in time units
+    width = _window(min(t[-1] - t[0] for _, _, _, t, _, _, _ in panels), block)
+    steady = [_contact_panel(axes[0, j], axes[1, j], (lx, ly), panel, width)
+              for j, *panel in panels]
+    for top, bottom in axes.T:  # every panel: the stresses' ranges differ
+        top.set_ylabel(r"$\sigma_x/\sigma_n$")
+        bottom.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
+    _contact_key(fig, data, width, block, any(steady), not all(steady))
+    fig.suptitle("The start's memory: the stress and the contacts' phase coherence",
+                 fontsize=9)
+    return fig
+
+
+def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
+    """[(column, phi, runs.csv row, t, sigma_x, phase series, block in time units)] of the
+    first seed of each phi ``chosen`` at ``size`` whose run recorded its phase series; the
+    top panel of a run that did not says so."""
+    panels = []
+    for j, phi in enumerate(chosen):
+        row = data.runs_of(*size, phi).iloc[0]
+        rd = data.run_dir(row)
+        spec = rd.spec()
+        red = rd.read_reduced(spec)
+        phase = rd.phase_series(spec, red)
+        if phase is None:
+            axes[0, j].text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
+                            transform=axes[0, j].transAxes, ha="center", va="center",
+                            fontsize=MIN_FONT)
+            continue
+        t, sigma, _ = red.series()    # block means
+        panels.append((j, phi, row, t, sigma, phase, red.block * spec.dt))
+    return panels
+
+
+def _contact_panel(top, bottom, size, panel, width: float) -> bool:
+    """One run's column of fig_contacts (``panel``: phi, runs.csv row, t, sigma_x, phase
+    series, block): sigma_x/sigma_n above, R below, each smoothed over ``width`` time units,
+    the analysed window shaded; whether the run is steady."""
+    phi, row, t, sigma, phase, _ = panel
+    ts, ss = _smooth(t, sigma / row.sigma_n, width)
+    top.plot(ts, ss, color="black", lw=0.8)
+    bottom.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
+    tr, rr = _smooth(phase["t"], phase["R"], width)
+    bottom.plot(tr, rr, color="indigo", lw=1.2)
+    t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
+        else t[0]
+    steady = row.get("state") == "steady"
+    for ax in (top, bottom):
+        ax.axvspan(t0, t[-1], color="tab:green" if steady else "tab:orange", alpha=0.1,
+                   lw=0)
+    top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(*size)}, seed {int(row.seed)}: "
+                  f"{row.get('state', 'n/a')}", fontsize=MIN_FONT + 0.5)
+    bottom.set_ylim(0, 1.02)
+    bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
+    return steady
+
+
+def _contact_key(fig, data: SweepData, width: float, block: float, steady_seen: bool,
+                 other_seen: bool) -> None:
+    """fig_contacts' key, below its panels: the curves, with the smoothing window and the
+    records' block, and the shading of the analysed window of the states shown."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = [Line2D([], [], color="black", lw=0.8), Line2D([], [], color="indigo", lw=1.2),
+               Line2D([], [], color="plum", lw=0.8)]
+    labels = [rf"$\sigma_x/\sigma_n$, mean over {width:g} time units",
+              f"R, mean over {width:g} time units",
+              f"R, block means ({block:.3g} time units)"]
+    if steady_seen:
+        handles.append(Patch(color="tab:green", alpha=0.25, lw=0))
+        labels.append("analysed window (after the transient), steady run")
+    if other_seen:
+        handles.append(Patch(color="tab:orange", alpha=0.25, lw=0))
+        labels.append("analysed window, run not steady (state in the title)")
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, frameon=False,
+               fontsize=MIN_FONT, handlelength=1.8, columnspacing=1.2,
+               title=protocol_label(data), title_fontsize=MIN_FONT)
