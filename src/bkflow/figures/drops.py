@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from bkflow.analysis.registry import power_law_names
 from bkflow.figures.clusters import _cluster_size, cluster_phis
 from bkflow.figures.data import SweepData, _point_states
 from bkflow.figures.keys import state_key
@@ -59,13 +60,14 @@ def _column(runs: pd.DataFrame, name: str) -> pd.Series:
 def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
     """Whether the seeds' stress drops (``key`` "drop"; "potency": the slips' potencies)
     follow a power law, from their analyses (runs.csv: ``drop_power_law``, ``drop_fit_p``,
-    ``drop_vs_lognormal[_p]``; ``bkflow.observables.stress.power_law_test``): plausible only when it
-    is in every seed and no seed's lognormal is significantly better (R < 0, p < 0.1); and the
-    key's words."""
-    verdicts = runs[f"{key}_power_law"].astype(str).tolist() if f"{key}_power_law" in runs \
+    ``drop_vs_lognormal[_p]``, named by ``bkflow.analysis.registry.power_law_names``):
+    plausible only when it is in every seed and no seed's lognormal is significantly better
+    (R < 0, p < 0.1); and the key's words."""
+    verdict, fit_p, vs_lognormal, vs_lognormal_p = power_law_names(key)
+    verdicts = runs[verdict].astype(str).tolist() if verdict in runs \
         else ["no fit"] * len(runs)
-    p = _column(runs, f"{key}_fit_p")
-    R, Rp = _column(runs, f"{key}_vs_lognormal"), _column(runs, f"{key}_vs_lognormal_p")
+    p = _column(runs, fit_p)
+    R, Rp = _column(runs, vs_lognormal), _column(runs, vs_lognormal_p)
     favoured = int(((R < 0) & (Rp < 0.1)).sum())  # seeds whose lognormal is significantly better
     if verdicts and all(v == "plausible" for v in verdicts):
         return _plausible(runs, key, p, favoured)
@@ -95,7 +97,7 @@ def _rejected(runs: pd.DataFrame, key: str, verdicts, p: pd.Series, favoured: in
     if not rejected:
         return "no fit"
     lognormal = favoured == rejected
-    worst = p[runs[f"{key}_power_law"].astype(str) == "rejected"].max()
+    worst = p[runs[power_law_names(key)[0]].astype(str) == "rejected"].max()
     shown = "p < 0.001" if worst < 0.001 else f"p <= {worst:.2f}"
     return ("power law rejected" + (f" in {rejected} of {n} seeds" if n > 1 else "")
             + f" ({shown}" + (", lognormal favoured)" if lognormal else ")"))
