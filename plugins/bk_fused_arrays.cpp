@@ -12,8 +12,8 @@ Constants Pool::allocate(Arrays &a, int nloc, int Lx, bool slab)
   const size_t pad = slab ? (static_cast<size_t>(Lx) + 7) / 8 * 8 : 0;
   size_t stride = pad + (static_cast<size_t>(nloc) + (slab ? Lx : 0) + 7) / 8 * 8;
   // arrays a multiple of 4 KB apart alias in the CPU's store forwarding (the loops stream
-  // ten of them at once: twice the time per step where they do, benchmarks/RESULTS.md);
-  // an odd number of 64-byte lines apart, the NARR arrays start at distinct offsets of 4 KB
+  // ten of them at once, and the step slows where they alias: benchmarks/RESULTS.md); an
+  // odd number of 64-byte lines apart, the NARR arrays start at distinct offsets of 4 KB
   if (stride / 8 % 2 == 0) stride += 8;
   constexpr int NARR = 30;
   mem.assign(stride * NARR + 8, 0.0);

@@ -158,8 +158,8 @@ void BKRowBlocks::log_halo_time(LAMMPS *lammps, const char *fix_id)
     MPI_Allreduce(t, all, 2, MPI_DOUBLE, MPI_MAX, lammps->world);
     if (lammps->comm->me == 0)
       utils::logmesg(lammps, "fix {} bk/substrate fused: {} halo exchanges of {} bytes (sent "
-                     "and received) a rank, {:.3g} to {:.3g} us each (the fastest and slowest rank's mean, waits "
-                     "included)\n", fix_id, halo_calls, 4 * 2 * Lx * sizeof(double),
+                     "and received) a rank, {:.3g} to {:.3g} us each (the fastest and slowest "
+                     "rank's mean, waits included)\n", fix_id, halo_calls, 4 * 2 * Lx * sizeof(double),
                      -all[1] / halo_calls * 1e6, all[0] / halo_calls * 1e6);
   }
   halo_time = 0.0;

@@ -1,7 +1,8 @@
 /* bkflow LAMMPS plugin: the entry point, which registers fix bk/substrate, bk/slips, bk/fronts,
-   bk/phase and bk/stress, and the version check. LAMMPS only warns when a plugin was built for another
-   version; a C++ plugin is tied to the exact build it was compiled against, so this one says
-   so loudly at load time and fix bk/substrate refuses to run. */
+   bk/phase, bk/stress, bk/reduce and bk/psi, and the version check. LAMMPS only warns when a
+   plugin was built for another version; a C++ plugin is tied to the exact build it was
+   compiled against, so this one says so loudly at load time and fix bk/substrate refuses to
+   run. */
 
 #include "bkplugin.h"
 

@@ -35,8 +35,6 @@
 #include "memory.h"
 #include "update.h"
 
-#include <algorithm>
-#include <cmath>
 #include <cstring>
 #include <limits>
 

@@ -22,9 +22,9 @@
      sample. The last record is the block under way, rewritten until it is complete.
 
    With `extrema none` only the blocks are kept (what a steady-state verdict reads: the
-   companion run of bkflow's steady protocol). Both files are NumPy .npy files (numpy.load reads them): a 512-byte header that holds the
-   number of records, rewritten with the records at every flush (the end of every run
-   command, and at most a second after the last write). Only rank 0 writes; the sums are the
+   companion run of bkflow's steady protocol). Both files are NumPy .npy files (numpy.load
+   reads them): a 512-byte header that holds the number of records, rewritten with the records
+   at every flush (the end of every run command, and at most a second after the last write). Only rank 0 writes; the sums are the
    substrate fix's, reduced over ranks. The state (the zigzag's running extrema, the block
    under way, the records written) goes into restart files: a run continued from one with
    `append` writes what the uninterrupted run would have. */

@@ -22,18 +22,12 @@
 
 #include "atom.h"
 #include "bk_model.h"
-#include "bkplugin.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "memory.h"
 #include "update.h"
-
-#include <array>
-#include <cmath>
-#include <cstring>
-#include <utility>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
