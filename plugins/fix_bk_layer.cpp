@@ -371,8 +371,8 @@ void FixBKLayer::contact_phase(double *sums)
 /* global restart state: t0, flags, total breaks, the plate's clock (elapsed_base, step_base,
    dt_base), with `energy` the ledger's running sums after them (flag 2), and the box lengths
    taken out of the image flags (flag 4), which the restart file's image flags lack. The flags
-   add 2 and 4 to vh_valid (0 or 1); restart() reads a part only under its flag, and a file
-   without one (without `energy`, or written by a plugin that keeps neither) starts it at 0. */
+   add 2 and 4 to vh_valid (0 or 1); restart() reads a part only under its flag, and starts a
+   part a file lacks (a run without `energy`, or a plugin that does not write it) at 0. */
 
 void FixBKLayer::write_restart(FILE *fp)
 {
