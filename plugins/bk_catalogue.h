@@ -69,16 +69,18 @@ inline double bond_energy(const double *a, const double *b, double shift_x, doub
   return 0.5 * k_b * (r - 1.0) * (r - 1.0);
 }
 
-/* the row and clusters of one slip: xmax, xmin (2N, unwrapped x y by particle) */
-inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<double> &xmin,
-                          int lx, int ly, double s_x, double k_b,
-                          std::vector<BKCluster> &clusters)
+// the partner of particle k's bond along d (0: +x, 1: +y)
+inline int bond_end(int k, int d, int lx, int ly)
 {
-  const int n = lx * ly;
-  BKSlipRow row;
-  clusters.clear();
-  std::vector<double> slip(n);
-  std::vector<char> mask(n);
+  const int ix = k % lx, iy = k / lx;
+  return d == 0 ? (ix + 1) % lx + lx * iy : ix + lx * ((iy + 1) % ly);
+}
+
+/* each particle's slip (its x at the minimum less its x at the maximum), whether it slipped
+   (by more than s_x), and the row's count, sum (potency), mean and largest of the slips */
+inline void slips(const std::vector<double> &xmax, const std::vector<double> &xmin, int n,
+                  double s_x, std::vector<double> &slip, std::vector<char> &mask, BKSlipRow &row)
+{
   for (int k = 0; k < n; k++) {
     slip[k] = xmin[2 * k] - xmax[2 * k];
     mask[k] = slip[k] > s_x;
@@ -89,86 +91,97 @@ inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<dou
     }
   }
   if (row.n_slipped) row.slip_mean = row.potency / static_cast<double>(row.n_slipped);
-  // components: union-find over the bonds joining two slipping particles
+}
+
+/* the clusters: union-find over the bonds joining two slipping particles; label[k] the
+   cluster of particle k, 0, 1, ... in order of each cluster's first particle (-1: it did not
+   slip). Returns the number of clusters. */
+inline int cluster_labels(const std::vector<char> &mask, int lx, int ly, std::vector<int> &label)
+{
+  const int n = lx * ly;
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int a) {
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
   };
-  auto bond_end = [&](int k, int d) {
-    const int ix = k % lx, iy = k / lx;
-    return d == 0 ? (ix + 1) % lx + lx * iy : ix + lx * ((iy + 1) % ly);
-  };
   for (int k = 0; k < n; k++)
     for (int d = 0; d < 2; d++) {
-      const int j = bond_end(k, d);
+      const int j = bond_end(k, d, lx, ly);
       if (mask[k] && mask[j]) {
         const int a = find(k), b = find(j);
         if (a != b) parent[std::max(a, b)] = std::min(a, b);
       }
     }
-  // labels 0, 1, ... in order of each component's first particle
-  std::vector<int> label(n, -1), of_root(n, -1);
+  std::vector<int> of_root(n, -1);
   int nlabels = 0;
+  label.assign(n, -1);
   for (int k = 0; k < n; k++) {
     if (!mask[k]) continue;
     const int r = find(k);
     if (of_root[r] < 0) of_root[r] = nlabels++;
     label[k] = of_root[r];
   }
-  std::vector<std::vector<int>> members(nlabels);
-  for (int k = 0; k < n; k++)
-    if (label[k] >= 0) members[label[k]].push_back(k);
-  // the bond energies' change summed per cluster it touches (each end's cluster once): one
-  // pass over the bonds, where a cluster of two or more exists
-  std::vector<double> touched(nlabels, 0.0);
-  bool any = false;
-  for (auto &m : members) any = any || m.size() >= 2;
-  if (any)
-    for (int k = 0; k < n; k++)
-      for (int d = 0; d < 2; d++) {
-        const int j = bond_end(k, d);
-        if (label[k] < 0 && label[j] < 0) continue;
-        const int ix = k % lx, iy = k / lx;
-        // the bond's lattice image: +box where it wraps
-        const double sx = (d == 0 && ix == lx - 1) ? lx : 0.0;
-        const double sy = (d == 1 && iy == ly - 1) ? ly : 0.0;
-        const double change = bond_energy(&xmin[2 * k], &xmin[2 * j], sx, sy, k_b) -
-            bond_energy(&xmax[2 * k], &xmax[2 * j], sx, sy, k_b);
-        if (label[k] >= 0) touched[label[k]] += change;
-        if (label[j] >= 0 && label[j] != label[k]) touched[label[j]] += change;
-      }
-  for (int c = 0; c < nlabels; c++) {
-    const auto &m = members[c];
-    if (m.size() < 2) continue;
-    BKCluster cl;
-    cl.label = c;
-    cl.n_c = static_cast<int64_t>(m.size());
-    std::vector<double> xs, ys;
-    std::vector<char> col(lx, 0), rowhit(ly, 0);
-    double sum = 0.0;
-    for (int k : m) {
-      xs.push_back(xmax[2 * k]);
-      ys.push_back(xmax[2 * k + 1]);
-      col[k % lx] = 1;
-      rowhit[k / lx] = 1;
-      sum += slip[k];
+  return nlabels;
+}
+
+/* the change of the bond energies from the maximum to the minimum, summed per cluster each
+   bond touches (each end's cluster once): one pass over the bonds, at their lattice image */
+inline void bond_changes(const std::vector<double> &xmax, const std::vector<double> &xmin,
+                         const std::vector<int> &label, int lx, int ly, double k_b,
+                         std::vector<double> &touched)
+{
+  for (int k = 0; k < lx * ly; k++)
+    for (int d = 0; d < 2; d++) {
+      const int j = bond_end(k, d, lx, ly);
+      if (label[k] < 0 && label[j] < 0) continue;
+      const int ix = k % lx, iy = k / lx;
+      // the bond's lattice image: +box where it wraps
+      const double sx = (d == 0 && ix == lx - 1) ? lx : 0.0;
+      const double sy = (d == 1 && iy == ly - 1) ? ly : 0.0;
+      const double change = bond_energy(&xmin[2 * k], &xmin[2 * j], sx, sy, k_b) -
+          bond_energy(&xmax[2 * k], &xmax[2 * j], sx, sy, k_b);
+      if (label[k] >= 0) touched[label[k]] += change;
+      if (label[j] >= 0 && label[j] != label[k]) touched[label[j]] += change;
     }
-    const double pairs = static_cast<double>(cl.n_c) * static_cast<double>(cl.n_c - 1);
-    cl.l_x = 8.0 * periodic_pair_sum(xs, lx) / pairs;
-    cl.l_y = 8.0 * periodic_pair_sum(ys, ly) / pairs;
-    cl.n_x = std::count(col.begin(), col.end(), 1);
-    cl.n_y = std::count(rowhit.begin(), rowhit.end(), 1);
-    cl.slip = sum / static_cast<double>(cl.n_c);
-    cl.bond_change = touched[c];
-    const double delta = cl.slip;
-    const double stretch = std::sqrt(delta * delta + 1.0) - 1.0;
-    cl.eq2 = (cl.n_x < lx ? k_b * cl.n_y * delta * delta : 0.0) +
-        (cl.n_y < ly ? k_b * cl.n_x * stretch * stretch : 0.0);
-    clusters.push_back(cl);
+}
+
+/* cluster `label` of particles m (two or more): its size, extent, shape, mean slip, the bond
+   energy change `touched` and Eq. 2 */
+inline BKCluster cluster_of(int label, const std::vector<int> &m, const std::vector<double> &xmax,
+                            const std::vector<double> &slip, int lx, int ly, double k_b,
+                            double touched)
+{
+  BKCluster cl;
+  cl.label = label;
+  cl.n_c = static_cast<int64_t>(m.size());
+  std::vector<double> xs, ys;
+  std::vector<char> col(lx, 0), rowhit(ly, 0);
+  double sum = 0.0;
+  for (int k : m) {
+    xs.push_back(xmax[2 * k]);
+    ys.push_back(xmax[2 * k + 1]);
+    col[k % lx] = 1;
+    rowhit[k / lx] = 1;
+    sum += slip[k];
   }
-  row.n_clusters = static_cast<int64_t>(clusters.size());
+  const double pairs = static_cast<double>(cl.n_c) * static_cast<double>(cl.n_c - 1);
+  cl.l_x = 8.0 * periodic_pair_sum(xs, lx) / pairs;
+  cl.l_y = 8.0 * periodic_pair_sum(ys, ly) / pairs;
+  cl.n_x = std::count(col.begin(), col.end(), 1);
+  cl.n_y = std::count(rowhit.begin(), rowhit.end(), 1);
+  cl.slip = sum / static_cast<double>(cl.n_c);
+  cl.bond_change = touched;
+  const double delta = cl.slip;
+  const double stretch = std::sqrt(delta * delta + 1.0) - 1.0;
+  cl.eq2 = (cl.n_x < lx ? k_b * cl.n_y * delta * delta : 0.0) +
+      (cl.n_y < ly ? k_b * cl.n_x * stretch * stretch : 0.0);
+  return cl;
+}
+
+// the row's columns of the largest cluster (the first of the largest)
+inline void take_largest(const std::vector<BKCluster> &clusters, BKSlipRow &row)
+{
   const BKCluster *big = nullptr;
   for (const auto &cl : clusters)
     if (!big || cl.n_c > big->n_c) big = &cl;
@@ -179,6 +192,34 @@ inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<dou
     row.cluster_lx = big->l_x;
     row.cluster_ly = big->l_y;
   }
+}
+
+/* the row and clusters of one slip: xmax, xmin (2N, unwrapped x y by particle) */
+inline BKSlipRow slip_row(const std::vector<double> &xmax, const std::vector<double> &xmin,
+                          int lx, int ly, double s_x, double k_b,
+                          std::vector<BKCluster> &clusters)
+{
+  const int n = lx * ly;
+  BKSlipRow row;
+  clusters.clear();
+  std::vector<double> slip(n);
+  std::vector<char> mask(n);
+  slips(xmax, xmin, n, s_x, slip, mask, row);
+  std::vector<int> label;
+  const int nlabels = cluster_labels(mask, lx, ly, label);
+  std::vector<std::vector<int>> members(nlabels);
+  for (int k = 0; k < n; k++)
+    if (label[k] >= 0) members[label[k]].push_back(k);
+  // the bonds only where a cluster of two or more exists
+  std::vector<double> touched(nlabels, 0.0);
+  bool any = false;
+  for (auto &m : members) any = any || m.size() >= 2;
+  if (any) bond_changes(xmax, xmin, label, lx, ly, k_b, touched);
+  for (int c = 0; c < nlabels; c++)
+    if (members[c].size() >= 2)
+      clusters.push_back(cluster_of(c, members[c], xmax, slip, lx, ly, k_b, touched[c]));
+  row.n_clusters = static_cast<int64_t>(clusters.size());
+  take_largest(clusters, row);
   return row;
 }
 

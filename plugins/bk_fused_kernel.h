@@ -19,9 +19,9 @@ struct Model {
   int Lx = 0, Ly = 0, N = 0;
   /* slab: the arrays hold a block of Ly rows of a larger lattice (several MPI ranks), with a
      ghost row below (indices -Lx..-1) and above (Ly Lx..(Ly + 1) Lx - 1) whose positions
-     Arrays::halo_start and halo_wait fill after every drift; the top row's +y partners are the ghost row above.
-     Each particle's arithmetic is the same as on the whole lattice, so every block division
-     gives the same bits. */
+     Arrays::halo_start and halo_wait fill after every drift; the top row's +y partners are the
+     ghost row above. Each particle's arithmetic is the same as on the whole lattice, so every
+     block division gives the same bits. */
   int slab = 0;
   int drive = 0, contact = BK_NO_CONTACT, damping = BK_NO_DAMPING;    // bk_model.h
   int ledger = 0;      // keep the energy ledger (Arrays::led)

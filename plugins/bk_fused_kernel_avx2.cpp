@@ -7,3 +7,4 @@
 
 #define BK_ISA_NS avx2
 #include "bk_fused_kernel.inc"
+#include "bk_fused_energies.inc"

@@ -8,3 +8,4 @@
 
 #define BK_ISA_NS avx512
 #include "bk_fused_kernel.inc"
+#include "bk_fused_energies.inc"

@@ -6,3 +6,4 @@
 
 #define BK_ISA_NS baseline
 #include "bk_fused_kernel.inc"
+#include "bk_fused_energies.inc"

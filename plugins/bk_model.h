@@ -3,16 +3,16 @@
    break located inside the step, the damping schemes, the velocity-Verlet half steps, the plate's
    clock, the contacts' load phases) is a static inline scalar function here, and every code that
    integrates or observes the model calls it: fix bk/substrate's general path
-   (fix_bk_substrate.cpp), the fused kernel (bk_fused_kernel.inc, built once per instruction
-   set) and the floor benchmark (benchmarks/floor_kernel.c). As LAMMPS's GRANULAR sub-models
+   (fix_bk_substrate_forces.cpp), the fused kernel (bk_fused_kernel.inc, built once per
+   instruction set) and the floor benchmark (benchmarks/floor_kernel.c). As LAMMPS's GRANULAR sub-models
    share stateless kernels between the host and Kokkos, and HOOMD-blue's CPU and GPU potentials
    share one evaluator.
 
    Plain C (it is included by the C floor kernel too), no LAMMPS header. The functions are static
    (internal linkage): each source file, each build of the fused kernel among them, compiles
    its own copy with its own flags, so that the linker can never give a CPU without AVX2 a copy
-   compiled for it. Each function is written operation for operation as the paths computed it
-   before it moved here, so that trajectories keep their bits.
+   compiled for it. Each function fixes the order of its operations for every caller, so that
+   the paths give the same bits; a change of that order changes every trajectory's bits.
 
    Adding a contact rule: a value of bk_contact_rule and its name in BK_CONTACT_NAMES, its case
    in bk_contact_break(), and the Python side (bkflow.params.CONTACT_RULES; tests/reference.py

@@ -1,10 +1,12 @@
 /* bkflow LAMMPS plugin: the entry point, which registers fix bk/substrate, bk/slips, bk/fronts,
-   bk/phase and bk/stress, and the version check. LAMMPS only warns when a plugin was built for another
-   version; a C++ plugin is tied to the exact build it was compiled against, so this one says
-   so loudly at load time and fix bk/substrate refuses to run. */
+   bk/phase, bk/stress, bk/reduce and bk/psi, and the version check. LAMMPS only warns when a
+   plugin was built for another version; a C++ plugin is tied to the exact build it was
+   compiled against, so this one says so loudly at load time and fix bk/substrate refuses to
+   run. */
 
 #include "bkplugin.h"
 
+#include "bk_lattice_detect.h"
 #include "comm.h"
 #include "domain.h"
 #include "fix_bk_fused.h"
@@ -65,7 +67,7 @@ std::string LAMMPS_NS::bk_version_mismatch(LAMMPS *lmp)
 /* fix bk/substrate, or with the keyword `fused` its fast path (the same style, so that
    restart files, bk/stress and bk/slips work with either). With `integrate` the fix chooses:
    the fused path when it can run (bkflow's lattice, on one rank or on a column of ranks each
-   holding a block of its rows: FixBKFused::fused_lattice), else the general path
+   holding a block of its rows: bk_fused_lattice, bk_lattice_detect.h), else the general path
    integrating by itself (any grid of ranks). */
 static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
 {
@@ -75,7 +77,7 @@ static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
     if (strcmp(argv[i], "integrate") == 0) integrate = true;
   }
   std::string why = " needs the box (create it before the fix)";
-  if (integrate && lmp->domain->box_exist && FixBKFused::fused_lattice(lmp, &why) > 0)
+  if (integrate && lmp->domain->box_exist && bk_fused_lattice(lmp, &why) > 0)
     return new FixBKFused(lmp, argc, argv);
   if (integrate && lmp->comm->me == 0)  // the log says which path runs, and why this one
     utils::logmesg(lmp, "fix {} bk/substrate integrate: the general path on {} rank(s) (the "

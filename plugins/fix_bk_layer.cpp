@@ -71,63 +71,7 @@ FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
 
   std::string start_name;    // per-atom property holding dr_x at the fix's creation
   int iarg = 3;
-  while (iarg < narg) {
-    if (strcmp(arg[iarg], "bonds") == 0) {
-      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate bonds needs: bonds k_b r0");
-      kb = positive(FLERR, "k_b", arg[iarg + 1], lmp);
-      r0 = positive(FLERR, "r0", arg[iarg + 2], lmp);
-      bonds_on = 1;
-      iarg += 3;
-    } else if (strcmp(arg[iarg], "drive") == 0) {
-      if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
-      vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      kd_name = property_name(FLERR, "drive", arg[iarg + 2], lmp);
-      drive_on = 1;
-      iarg += 3;
-    } else if (strcmp(arg[iarg], "friction") == 0) {
-      if (iarg + 6 > narg)
-        error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A {}",
-                   names_of(BK_CONTACT_NAMES, BK_NCONTACT, true));
-      ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
-      mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
-      sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
-      area = positive(FLERR, "A", arg[iarg + 4], lmp);
-      contact = BK_NO_CONTACT;
-      for (int rule = BK_NO_CONTACT + 1; rule < BK_NCONTACT; rule++)
-        if (strcmp(arg[iarg + 5], BK_CONTACT_NAMES[rule]) == 0) contact = rule;
-      if (contact == BK_NO_CONTACT)
-        error->all(FLERR, "fix bk/substrate friction mode must be {}, got {}",
-                   names_of(BK_CONTACT_NAMES, BK_NCONTACT), arg[iarg + 5]);
-      fmax = mus * sigman * area;
-      iarg += 6;
-    } else if (strcmp(arg[iarg], "damp") == 0) {
-      if (iarg + 2 > narg)
-        error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
-      gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
-      iarg += 2;
-      int scheme = BK_IMPLICIT;    // the default when none is named
-      for (int d = BK_NO_DAMPING + 1; iarg < narg && d < BK_NDAMPING; d++)
-        if (strcmp(arg[iarg], BK_DAMPING_NAMES[d]) == 0) {
-          scheme = d;
-          iarg++;
-          break;
-        }
-      damping = gamma > 0.0 ? scheme : BK_NO_DAMPING;
-    } else if (strcmp(arg[iarg], "integrate") == 0 || strcmp(arg[iarg], "fused") == 0) {
-      integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
-      iarg++;
-    } else if (strcmp(arg[iarg], "energy") == 0) {
-      ledger_on = 1;    // the energy ledger's running sums (docs/model.md "Energy")
-      iarg++;
-    } else if (strcmp(arg[iarg], "start") == 0) {
-      if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
-      start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
-      iarg += 2;
-    } else {
-      error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", arg[iarg], USAGE);
-    }
-  }
+  while (iarg < narg) iarg = parse_keyword(iarg, narg, arg, start_name);
 
   if (bonds_on && !atom->molecular)
     error->all(FLERR, "fix bk/substrate bonds needs a molecular atom style (atom_style bond)");
@@ -135,6 +79,105 @@ FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
     error->all(FLERR, "fix bk/substrate start sets the contact displacement: it needs friction");
 
   time_integrate = integrate;
+  set_output_flags();
+
+  FixBKLayer::grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+
+  for (int i = 0; i < atom->nlocal; i++) FixBKLayer::set_arrays(i);
+  if (!start_name.empty()) take_start(start_name);
+  t0 = current_time();
+  elapsed_base = 0.0;
+  dt_base = update->dt;
+  step_base = update->ntimestep;
+}
+
+/* the keyword at arg[iarg] and its values; returns the index of the next keyword */
+
+int FixBKLayer::parse_keyword(int iarg, int narg, char **arg, std::string &start_name)
+{
+  const char *key = arg[iarg];
+  if (strcmp(key, "bonds") == 0) return parse_bonds(iarg, narg, arg);
+  if (strcmp(key, "drive") == 0) return parse_drive(iarg, narg, arg);
+  if (strcmp(key, "friction") == 0) return parse_friction(iarg, narg, arg);
+  if (strcmp(key, "damp") == 0) return parse_damp(iarg, narg, arg);
+  if (strcmp(key, "integrate") == 0 || strcmp(key, "fused") == 0) {
+    integrate = 1;    // the velocity-Verlet step of fix nve and what fix enforce2d does
+    return iarg + 1;
+  }
+  if (strcmp(key, "energy") == 0) {
+    ledger_on = 1;    // the energy ledger's running sums (docs/model.md "Energy")
+    return iarg + 1;
+  }
+  if (strcmp(key, "start") == 0) {
+    if (iarg + 2 > narg) error->all(FLERR, "fix bk/substrate start needs: start dr_property");
+    start_name = property_name(FLERR, "start", arg[iarg + 1], lmp);
+    return iarg + 2;
+  }
+  error->all(FLERR, "Unknown fix bk/substrate keyword {}: expected {}", key, USAGE);
+  return narg;
+}
+
+int FixBKLayer::parse_bonds(int iarg, int narg, char **arg)
+{
+  if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate bonds needs: bonds k_b r0");
+  kb = positive(FLERR, "k_b", arg[iarg + 1], lmp);
+  r0 = positive(FLERR, "r0", arg[iarg + 2], lmp);
+  bonds_on = 1;
+  return iarg + 3;
+}
+
+int FixBKLayer::parse_drive(int iarg, int narg, char **arg)
+{
+  if (iarg + 3 > narg) error->all(FLERR, "fix bk/substrate drive needs: drive V_d kd_property");
+  vd = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+  kd_name = property_name(FLERR, "drive", arg[iarg + 2], lmp);
+  drive_on = 1;
+  return iarg + 3;
+}
+
+int FixBKLayer::parse_friction(int iarg, int narg, char **arg)
+{
+  if (iarg + 6 > narg)
+    error->all(FLERR, "fix bk/substrate friction needs: friction k_e mu_s sigma_n A {}",
+               names_of(BK_CONTACT_NAMES, BK_NCONTACT, true));
+  ke = positive(FLERR, "k_e", arg[iarg + 1], lmp);
+  mus = positive(FLERR, "mu_s", arg[iarg + 2], lmp);
+  sigman = positive(FLERR, "sigma_n", arg[iarg + 3], lmp);
+  area = positive(FLERR, "A", arg[iarg + 4], lmp);
+  contact = BK_NO_CONTACT;
+  for (int rule = BK_NO_CONTACT + 1; rule < BK_NCONTACT; rule++)
+    if (strcmp(arg[iarg + 5], BK_CONTACT_NAMES[rule]) == 0) contact = rule;
+  if (contact == BK_NO_CONTACT)
+    error->all(FLERR, "fix bk/substrate friction mode must be {}, got {}",
+               names_of(BK_CONTACT_NAMES, BK_NCONTACT), arg[iarg + 5]);
+  fmax = mus * sigman * area;
+  return iarg + 6;
+}
+
+// damp gamma, then the scheme if one is named (implicit when none is)
+int FixBKLayer::parse_damp(int iarg, int narg, char **arg)
+{
+  if (iarg + 2 > narg)
+    error->all(FLERR, "fix bk/substrate damp needs: damp gamma [implicit|half]");
+  gamma = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+  if (gamma < 0.0) error->all(FLERR, "fix bk/substrate: gamma must be >= 0, got {}", gamma);
+  iarg += 2;
+  int scheme = BK_IMPLICIT;
+  for (int d = BK_NO_DAMPING + 1; iarg < narg && d < BK_NDAMPING; d++)
+    if (strcmp(arg[iarg], BK_DAMPING_NAMES[d]) == 0) {
+      scheme = d;
+      iarg++;
+      break;
+    }
+  damping = gamma > 0.0 ? scheme : BK_NO_DAMPING;
+  return iarg;
+}
+
+// what the fix offers LAMMPS: a global vector and scalar, a per-atom array, restart state
+void FixBKLayer::set_output_flags()
+{
   vector_flag = 1;
   size_vector = BK_NSLOTS;
   scalar_flag = 1;
@@ -149,22 +192,15 @@ FixBKLayer::FixBKLayer(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
   peratom_freq = 1;
   dynamic_group_allow = 0;
   maxexchange = NSTATE + 1;    // pack_exchange: the state and the first break (Comm's margin)
+}
 
-  FixBKLayer::grow_arrays(atom->nmax);
-  atom->add_callback(Atom::GROW);
-  atom->add_callback(Atom::RESTART);
+/* `start`: contacts already part-way through their cycle; a restart file's state, unpacked
+   after the constructor, replaces these values as it does the anchors */
 
-  for (int i = 0; i < atom->nlocal; i++) FixBKLayer::set_arrays(i);
-  // contacts already part-way through their cycle; a restart file's state, unpacked after
-  // the constructor, replaces these values as it does the anchors
-  if (!start_name.empty()) {
-    const double *const dr0 = atom->dvector[double_property(start_name.c_str(), "start")];
-    for (int i = 0; i < atom->nlocal; i++) state[i][DRX] = dr0[i];
-  }
-  t0 = current_time();
-  elapsed_base = 0.0;
-  dt_base = update->dt;
-  step_base = update->ntimestep;
+void FixBKLayer::take_start(const std::string &start_name)
+{
+  const double *const dr0 = atom->dvector[double_property(start_name.c_str(), "start")];
+  for (int i = 0; i < atom->nlocal; i++) state[i][DRX] = dr0[i];
 }
 
 FixBKLayer::~FixBKLayer()
@@ -335,7 +371,8 @@ void FixBKLayer::contact_phase(double *sums)
 /* global restart state: t0, flags, total breaks, the plate's clock (elapsed_base, step_base,
    dt_base), with `energy` the ledger's running sums after them (flag 2), and the box lengths
    taken out of the image flags (flag 4), which the restart file's image flags lack. The flags
-   add 2 and 4 to vh_valid (0 or 1): a file written before either was kept lacks its flag. */
+   add 2 and 4 to vh_valid (0 or 1); restart() reads a part only under its flag, and starts a
+   part a file lacks (a run without `energy`, or a plugin that does not write it) at 0. */
 
 void FixBKLayer::write_restart(FILE *fp)
 {

@@ -169,6 +169,16 @@ class FixBKLayer : public Fix {
     ledger_next = next;
   }
   double update_dt() const;
+
+ private:
+  // the constructor's keywords, one group each; each returns the index of the next keyword
+  int parse_keyword(int iarg, int narg, char **arg, std::string &start_name);
+  int parse_bonds(int iarg, int narg, char **arg);
+  int parse_drive(int iarg, int narg, char **arg);
+  int parse_friction(int iarg, int narg, char **arg);
+  int parse_damp(int iarg, int narg, char **arg);
+  void set_output_flags();
+  void take_start(const std::string &start_name);
 };
 
 }    // namespace LAMMPS_NS

@@ -34,6 +34,35 @@ using namespace FixConst;
 
 namespace {
 const char *USAGE = "fix ID group bk/psi Nevery Lx Ly file FILE [append]";
+
+/* Psi of the lattice of lx x ly particles at unwrapped positions pos (x y by particle): psi_i
+   from the two bonds each particle owns (+x, +y), which count for both of their ends */
+double lattice_psi(const std::vector<double> &pos, int lx, int ly)
+{
+  const int n = lx * ly;
+  std::vector<std::complex<double>> z(n, 0.0);
+  const double box[2] = {static_cast<double>(lx), static_cast<double>(ly)};
+  for (int k = 0; k < n; k++) {
+    const int ix = k % lx, iy = k / lx;
+    const int nb[2] = {(ix + 1) % lx + lx * iy, ix + lx * ((iy + 1) % ly)};
+    for (int d = 0; d < 2; d++) {
+      const int j = nb[d];
+      double v[2] = {pos[2 * j] - pos[2 * k], pos[2 * j + 1] - pos[2 * k + 1]};
+      // the lattice's image of the bond: +box where it wraps
+      if ((d == 0 && ix == lx - 1) || (d == 1 && iy == ly - 1)) v[d] += box[d];
+      const double r = std::hypot(v[0], v[1]);
+      const std::complex<double> u(v[0] / r, v[1] / r);
+      const std::complex<double> u2 = u * u;
+      const std::complex<double> u4 = u2 * u2;
+      z[k] += u4;
+      z[j] += u4;
+    }
+  }
+  double psi = 0.0;
+  for (int k = 0; k < n; k++) psi += std::abs(z[k] * 0.25);
+  return psi / n;
+}
+
 }    // namespace
 
 FixBKPsi::FixBKPsi(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg)
@@ -115,6 +144,19 @@ void FixBKPsi::sample()
 {
   if (update->ntimestep == last_step) return;
   last_step = update->ntimestep;
+  gather_positions();
+  double psi = 0.0;
+  if (comm->me == 0) {
+    psi = lattice_psi(all, lx, ly);
+    record(psi);
+  }
+  MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
+  last_psi = psi;
+}
+
+// the layer's unwrapped positions by particle (2N), summed onto rank 0 (`all`); collective
+void FixBKPsi::gather_positions()
+{
   const int n = lx * ly;
   xy.assign(2 * n, 0.0);
   double **x = atom->x;
@@ -131,40 +173,19 @@ void FixBKPsi::sample()
   if (comm->me == 0) all.assign(2 * n, 0.0);
   MPI_Reduce(xy.data(), comm->me == 0 ? all.data() : nullptr, 2 * n, MPI_DOUBLE, MPI_SUM, 0,
              world);
-  double psi = 0.0;
-  if (comm->me == 0) {
-    // psi_i: the two bonds each particle owns (+x, +y) count for both of their ends
-    std::vector<std::complex<double>> z(n, 0.0);
-    const double box[2] = {static_cast<double>(lx), static_cast<double>(ly)};
-    for (int k = 0; k < n; k++) {
-      const int ix = k % lx, iy = k / lx;
-      const int nb[2] = {(ix + 1) % lx + lx * iy, ix + lx * ((iy + 1) % ly)};
-      for (int d = 0; d < 2; d++) {
-        const int j = nb[d];
-        double v[2] = {all[2 * j] - all[2 * k], all[2 * j + 1] - all[2 * k + 1]};
-        // the lattice's image of the bond: +box where it wraps
-        if ((d == 0 && ix == lx - 1) || (d == 1 && iy == ly - 1)) v[d] += box[d];
-        const double r = std::hypot(v[0], v[1]);
-        const std::complex<double> u(v[0] / r, v[1] / r);
-        const std::complex<double> u2 = u * u;
-        const std::complex<double> u4 = u2 * u2;
-        z[k] += u4;
-        z[j] += u4;
-      }
-    }
-    for (int k = 0; k < n; k++) psi += std::abs(z[k] * 0.25);
-    psi /= n;
-    const double rec[2] = {BKNpy::as_double(static_cast<int64_t>(update->ntimestep)), psi};
-    out.stage(rec, true);
-    // on disk at most a second after it is known (a deck cut short keeps what it computed)
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_write > std::chrono::seconds(1)) {
-      last_write = now;
-      if (!out.write())
-        error->one(FLERR, "{} fix bk/psi: writing {} failed: {}", BK_ERR_WRITE_FAILED,
-                   out.name, utils::getsyserror());
-    }
+}
+
+// (step, psi) staged on rank 0, on disk at most a second after it is known (a deck cut short
+// keeps what it computed)
+void FixBKPsi::record(double psi)
+{
+  const double rec[2] = {BKNpy::as_double(static_cast<int64_t>(update->ntimestep)), psi};
+  out.stage(rec, true);
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_write > std::chrono::seconds(1)) {
+    last_write = now;
+    if (!out.write())
+      error->one(FLERR, "{} fix bk/psi: writing {} failed: {}", BK_ERR_WRITE_FAILED, out.name,
+                 utils::getsyserror());
   }
-  MPI_Bcast(&psi, 1, MPI_DOUBLE, 0, world);
-  last_psi = psi;
 }

@@ -34,6 +34,8 @@ class FixBKPsi : public Fix {
   std::vector<double> xy, all;    // the layer's unwrapped positions, by particle (2N)
 
   void sample();
+  void gather_positions();
+  void record(double psi);
 };
 
 }    // namespace LAMMPS_NS

@@ -160,41 +160,9 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
   zigzag.threshold = utils::numeric(FLERR, arg[5], false, lmp);
   if (!(zigzag.threshold > 0.0))
     error->all(FLERR, "fix {}: threshold must be > 0, got {}", style, arg[5]);
+  const Keywords takes{takes_limit, takes_breaks, takes_catalogue};
   int iarg = 8;
-  while (iarg < narg) {
-    if (strcmp(arg[iarg], "start") == 0 && iarg + 1 < narg) {
-      start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
-      iarg += 2;
-    } else if (takes_limit && strcmp(arg[iarg], "limit") == 0 && iarg + 1 < narg) {
-      limit = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
-      if (limit < 0) error->all(FLERR, "fix {}: limit must be >= 0, got {}", style, limit);
-      iarg += 2;
-    } else if (takes_breaks && strcmp(arg[iarg], "breaks") == 0) {
-      with_breaks = 1;
-      iarg++;
-    } else if (takes_catalogue && strcmp(arg[iarg], "catalogue") == 0 && iarg + 9 < narg &&
-               strcmp(arg[iarg + 3], "sx") == 0 && strcmp(arg[iarg + 5], "kb") == 0 &&
-               strcmp(arg[iarg + 7], "lattice") == 0) {
-      with_catalogue = 1;
-      catalogue_files[0] = utils::strdup(arg[iarg + 1]);
-      catalogue_files[1] = utils::strdup(arg[iarg + 2]);
-      cat_sx = utils::numeric(FLERR, arg[iarg + 4], false, lmp);
-      cat_kb = utils::numeric(FLERR, arg[iarg + 6], false, lmp);
-      cat_lx = utils::inumeric(FLERR, arg[iarg + 8], false, lmp);
-      cat_ly = utils::inumeric(FLERR, arg[iarg + 9], false, lmp);
-      if (cat_lx < 3 || cat_ly < 3)
-        error->all(FLERR, "fix {}: the lattice must be at least 3 x 3", style);
-      iarg += 10;
-    } else if (takes_catalogue && strcmp(arg[iarg], "exact") == 0) {
-      exact = 1;
-      iarg++;
-    } else if (strcmp(arg[iarg], "append") == 0) {
-      appending = 1;
-      iarg++;
-    } else {
-      error->all(FLERR, "Illegal fix {} keyword {}: {}", style, arg[iarg], usage);
-    }
-  }
+  while (iarg < narg) iarg = parse_keyword(iarg, narg, arg, takes);
   if (domain->dimension != 2) error->all(FLERR, "fix {} needs dimension 2", style);
 
   vector_flag = 1;
@@ -203,6 +171,60 @@ FixBKEvents::FixBKEvents(LAMMPS *lmp, int narg, char **arg, const char *usage_te
   extvector = 0;
 
   open_file(6, narg, arg);
+}
+
+/* the keyword at arg[iarg] (of those the style takes) and its values; returns the index of
+   the next keyword */
+
+int FixBKEvents::parse_keyword(int iarg, int narg, char **arg, const Keywords &takes)
+{
+  const char *key = arg[iarg];
+  if (strcmp(key, "start") == 0 && iarg + 1 < narg) {
+    start = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+    return iarg + 2;
+  }
+  if (takes.limit && strcmp(key, "limit") == 0 && iarg + 1 < narg) {
+    limit = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+    if (limit < 0) error->all(FLERR, "fix {}: limit must be >= 0, got {}", style, limit);
+    return iarg + 2;
+  }
+  if (takes.breaks && strcmp(key, "breaks") == 0) {
+    with_breaks = 1;
+    return iarg + 1;
+  }
+  if (takes.catalogue && is_catalogue(iarg, narg, arg)) return parse_catalogue(iarg, arg);
+  if (takes.catalogue && strcmp(key, "exact") == 0) {
+    exact = 1;
+    return iarg + 1;
+  }
+  if (strcmp(key, "append") == 0) {
+    appending = 1;
+    return iarg + 1;
+  }
+  error->all(FLERR, "Illegal fix {} keyword {}: {}", style, key, usage);
+  return narg;
+}
+
+// `catalogue SLIPS CLUSTERS sx S_X kb K_B lattice LX LY` at arg[iarg], whole
+bool FixBKEvents::is_catalogue(int iarg, int narg, char **arg)
+{
+  return strcmp(arg[iarg], "catalogue") == 0 && iarg + 9 < narg &&
+      strcmp(arg[iarg + 3], "sx") == 0 && strcmp(arg[iarg + 5], "kb") == 0 &&
+      strcmp(arg[iarg + 7], "lattice") == 0;
+}
+
+int FixBKEvents::parse_catalogue(int iarg, char **arg)
+{
+  with_catalogue = 1;
+  catalogue_files[0] = utils::strdup(arg[iarg + 1]);
+  catalogue_files[1] = utils::strdup(arg[iarg + 2]);
+  cat_sx = utils::numeric(FLERR, arg[iarg + 4], false, lmp);
+  cat_kb = utils::numeric(FLERR, arg[iarg + 6], false, lmp);
+  cat_lx = utils::inumeric(FLERR, arg[iarg + 8], false, lmp);
+  cat_ly = utils::inumeric(FLERR, arg[iarg + 9], false, lmp);
+  if (cat_lx < 3 || cat_ly < 3)
+    error->all(FLERR, "fix {}: the lattice must be at least 3 x 3", style);
+  return iarg + 10;
 }
 
 FixBKEvents::~FixBKEvents()

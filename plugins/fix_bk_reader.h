@@ -106,6 +106,15 @@ class FixBKEvents : public FixBKReader {
   {
     return step_max >= start && (limit < 0 || nwritten < limit);
   }
+
+ private:
+  // the keywords a style takes beyond `start` and `append`
+  struct Keywords {
+    bool limit, breaks, catalogue;
+  };
+  int parse_keyword(int iarg, int narg, char **arg, const Keywords &takes);
+  static bool is_catalogue(int iarg, int narg, char **arg);
+  int parse_catalogue(int iarg, char **arg);
 };
 
 }    // namespace LAMMPS_NS

@@ -22,9 +22,9 @@
      sample. The last record is the block under way, rewritten until it is complete.
 
    With `extrema none` only the blocks are kept (what a steady-state verdict reads: the
-   companion run of bkflow's steady protocol). Both files are NumPy .npy files (numpy.load reads them): a 512-byte header that holds the
-   number of records, rewritten with the records at every flush (the end of every run
-   command, and at most a second after the last write). Only rank 0 writes; the sums are the
+   companion run of bkflow's steady protocol). Both files are NumPy .npy files (numpy.load
+   reads them): a 512-byte header that holds the number of records, rewritten with the records
+   at every flush (the end of every run command, and at most a second after the last write). Only rank 0 writes; the sums are the
    substrate fix's, reduced over ranks. The state (the zigzag's running extrema, the block
    under way, the records written) goes into restart files: a run continued from one with
    `append` writes what the uninterrupted run would have. */
@@ -72,6 +72,26 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
     error->all(FLERR, "fix bk/reduce: threshold must be > 0, got {}", arg[6]);
   block = utils::bnumeric(FLERR, arg[8], false, lmp);
   const char *extrema_name = arg[10], *blocks_name = arg[12];
+  parse_options(narg, arg);
+  declare_fields();
+
+  vector_flag = 1;
+  size_vector = 2;
+  global_freq = 1;
+  extvector = 0;
+  restart_global = 1;
+  last_write = std::chrono::steady_clock::now();
+
+  with_extrema = strcmp(extrema_name, "none") != 0;
+  if (comm->me == 0) {
+    if (with_extrema) open(extrema, extrema_name);
+    open(blocks, blocks_name);
+  }
+}
+
+// the optional keywords after `blocks FILE`, and the block's length checked against them
+void FixBKReduce::parse_options(int narg, char **arg)
+{
   for (int iarg = 13; iarg < narg; iarg++) {
     if (strcmp(arg[iarg], "energy") == 0)
       with_energy = 1;
@@ -89,7 +109,11 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
   if (block <= 0 || block % nevery != 0 || (with_phase && block % phase_every != 0))
     error->all(FLERR, "fix bk/reduce: the block B must be a multiple of Nevery (and of Pevery), "
                "got {}", block);
+}
 
+// the records' fields (bkflow.reduced reads them by name)
+void FixBKReduce::declare_fields()
+{
   extrema.field("step", "<i8");
   extrema.field("sigma", "<f8");
   blocks.field("n", "<i8");
@@ -103,19 +127,6 @@ FixBKReduce::FixBKReduce(LAMMPS *lmp, int narg, char **arg) : FixBKReader(lmp, n
       blocks.field(name, "<f8");
     }
   sums.assign(blocks.nfields, 0.0);
-
-  vector_flag = 1;
-  size_vector = 2;
-  global_freq = 1;
-  extvector = 0;
-  restart_global = 1;
-  last_write = std::chrono::steady_clock::now();
-
-  with_extrema = strcmp(extrema_name, "none") != 0;
-  if (comm->me == 0) {
-    if (with_extrema) open(extrema, extrema_name);
-    open(blocks, blocks_name);
-  }
 }
 
 FixBKReduce::~FixBKReduce()
@@ -148,25 +159,36 @@ void FixBKReduce::sample()
     for (int k = 0; k < NLEDGER; k++) ledger_now[k] = substrate->compute_vector(LEDGER[k]);
   double ph[NPHASE] = {};
   const bool phase_now = with_phase && step % phase_every == 0;
-  if (phase_now) {
-    double s[BK_NPHASE];
-    substrate->contact_phase(s);    // collective
-    const double n = s[BK_PH_N] > 0.0 ? s[BK_PH_N] : 1.0;
-    const double zr = s[BK_PH_C1] / n, zi = s[BK_PH_S1] / n;
-    const double z2r = s[BK_PH_C2] / n, z2i = s[BK_PH_S2] / n;
-    const double mean = s[BK_PH_U] / n, var = s[BK_PH_UU] / n - mean * mean;
-    ph[0] = std::sqrt(zr * zr + zi * zi);
-    ph[1] = zr;
-    ph[2] = zi;
-    ph[3] = zr * zr + zi * zi;
-    ph[4] = std::sqrt(z2r * z2r + z2i * z2i);
-    ph[5] = mean;
-    ph[6] = std::sqrt(var > 0.0 ? var : 0.0);
-  }
+  if (phase_now) phase_statistics(ph);
+  if (with_extrema) follow_extrema(sigma, step);
+  add_to_block(step, sigma, ph, phase_now);
+  if (comm->me == 0 && std::chrono::steady_clock::now() - last_write > WRITE_EVERY) write_out();
+}
 
-  // the zigzag: a maximum is final once sigma_x fell from it by more than the threshold, a
-  // minimum once it rose again by more
-  switch (with_extrema ? zigzag.feed(sigma, step) : BKZigzag::NONE) {
+// R, Z_re, Z_im, |Z|^2, R2, u_mean, u_std of the contacts' phases now (collective)
+void FixBKReduce::phase_statistics(double *ph)
+{
+  double s[BK_NPHASE];
+  substrate->contact_phase(s);    // collective
+  const double n = s[BK_PH_N] > 0.0 ? s[BK_PH_N] : 1.0;
+  const double zr = s[BK_PH_C1] / n, zi = s[BK_PH_S1] / n;
+  const double z2r = s[BK_PH_C2] / n, z2i = s[BK_PH_S2] / n;
+  const double mean = s[BK_PH_U] / n, var = s[BK_PH_UU] / n - mean * mean;
+  ph[0] = std::sqrt(zr * zr + zi * zi);
+  ph[1] = zr;
+  ph[2] = zi;
+  ph[3] = zr * zr + zi * zi;
+  ph[4] = std::sqrt(z2r * z2r + z2i * z2i);
+  ph[5] = mean;
+  ph[6] = std::sqrt(var > 0.0 ? var : 0.0);
+}
+
+/* the zigzag: a maximum is final once sigma_x fell from it by more than the threshold, a
+   minimum once it rose again by more; the ledger is kept at each running extremum */
+
+void FixBKReduce::follow_extrema(double sigma, bigint step)
+{
+  switch (zigzag.feed(sigma, step)) {
     case BKZigzag::NEW_MAX:
       std::memcpy(ledger_max, ledger_now, sizeof ledger_now);
       break;
@@ -184,8 +206,11 @@ void FixBKReduce::sample()
     default:
       break;
   }
+}
 
-  // the blocks
+// the sample into the sums of its block (the block before it closed when this one starts)
+void FixBKReduce::add_to_block(bigint step, double sigma, const double *ph, bool phase_now)
+{
   const bigint k = step / block;
   int64_t count;    // counts are int64 bits in the record
   if (k != block_k) {
@@ -205,8 +230,6 @@ void FixBKReduce::sample()
     for (int p = 0; p < NPHASE; p++) sums[j++] += ph[p];
   if (with_energy)
     for (int p = 0; p < NLEDGER; p++) sums[j++] = ledger_now[p];
-
-  if (comm->me == 0 && std::chrono::steady_clock::now() - last_write > WRITE_EVERY) write_out();
 }
 
 void FixBKReduce::stage_extremum(bigint step, double sigma, const double *ledger)

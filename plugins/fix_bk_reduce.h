@@ -37,6 +37,11 @@ class FixBKReduce : public FixBKReader {
   std::chrono::steady_clock::time_point last_write;
 
   void sample() override;
+  void parse_options(int narg, char **arg);
+  void declare_fields();
+  void phase_statistics(double *ph);
+  void follow_extrema(double sigma, bigint step);
+  void add_to_block(bigint step, double sigma, const double *ph, bool phase_now);
   void open(BKNpy &f, const char *name);
   void stage_extremum(bigint step, double sigma, const double *ledger);
   void close_block();

@@ -104,7 +104,7 @@ void FixBKSlips::snapshot(Snap &s)
     s.x.assign(&atom->x[0][0], &atom->x[0][0] + 3 * static_cast<size_t>(nlocal));
     s.tag.assign(atom->tag, atom->tag + nlocal);
     s.image.assign(atom->image, atom->image + nlocal);
-    // the flags of an atom in the origin's image: the box lengths taken out of them now
+    // the flags of an atom in the origin's image: the box lengths taken out of them so far
     const imageint zero = (static_cast<imageint>(IMGMAX) << IMG2BITS) |
         (static_cast<imageint>(IMGMAX) << IMGBITS) | IMGMAX;
     substrate->image_flags(zero, &s.base[0], &s.base[1]);

@@ -8,8 +8,9 @@
    of bkflow). sigma_x is written as the shortest decimal that reads back as the same double
    (std::to_chars), t to 10 significant digits. The lines go through a 1 MB buffer, flushed at
    the end of every run command and at most a second after the last flush, instead of one
-   write and flush per line as fix print does: with one line every ~7 steps that per-line
-   cost was 24% of the run at N = 100 and 4% at N = 900 (1-2% now).
+   write and flush per line as fix print does, which at one line every ~7 steps costs 4-24% of
+   a run against 1-2% for the buffer (N = 900 to 100, benchmarks/RESULTS.md; measured by
+   benchmarks/throughput.py --compare-output).
 
    With `energy` each line also holds the contact breaks since the substrate fix was defined
    and its energy ledger (docs/model.md "Energy"; the substrate fix needs its own keyword

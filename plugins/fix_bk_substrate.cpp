@@ -22,18 +22,12 @@
 
 #include "atom.h"
 #include "bk_model.h"
-#include "bkplugin.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "memory.h"
 #include "update.h"
-
-#include <array>
-#include <cmath>
-#include <cstring>
-#include <utility>
 
 using namespace LAMMPS_NS;
 using namespace FixConst;
@@ -301,157 +295,6 @@ void FixBKSubstrate::local_energies(double *e)
     e[3] += 0.5 * m * (v[i][0] * v[i][0] + v[i][1] * v[i][1]);
   }
   e[3] *= force->mvv2e;    // energy units, as the kicks' ftm2v (1 in lj units)
-}
-
-// the bond forces of this step; returns the largest squared bond length (local bonds)
-double FixBKSubstrate::bond_forces()
-{
-  double *const *const x = atom->x;
-  double *const *const f = atom->f;
-  double r2max = 0.0;
-  for (int b = 0; b < nblist; b++) {
-    const int i = bl_i[b], j = bl_j[b];
-    const double dx = x[i][0] - x[j][0] + bl_sx[b], dy = x[i][1] - x[j][1] + bl_sy[b];
-    const double r2 = dx * dx + dy * dy;
-    const double fb = bk_bond_factor(r2, kb, r0);
-    f[i][0] += fb * dx;
-    f[i][1] += fb * dy;
-    if (bl_both[b]) {
-      f[j][0] -= fb * dx;
-      f[j][1] -= fb * dy;
-    }
-    if (r2 > r2max) r2max = r2;
-  }
-  return r2max;
-}
-
-template <int DRIVE, int CONTACT, int DAMPING, int ADVANCE, int LEDGER>
-void FixBKSubstrate::eval()
-{
-  double *const *const v = atom->v;
-  double *const *const f = atom->f;
-  const int *const mask = atom->mask;
-  const int nlocal = atom->nlocal;
-  const double *const kd = DRIVE ? atom->dvector[kd_index] : nullptr;
-  const double *const rmass = atom->rmass;
-  const double *const mass = atom->mass;
-  const int *const type = atom->type;
-  const double dt = update->dt;
-  const double shift = plate_shift;
-  const double fmax2 = fmax * fmax, ke2 = ke * ke, lim2 = fmax2 / ke2;
-  const int use_vh = !ADVANCE && vh_valid;
-  double *const *const uu = u;
-  const double step_now = static_cast<double>(update->ntimestep);
-
-  double sfx = 0.0;
-  bigint nb = 0, nover = 0;
-  // the ledger's terms of this step (LEDGER): breaks' loss, damping's kick work
-  double lost = 0.0, kick_done = 0.0, kick_next = 0.0;
-  for (int i = 0; i < nlocal; i++) {
-    if (!(mask[i] & groupbit)) continue;
-    double *const s = state[i];
-    double fx = 0.0, fy = 0.0;
-    if constexpr (DRIVE) {
-      const double fdx = bk_drive_x(kd[i], shift, uu[i][0]);
-      fx += fdx;
-      fy += bk_drive_y(kd[i], uu[i][1]);
-      sfx += fdx;
-    }
-    const double vx = use_vh ? s[VHX] : v[i][0];
-    const double vy = use_vh ? s[VHY] : v[i][1];
-    if constexpr (CONTACT != BK_NO_CONTACT) {
-      if constexpr (ADVANCE) {
-        s[DRX] += vx * dt;
-        s[DRY] += vy * dt;
-        if (bk_contact_over(s[DRX], s[DRY], ke2, fmax2)) {
-          nb++;
-          if (track_breaks && first_break[i] < break_mark) first_break[i] = step_now;
-          const double bx = s[DRX], by = s[DRY];
-          bk_contact_break(CONTACT, &s[DRX], &s[DRY], vx * dt, vy * dt, fmax, ke, lim2);
-          nover += bk_contact_over(s[DRX], s[DRY], ke2, fmax2);
-          if constexpr (LEDGER) lost += bk_break_loss(CONTACT, bx, by, s[DRX], s[DRY], ke);
-        }
-      }
-      fx -= ke * s[DRX];
-      fy -= ke * s[DRY];
-    }
-    if constexpr (DAMPING != BK_NO_DAMPING) {
-      const double m = rmass ? rmass[i] : mass[type[i]];
-      const double mg = m * gamma;
-      const double h = 0.5 * dt / m, den = 1.0 / (1.0 + 0.5 * gamma * dt);
-      const double gx = bk_damping(DAMPING, mg, vx, h, f[i][0] + fx, den);
-      const double gy = bk_damping(DAMPING, mg, vy, h, f[i][1] + fy, den);
-      fx -= gx;
-      fy -= gy;
-      if constexpr (LEDGER) {
-        // the half kicks around this force: v -> v1 (a step: v the half-step velocity; setup:
-        // none) and v1 -> v1 + hk F, the next step's first; v1 is the full-step velocity
-        const double hk = dtf / m;
-        const double Fx = f[i][0] + fx, Fy = f[i][1] + fy;
-        const double v1x = ADVANCE ? bk_kick(v[i][0], hk, Fx) : v[i][0];
-        const double v1y = ADVANCE ? bk_kick(v[i][1], hk, Fy) : v[i][1];
-        if constexpr (ADVANCE) kick_done += bk_kick_work(-gx, v[i][0], v1x)
-            + bk_kick_work(-gy, v[i][1], v1y);
-        kick_next += bk_kick_work(-gx, v1x, bk_kick(v1x, hk, Fx))
-            + bk_kick_work(-gy, v1y, bk_kick(v1y, hk, Fy));
-      }
-      if constexpr (ADVANCE) {
-        s[VHX] = vx;
-        s[VHY] = vy;
-      }
-    }
-    f[i][0] += fx;
-    f[i][1] += fy;
-  }
-
-  sum_fx_drive = sfx;
-  nbreak_step = nb;
-  nbreak_total += nb;
-  novershoot += nover;
-  if (ADVANCE && DAMPING != BK_NO_DAMPING) vh_valid = 1;
-  if constexpr (LEDGER) {
-    ledger_plate(sfx, ADVANCE);
-    ledger[BK_LED_BREAK] += lost;
-    ledger_damping(kick_done, kick_next, ADVANCE);
-  }
-}
-
-namespace LAMMPS_NS {
-// eval() specialisations indexed by drive (0, 1), contact rule, damping, advance (0, 1) and
-// ledger (0, 1)
-struct BKSubstrateTable {
-  using Eval = void (FixBKSubstrate::*)();
-  static constexpr int NC = BK_NCONTACT, ND = BK_NDAMPING;
-  static constexpr std::size_t SIZE = 2 * NC * ND * 2 * 2;
-
-  static constexpr int index(int drive, int contact, int damping, int advance, int ledger)
-  {
-    return drive + 2 * (contact + NC * (damping + ND * (advance + 2 * ledger)));
-  }
-  template <std::size_t... I>
-  static constexpr std::array<Eval, sizeof...(I)> make(std::index_sequence<I...>)
-  {
-    return {{&FixBKSubstrate::eval<I % 2, I / 2 % NC, I / (2 * NC) % ND,
-                                   I / (2 * NC * ND) % 2, I / (4 * NC * ND)>...}};
-  }
-};
-}    // namespace LAMMPS_NS
-
-/* The forces of one step: the bonds over the bond list, then the drive, contact and damping
-   forces of each local atom in one specialisation of eval() (one per combination of the parts
-   that change its loop, so that the loop carries no branch on the parameters). The damping
-   force reads f, so the bonds come first. advance = 0 (setup) applies the stored state. */
-
-void FixBKSubstrate::apply_forces(int advance)
-{
-  static const auto table =
-      BKSubstrateTable::make(std::make_index_sequence<BKSubstrateTable::SIZE>{});
-  const double r2max = bonds_on ? bond_forces() : 0.0;
-  (this->*table[BKSubstrateTable::index(drive_on, contact, damping, advance ? 1 : 0,
-                                        ledger_on)])();
-  energy_step = -1;
-  rmax_local = sqrt(r2max);
-  reduced = 0;
 }
 
 /* the output vector's slots computed here: the drive's force and the breaks summed over

@@ -2,7 +2,8 @@
    Burridge-Knopoff layer of docs/model.md (bonds, drive spring to a moving plate,
    shear-history friction, viscous damping) in one post-force pass over local atoms, on any
    number of ranks; with `integrate`, it also does fix nve's and fix enforce2d's work. A
-   sibling of the fused path (fix_bk_fused.h) under FixBKLayer. See plugins/README.md. */
+   sibling of the fused path (fix_bk_fused.h) under FixBKLayer. The forces of a step are in
+   fix_bk_substrate_forces.cpp, the rest in fix_bk_substrate.cpp. See plugins/README.md. */
 
 #ifndef BKFLOW_FIX_BK_SUBSTRATE_H
 #define BKFLOW_FIX_BK_SUBSTRATE_H
