@@ -24,7 +24,7 @@ sys.path.insert(0, str(HERE))
 
 ROOT = HERE.parent
 DOCUMENTS = (HERE / "RESULTS.md", ROOT / "workflows" / "paper" / "REPRODUCTION.md",
-             ROOT / "docs" / "analysis.md")
+             ROOT / "docs" / "analysis.md", ROOT / "docs" / "develop.md")
 BLOCK = re.compile(r"(<!-- generated: ([\w-]+) -->\n)(.*?)(<!-- end -->)", re.S)
 
 
@@ -685,6 +685,35 @@ def summary_keys() -> str:
 
 
 BLOCKS["summary-keys"] = summary_keys
+
+
+def _first_sentence(path: Path) -> str:
+    import ast
+
+    doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+    first = " ".join(doc.split("\n\n")[0].split())
+    end = first.find(". ")
+    return (first[:end + 1] if end >= 0 else first).replace("|", "\\|")
+
+
+def layout() -> str:
+    """docs/develop.md's table of the package: each group (its __init__'s words) and each of
+    its modules (the first sentence of its docstring), in the layers' order of
+    tests/test_house.py."""
+    src = ROOT / "src" / "bkflow"
+    rows = ["| group | module | what it does |", "|---|---|---|"]
+    for group in ("model", "observables", "store", "lammps", "analysis", "sweeps", "figures",
+                  "cli"):
+        rows.append(f"| `{group}/` | | {_first_sentence(src / group / '__init__.py')} |")
+        for path in sorted((src / group).glob("*.py")):
+            if path.name != "__init__.py":
+                rows.append(f"| | `{path.name}` | {_first_sentence(path)} |")
+    for name in ("api.py", "cluster.py"):
+        rows.append(f"| `{name}` | | {_first_sentence(src / name)} |")
+    return "\n".join(rows) + "\n"
+
+
+BLOCKS["layout"] = layout
 BLOCKS.update({name: claims_block(name) for name in (
     "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other")})
 
