@@ -550,7 +550,7 @@ class Fuzz:
                 self.results[-1].verdict = "called the run damaged"
         # analysis settings mixed in one figure set
         from bkflow.analysis.summary import analyze
-        from bkflow.model.params import AnalysisSettings
+        from bkflow.model.settings import AnalysisSettings
 
         for threshold in (0.05, 0.02):
             d = self.scratch() / "s"

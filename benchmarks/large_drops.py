@@ -41,7 +41,7 @@ def drops_at(rd, spec, fraction: float) -> dict:
     import numpy as np
 
     from bkflow.analysis.summary import drop_result, transient_time
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
 
     settings = AnalysisSettings(slip_threshold=fraction).resolved(spec)
     red = rd.read_reduced(spec)

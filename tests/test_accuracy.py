@@ -12,14 +12,8 @@ import pytest
 
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
-from bkflow.model.params import (
-    ACCURACY,
-    ADAPTIVE_T_MIN,
-    DT_FACTOR_MAX,
-    RunSpec,
-    SpecError,
-    protocol_fields,
-)
+from bkflow.model.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
+from bkflow.model.protocols import protocol_fields
 from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import open_project
 from tests.support import tool

@@ -246,7 +246,7 @@ def test_another_threshold_never_mixes_two_slips_in_one_row(events_run, tmp_path
     """Analysed with a slip threshold other than the run's, a slip's frames are used only when
     they are that very slip's (its maximum and its minimum): no row takes its size from a
     shorter slip recorded at the run's threshold."""
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
 
     d = _copy(events_run, tmp_path)
     recorded = RunDir(d).read_events()

@@ -154,7 +154,7 @@ def test_a_decks_header_gives_the_steps_the_deck_runs(tmp_path, stopped):
     (the header gave the cap's, "t_end = 64000 (4615106 steps)", above ``run 533614``)."""
     from bkflow.lammps.deck import DeckOptions
     from bkflow.lammps.engine import _write_inputs
-    from bkflow.model.params import protocol_fields
+    from bkflow.model.protocols import protocol_fields
 
     spec = RunSpec(phi=10.0, Lx=20, Ly=5, seed=1, **protocol_fields("steady", t_end=64000.0))
     rd = RunDir(tmp_path)

@@ -11,7 +11,8 @@ import subprocess
 import pytest
 
 from bkflow.lammps.engine import continuation, run
-from bkflow.model.params import RunSpec, protocol_fields
+from bkflow.model.params import RunSpec
+from bkflow.model.protocols import protocol_fields
 from bkflow.store.rundir import CONTINUING, RunDir
 from tests.support import tool
 

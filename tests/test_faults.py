@@ -715,7 +715,7 @@ def test_figures_come_from_one_analysis_or_none(tmp_path, small_sweep):
     plot refuses, naming the cure; after it, plot draws. A second sweep that changes the
     tables removes the figures of the old ones (and only those)."""
     from bkflow.analysis.summary import analyze
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
 
     d = tmp_path / "s"
     shutil.copytree(small_sweep, d)

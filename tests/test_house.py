@@ -13,7 +13,8 @@ import pytest
 
 import bkflow
 from bkflow.cli.assignments import analysis_assignments
-from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import META, STRESS, SUMMARY, RunDir
 
 SRC = Path(bkflow.__file__).parent

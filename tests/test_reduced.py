@@ -16,7 +16,8 @@ from bkflow.analysis.summary import summarize
 from bkflow.lammps.deck import DeckOptions, data_text, setup_text
 from bkflow.lammps.engine import run
 from bkflow.model.lattice import square_lattice
-from bkflow.model.params import RunSpec, protocol_fields
+from bkflow.model.params import RunSpec
+from bkflow.model.protocols import protocol_fields
 from bkflow.observables import reduced, stationarity
 from bkflow.observables.stress import slip_events
 from bkflow.store.rundir import LEDGER_COLUMNS, RunDir
@@ -211,7 +212,7 @@ def test_psi_in_the_run_is_the_psi_of_the_positions(tmp_path, path, ranks):
     """fix bk/psi against bkflow.observables.order.psi of full-precision frames of the same steps
     (the frames of scene full are written to 9 digits: Psi from them differs by ~1e-8)."""
     from bkflow.analysis.summary import order_result
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
     from bkflow.store import formats
 
     spec = _spec(scene="order", snapshot_every=10.0, start="random")
@@ -303,7 +304,7 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
     stress is its blocks."""
     from bkflow.analysis.summary import analyze
     from bkflow.api import load_run
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
     from bkflow.store.rundir import AnalysisError, DamagedRunError
 
     base = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
@@ -338,7 +339,7 @@ def test_the_energy_of_slips_below_the_recorded_threshold_comes_from_the_raw_led
     series, and so does each one's energy budget (not another extremum's ledger)."""
     from bkflow.analysis.summary import analyze
     from bkflow.api import load_run
-    from bkflow.model.params import AnalysisSettings
+    from bkflow.model.settings import AnalysisSettings
 
     spec = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
                       "t_end": 1000.0, "scene": "full"})

@@ -14,7 +14,8 @@ from bkflow.analysis import registry
 from bkflow.analysis.results import RESULT_FIELDS
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
-from bkflow.model.params import RunSpec, protocol_fields
+from bkflow.model.params import RunSpec
+from bkflow.model.protocols import protocol_fields
 
 
 def _same(a, b) -> bool:

@@ -364,7 +364,7 @@ def test_the_pictures_of_a_slip_name_the_runs_start_and_protocol():
     """run_description says of a run what a reader of its front pictures needs: the start,
     and the paper's fixed length or the steady protocol's rule with its cap."""
     from bkflow.figures.fronts import front_figure, run_description
-    from bkflow.model.params import protocol_fields
+    from bkflow.model.protocols import protocol_fields
 
     paper = RunSpec(phi=100.0, **protocol_fields("paper", t_end=1000.0))
     steady = RunSpec(phi=100.0, **protocol_fields("steady", t_end=1000.0))

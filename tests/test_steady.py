@@ -18,8 +18,8 @@ from bkflow.model.params import (
     STEADY_DRIFT_BOUND,
     STEADY_START,
     RunSpec,
-    protocol_fields,
 )
+from bkflow.model.protocols import protocol_fields
 from bkflow.store.rundir import BLOCKS, COMPANION, EXTREMA, RunDir
 from tests.support import tool
 

@@ -466,7 +466,7 @@ def test_a_runs_cost_counts_its_companion(tmp_path):
         check_cost,
         cost,
     )
-    from bkflow.model.params import protocol_fields
+    from bkflow.model.protocols import protocol_fields
 
     spec = RunSpec(phi=1000, Lx=240, Ly=60, seed=1, **{**protocol_fields("steady"),
                                                        "t_end": 240000.0, "scene": "friction"})

@@ -25,7 +25,8 @@ from bkflow.figures.data import SweepData
 from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
 from bkflow.figures.registry import FIGURES, figure
 from bkflow.figures.style import Figures, PlotError, _num, style
-from bkflow.model.params import AnalysisSettings, RunSpec
+from bkflow.model.params import RunSpec
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.formats import shell_word
 from bkflow.store.rundir import SUMMARY, AnalysisError, DamagedRunError, RunDir, sweep_run_dir

@@ -46,7 +46,9 @@ from bkflow.figures.data import SweepData, _point_states
 from bkflow.figures.registry import plot
 from bkflow.figures.style import STYLE, _style
 from bkflow.model.lattice import box_fractions
-from bkflow.model.params import PAPER_SIZES, AnalysisSettings, RunSpec, protocol_fields
+from bkflow.model.params import PAPER_SIZES, RunSpec
+from bkflow.model.protocols import protocol_fields
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.rundir import sweep_run_dir
 from bkflow.store.tables import SETTINGS_FILE, read_tables, settings_in

@@ -11,7 +11,8 @@ import numpy as np
 
 from bkflow.analysis.run_results import ClusterResult
 from bkflow.model.lattice import square_lattice
-from bkflow.model.params import S_X, AnalysisSettings, RunSpec
+from bkflow.model.params import S_X, RunSpec
+from bkflow.model.settings import AnalysisSettings
 from bkflow.observables import (
     catalogue,
     clusters,

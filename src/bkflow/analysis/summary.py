@@ -5,7 +5,7 @@ per observable (``FrictionResult``, ``DropResult``, ``OrderResult``,
 ``ClusterResult``) and the tables the figures read (events, Psi(t), clusters).
 ``analyze`` reads a run directory through ``bkflow.store.rundir`` and writes the summary and
 the tables back there. The observables are those of docs/model.md ("Observables"); the choices it
-leaves open are one ``bkflow.model.params.AnalysisSettings``, recorded (resolved for the run)
+leaves open are one ``bkflow.model.settings.AnalysisSettings``, recorded (resolved for the run)
 in every summary, so that a summary made under other settings is known to be stale.
 """
 
@@ -32,13 +32,8 @@ from bkflow.analysis.run_results import (
     threshold_key,
 )
 from bkflow.model.lattice import square_lattice
-from bkflow.model.params import (
-    SCALED_N,
-    STEADY_AGREEMENT,
-    AnalysisSettings,
-    RunSpec,
-    transient_step,
-)
+from bkflow.model.params import SCALED_N, STEADY_AGREEMENT, RunSpec, transient_step
+from bkflow.model.settings import AnalysisSettings
 from bkflow.observables import (
     catalogue,
     order,

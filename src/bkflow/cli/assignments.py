@@ -15,7 +15,8 @@ import dataclasses
 import math
 import re
 
-from bkflow.model.params import PAPER_SIZES, AnalysisSettings, RunSpec, SpecError
+from bkflow.model.params import PAPER_SIZES, RunSpec, SpecError
+from bkflow.model.settings import AnalysisSettings
 from bkflow.sweeps.grid import ASPECT
 
 #: RunSpec fields with an axis or option of their own in the CLI (--phi, --size, --seed);

@@ -26,12 +26,12 @@ from bkflow.model.params import (
     STEADY_COMPANION,
     STEADY_DRIFT_BOUND,
     STEADY_START,
-    AnalysisSettings,
     RunSpec,
     SpecError,
-    protocol_fields,
     size_from_n,
 )
+from bkflow.model.protocols import protocol_fields
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store import rundir as rd
 from bkflow.sweeps.grid import ASPECT, POINTS_PER_DECADE, SEEDS
 
@@ -280,8 +280,8 @@ PROTOCOL_SETTINGS = ("start", "companion", "t_end", "dt_factor", "until_steady",
 
 def accuracy_fields(a, settings: dict | None = None) -> dict:
     """The run's start, length rule, dt_factor and target_error: the protocol's, from the
-    preset and the explicit options (bkflow.model.params.protocol_fields); ``settings`` (of --set)
-    override the options they name."""
+    preset and the explicit options (bkflow.model.protocols.protocol_fields); ``settings``
+    (of --set) override the options they name."""
     given = {"start": a.start, "t_end": a.t_end, "dt_factor": a.dt_factor,
              "until_steady": a.until_steady, "target_error": a.target_error,
              "accuracy": a.accuracy,

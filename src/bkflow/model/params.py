@@ -15,16 +15,28 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+
+from bkflow.model.checks import (
+    SpecError,
+    boolean,
+    check_fields,
+    checked,
+    choice,
+    fraction,
+    integer,
+    number,
+)
+from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the run's)
+    ACCURACY,
+    DT_FACTOR_MAX,
+    Preset,
+    omega_contact,
+    omega_max,
+    time_step,
+)
 
 #: The paper's lattice sizes by particle number (Ly = Lx / 4).
 PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
-
-#: Largest accepted C = dt omega_max, omega_max^2 = (4 k_b + k_e + k_d + dk_d) / m the layer's
-#: fastest mode: the measured stability bound (benchmarks/stability.py: every phi from 0.1 to
-#: 1e4 stable at C = 1.9, phi >= 100 blowing up at C = 2.0, velocity Verlet's omega dt < 2).
-#: Any time step, from a preset's rule or from --dt-factor, is refused above it.
-DT_FACTOR_MAX = 1.9
 
 #: contact rules at |k_e dr| > mu_s sigma_n A, each with what it does (the CLI's help). reset:
 #: docs/model.md's rule with the break located inside the time step (the contact re-forms where
@@ -49,59 +61,6 @@ PATHS = ("auto", "general", "fused")
 #: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second
 #: order); half: the half-step velocity (docs/model.md's literal scheme, first order in dt)
 DAMPING_MODES = ("implicit", "half")
-
-class Preset(NamedTuple):
-    """An accuracy preset, defined by ``dt_error``: the largest bias its time step may put on
-    the steady observables (<sigma_x>/sigma_n and mu_bar, relative), at every phi. Its time
-    step follows the rule of ``time_step``, dt = min(c_contact / omega_c, c_stable /
-    omega_max), the two constants the largest that meet ``dt_error`` at every phi measured
-    (benchmarks/timestep.py, its records benchmarks/records/timestep/). Beside it: the length of a
-    fixed run (the paper's protocol), the cap of a run until steady (the steady protocol) and
-    the standard error of mu_bar that the steady protocol waits for (absolute; mu_bar is
-    0.10-0.12, so 2e-4 is about 0.2%)."""
-
-    dt_error: float
-    c_contact: float
-    c_stable: float
-    t_end: float
-    t_cap: float
-    target_error: float
-
-
-#: accuracy presets (Preset): the time step's error target and the rule's constants from the
-#: work-precision of benchmarks/timestep.py, errors and costs in benchmarks/RESULTS.md
-ACCURACY = {"fast": Preset(0.01, 0.2, 1.5, 2000.0, 16000.0, 5e-4),
-            "default": Preset(0.002, 0.1, 1.5, 8000.0, 1e5, 2e-4),
-            "precise": Preset(0.001, 0.05, 1.0, 16000.0, 1e5, 1e-4)}
-
-
-def omega_max(k_b: float, k_e: float, k_d: float, dk_d: float, mass: float) -> float:
-    """The layer's fastest angular frequency, sqrt((4 k_b + k_e + k_d + dk_d) / m): a particle
-    held by its four bonds, its contact and the stiffest drive spring; the stability bound is
-    dt omega_max < 2."""
-    return math.sqrt((4 * k_b + k_e + k_d + dk_d) / mass)
-
-
-def omega_contact(k_e: float, k_d: float, dk_d: float, mass: float) -> float:
-    """The angular frequency of a contact's load cycle, sqrt((k_e + k_d + dk_d) / m): a particle
-    on its contact spring and its stiffest drive spring, the bonds left out. It sets what the
-    observables need resolved (docs/model.md "Integration")."""
-    return math.sqrt((k_e + k_d + dk_d) / mass)
-
-
-def time_step(preset: Preset, w_max: float, w_contact: float) -> float:
-    """The time step of an accuracy preset: dt = min(c_contact / omega_c, c_stable /
-    omega_max). Soft layers (bonds slower than the contacts) take the contacts' step; stiff
-    ones the stability bound's, with its margin: their bond modes barely move the contacts,
-    so resolving them buys no accuracy (benchmarks/timestep.py, its records
-    benchmarks/records/timestep/).
-
-    >>> dt = time_step(ACCURACY["default"], omega_max(0.1, 10, 1, 1, 1), omega_contact(10, 1, 1, 1))
-    >>> round(dt * omega_contact(10, 1, 1, 1), 6)
-    0.1
-    """
-    return min(preset.c_contact / w_contact, preset.c_stable / w_max)
-
 
 #: an adaptive run (target_error) is never shorter than this (time units), so that its
 #: error estimate rests on a few dozen slips at least
@@ -202,102 +161,10 @@ MAX_STEPS = 2 ** 53
 MAX_ATOMS = 2 ** 31 - 1
 
 
-class SpecError(ValueError):
-    """A parameter outside its meaning; the message names the field and the accepted range."""
-
-
 #: why a lattice needs 3 cells along each axis (RunSpec.Lx, Ly)
 _TWO_CELLS = (": with 2 cells along an axis the bonds to the neighbours on either side join the "
               "same pair of particles at exactly half the box, where the bond's periodic image "
               "is undefined")
-
-
-# ------------------------------------------------------------------------ checks of one value
-# Each field of RunSpec and AnalysisSettings carries its own check (its dataclass metadata):
-# a function (name, value) -> None that raises a SpecError naming the field and its range.
-
-
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def number(gt: float | None = None, ge: float | None = None, lt: float | None = None,
-           le: float | None = None, why: str = "", optional: bool = False, noun: str = ""):
-    """A check: a finite number within the bounds given (``why``: what the bound means,
-    after it; ``noun``: before it, as in "a number > 0"), or None when ``optional``."""
-    def check(name, v):
-        if optional and v is None:
-            return
-        if not _is_number(v):
-            what = f"{noun}> {gt:g}" if noun and gt is not None else "a finite number"
-            raise SpecError(f"{name} must be {what}, got {v!r}")
-        for bound, ok, sign in ((gt, lambda b: v > b, ">"), (ge, lambda b: v >= b, ">="),
-                                (lt, lambda b: v < b, "<"), (le, lambda b: v <= b, "<=")):
-            if bound is not None and not ok(bound):
-                raise SpecError(f"{name} must be {noun}{sign} {bound:g}{why}, got {v!r}")
-    return check
-
-
-def interval(lo: float, hi: float):
-    """A check: a number in the open interval (lo, hi)."""
-    def check(name, v):
-        if not (_is_number(v) and lo < v < hi):
-            raise SpecError(f"{name} must lie in ({lo:g}, {hi:g}), got {v!r}")
-    return check
-
-
-def fraction(closed_high: bool = False, why: str = "", optional: bool = False):
-    """A check: a number in [0, 1) (or (0, 1] with ``closed_high``), or None when
-    ``optional``."""
-    def check(name, v):
-        if optional and v is None:
-            return
-        ok = _is_number(v) and (0 < v <= 1 if closed_high else 0 <= v < 1)
-        if not ok:
-            span = "(0, 1]" if closed_high else "[0, 1)"
-            raise SpecError(f"{name} must lie in {span}{why}, got {v!r}")
-    return check
-
-
-def integer(ge: int, phrase: str | None = None, tail: str = ""):
-    """A check: an int (not a bool) >= ge; ``phrase`` replaces "an integer >= ge" in the
-    message, ``tail`` follows it."""
-    def check(name, v):
-        if not isinstance(v, int) or isinstance(v, bool) or v < ge:
-            raise SpecError(f"{name} must be {phrase or f'an integer >= {ge}'}, got {v!r}"
-                            f"{tail}")
-    return check
-
-
-def choice(options, optional: bool = False):
-    """A check: one of ``options`` (or None when ``optional``)."""
-    def check(name, v):
-        if optional and v is None:
-            return
-        if v not in options:
-            none = "none or " if optional else ""
-            raise SpecError(f"{name} must be {none}one of {', '.join(options)}, got {v!r}")
-    return check
-
-
-def boolean(name, v):
-    """A check: True or False."""
-    if not isinstance(v, bool):
-        raise SpecError(f"{name} must be true or false, got {v!r}")
-
-
-def checked(default=dataclasses.MISSING, check=None, **kw):
-    """A dataclass field with its check (see ``check_fields``)."""
-    return dataclasses.field(default=default, metadata={"check": check}, **kw)
-
-
-def check_fields(obj, prefix: str = "") -> None:
-    """Every field's own check; ``prefix`` names what the field is (e.g. "analysis setting
-    ")."""
-    for f in dataclasses.fields(obj):
-        check = f.metadata.get("check")
-        if check is not None:
-            check(prefix + f.name, getattr(obj, f.name))
 
 
 def size_from_n(n: int) -> tuple[int, int]:
@@ -627,117 +494,4 @@ class RunSpec:
         unknown = set(d) - names
         if unknown:
             raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
-        return cls(**d)
-
-
-def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
-                    start: str | None = None, t_end: float | None = None,
-                    dt_factor: float | None = None, until_steady: bool = False,
-                    target_error: float | None = None, companion: str | None = "") -> dict:
-    """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, accuracy,
-    dt_factor, target_error) from an accuracy preset (``ACCURACY``) and what is given explicitly
-    (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
-    none). ``steady``: from STEADY_START with a companion from STEADY_COMPANION (or, when
-    ``start`` is that, STEADY_START) until the pair is steady and mu_bar's error is below the
-    preset's target, at most the preset's t_cap; ``paper``: from the synchronized start, a
-    fixed run of the preset's t_end, no companion (``until_steady`` adds the steady rule,
-    t_end is then its cap).
-
-    >>> f = protocol_fields()
-    >>> f["start"], f["companion"], f["until_steady"]
-    ('random', 'partial', True)
-    >>> protocol_fields("paper")["start"], protocol_fields("paper")["companion"]
-    ('synchronized', None)
-    """
-    if protocol not in PROTOCOLS:
-        raise SpecError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {protocol!r}")
-    if accuracy not in ACCURACY:
-        raise SpecError(f"accuracy must be one of {', '.join(ACCURACY)}, got {accuracy!r}")
-    preset = ACCURACY[accuracy]
-    steady = protocol == "steady" or bool(until_steady)
-    default_start = STEADY_START if protocol == "steady" else "synchronized"
-    default_t = preset.t_cap if protocol == "steady" else preset.t_end
-    start = default_start if start is None else start
-    if companion == "":
-        companion = None if protocol != "steady" else (
-            STEADY_COMPANION if start != STEADY_COMPANION else STEADY_START)
-    return {"start": start, "companion": companion,
-            "until_steady": steady,
-            "t_end": default_t if t_end is None else t_end,
-            "accuracy": accuracy, "dt_factor": dt_factor,
-            "target_error": target_error if target_error is not None
-            else preset.target_error if protocol == "steady" else None}
-
-
-#: revision of the analysis code: raised whenever a change to it changes a summary, so that
-#: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 11
-
-
-@dataclass(frozen=True)
-class AnalysisSettings:
-    """Every choice the analysis makes that docs/model.md leaves open, beside ``RunSpec``.
-
-    A summary records the settings it was made under (resolved for its run); one made under
-    other settings is stale and is redone from the run's files, never by running LAMMPS
-    again. ``slip_threshold`` and ``transient`` default to the run's own (None), which are
-    also what fix bk/slips recorded; other values are allowed (slips without snapshots are
-    then counted, not guessed).
-    """
-
-    #: slip threshold, fraction of mu_s sigma_n (None: the run's RunSpec.slip_threshold)
-    slip_threshold: float | None = checked(None, number(gt=0, lt=1, optional=True,
-                                                        noun="a number "))
-    #: transient, fraction of the run (None: the run's RunSpec.transient); used by the
-    #: transient_rule "fixed"
-    transient: float | None = checked(None, fraction(optional=True))
-    #: fixed: the first ``transient`` of the run; detect: from the stress series by
-    #: equilibration detection (bkflow.observables.stationarity.equilibration_time)
-    transient_rule: str = checked("fixed", choice(TRANSIENT_RULES))
-    #: blocks and level of the trend test (bkflow.observables.stationarity)
-    n_blocks: int = checked(10, integer(3))
-    alpha: float = checked(0.05, interval(0, 1))
-    #: large drops: drop > large_drop_factor * mean drop after the transient
-    large_drop_factor: float = checked(LARGE_DROP_FACTOR, number(gt=0, noun="a number "))
-    s_x: float = checked(S_X, number(gt=0, noun="a number "))
-    span_fraction: float = checked(SPAN_FRACTION, fraction(closed_high=True))
-    psi_crystal: float = checked(PSI_CRYSTAL, fraction(closed_high=True))
-    psi_late_fraction: float = checked(PSI_LATE_FRACTION, fraction(closed_high=True))
-    report_thresholds: tuple = checked(REPORT_THRESHOLDS)
-    #: lower cut of the stress-drop power law, as a multiple of the slip threshold (the
-    #: smallest drop that counts as a slip); None = chosen by the KS rule of Clauset et al.
-    drop_x_min_over_threshold: float | None = checked(1.0, number(gt=0, optional=True,
-                                                                  noun="a number "))
-
-    def __post_init__(self):
-        try:
-            thresholds = tuple(float(v) for v in self.report_thresholds)
-        except (TypeError, ValueError):
-            thresholds = ()
-        if not thresholds or not all(math.isfinite(v) and 0 < v < 1 for v in thresholds):
-            raise SpecError("analysis setting report_thresholds must be numbers in (0, 1) "
-                            f"(fractions of mu_s sigma_n), got {self.report_thresholds!r}")
-        object.__setattr__(self, "report_thresholds", thresholds)
-        check_fields(self, "analysis setting ")
-
-    def resolved(self, spec: RunSpec) -> AnalysisSettings:
-        """These settings with the run's own values filled in where they defer to it."""
-        return dataclasses.replace(
-            self,
-            slip_threshold=spec.slip_threshold if self.slip_threshold is None
-            else self.slip_threshold,
-            transient=spec.transient if self.transient is None else self.transient)
-
-    def to_dict(self) -> dict:
-        d = dataclasses.asdict(self)
-        d["report_thresholds"] = list(self.report_thresholds)
-        return d
-
-    @classmethod
-    def from_dict(cls, d: dict) -> AnalysisSettings:
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(d) - names
-        if unknown:
-            raise SpecError(f"unknown analysis setting(s): {', '.join(sorted(unknown))}; "
-                            f"known: {', '.join(sorted(names))}")
         return cls(**d)

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bkflow.model.params import ANALYSIS_REVISION, AnalysisSettings, RunSpec
+from bkflow.model.params import RunSpec
+from bkflow.model.settings import ANALYSIS_REVISION, AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.errors import DamagedRunError
 from bkflow.store.layout import (

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from bkflow.analysis.summary import analyze as analyze_run
 from bkflow.lammps.engine import run
-from bkflow.model.params import AnalysisSettings, RunSpec
+from bkflow.model.params import RunSpec
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
 
 

@@ -21,7 +21,8 @@ import pandas as pd
 
 from bkflow.analysis.results import write_tables
 from bkflow.lammps.engine import RunError, in_notebook
-from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
 from bkflow.store.tables import retire_figures
 from bkflow.sweeps import flowcompat

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from flow import FlowProject
 
-from bkflow.model.params import AnalysisSettings, RunSpec, SpecError
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.rundir import RunDir
 from bkflow.sweeps import job as one
