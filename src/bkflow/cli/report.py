@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 
+from bkflow.analysis.registry import lines as registry_lines
+from bkflow.analysis.registry import power_law_names
 from bkflow.model.params import STEADY_AGREEMENT, STEADY_DRIFT_BOUND
 from bkflow.observables.states import SWITCHING
 from bkflow.store import rundir as rd
@@ -210,18 +212,20 @@ def state_line(s: dict) -> str:
 
 
 def power_law_line(s: dict, key: str, what: str) -> str:
-    """The report's line on a power law of the summary's ``key``_* entries."""
+    """The report's line on a power law of the summary's ``key``_* entries (their names
+    declared in ``bkflow.analysis.registry``)."""
+    verdict, fit_p, vs_lognormal, vs_lognormal_p = power_law_names(key)
     exponent = (f"exponent {_g(s, f'{key}_exponent', '.2f')} +- "
                 f"{_g(s, f'{key}_exponent_err', '.2f')}")
-    p = _g(s, f"{key}_fit_p", ".3f")
-    if s.get(f"{key}_power_law") == "rejected":
-        R = s.get(f"{key}_vs_lognormal")
+    p = _g(s, fit_p, ".3f")
+    if s.get(verdict) == "rejected":
+        R = s.get(vs_lognormal)
         vs = (f", against a lognormal R = {R:.1f}" if R is not None and math.isfinite(R)
               else "")
         return (f"  {what}: power law rejected (p = {p}{vs}); the fitted {exponent} does not "
                 "describe them")
-    if s.get(f"{key}_power_law") == "plausible":
-        R, Rp = s.get(f"{key}_vs_lognormal"), s.get(f"{key}_vs_lognormal_p")
+    if s.get(verdict) == "plausible":
+        R, Rp = s.get(vs_lognormal), s.get(vs_lognormal_p)
         if R is not None and Rp is not None and R < 0 and Rp < 0.1:
             return (f"  {what}: the bootstrap does not rule a power law out (p = {p}), but a "
                     f"lognormal is favoured (R = {R:.1f}, p = {Rp:.2g}); the fitted {exponent} "
@@ -268,7 +272,7 @@ def summary_lines(s: dict) -> list[str]:
         lines.append(f"  energy: the balance (plate work = change of elastic and kinetic energy "
                      f"+ dissipation) closes to {_g(s, 'energy_residual', '.1e')} of the "
                      "plate's work over the analysed run")
-    return lines
+    return lines + registry_lines(s)
 
 
 # ------------------------------------------------------------------------- a sweep's table
