@@ -693,7 +693,8 @@ def _first_sentence(path: Path) -> str:
     doc = ast.get_docstring(ast.parse(path.read_text())) or ""
     first = " ".join(doc.split("\n\n")[0].split())
     end = first.find(". ")
-    return (first[:end + 1] if end >= 0 else first).replace("|", "\\|")
+    # reStructuredText's literals as Markdown's
+    return (first[:end + 1] if end >= 0 else first).replace("``", "`").replace("|", "\\|")
 
 
 def layout() -> str:
