@@ -445,7 +445,7 @@ def fresh_attack() -> str:
     rec = _record("fresh_attack")
     out = [f"A fresh attack on {rec['date']} ({rec['who']}): about {rec['cases']} cases, "
            f"{rec['clean']} clean; {rec['faults']} faults, each fixed and now a case above or a "
-           "test in tests/test_faults.py:", ""]
+           "test in tests/cli/test_faults.py:", ""]
     out += [f"- {f}" for f in rec["faults_found"]]
     out += ["", "Its clean areas: " + "; ".join(f"{n} {what}" for what, n in
                                                 rec["clean_areas"].items()) + "."]

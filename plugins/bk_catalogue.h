@@ -10,7 +10,7 @@
    more: N_c, l_x and l_y (docs/model.md: 4 / (n (n - 1)) times the sum over ordered pairs of
    minimum-image distances, of the positions at the maximum), the columns and rows its sites
    occupy, the mean slip delta, the change of the energy k_b/2 (r - 1)^2 of the bonds touching
-   it (at their lattice image), and the paper's Eq. 2. tests/test_reduced.py compares every
+   it (at their lattice image), and the paper's Eq. 2. tests/observables/test_reduced.py compares every
    number with bkflow.catalogue on the same positions. */
 
 #ifndef BKFLOW_BK_CATALOGUE_H

@@ -197,7 +197,7 @@ enum bk_ledger_sum { BK_LED_WORK, BK_LED_BREAK, BK_LED_DAMP, BK_NLEDGER };
 /* exp(2 pi i u) as (*c, *s) for any finite u, without a libm call and without a branch, so
    that a loop over contacts vectorizes: u is reduced to r in [-1/2, 1/2], the half angle
    h = pi r in [-pi/2, pi/2] is taken by its Taylor polynomials to h^21 and h^20 (truncation
-   below 3e-17), and doubled. Within 1e-15 of libm's (tests/test_phase.py). */
+   below 3e-17), and doubled. Within 1e-15 of libm's (tests/plugins/test_phase.py). */
 static inline void bk_unit_phasor(double u, double *c, double *s)
 {
   const double PI = 3.141592653589793238462643383279503;

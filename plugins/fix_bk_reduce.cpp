@@ -10,7 +10,7 @@
      zigzag rule (bk_zigzag.h) at threshold TH: each maximum once sigma_x has fallen from it
      by more than TH, each minimum once sigma_x has risen from it by more than TH, in turn
      (maximum first). The slips at any threshold >= TH are exactly those the same rule finds
-     in the records (bkflow.reduced; tests/test_reduced.py). The last record is the extremum
+     in the records (bkflow.reduced; tests/observables/test_reduced.py). The last record is the extremum
      under way (the running maximum or minimum), rewritten until it is final. Fields: step
      (int64), sigma; with `energy` also the contact breaks and the energy ledger at that
      sample (the columns of bkflow.rundir.LEDGER_COLUMNS).

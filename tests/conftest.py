@@ -8,7 +8,7 @@ fixture fails, because every other test runs with the plugin hidden (``BKFLOW_PL
 ``LAMMPS_PLUGIN_PATH`` point at an empty directory), and ``tests.support.tool("lmp")`` refuses.
 As in freud's and MDAnalysis's suites, what a test needs is said by its fixtures.
 
-``pytest --install-slurm`` lets tests/test_slurm.py install Debian's SLURM packages when they
+``pytest --install-slurm`` lets tests/sweeps/test_slurm.py install Debian's SLURM packages when they
 are missing (system-wide, as root: what CI runs); without it those tests use a SLURM that is
 installed already, or are skipped (tests/slurm_local.py).
 """

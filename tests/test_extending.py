@@ -85,7 +85,8 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
     env = {**os.environ, "BKFLOW_PLUGIN_DIR": str(build)}
     proc = subprocess.run(
         [sys.executable, "-c", boot, "-q", "-p", "no:cacheprovider", "-k", "halve",
-         "tests/test_reference.py", "tests/test_fused.py", "tests/test_start.py"],
+         "tests/plugins/test_reference.py", "tests/plugins/test_fused.py",
+         "tests/model/test_start.py"],
         cwd=scratch, env=env, capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     ran = re.search(r"(\d+) passed", proc.stdout)

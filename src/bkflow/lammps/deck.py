@@ -41,7 +41,7 @@ from bkflow.store.rundir import (
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
 #: the slots of fix bk/substrate's global vector, 0-based (f_bk[slot + 1] in a deck): the
-#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/test_interface.py checks
+#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/plugins/test_interface.py checks
 #: that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
          "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
@@ -398,7 +398,7 @@ def setup_text(spec: RunSpec, options: DeckOptions = DeckOptions(),
     """Everything of the deck before ``run``: system, forces, integrator, outputs; its header
     gives the length of a run of ``steps`` steps (default: the whole run). Neither
     the path nor the fast settings change a number beyond rounding (the fused path sums in
-    another order; tests/test_fused.py)."""
+    another order; tests/plugins/test_fused.py)."""
     o = options
     lines = (_header(spec, o.path, steps) + _system(spec, o, o.fast)
              + _dynamics(spec, o.drive, o.contact, o.damp, o.path, o.fast, _energy(spec, o))

@@ -19,11 +19,11 @@ from pathlib import Path
 
 PLUGIN_FILE = "bkflowplugin.so"
 #: what slot "path" of fix bk/substrate's vector says ran: (path, kernel) by code, as
-#: plugins/bk_interface.h names them (enum bk_path_code; tests/test_plugin.py checks)
+#: plugins/bk_interface.h names them (enum bk_path_code; tests/lammps/test_plugin.py checks)
 PATH_CODES = {0: ("general", None), 1: ("fused", "baseline"), 2: ("fused", "avx2"),
               3: ("fused", "avx512")}
 #: the tokens that start the plugin's error messages a program tells apart, by name
-#: (plugins/bk_interface.h, BK_ERR_*; tests/test_plugin.py checks)
+#: (plugins/bk_interface.h, BK_ERR_*; tests/lammps/test_plugin.py checks)
 ERROR_TOKENS = {"write_failed": "[bk:write-failed]", "cannot_open": "[bk:cannot-open]",
                 "partner_missing": "[bk:partner-missing]", "atom_lost": "[bk:atom-lost]"}
 
@@ -31,7 +31,7 @@ ERROR_TOKENS = {"write_failed": "[bk:write-failed]", "cannot_open": "[bk:cannot-
 def block_rows(Ly: int, ranks: int) -> list[tuple[int, int]]:
     """The rows (first, last) of each rank's block on the fused path on ``ranks`` ranks of a
     lattice of ``Ly`` rows: FixBKFused::block_first_row's division (rank j from row
-    floor(j Ly / K)), which the log prints (tests/test_fused_ranks.py)."""
+    floor(j Ly / K)), which the log prints (tests/plugins/test_fused_ranks.py)."""
     if not 1 <= ranks <= Ly:
         raise ValueError(f"{ranks} ranks cannot each hold a row of a {Ly}-row lattice")
     first = [j * Ly // ranks for j in range(ranks + 1)]

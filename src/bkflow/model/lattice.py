@@ -59,7 +59,7 @@ def box_extent(n_along: int, n_across: int) -> float:
     particles, S = floor(n_along^2 / 4) the ring distances from one site to the others.
     That is L N/(N-1) for an even side and a further 1 - 1/L^2 for an odd one: the odd side's
     whole-box extent is the smaller, so l/L would call a whole-box slip longer along the
-    even side (tests/test_analysis.py)."""
+    even side (tests/observables/test_exact_answers.py)."""
     n_along, n_across = int(n_along), int(n_across)
     n = n_along * n_across
     if n < 2:

@@ -55,7 +55,7 @@ CONTACT_RULES = tuple(CONTACT_RULE_HELP)
 #: rows, else the general path integrating by itself, on any grid of ranks); general is fix nve
 #: + fix bk/substrate + fix enforce2d (bkflow before the fused path); fused forces the fused
 #: path (an error where it cannot run).
-#: The paths differ in the order of floating-point sums only (tests/test_fused.py).
+#: The paths differ in the order of floating-point sums only (tests/plugins/test_fused.py).
 PATHS = ("auto", "general", "fused")
 
 #: implicit: the damping force -m gamma v uses the end-of-step velocity, solved for (second

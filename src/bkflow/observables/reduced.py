@@ -18,7 +18,7 @@ at the
 
 The analysis reads the series as block means (``Reduced.series``): the mean stress, its
 trend test, its error (batch means) and the contacts' statistics all come from them, so that
-a raw series and the run's own records give the same numbers (tests/test_reduced.py).
+a raw series and the run's own records give the same numbers (tests/observables/test_reduced.py).
 """
 
 from __future__ import annotations

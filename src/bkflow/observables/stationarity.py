@@ -30,7 +30,7 @@ E[s^2] = sigma^2 (1 - g/n). When the lag-one autocorrelation lies inside the 95%
 noise (|r_1| < 2 / sqrt(n), Bartlett) g = 1: summing noise-only positive lags would overstate
 the error of independent data by 5-8% at n = 64-400. On AR(1) series of n = 400 the mean
 estimate is within 3% of the true standard error for rho = 0, 0.2, 0.5 and 0.8
-(tests/test_stationarity.py); blocking (the estimator bkflow used before) was 10-30% low there.
+(tests/observables/test_stationarity.py); blocking (the estimator bkflow used before) was 10-30% low there.
 
 >>> import numpy as np
 >>> t = np.arange(0, 1000, 0.5)
@@ -59,7 +59,7 @@ def statistical_inefficiency(x, mintime: int = 3, fast: bool = False) -> float:
     26 (2007)): g = 1 + 2 sum_t (1 - t/n) C(t) w_t, C the normalised autocorrelation, over
     t = 1, 2, 3, ... (``fast``: t = 1, 2, 4, 7, ..., each lag weighted by the stride w_t to
     the next) until C(t) <= 0 with t > ``mintime``; at least 1. This is what
-    ``pymbar.timeseries.statistical_inefficiency`` computes (tests/test_stationarity.py
+    ``pymbar.timeseries.statistical_inefficiency`` computes (tests/observables/test_stationarity.py
     compares them on many series); bkflow keeps its own because importing pymbar costs 0.7 s
     (it imports scipy.stats, and looks for JAX), more than the analysis of a short run. The
     autocovariance of every lag comes from one FFT. Raises ValueError for a constant
@@ -193,7 +193,7 @@ def t_sf(t: float, dof: int) -> float:
     """P(T > t) for Student's t with ``dof`` degrees of freedom: I_x(dof/2, 1/2) / 2 with
     x = dof / (dof + t^2) for t >= 0, the regularized incomplete beta function by its continued
     fraction (Numerical Recipes' betacf, modified Lentz). scipy.stats.t.sf gives the same to
-    1e-12 (tests/test_stationarity.py); bkflow keeps its own because importing scipy.stats
+    1e-12 (tests/observables/test_stationarity.py); bkflow keeps its own because importing scipy.stats
     costs 0.8 s, more than the analysis of a short run."""
     if math.isnan(t):
         return math.nan

@@ -5,7 +5,7 @@ knows formats. Tables are read and written with pandas; LAMMPS dumps are read by
 ``read_regular_frames``, a vectorised reader of the regular dumps bkflow writes (for speed:
 MDAnalysis's reader, used for any other dump, parses line by line, and reading a full-scene
 run's dumps with it costs as much as running the run; the two are checked against each other
-in tests/test_scenes.py), unwrapped with the image flags. Positions come back to the 9
+in tests/lammps/test_scenes.py), unwrapped with the image flags. Positions come back to the 9
 significant digits the dumps are written with (1e-7 l at the 200 l a layer drifts by
 t = 8000), far below S_x = 0.01 l and the Psi resolution that matters.
 """
@@ -139,7 +139,7 @@ def read_regular_frames(path) -> Frames | None:
     Why not MDAnalysis here: its reader parses each line in Python, 18 ms per frame of 900
     atoms (reading a full-scene run's dumps so costs as much as running it); this reads the
     same frames ~50x faster, in double precision (MDAnalysis keeps single), and
-    tests/test_scenes.py checks the two agree on every frame."""
+    tests/lammps/test_scenes.py checks the two agree on every frame."""
     lines = read_bytes(path).split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()

@@ -48,7 +48,7 @@ def installed_versions() -> dict[str, str]:
     """{normalized name: version} of the distributions in the import path, read from the
     names of their ``NAME-VERSION.dist-info`` directories (PEP 376/427) in one scan per
     directory: 0.2 ms, against ~1.5 ms per ``importlib.metadata.version`` call (which each
-    scan every directory again), which a short run would feel. tests/test_paths.py checks it
+    scan every directory again), which a short run would feel. tests/lammps/test_paths.py checks it
     against importlib.metadata."""
     found: dict[str, str] = {}
     for entry in sys.path:

@@ -2,7 +2,7 @@
 is known exactly (a nucleation site and a front of known speed, a rigid block slip whose perimeter
 bonds carry the paper's Eq. 2 exactly, a ledger with a known budget), then on a run of the events
 scene: its columns, its Parquet copy read back by pyarrow alone, damaged inputs refused (the
-first breaks on 1 and 2 ranks: tests/test_scenes.py)."""
+first breaks on 1 and 2 ranks: tests/lammps/test_scenes.py)."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ against fix bk/substrate (fix nve + bk/substrate + enforce2d) to ~1e-12; a run i
 run continued from a restart file equal one run bit for bit; both builds of the kernel (AVX2 and
 baseline) give the same bits; the outputs (stress series, slip frames, per-atom output) work
 with the settings the fused deck uses; what the fused path cannot do is refused clearly. On
-several ranks: tests/test_fused_ranks.py.
+several ranks: tests/plugins/test_fused_ranks.py.
 """
 
 import itertools

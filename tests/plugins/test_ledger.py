@@ -231,7 +231,7 @@ def test_fix_bk_stress_header_names_the_ledger_columns():
 
     from bkflow.observables.reduced import LEDGER_COLUMNS
 
-    source = (Path(__file__).resolve().parents[1] / "plugins" / "fix_bk_stress.cpp").read_text()
+    source = (Path(__file__).resolve().parents[2] / "plugins" / "fix_bk_stress.cpp").read_text()
     code = re.sub(r"/\*.*?\*/", "", source, flags=re.S)  # the code, not its comment
     # every string of the code, C's adjacent literals joined: the header is the one of t,
     # sigma_x and more

@@ -132,7 +132,7 @@ def _records_and_series(workdir, spec, path="auto", ranks=1):
 
 
 #: the ledger's running sums, which each rank accumulates for its atoms: the same to rounding
-#: on any number of ranks, not to the bit (tests/test_fused_ranks.py)
+#: on any number of ranks, not to the bit (tests/plugins/test_fused_ranks.py)
 RUNNING_SUMS = ("work", "diss_break", "diss_damp")
 
 

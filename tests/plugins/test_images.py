@@ -79,7 +79,7 @@ def _state(lmp):
 def test_a_restart_keeps_the_box_lengths_taken_out(path, workdir, monkeypatch):
     """A run rebased before and after its restart file continues the uninterrupted run: bit
     for bit on the fused path, to rounding on the general path (as without rebasing,
-    tests/test_mpi_restart_energy.py: its restart holds x, not the unwrapped position)."""
+    tests/plugins/test_mpi_restart_energy.py: its restart holds x, not the unwrapped position)."""
     monkeypatch.setenv(REBASE, "2")
     spec = RunSpec(**FAST)
     steps = int(300 / spec.dt)

@@ -28,7 +28,7 @@ from bkflow.cli.guards import (
 from bkflow.store.rundir import META, SUMMARY, RunDir
 from tests.support import fresh_python, tool
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 SHORT = ["--t-end", "100", "--scene", "friction", "--quiet"]
 

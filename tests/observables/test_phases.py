@@ -1,7 +1,7 @@
 """The contacts' phase statistics (bkflow.observables.phases) on synthetic series whose answers are
 known: the phase fluctuation of independent contacts is 1 - |c|^2 whatever their common
 distribution, contacts that keep a common phase give N R^2 (the verdict that reads them:
-tests/test_states.py)."""
+tests/observables/test_states.py)."""
 
 from __future__ import annotations
 

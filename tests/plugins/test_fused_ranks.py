@@ -330,7 +330,7 @@ def test_the_scaling_model_fit_recovers_known_parameters():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import numpy as np
     from scaling_model import Model, fit, stops, strong
 

@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from tests.support import ROOT
-from tests.test_sweep import _hidden_points
+from tests.sweeps.test_local import _hidden_points
 
 
 def _module(path, name):

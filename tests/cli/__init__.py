@@ -1,0 +1,1 @@
+"""Tests of the command line: commands and every class of fault."""

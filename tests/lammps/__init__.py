@@ -1,0 +1,1 @@
+"""Tests of running LAMMPS: the plugin's loading, paths, continuation, scenes, the stop rule."""

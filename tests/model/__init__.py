@@ -1,0 +1,1 @@
+"""Tests of what a run is: parameters, presets, the time step, the starts."""

@@ -1,0 +1,1 @@
+"""Tests of the pure numerics on series whose answers are known."""

@@ -1,0 +1,1 @@
+"""Tests of the run and sweep directories on disk."""

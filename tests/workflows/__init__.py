@@ -1,0 +1,1 @@
+"""Tests of the paper's workflow: claims and its own figures."""
