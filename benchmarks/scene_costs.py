@@ -1,8 +1,8 @@
 """What each scene costs, side by side: ``bkflow run`` of one lattice under the paper's protocol
 (a fixed run, no companion) with every scene in turn, alternating, ``--rounds`` times; the median
 wall time of the LAMMPS loop, of the whole process and of ``bkflow analyze``, and the bytes each
-scene writes. The trajectories are the same in every scene (tests/plugins/test_ledger.py: keeping the
-energy ledger changes no bit), so only the outputs differ.
+scene writes. The trajectories are the same in every scene (tests/plugins/test_ledger.py:
+keeping the energy ledger changes no bit), so only the outputs differ.
 
     python benchmarks/scene_costs.py [--size 60x15] [--phi 100] [--t-end 8000] [--rounds 3]
         [--scenes friction clusters events full]

@@ -1,5 +1,5 @@
 /* bkflow LAMMPS plugin: one slip's row of the event catalogue and its slip clusters, from the
-   unwrapped positions at the slip's maximum and minimum: what bkflow.catalogue.slip_row
+   unwrapped positions at the slip's maximum and minimum: what bkflow.observables.catalogue.slip_row
    computes from the frames fix bk/slips writes, computed in the run instead (fix bk/slips
    `catalogue`), so that a run keeps a few numbers per slip rather than two frames.
 
@@ -11,7 +11,7 @@
    minimum-image distances, of the positions at the maximum), the columns and rows its sites
    occupy, the mean slip delta, the change of the energy k_b/2 (r - 1)^2 of the bonds touching
    it (at their lattice image), and the paper's Eq. 2. tests/observables/test_reduced.py compares every
-   number with bkflow.catalogue on the same positions. */
+   number with bkflow.observables.catalogue on the same positions. */
 
 #ifndef BKFLOW_BK_CATALOGUE_H
 #define BKFLOW_BK_CATALOGUE_H
@@ -38,7 +38,7 @@ struct BKCluster {
 namespace bk_catalogue {
 
 // the sum over unordered pairs of the minimum-image distance on a ring of `length`
-// (bkflow.clusters.periodic_pair_sum): sorted coordinates and prefix sums, O(n log n)
+// (bkflow.observables.clusters.periodic_pair_sum): sorted coordinates and prefix sums, O(n log n)
 inline double periodic_pair_sum(std::vector<double> x, double length)
 {
   const std::size_t n = x.size();

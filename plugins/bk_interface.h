@@ -1,7 +1,7 @@
 /* bkflow LAMMPS plugin: what the plugin says to the outside, named once: the slots of fix
    bk/substrate's global vector, the code of the path that ran, and the tokens that start the
    plugin's error messages that a program has to tell apart. bkflow mirrors each by name
-   (bkflow.deck.SLOTS, bkflow.plugin.PATH_CODES and ERROR_TOKENS), and tests/plugins/test_interface.py
+   (bkflow.lammps.deck.SLOTS, bkflow.lammps.plugin.PATH_CODES and ERROR_TOKENS), and tests/plugins/test_interface.py
    reads this file to check that the two agree. */
 
 #ifndef BKFLOW_BK_INTERFACE_H

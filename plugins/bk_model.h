@@ -15,7 +15,7 @@
    the paths give the same bits; a change of that order changes every trajectory's bits.
 
    Adding a contact rule: a value of bk_contact_rule and its name in BK_CONTACT_NAMES, its case
-   in bk_contact_break(), and the Python side (bkflow.params.CONTACT_RULES; tests/reference.py
+   in bk_contact_break(), and the Python side (bkflow.model.params.CONTACT_RULES; tests/reference.py
    stays an independent implementation on purpose). */
 
 #ifndef BKFLOW_BK_MODEL_H
@@ -38,7 +38,7 @@ enum bk_contact_rule { BK_NO_CONTACT, BK_RESET, BK_RESET_STEP, BK_COULOMB, BK_NC
 enum bk_damping { BK_NO_DAMPING, BK_IMPLICIT, BK_HALF, BK_NDAMPING };
 
 #ifdef __cplusplus
-/* the names the decks and bkflow.params (CONTACT_RULES, DAMPING_MODES) use, by rule and by
+/* the names the decks and bkflow.model.params (CONTACT_RULES, DAMPING_MODES) use, by rule and by
    scheme (index 0, none: no name) */
 static const char *const BK_CONTACT_NAMES[BK_NCONTACT] = {"", "reset", "reset/step",
                                                           "coulomb"};

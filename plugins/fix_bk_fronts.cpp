@@ -16,7 +16,7 @@
      header:  8 bytes "BKFRONT1", int64 number of atoms N
      events:  int64 step of the maximum, int64 step of the minimum, int64 samples S,
               int64 flags (1: truncated), S x int64 steps, S x N x float32 v_x by atom ID
-   bkflow.rundir reads it (RunDir.read_fronts). Events whose maximum lies before step `start`
+   bkflow.store.rundir reads it (RunDir.read_fronts). Events whose maximum lies before step `start`
    (the transient) are followed but not written; `limit K` writes the first K only.
    Global vector: [1] events confirmed, [2] events written. */
 

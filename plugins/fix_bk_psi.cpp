@@ -4,11 +4,11 @@
 
    The square-lattice order of the layer, Psi = (1/N) sum_i |psi_i| with psi_i = (1/4) sum_j
    exp(4 i theta_ij) over particle i's four bonds (docs/model.md "Lattice order";
-   bkflow.order.psi), every Nevery steps (and at the first step of a run when it is a multiple
+   bkflow.observables.order.psi), every Nevery steps (and at the first step of a run when it is a multiple
    of Nevery), computed in the run instead of from position snapshots. The layer is bkflow's
    lattice of Lx x Ly particles, particle ID i + 1 at site (i mod Lx, i div Lx), bonded to its
    +x and +y neighbours (periodic); a bond's vector is the difference of the unwrapped
-   positions plus the box image the bond crosses in the lattice (bkflow.order.lattice_shifts),
+   positions plus the box image the bond crosses in the lattice (bkflow.observables.order.lattice_shifts),
    so a stretched bond is never mistaken for its image. Every rank puts its atoms' unwrapped
    positions into a vector of the layer's, summed onto rank 0, which computes Psi and
    appends (step, psi) to FILE, a NumPy .npy file (bk_npy.h; numpy.load reads it). The scalar

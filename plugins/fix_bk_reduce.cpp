@@ -10,10 +10,10 @@
      zigzag rule (bk_zigzag.h) at threshold TH: each maximum once sigma_x has fallen from it
      by more than TH, each minimum once sigma_x has risen from it by more than TH, in turn
      (maximum first). The slips at any threshold >= TH are exactly those the same rule finds
-     in the records (bkflow.reduced; tests/observables/test_reduced.py). The last record is the extremum
+     in the records (bkflow.observables.reduced; tests/observables/test_reduced.py). The last record is the extremum
      under way (the running maximum or minimum), rewritten until it is final. Fields: step
      (int64), sigma; with `energy` also the contact breaks and the energy ledger at that
-     sample (the columns of bkflow.rundir.LEDGER_COLUMNS).
+     sample (the columns of bkflow.store.rundir.LEDGER_COLUMNS).
    - FILE of `blocks`: one record per block of B steps (B a multiple of Nevery and of
      Pevery), block k holding the samples of steps kB <= step < (k+1)B: n (int64, its
      sigma_x samples), sigma (their sum); with `phase` also n_phase (int64) and the sums over
@@ -111,7 +111,7 @@ void FixBKReduce::parse_options(int narg, char **arg)
                "got {}", block);
 }
 
-// the records' fields (bkflow.reduced reads them by name)
+// the records' fields (bkflow.observables.reduced reads them by name)
 void FixBKReduce::declare_fields()
 {
   extrema.field("step", "<i8");

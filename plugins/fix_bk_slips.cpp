@@ -13,7 +13,7 @@
    Events whose maximum lies before step `start` (the transient) are followed but not
    written. With `breaks`, a last column `brk` holds the step of each contact's first break
    after the maximum (-1: none), in the minimum's frame (the maximum's holds -1): where the
-   slip nucleated and how its front spread (the event catalogue, bkflow.catalogue). A run
+   slip nucleated and how its front spread (the event catalogue, bkflow.observables.catalogue). A run
    continued from a restart file loses the breaks of a slip open at the restart.
    Global vector: [1] events confirmed, [2] events written.
 

@@ -41,8 +41,8 @@ from bkflow.store.rundir import (
 #: fix ID of the substrate (fix bk/substrate)
 SUBSTRATE_FIX = "bk"
 #: the slots of fix bk/substrate's global vector, 0-based (f_bk[slot + 1] in a deck): the
-#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/plugins/test_interface.py checks
-#: that the two agree
+#: plugin names them in plugins/bk_interface.h (enum bk_slot), tests/plugins/test_interface.py
+#: checks that the two agree
 SLOTS = {"sigma_x": 0, "breaks_step": 1, "breaks_total": 2, "plate": 3, "bond_max": 4,
          "path": 5, "e_bond": 6, "e_drive": 7, "e_contact": 8, "e_kinetic": 9, "work": 10,
          "diss_break": 11, "diss_damp": 12, "image_base": 13,

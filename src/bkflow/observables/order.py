@@ -3,7 +3,8 @@
 Psi = (1/N) sum_i |psi_i|, psi_i = (1/n_i) sum_{j bonded to i} exp(4 i theta_ij), theta_ij the
 angle of the bond vector to x and n_i the number of bonds of i (4 on the lattice, which is
 docs/model.md's 1/4). Psi = 1 on the square lattice at any rotation; bond angles drawn
-uniformly at random give E|sum of 4 unit phasors| / 4 = 0.4498 (tests/observables/test_exact_answers.py derives it).
+uniformly at random give E|sum of 4 unit phasors| / 4 = 0.4498
+(tests/observables/test_exact_answers.py derives it).
 
 Bond vectors. A minimum image would only be right while every bond is shorter than half
 the box. A soft layer (phi = 0.1 on 20x5) stretches bonds past 2.5 l, where the

@@ -30,7 +30,7 @@ E[s^2] = sigma^2 (1 - g/n). When the lag-one autocorrelation lies inside the 95%
 noise (|r_1| < 2 / sqrt(n), Bartlett) g = 1: summing noise-only positive lags would overstate
 the error of independent data by 5-8% at n = 64-400. On AR(1) series of n = 400 the mean
 estimate is within 3% of the true standard error for rho = 0, 0.2, 0.5 and 0.8
-(tests/observables/test_stationarity.py); blocking (the estimator bkflow used before) was 10-30% low there.
+(tests/observables/test_stationarity.py); blocking estimates are 10-30% low there.
 
 >>> import numpy as np
 >>> t = np.arange(0, 1000, 0.5)
@@ -193,8 +193,8 @@ def t_sf(t: float, dof: int) -> float:
     """P(T > t) for Student's t with ``dof`` degrees of freedom: I_x(dof/2, 1/2) / 2 with
     x = dof / (dof + t^2) for t >= 0, the regularized incomplete beta function by its continued
     fraction (Numerical Recipes' betacf, modified Lentz). scipy.stats.t.sf gives the same to
-    1e-12 (tests/observables/test_stationarity.py); bkflow keeps its own because importing scipy.stats
-    costs 0.8 s, more than the analysis of a short run."""
+    1e-12 (tests/observables/test_stationarity.py); bkflow keeps its own because importing
+    scipy.stats costs 0.8 s, more than the analysis of a short run."""
     if math.isnan(t):
         return math.nan
     if math.isinf(t):
