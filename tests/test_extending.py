@@ -52,24 +52,31 @@ def test_a_new_contact_rule_touches_at_most_four_places():
     assert "tests/reference.py" in hunks  # the independent check learns the rule too
 
 
-@pytest.mark.slow
-def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammps, tmp_path):
-    """The documented diff, applied to a scratch copy (git apply --check first: the diff is
-    current), built and tested by the copy's own tests, selected by the new rule's name."""
+def _scratch_package(tmp_path, diff: str, *more: str):
+    """The tracked package and tests (and the folders ``more``) copied to ``tmp_path/repo``,
+    with ``diff`` applied (git apply --check first: the diff is current)."""
     scratch = tmp_path / "repo"
-    files = subprocess.run(["git", "ls-files", "plugins", "src", "tests", "pyproject.toml"],
+    files = subprocess.run(["git", "ls-files", *more, "src", "tests", "pyproject.toml"],
                            cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
     if not files:
         pytest.fail("not a git checkout: the scratch copy takes the tracked files")
     for f in files:
         (scratch / f).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / f, scratch / f)
-    patch = tmp_path / "rule.diff"
-    patch.write_text(_rule_diff())
+    patch = tmp_path / "change.diff"
+    patch.write_text(diff)
     for check in (["--check"], []):
         proc = subprocess.run(["git", "apply", *check, str(patch)], cwd=scratch,
                               capture_output=True, text=True)
         assert proc.returncode == 0, "docs/develop.md's diff no longer applies: " + proc.stderr
+    return scratch
+
+
+@pytest.mark.slow
+def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammps, tmp_path):
+    """The documented diff, applied to a scratch copy (git apply --check first: the diff is
+    current), built and tested by the copy's own tests, selected by the new rule's name."""
+    scratch = _scratch_package(tmp_path, _rule_diff(), "plugins")
     build = tmp_path / "build"
     for cmd in (["cmake", "-S", str(scratch / "plugins"), "-B", str(build), "-G", "Ninja",
                  "-DCMAKE_BUILD_TYPE=Release", f"-DPython_EXECUTABLE={sys.executable}"],
@@ -98,25 +105,6 @@ def test_a_new_observable_touches_at_most_four_places():
     outside = {f: n for f, n in hunks.items() if not f.startswith(("tests/", "docs/"))}
     assert "src/bkflow/analysis/registry.py" in outside
     assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
-
-
-def _scratch_package(tmp_path, diff: str):
-    """The tracked package and tests copied to ``tmp_path/repo`` with ``diff`` applied."""
-    scratch = tmp_path / "repo"
-    files = subprocess.run(["git", "ls-files", "src", "tests", "pyproject.toml"],
-                           cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
-    if not files:
-        pytest.fail("not a git checkout: the scratch copy takes the tracked files")
-    for f in files:
-        (scratch / f).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(ROOT / f, scratch / f)
-    patch = tmp_path / "change.diff"
-    patch.write_text(diff)
-    for check in (["--check"], []):
-        proc = subprocess.run(["git", "apply", *check, str(patch)], cwd=scratch,
-                              capture_output=True, text=True)
-        assert proc.returncode == 0, "docs/develop.md's diff no longer applies: " + proc.stderr
-    return scratch
 
 
 @pytest.mark.slow
