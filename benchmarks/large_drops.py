@@ -8,8 +8,8 @@ to decide a power law. This runs the steady protocol at N = 14400 (240x60; phi =
 100, 1000, 2 seeds, at most t = 16000, scene friction: the turning points the drops are read
 from are recorded down to the size-scaled threshold, 1% x 100/N) and reads every run's drops
 at both thresholds with the analysis's own functions (bkflow.observables.reduced events, the
-transient, analysis.drop_result: Clauset et al.'s test and the lognormal comparison). The record,
-benchmarks/records/large_drops.json, fills REPRODUCTION.md's block `large-drops`
+transient, bkflow.analysis.summary.drop_result: Clauset et al.'s test and the lognormal comparison).
+The record, benchmarks/records/large_drops.json, fills REPRODUCTION.md's block `large-drops`
 (benchmarks/results_blocks.py).
 """
 

@@ -692,7 +692,10 @@ def _first_sentence(path: Path) -> str:
 
     doc = ast.get_docstring(ast.parse(path.read_text())) or ""
     first = " ".join(doc.split("\n\n")[0].split())
-    end = first.find(". ")
+    # the first full stop that ends a sentence: not an abbreviation's, not inside a literal
+    end = next((m.start() for m in re.finditer(r"\. (?=[A-Z])", first)
+                if not re.search(r"(\bFig|\bal|\be\.g|\bi\.e|\bEq)$", first[:m.start()])
+                and first[:m.start()].count("`") % 2 == 0), -1)
     # reStructuredText's literals as Markdown's
     return (first[:end + 1] if end >= 0 else first).replace("``", "`").replace("|", "\\|")
 

@@ -1,6 +1,7 @@
 """What the long runs of benchmarks/stiff_states.py say: the states, their occupancy and
-residence times, the long-run means, the switching calibration (src/bkflow/switching.json)
-and the coverage of the error that uses it. ``python benchmarks/stiff_states.py report``.
+residence times, the long-run means, the switching calibration
+(src/bkflow/observables/switching.json) and the coverage of the error that uses it. ``python
+benchmarks/stiff_states.py report``.
 
 Every run's first TRANSIENT of its length is left out (the start's memory: the synchronized
 start's coherence needs up to 2 x 10^5 time units to decay at phi = 1000). The long-run mean

@@ -1,7 +1,7 @@
 /* bkflow LAMMPS plugin: the fused path's arrays in lattice order (bkfused::Arrays, for the
    kernel of bk_fused_kernel.inc): their layout in memory, the bonds' periodic images fixed from
    the anchors, and what the fix reads off them (sigma_x, the bonds' lengths and energy), row by
-   row. No LAMMPS header and no state: fix_bk_fused.cpp fills the arrays from LAMMPS's atoms and
+   row. No LAMMPS header and no state: fix_bk_fused_atoms.cpp fills the arrays from LAMMPS's atoms and
    sums the rows over ranks (bk_row_blocks.h).
 
    A block holds rows [0, nrows) of Lx particles (particle k = ix + Lx iy); on one rank it is

@@ -1,4 +1,4 @@
-/* bkflow LAMMPS plugin: the zigzag rule of src/bkflow/stress.py, shared by fix bk/slips and
+/* bkflow LAMMPS plugin: the zigzag rule of src/bkflow/observables/stress.py, shared by fix bk/slips and
    fix bk/fronts so that both see the very same slip events (and the analysis finds them again
    in stress.csv). A maximum is the highest sample before sigma_x falls by more than
    `threshold`; its minimum is the lowest sample before sigma_x rises again by more than

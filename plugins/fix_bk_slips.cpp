@@ -3,7 +3,7 @@
      fix ID group bk/slips Nevery substrate-fix-ID threshold file FILE [start STEP] [breaks]
 
    Every Nevery steps it reads sigma_x (element 1 of the substrate fix's global vector) and
-   runs the zigzag rule of src/bkflow/stress.py: a maximum is the highest sample before
+   runs the zigzag rule of src/bkflow/observables/stress.py: a maximum is the highest sample before
    sigma_x falls by more than `threshold`; its minimum is the lowest sample before sigma_x
    rises again by more than `threshold`. While a maximum (minimum) is open, every new
    running extreme copies the local atoms' positions (no communication); when the event is

@@ -1,6 +1,6 @@
 /* bkflow LAMMPS plugin: fix bk/slips, the atom positions at the maximum and at the following
    minimum of every slip event of a fix bk/substrate's sigma_x (zigzag rule of
-   src/bkflow/stress.py), without dumping every step. See plugins/README.md. */
+   src/bkflow/observables/stress.py), without dumping every step. See plugins/README.md. */
 
 #ifndef BKFLOW_FIX_BK_SLIPS_H
 #define BKFLOW_FIX_BK_SLIPS_H

@@ -385,7 +385,7 @@ def test_the_code_is_lint_clean():
     ruff = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
     if ruff is None:
         pytest.fail("ruff is not installed: pip install -e '.[test]' installs it")
-    proc = subprocess.run([ruff, "check", "--no-cache", "src", "tests", "benchmarks",
+    proc = subprocess.run([ruff, "check", "--no-cache", "src", "tests", "docs", "benchmarks",
                            "workflows"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
 

@@ -1,9 +1,9 @@
 """One source for every number: the generated blocks of benchmarks/RESULTS.md and
 workflows/paper/REPRODUCTION.md are what benchmarks/results_blocks.py makes from the recorded
 benchmarks (benchmarks/records/), and the switching calibration bkflow installs
-(src/bkflow/switching.json) is what benchmarks/stiff_states.py report makes from the same
-records. A document or a calibration edited by hand, or records changed without the documents
-regenerated, fail here."""
+(src/bkflow/observables/switching.json) is what benchmarks/stiff_states.py report makes from
+the same records. A document or a calibration edited by hand, or records changed without the
+documents regenerated, fail here."""
 
 from __future__ import annotations
 
@@ -63,5 +63,5 @@ def test_the_installed_switching_calibration_is_the_records(blocks):
     sr, runs, means = blocks._states()
     made = json.loads(sr.calibration_text(runs, means))
     installed = json.loads(CALIBRATION.read_text())
-    assert _close(made, installed), ("src/bkflow/switching.json differs from the records: run "
-                                     "python benchmarks/stiff_states.py report")
+    assert _close(made, installed), ("src/bkflow/observables/switching.json differs from the "
+                                     "records: run python benchmarks/stiff_states.py report")

@@ -43,7 +43,7 @@ from bkflow.observables import (
     stress,
 )
 from bkflow.store import formats
-from bkflow.store.rundir import (  # noqa: F401
+from bkflow.store.rundir import (
     BLOCKS,
     CLUSTERS,
     DECK,
@@ -51,7 +51,6 @@ from bkflow.store.rundir import (  # noqa: F401
     EXTREMA,
     PARAMS,
     PSI,
-    SLIPS,
     AnalysisError,
     DamagedRunError,
     RunDir,

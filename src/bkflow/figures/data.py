@@ -36,9 +36,9 @@ def _nearest(values, target) -> float:
 
 def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
     """The point's error: for the fields whose runs carry their own error
-    (tables.WITHIN_RUN_ERRORS) the larger of the seeds' standard error and the runs' errors
-    combined (``<field>_err``, covering the switching between states); for the others the
-    seeds' standard error; where a point has one seed, the run's own error."""
+    (bkflow.analysis.results.WITHIN_RUN_ERRORS) the larger of the seeds' standard error and the
+    runs' errors combined (``<field>_err``, covering the switching between states); for the others
+    the seeds' standard error; where a point has one seed, the run's own error."""
     sem = (g[f"{field}_err"] if f"{field}_err" in g else g[f"{field}_sem"]).to_numpy(
         dtype=float)
     own = f"{field}_err_within_run"

@@ -29,7 +29,6 @@ from bkflow.model.checks import (
 from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the run's)
     ACCURACY,
     DT_FACTOR_MAX,
-    Preset,
     omega_contact,
     omega_max,
     time_step,

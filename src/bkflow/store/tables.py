@@ -15,9 +15,9 @@ from bkflow.store.rundir import DamagedRunError
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"
-#: the sweep's event catalogue as bkflow wrote it before 0.5 (a copy of its runs'
-#: events.parquet with their parameters, CSV and Parquet): removed by the next collect; the
-#: catalogue is now made from the runs' own when asked for (``bkflow.api.Sweep.events``)
+#: a sweep's copy of its runs' event catalogues with their parameters (CSV and Parquet), which
+#: bkflow before 0.5 wrote beside the tables: removed by the next collect; the sweep's
+#: catalogue is made from the runs' own when asked for (``bkflow.api.Sweep.events``)
 CATALOGUE_FILE, CATALOGUE_PARQUET = "catalogue.csv", "catalogue.parquet"
 #: the analysis settings every row of the tables was made under
 SETTINGS_FILE = "analysis.json"

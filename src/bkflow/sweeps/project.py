@@ -394,7 +394,7 @@ TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
 
 class ClusterProject(SweepProject):
-    """SweepProject with bkflow's job-script template (``bkflow/templates/script.sh``)."""
+    """SweepProject with bkflow's job-script template (``bkflow/sweeps/templates/script.sh``)."""
 
     def __init__(self, *args, **kwargs):
         from bkflow.sweeps.flowcompat import set_template_dir

@@ -6,7 +6,7 @@
     whitespace (one whose delimiters carry a minus sign) joins the #SBATCH line before it with
     the next, and Slurm reads everything after a second hash on a line as a comment; and no
     Jinja comment may hold its own closing delimiter, which ends it early and leaks the rest
-    into the script (tests/test_sweep.py parses the scripts as Slurm does). -#}
+    into the script (tests/sweeps/test_local.py parses the scripts as Slurm does). -#}
 {% extends base_script %}
 {% block header %}
 {{- super() }}
