@@ -69,6 +69,22 @@ def digest(root: Path) -> dict:
     return out
 
 
+def row_cut(data: bytes) -> int:
+    """Where a .npy file holding half its rows whole ends: its header and rows up to the
+    middle (a binary table's cut at a line)."""
+    import io
+
+    import numpy as np
+
+    f = io.BytesIO(data)
+    version = np.lib.format.read_magic(f)
+    read = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
+        np.lib.format.read_array_header_2_0
+    shape, _, dtype = read(f)
+    row = dtype.itemsize * int(np.prod(shape[1:], dtype=int))
+    return f.tell() + (shape[0] // 2 if shape else 0) * row
+
+
 def complete(d: Path) -> bool:
     try:
         return json.loads((d / "meta.json").read_text()).get("status") == "complete"
@@ -243,11 +259,13 @@ class Fuzz:
             self.skip("full disk during the run", "mount not allowed here")
             return
         try:
+            # the scene that keeps the raw series (stress.npy, phase.npy: some 700 kB here);
+            # the friction scene's records fit the small disk
             self.check("disk too small for the estimate: refused before starting",
-                       bk("run", "--phi", "10", "--t-end", "2000", "--scene", "friction",
+                       bk("run", "--phi", "10", "--t-end", "2000", "--scene", "series",
                           "--quiet", "--out", small / "r"), {2}, [small / "r"])
             self.check("--force: the disk fills during the run",
-                       bk("run", "--phi", "10", "--t-end", "2000", "--scene", "friction",
+                       bk("run", "--phi", "10", "--t-end", "2000", "--scene", "series",
                           "--quiet", "--force", "--out", small / "r"), {4}, [small / "r"])
             shutil.rmtree(small / "r", ignore_errors=True)
             # a run that fits, whose analysis does not: fill the disk after the run
@@ -288,24 +306,30 @@ class Fuzz:
         self.check("analyze: meta.json not JSON", bk("analyze", d), {2})
         d = self.scratch() / "deck"
         bk("deck", "--phi", "10", "--out", d)
-        (d / "stress.csv").write_text("t,sigma_x\n0,0\n")
+        for name in ("extrema.npy", "blocks.npy"):   # the records lmp -in in.bk would write
+            shutil.copy(self.base / name, d / name)
         (d / "params.json").write_text("[1, 2, 3]")
         self.check("analyze: params.json of the wrong shape", bk("analyze", d), {2})
         (d / "params.json").write_text('{"phi": "ten"}')
         self.check("analyze: params.json with a bad value", bk("analyze", d), {2})
-        for name, cut in (("stress.csv", "line"), ("stress.csv", "middle"),
+        # the stress as the full scene keeps it: its records (extrema.npy, blocks.npy) and the
+        # raw series (stress.npy), each cut after a whole row and in the middle of one
+        for name, cut in (("extrema.npy", "row"), ("extrema.npy", "middle"),
+                          ("blocks.npy", "row"), ("blocks.npy", "middle"),
+                          ("stress.npy", "row"), ("stress.npy", "middle"),
                           ("slips.lammpstrj", "middle"), ("snapshots.lammpstrj", "middle")):
             d = copy()
             data = (d / name).read_bytes()
-            at = data.rfind(b"\n", 0, len(data) // 2) + 1 if cut == "line" else len(data) // 2
+            at = row_cut(data) if cut == "row" else len(data) // 2
             (d / name).write_bytes(data[:at])
             before = (d / "summary.json").read_bytes()
             self.check(f"analyze: {name} cut at a {cut}", bk("analyze", d), {2})
             if (d / "summary.json").read_bytes() != before:
                 self.results[-1].verdict = "rewrote the summary of a damaged run"
-        d = copy()
-        (d / "stress.csv").write_bytes(b"\x00garbage" * 10)
-        self.check("analyze: stress.csv replaced by garbage", bk("analyze", d), {2})
+        for name in ("extrema.npy", "stress.npy"):
+            d = copy()
+            (d / name).write_bytes(b"\x00garbage" * 10)
+            self.check(f"analyze: {name} replaced by garbage", bk("analyze", d), {2})
         d = copy()
         (d / "summary.json").write_text('{"mu_bar": 0.1')
         self.check("analyze: cut summary.json is redone", bk("analyze", d), {0})
@@ -393,7 +417,7 @@ class Fuzz:
             p = subprocess.Popen([BKFLOW, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                  text=True)
             deadline = time.time() + 120
-            while time.time() < deadline and not list((d / "workspace").glob("*/stress.csv")):
+            while time.time() < deadline and not list((d / "workspace").glob("*/extrema.npy")):
                 time.sleep(0.1)
             time.sleep(0.5)
             kids = self._children(p.pid)
@@ -694,7 +718,7 @@ class Fuzz:
                                   "20000", "--out", str(d / "r"), "--quiet"],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             deadline = time.time() + 60
-            while not (d / "r" / "stress.csv").exists() and time.time() < deadline:
+            while not (d / "r" / "extrema.npy").exists() and time.time() < deadline:
                 time.sleep(0.1)
             time.sleep(1.0)
             t0 = time.time()
@@ -801,9 +825,9 @@ class Fuzz:
         d = self.scratch() / "run"
         shutil.copytree(self.base, d)
         victim, sha = self._victim()
-        (d / "stress.csv").unlink()
-        (d / "stress.csv").symlink_to(victim)
-        self.check("[T1] run --overwrite of a run whose stress.csv links out",
+        (d / "extrema.npy").unlink()   # a record every scene's run writes again
+        (d / "extrema.npy").symlink_to(victim)
+        self.check("[T1] run --overwrite of a run whose extrema.npy links out",
                    bk("run", "--phi", "10", "--t-end", "200", "--overwrite", "--quiet",
                       "--out", d), {0, 2})
         self._untouched(victim, sha)
@@ -893,15 +917,15 @@ class Fuzz:
             self.check(f"[T7] analyze with companion/ replaced by {stand_in}",
                        bk("analyze", d), {2})
         # [T8] the API's errors are the CLI's
+        # the sweep's catalogue is made from its runs' own (workspace/JOB/events.parquet)
         d = self._sweep_copy()
-        cat = d / "catalogue.parquet"
-        if cat.exists():
-            cat.write_bytes(cat.read_bytes()[:100])
+        cat = sorted((d / "workspace").iterdir())[0] / "events.parquet"
+        cat.write_bytes(cat.read_bytes()[:100])
         code = ("import sys\nfrom bkflow.api import load_sweep\ntry:\n"
                 f"    load_sweep({str(d)!r}).events\nexcept Exception as e:\n"
                 "    print(type(e).__name__, file=sys.stderr); sys.exit(2)")
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-        self.check("[T8] load_sweep().events of a cut catalogue.parquet", p, {2})
+        self.check("[T8] load_sweep().events of a run's cut events.parquet", p, {2})
         if p.stderr.strip() not in ("StaleTablesError", "DamagedRunError"):
             self.results[-1].verdict = f"raised {p.stderr.strip()[:60]}"
         # [T9] --set goes through the option's checks
@@ -917,7 +941,7 @@ class Fuzz:
         import re
 
         (d / "in.bk").write_text(re.sub(r"(?m)^run( +)\d+", r"run\g<1>100", text))
-        (d / "stress.csv").write_text("t,sigma_x\n")
+        (d / "extrema.npy").write_bytes(b"")   # lmp -in in.bk has begun its records
         p = bk("analyze", d)
         self.check("[T10] analyze after in.bk was edited", p, {2})
         if "in.bk was edited" not in p.stderr:
