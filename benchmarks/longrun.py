@@ -2,7 +2,7 @@
 
 A run of 10^6-10^7 time units writes 0.5-5 GB of stress and phase series at bkflow's sampling
 (a sample every 0.1 time units); the benchmarks need only block averages. ``LongRun`` runs the
-deck of a ``RunSpec`` (scene friction) in chunks, each one LAMMPS instance that starts from the
+deck of a ``RunSpec`` (scene series) in chunks, each one LAMMPS instance that starts from the
 last chunk's restart file (the fused path continues a restart bit for bit), reduces the
 chunk's series into blocks of ``block_t`` time units, deletes them, and appends the blocks to
 a Parquet record; the zigzag state of the slip search goes with the restart file into
@@ -60,7 +60,8 @@ class LongRun:
 
     def __init__(self, spec: RunSpec, record: Path, block_t: float = 1000.0,
                  chunk_t: float = 20000.0, work: Path | None = None):
-        self.spec = spec.replace(scene="friction", companion=None, target_error=None,
+        # scene series: the raw stress and phase series, which each chunk reduces to blocks
+        self.spec = spec.replace(scene="series", companion=None, target_error=None,
                                  until_steady=False)
         self.record = Path(record)
         # one scratch directory per record: two benchmarks may record runs of the same name
@@ -81,7 +82,7 @@ class LongRun:
             st = json.loads((legacy / "state.json").read_text())
             was, now = st.get("spec", {}), self.spec.to_dict()
             same = (self.record.exists() and was
-                    and all(was[k] == now[k] for k in set(was) & set(now))  # fields added: ok
+                    and all(was[k] == now[k] for k in set(was) & set(now) - {"scene"})
                     and len(pd.read_parquet(self.record)) == st["blocks"])
         except (OSError, ValueError):
             same = False
@@ -130,7 +131,8 @@ class LongRun:
         self.work.mkdir(parents=True, exist_ok=True)
         self.record.parent.mkdir(parents=True, exist_ok=True)
         was, now = st.get("spec", spec.to_dict()), spec.to_dict()
-        if any(was[k] != now[k] for k in set(was) & set(now)):  # fields added since: ignored
+        # fields added since, and what a run writes (its scene), do not change the run
+        if any(was[k] != now[k] for k in set(was) & set(now) - {"scene"}):
             raise SystemExit(f"{self.record}: recorded with other parameters")
         while st["blocks"] < target_blocks:
             nb = min(self.chunk_blocks, target_blocks - st["blocks"])

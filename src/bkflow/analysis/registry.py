@@ -130,7 +130,8 @@ def _state_keys() -> tuple[Key, ...]:
         Key("contacts_recorded", "bool", "whether the run recorded its contacts' phases"),
         Key("switching_calibrated", "bool", "whether the switching error is calibrated here"),
         Key("switching_not_calibrated_because", "label", "why not, or None"),
-        Key("switching_error", "sigma_n", "the calibrated error of switching between states"),
+        Key("switching_error", "sigma_n", "the calibrated error of switching between states "
+            "(where not calibrated, the one borrowed from the nearest calibrated layer, wider)"),
         Key("companion_start", "label", "the companion run's start (steady protocol)"),
         Key("companion_state", "label", "the companion's own state"),
         Key("companion_mean_stress_ratio", "sigma_n", "the companion's <sigma_x>/sigma_n"),
@@ -209,6 +210,19 @@ OBSERVABLES: list[Observable] = [
         Key("slip_threshold_scaled", "stress", "the size-scaled threshold"),
         Key("mu_bar_err_by_threshold", "map", "their errors"),
         Key("n_slips_by_threshold", "map", "their slips"),
+        Key("estimate", "label", "what the friction numbers are: pair (the mean of the run "
+            "and its companion from the other start, the steady protocol's) or run (the run "
+            "alone)"),
+        Key("mu_bar_run", "sigma_n", "the run's own mu_bar (without its companion)"),
+        Key("mean_stress_ratio_run", "sigma_n", "the run's own <sigma_x>/sigma_n"),
+        Key("companion_mu_bar", "sigma_n", "the companion's mu_bar"),
+        Key("mu_bar_bracket", "sigma_n", "half the pair's difference of mu_bar: how far their "
+            "mean can lie from the long-run mean while the starts are remembered (the error "
+            "is at least this)"),
+        Key("mean_stress_ratio_bracket", "sigma_n", "the same of <sigma_x>/sigma_n"),
+        Key("t_needed", "time", "the run length at which the calibrated error of mu_bar "
+            "reaches the run's target (None: no target, no calibration, or reached sooner)",
+            missing=None),
     )),
     Observable("stationarity", (
         Key("stationary", "bool", "the stress is trend-free over the window"),

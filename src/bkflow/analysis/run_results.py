@@ -43,6 +43,13 @@ class FrictionResult:
     mean_stress_ratio_err_run: float = math.nan
     mu_bar_err: float = math.nan
     mu_bar_err_by_threshold: dict = field(default_factory=dict)
+    #: with a companion run that kept its slips (the steady protocol's pair): each number as
+    #: the mean of the two runs (key -> bkflow.observables.states.PairMean: "mu_bar",
+    #: "mean_stress_ratio", "scaled" and each report threshold's key), the run's own beside it
+    pair: dict = field(default_factory=dict)
+    #: the run length at which the calibrated error of the estimate (the pair's mean, or the
+    #: run's) reaches the run's target (bkflow.observables.states.needed_length), or None
+    t_needed: float | None = None
 
     def covering(self, window: states.Window, spec: RunSpec) -> FrictionResult:
         f = self.friction
@@ -57,26 +64,66 @@ class FrictionResult:
             mu_bar_err_by_threshold={k: cover(v.mu_bar, v.mu_bar_err)
                                      for k, v in self.by_threshold.items()})
 
+    def paired(self, other: FrictionResult) -> FrictionResult:
+        """This run's numbers and its companion's (``other``, both covering the switching)
+        as the pair's means (``bkflow.observables.states.pair_mean``): the estimate of the
+        steady protocol, whose two starts approach the steady state from either side."""
+        f, g = self.friction, other.friction
+        pair = {"mu_bar": states.pair_mean(f.mu_bar, self.mu_bar_err, g.mu_bar,
+                                           other.mu_bar_err),
+                "mean_stress_ratio": states.pair_mean(
+                    f.mean_stress_ratio, self.mean_stress_ratio_err, g.mean_stress_ratio,
+                    other.mean_stress_ratio_err)}
+        for k, v in self.by_threshold.items():
+            w = other.by_threshold.get(k)
+            if w is not None:
+                pair[k] = states.pair_mean(v.mu_bar, self.mu_bar_err_by_threshold.get(
+                    k, v.mu_bar_err), w.mu_bar, other.mu_bar_err_by_threshold.get(
+                    k, w.mu_bar_err))
+        if self.scaled is not None and other.scaled is not None:
+            pair["scaled"] = states.pair_mean(self.scaled.mu_bar, self.scaled.mu_bar_err,
+                                              other.scaled.mu_bar, other.scaled.mu_bar_err)
+        return dataclasses.replace(self, pair=pair)
+
     def row(self) -> dict:
         f = self.friction
         covered = bool(self.mu_bar_err_by_threshold)
-        return {"mu_bar": f.mu_bar, "mu_bar_err": self.mu_bar_err if covered else f.mu_bar_err,
-                "mu_bar_err_run": f.mu_bar_err,
-                "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
-                "mean_stress_ratio": f.mean_stress_ratio,
-                "mean_stress_ratio_err": self.mean_stress_ratio_err,
-                "mean_stress_ratio_err_run": (self.mean_stress_ratio_err_run if covered
-                                              else self.mean_stress_ratio_err),
-                "slip_threshold_stress": f.threshold,
-                "t_transient": f.t_transient,
-                "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
-                "mu_bar_scaled": self.scaled.mu_bar if self.scaled is not None else math.nan,
-                "slip_threshold_scaled": (self.scaled.threshold if self.scaled is not None
-                                          else math.nan),
-                "mu_bar_err_by_threshold": (dict(self.mu_bar_err_by_threshold) if covered else
-                                            {k: v.mu_bar_err
-                                             for k, v in self.by_threshold.items()}),
-                "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()}}
+        row = {"mu_bar": f.mu_bar, "mu_bar_err": self.mu_bar_err if covered else f.mu_bar_err,
+               "mu_bar_err_run": f.mu_bar_err,
+               "mu_bar_err_reliable": f.error_reliable, "n_slips": f.n_slips,
+               "mean_stress_ratio": f.mean_stress_ratio,
+               "mean_stress_ratio_err": self.mean_stress_ratio_err,
+               "mean_stress_ratio_err_run": (self.mean_stress_ratio_err_run if covered
+                                             else self.mean_stress_ratio_err),
+               "slip_threshold_stress": f.threshold,
+               "t_transient": f.t_transient,
+               "mu_bar_by_threshold": {k: v.mu_bar for k, v in self.by_threshold.items()},
+               "mu_bar_scaled": self.scaled.mu_bar if self.scaled is not None else math.nan,
+               "slip_threshold_scaled": (self.scaled.threshold if self.scaled is not None
+                                         else math.nan),
+               "mu_bar_err_by_threshold": (dict(self.mu_bar_err_by_threshold) if covered else
+                                           {k: v.mu_bar_err
+                                            for k, v in self.by_threshold.items()}),
+               "n_slips_by_threshold": {k: v.n_slips for k, v in self.by_threshold.items()},
+               "estimate": "pair" if self.pair else "run",
+               "mu_bar_run": f.mu_bar, "mean_stress_ratio_run": f.mean_stress_ratio,
+               "companion_mu_bar": math.nan, "mu_bar_bracket": math.nan,
+               "mean_stress_ratio_bracket": math.nan, "t_needed": self.t_needed}
+        p = self.pair
+        if not p:
+            return row
+        row.update(mu_bar=p["mu_bar"].value, mu_bar_err=p["mu_bar"].err,
+                   companion_mu_bar=p["mu_bar"].b, mu_bar_bracket=p["mu_bar"].bracket,
+                   mean_stress_ratio=p["mean_stress_ratio"].value,
+                   mean_stress_ratio_err=p["mean_stress_ratio"].err,
+                   mean_stress_ratio_bracket=p["mean_stress_ratio"].bracket)
+        row["mu_bar_by_threshold"] = {k: (p[k].value if k in p else v)
+                                      for k, v in row["mu_bar_by_threshold"].items()}
+        row["mu_bar_err_by_threshold"] = {k: (p[k].err if k in p else v)
+                                          for k, v in row["mu_bar_err_by_threshold"].items()}
+        if "scaled" in p:
+            row["mu_bar_scaled"] = p["scaled"].value
+        return row
 
 
 @dataclass(frozen=True)
@@ -93,16 +140,23 @@ class LargeDropResult:
     large: np.ndarray         # per event (all events): large or not
     estimate: stationarity.MeanEstimate
     err: float = math.nan
+    #: the pair's mean with a companion that kept its slips (``FrictionResult.pair``)
+    pair: states.PairMean | None = None
 
     def covering(self, window: states.Window, spec: RunSpec) -> LargeDropResult:
         e = self.estimate
         return dataclasses.replace(self, err=window.err_of("mu_bar", e.mean, e.error, spec.phi,
                                                            spec.N))
 
+    def paired(self, other: LargeDropResult) -> LargeDropResult:
+        return dataclasses.replace(self, pair=states.pair_mean(
+            self.estimate.mean, self.err, other.estimate.mean, other.err))
+
     def row(self) -> dict:
-        e = self.estimate
-        return {"mu_bar_large": e.mean,
-                "mu_bar_large_err": self.err if math.isfinite(self.err) else e.error,
+        e, p = self.estimate, self.pair
+        return {"mu_bar_large": e.mean if p is None else p.value,
+                "mu_bar_large_err": (p.err if p is not None else
+                                     self.err if math.isfinite(self.err) else e.error),
                 "mu_bar_large_err_run": e.error,
                 "n_slips_large": e.n, "large_drop_threshold": self.threshold}
 
@@ -176,8 +230,8 @@ class StateResult:
                "state_own": w.state, "contacts_recorded": c is not None,
                "switching_calibrated": w.calibration is None,
                "switching_not_calibrated_because": w.calibration,
-               "switching_error": (math.sqrt(w.var_switching) * abs(w.mean)
-                                   if w.var_switching is not None else math.nan),
+               "switching_error": (math.sqrt(w.var_error) * abs(w.mean)
+                                   if w.var_error is not None else math.nan),
                "companion_start": None if k is None else k.start,
                "companion_state": None if k is None else k.state,
                "companion_mean_stress_ratio": math.nan if k is None else k.mean_stress_ratio,

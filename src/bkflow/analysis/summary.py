@@ -11,6 +11,7 @@ in every summary, so that a summary made under other settings is known to be sta
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -244,6 +245,19 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     verdict = state_result(win, comp)
     fr = fr.covering(win, spec)
     large = large_drop_result(spec, settings, events, t0).covering(win, spec)
+    if comp is not None and companion.has_extrema:
+        # the steady protocol's estimate: the mean of the pair, whose starts approach the
+        # steady state from either side (states.PairMean)
+        cspec = spec.companion_spec
+        cfr = friction_result(cspec, settings, companion, *companion.series()[:2], t0)
+        cfr = cfr.covering(comp.window, cspec)
+        fr = fr.paired(cfr)
+        large = large.paired(large_drop_result(cspec, settings, cfr.friction.events,
+                                               t0).covering(comp.window, cspec))
+    if spec.target_error is not None and verdict.window.calibration is None:
+        mu = fr.pair["mu_bar"].value if fr.pair else fr.friction.mu_bar
+        fr = dataclasses.replace(fr, t_needed=states.needed_length(spec, mu,
+                                                                   2 if fr.pair else 1))
     drops = drop_result(settings, events.after(t0))
     orders = order_from_record(spec, settings, *psi) if psi is not None else \
         None if snapshots is None else order_result(spec, settings, *snapshots)

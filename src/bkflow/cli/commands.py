@@ -77,9 +77,14 @@ def _run_locked(a, argv, spec) -> int:
         return 0
     res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
               command="bkflow " + shlex.join(argv), force=a.force, path=a.path)
+    if not res.ran:
+        print(report.answered_line(a.out, res.meta, spec.t_end))
+        return 0 if a.no_analyze else _analyze_run(a.out)
     print(report.run_line(a.out, res.meta))
     if res.meta.get("adaptive"):
-        print(report.adaptive_line(res.meta["adaptive"], spec.companion))
+        print("\n".join(report.adaptive_lines(res.meta["adaptive"], spec.companion,
+                                               res.meta.get("command"),
+                                               res.meta.get("atom_steps_per_s"))))
     return 0 if a.no_analyze else _analyze_run(a.out)
 
 

@@ -29,22 +29,26 @@ from bkflow.store.rundir import RunDir
 
 
 class AdaptiveStop:
-    """The stop rule of an adaptive run (RunSpec.adaptive), checked between chunks once the
-    run is long enough (ADAPTIVE_T_MIN; STEADY_T_MIN for a run until steady), over the
-    analysed window of the run so far (the transient rule of a fixed run of that length):
+    """One leg's side of the stop rule of an adaptive run (RunSpec.adaptive), checked between
+    chunks once the run is long enough (ADAPTIVE_T_MIN; STEADY_T_MIN for a run until steady),
+    over the analysed window of the run so far (the transient rule of a fixed run of that
+    length). ``reached`` reads the leg's records (fix bk/reduce: the extrema and the block
+    sums, ``bkflow.observables.reduced``), as the summary reads them, so that the summary of
+    the finished run finds the very same slips, errors, trend and state, and says whether the
+    leg alone may stop:
 
-    - ``target_error``: mu_bar's standard error is below the target and reliable, the error
-      that covers the layer's switching between states (``bkflow.observables.states``);
+    - ``target_error`` (a run alone): mu_bar's error is below the target and reliable, the
+      error that covers the layer's switching between states (``bkflow.observables.states``):
+      a layer that switches runs on until the switching is averaged over, or to its cap;
     - ``until_steady``: the window is ``steady`` (``bkflow.observables.states.window``: no
-      memory of the start shown, no switching between states that the window has not averaged
-      over, the stress trend-free), and the trend test excludes a drift above
-      STEADY_DRIFT_BOUND.
+      memory of the start shown, the stress trend-free, a drift above STEADY_DRIFT_BOUND
+      excluded) or names the states of a layer that switches (its trend is the switching's).
 
-    The run's records (fix bk/reduce: the extrema and the block sums,
-    ``bkflow.observables.reduced``) are read at every check, as the summary reads them: the
-    summary of the finished run finds the very same slips, error, trend and state. What the
-    last check found is ``last`` (a ``bkflow.observables.states.Window``); ``record`` returns
-    it as data (meta.json's ``adaptive``), and ``bkflow.cli.report.stop_line`` words it."""
+    With a companion the pair decides (``stop_now``): the error target then applies to the
+    pair's mean (``bkflow.observables.states.pair_mean``), and the two legs must agree within
+    it. What the last check found is ``last`` (a ``bkflow.observables.states.Window``) and the
+    pair's numbers; ``record`` returns them as data (meta.json's ``adaptive``), and
+    ``bkflow.cli.report.stop_line`` words it."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
         self.spec, self.rd = spec, run_dir
@@ -56,10 +60,13 @@ class AdaptiveStop:
         self.fed, self.maxima = 0, []
         self.met, self.checks = False, 0
         self.last: states.Window | None = None
-        self.last_error = None      # mu_bar's error at the last check (covering the switching)
-        self.own_error = None       # ... the run's own (the states' means it visited)
-        self.companion_gap = None   # the pair's gap at the last check (the main run's rule)
+        self.estimate = None        # mu_bar over the slips after the transient (MeanEstimate)
+        self.last_error = None      # its error at the last check, covering the switching
+        self.mu_bar = None          # the value the rule judged (the pair's mean with a pair)
+        self.state_ok = False       # the leg's state allows a stop (until_steady)
+        self.companion_gap = None   # the pair's gap of mean stresses at the last check
         self.pair_disagrees = False
+        self.pair_legs = 1          # 2 once the pair's mean is the estimate
 
     @property
     def last_mean(self) -> float:
@@ -69,61 +76,70 @@ class AdaptiveStop:
         """mu_bar's own error over the slips after ``t_transient`` found so far."""
         return mean_error(self.fail[self.t_fail >= t_transient] / self.spec.sigma_n)
 
+    def _read_slips(self, red) -> None:
+        if not (red.has_extrema and len(red.extrema)):
+            return
+        s = np.asarray(red.extrema["sigma"], float)
+        final = len(s) - 1
+        self.maxima += self.zigzag.feed(s[self.fed:final].tolist())[0]
+        self.fed = final
+        pending = copy.copy(self.zigzag).feed([s[final]])[0]
+        at = np.asarray(self.maxima + pending, np.int64)
+        self.fail = s[at]
+        self.t_fail = red.sample_index()[at] * self.spec.stress_nevery * self.spec.dt
+
     def reached(self, step: int) -> bool:
+        """Read the leg's records at ``step`` and say whether the leg alone may stop (False
+        before the first check's length)."""
         spec = self.spec
         t_min = STEADY_T_MIN if spec.until_steady else ADAPTIVE_T_MIN
+        self.last = None
         if step * spec.dt < min(t_min, spec.t_end):
             return False
         self.checks += 1
         red = self.rd.read_reduced(spec)
-        if red.has_extrema and len(red.extrema):
-            s = np.asarray(red.extrema["sigma"], float)
-            final = len(s) - 1
-            self.maxima += self.zigzag.feed(s[self.fed:final].tolist())[0]
-            self.fed = final
-            pending = copy.copy(self.zigzag).feed([s[final]])[0]
-            at = np.asarray(self.maxima + pending, np.int64)
-            self.fail = s[at]
-            self.t_fail = red.sample_index()[at] * spec.stress_nevery * spec.dt
+        self._read_slips(red)
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
         self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
                                         t0, own_error=False, weights=red.weights())
-        met = True
-        switching = spec.until_steady and win.state in states.SWITCHING
+        self.estimate = est = self.error(t0)
+        self.mu_bar = est.mean
+        self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N) \
+            if est.n >= 2 else None
+        self.state_ok = not spec.until_steady or bool(
+            win.state in states.SWITCHING
+            or (win.state == "steady" and win.trend.drift_bound <= STEADY_DRIFT_BOUND))
+        met = self.state_ok
         if spec.target_error is not None:
-            est = self.error(t0)
-            if est.n < 2:
-                return False
-            self.last_error = win.err_of("mu_bar", est.mean, est.error, spec.phi, spec.N)
-            self.own_error = est.error
-            # a layer that switches between states: what a run can give is the mean of the
-            # states it visits (their own error), not the long-run mean, whose error falls
-            # only as the switching is averaged over (states.needed_length; reported)
-            err = est.error if switching else self.last_error
-            met &= bool(est.reliable and err <= spec.target_error)
-        if spec.until_steady:
-            met &= bool(switching or (win.state == "steady"
-                                      and win.trend.drift_bound <= STEADY_DRIFT_BOUND))
+            met &= self.error_met(self.last_error, spec.target_error)
         self.met = met
         return met
+
+    def error_met(self, err, target: float) -> bool:
+        """Whether an error of mu_bar (this leg's, or its pair's) meets ``target``: finite,
+        from a reliable estimate, and at most the target."""
+        est = self.estimate
+        return bool(est is not None and est.n >= 2 and est.reliable and err is not None
+                    and math.isfinite(err) and err <= target)
 
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
         """What the stop rule found, as data (``bkflow.cli.report.stop_line`` words it)."""
         w = self.last
         trend, comp, contacts = _attr(w, "trend"), _attr(w, "comp"), _attr(w, "contacts")
-        needed = None
-        if requested.target_error is not None and self.last_error is not None:
-            needed = states.needed_length(requested, self.error(0.0).mean
-                                          if len(self.fail) else math.nan)
+        mu = self.mu_bar if self.mu_bar is not None else math.nan
+        needed = states.needed_length(requested, mu, self.pair_legs) \
+            if requested.target_error is not None else None
         return {"target_error": requested.target_error,
                 "until_steady": requested.until_steady,
                 "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
-                "agreement_required": STEADY_AGREEMENT if requested.companion else None,
+                "agreement_required": (pair_agreement(requested, mu)
+                                       if requested.companion else None),
                 "t_cap": requested.t_end, "t_run": t_run,
                 "reached": bool(stopped_early or self.met),
+                "estimate": "pair" if self.pair_legs == 2 else "run",
+                "mu_bar_at_stop": self.mu_bar,
                 "mu_bar_err_at_stop": self.last_error,
-                "mu_bar_own_err_at_stop": self.own_error,
                 "state_at_stop": _attr(w, "state"),
                 "states_visited_at_stop": _attr(comp, "name"),
                 "drift_at_stop": _attr(trend, "drift"),
@@ -136,7 +152,41 @@ class AdaptiveStop:
                 "pair_disagrees_at_stop": self.pair_disagrees,
                 "switching_calibrated": None if w is None else w.calibration is None,
                 "t_needed": needed,
+                "advice": advice(requested, mu, self.pair_legs, t_run, needed, self.rd.path),
                 "checks": self.checks}
+
+
+def round_up(x: float, digits: int = 2) -> float:
+    """``x`` rounded up to ``digits`` significant digits (a run length one can type)."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return float(f"{math.ceil(x / scale - 1e-9) * scale:.{digits}g}")
+
+
+def advice(requested: RunSpec, mu_bar: float, legs: int, t_run: float,
+           needed: float | None, out) -> dict | None:
+    """What a run that has not reached its error target would need (None: it has, or the
+    calibration of the switching does not reach it): the run length ``needed`` (from the
+    calibration, ``bkflow.observables.states.needed_length``: the same for every run of the
+    layer), rounded up, its cost in atom-steps, and whether one run of that length is within
+    this machine's limits (``bkflow.lammps.limits``); where not, the longest that is and the
+    error it would give."""
+    from bkflow.lammps.limits import cost, longest_run, within_limits
+
+    if needed is None or needed <= t_run:
+        return None
+    t_end = round_up(needed)
+    longer = requested.replace(t_end=t_end)
+    out_ = {"t_end": t_end, "atom_steps": cost(longer).atom_steps,
+            "above_limits": within_limits(longer, out), "t_end_max": None,
+            "err_at_max": None}
+    if out_["above_limits"] is not None:
+        top = longest_run(requested, out, t_end)
+        if top is not None and top > t_run:
+            var = states.window_variance("mu_bar", requested.phi, requested.N,
+                                         top * (1 - requested.transient))
+            out_["t_end_max"] = top
+            out_["err_at_max"] = math.sqrt(var / legs) * mu_bar if var is not None else None
+    return out_
 
 
 def _attr(obj, name: str):
@@ -144,23 +194,51 @@ def _attr(obj, name: str):
     return None if obj is None else getattr(obj, name)
 
 
+def pair_agreement(spec: RunSpec, mu_bar: float) -> float:
+    """How closely (relative) the mean stresses of a run and its companion must agree for
+    the pair to stop: within the run's error target, relative to mu_bar (the target is
+    absolute); STEADY_AGREEMENT without a target."""
+    if spec.target_error is None or not (mu_bar and math.isfinite(mu_bar)):
+        return STEADY_AGREEMENT
+    return spec.target_error / mu_bar
+
+
 def stop_now(stops: list, step: int) -> bool:
     """The stop rule of an adaptive run at ``step``: its own (``stops[0]``), and with a
-    companion (``stops[1]``), the companion's too and the agreement of their mean stresses
-    (within STEADY_AGREEMENT, or their errors: ``bkflow.observables.states.pair_disagrees``)."""
+    companion (``stops[1]``) the pair's: each leg's state allows a stop, the pair's mean of
+    mu_bar has an error (``bkflow.observables.states.pair_mean``: the noise of both, each
+    covering the switching, or half their difference if larger) within the target, their mean
+    stresses agree within it (``pair_agreement``), and neither remembers its start beyond both
+    errors (``bkflow.observables.states.pair_disagrees``)."""
     if len(stops) == 1 or stops[1] is None:
         # alone, or beside a companion with no rule of its own (a fixed-length protocol's run
         # with only an error target): the run's own rule decides
         return stops[0].reached(step)
-    reached = [stop.reached(step) for stop in stops]  # every leg reads its new samples
+    for stop in stops:   # every leg reads its new samples
+        stop.reached(step)
     main, comp = stops
     if main.last is None or comp.last is None:
         return False
     main.companion_gap = main.last_mean / comp.last_mean - 1 if comp.last_mean else math.nan
     main.pair_disagrees = states.pair_disagrees(main.last, comp.last, STEADY_AGREEMENT)
-    ok = all(reached) and not main.pair_disagrees
-    main.met = ok
-    return ok
+    ok = main.state_ok and comp.state_ok and not main.pair_disagrees
+    spec = main.spec
+    if spec.target_error is not None:
+        if comp.estimate is not None and comp.estimate.n >= 2:
+            mu = states.pair_mean(main.estimate.mean, _err(main.last_error),
+                                  comp.estimate.mean, _err(comp.last_error))
+            main.pair_legs, main.mu_bar, main.last_error = 2, mu.value, mu.err
+            ok &= main.error_met(mu.err, spec.target_error) and comp.error_met(
+                mu.err, spec.target_error)
+            ok &= bool(abs(main.companion_gap) <= pair_agreement(spec, mu.value))
+        else:   # a companion without slips of its own (none yet): the run's own error
+            ok &= main.error_met(main.last_error, spec.target_error)
+    main.met = bool(ok)
+    return main.met
+
+
+def _err(e) -> float:
+    return math.nan if e is None else float(e)
 
 
 #: an adaptive run's checks grow apart with its length: the next one comes after
@@ -181,11 +259,13 @@ def next_check(step: int, chunk: int) -> int:
 
 
 def check_chunk(spec: RunSpec, chunk_steps: int | None) -> int:
-    """Steps between checks of an adaptive run's stop rule: 1% of the run (at least 1000), at
-    most ADAPTIVE_CHUNK_T; a fixed run has none (the whole run), unless ``chunk_steps``."""
+    """Steps between the first checks of an adaptive run's stop rule: ADAPTIVE_CHUNK_T time
+    units (at least 1000 steps), whatever the run's cap, so that a run asked for with a
+    larger cap, or a smaller error target, checks at the very steps the shorter request
+    checked, and a continued run is the run the longer request makes from the start; a fixed
+    run has none (the whole run), unless ``chunk_steps``."""
     if chunk_steps:
         return chunk_steps
     if not spec.adaptive:
         return spec.n_steps
-    chunk = max(1000, spec.n_steps // 100)
-    return max(1, min(chunk, int(round(ADAPTIVE_CHUNK_T / spec.dt))))
+    return max(1000, int(round(ADAPTIVE_CHUNK_T / spec.dt)))

@@ -61,6 +61,8 @@ class RunExistsError(RuntimeError):
 class RunResult:
     out: Path
     meta: dict
+    #: False where the directory's finished run already answered the request (``answers``)
+    ran: bool = True
 
 
 #: a run stops when more than this share of its contact breaks (at least of
@@ -179,7 +181,7 @@ def _lammps_error(spec: RunSpec, exc: Exception, step: int, chunk: int, log: Pat
     return RunError(f"phi={spec.phi:g}, step {step}: LAMMPS error: {msg} (see {log})")
 
 
-def _claim(rd: RunDir, overwrite: bool) -> None:
+def _claim(rd: RunDir, overwrite: bool, spec: RunSpec | None = None) -> None:
     """Refuse a finished run (unless ``overwrite``) and anything that is not bkflow's run;
     clear a partial one. A run record that cannot be read, or a companion that is not a
     directory of bkflow's, is refused before anything is removed."""
@@ -200,9 +202,11 @@ def _claim(rd: RunDir, overwrite: bool) -> None:
             raise RunExistsError(f"{rd.path} holds a damaged run ({why}); redo it with "
                                  "--overwrite (overwrite=True from Python), or choose another "
                                  "output directory")
-        raise RunExistsError(f"{rd.path} already holds a finished run ({META}); choose "
-                             "another output directory, or replace it (--overwrite; "
-                             "overwrite=True from Python)")
+        other = None if spec is None else other_request(rd, spec)
+        raise RunExistsError(f"{rd.path} already holds a finished run ({META}"
+                             + (f"; {other}" if other else "") + "); choose another output "
+                             "directory, or replace it (--overwrite; overwrite=True from "
+                             "Python)")
     refuse_foreign(rd, rd.path)
     rd.clear()
     rd.mark()
@@ -368,8 +372,10 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     rd = RunDir(Path(out).absolute())
     with rd.lock():
         prior = None if overwrite else continuation(rd, spec)
+        if prior is None and not overwrite and answers(rd, spec, identical=False):
+            return RunResult(Path(out), rd.meta(), ran=False)
         if prior is None:
-            _claim(rd, overwrite)
+            _claim(rd, overwrite, spec)
         start = 0 if prior is None else int(prior["derived"]["n_steps"])
         legs = _legs(spec, rd, options, prior)
         started = time.time() if prior is None else prior.get("started_epoch", time.time())
@@ -394,9 +400,9 @@ def _legs(spec: RunSpec, rd: RunDir, options: DeckOptions, prior: dict | None) -
     directory made and the inputs of both written."""
     legs = [_Leg(spec, rd, options)]
     if spec.companion is not None:
-        # the companion keeps what the pair's verdict reads of it: its blocks, not its
-        # extrema (the pair's slips are the main run's)
-        legs.append(_Leg(spec.companion_spec, rd.companion(), options.replace(extrema=None)))
+        # the companion keeps what the pair's verdict and estimate read of it: its blocks
+        # and its extrema (its slips' mu_bar, beside the run's)
+        legs.append(_Leg(spec.companion_spec, rd.companion(), options))
     if prior is not None:
         for leg in legs:
             leg.rd.begin_continuation()
@@ -450,29 +456,92 @@ def _commit(legs: list[_Leg], out, metas: list[dict], restarts: list[str]) -> Ru
     return result
 
 
-def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
-    """The completion record of the finished run in ``rd`` that ``spec`` continues, or None:
-    the same run (every parameter but the length, and the companion's too) that ran fewer
-    steps than ``spec`` asks for, and did not stop by its own rule, with its restart files.
-    A longer run then continues from where it stopped and never simulates again what it has:
-    its series are appended to, and its trajectory is the very one a longer request would
-    have made (bit for bit on the fused path, whose restart is exact); its stop rule is
-    checked at the steps of its own schedule, which the longer length may space otherwise."""
-    legs = [rd] + ([rd.companion()] if spec.companion is not None else [])
-    for d in legs:  # a continuation cut short: the finished run as it was
-        d.undo_continuation()
+#: the fields of a RunSpec that say how long a run goes on, not what it runs: a request that
+#: differs from a finished run in these alone may continue it, or be answered by it
+LENGTH_FIELDS = ("t_end", "target_error")
+
+
+def _finished(rd: RunDir) -> tuple[RunSpec, dict] | None:
+    """The request and record of the intact finished run in ``rd``, or None."""
     if not rd.is_complete() or rd.problem() is not None:
         return None
     meta = rd.meta()
     try:
-        before = RunSpec.from_dict(meta["requested"])
-        done = int(meta["derived"]["n_steps"])
-    except Exception:  # a record of another version: not continued
+        return RunSpec.from_dict(meta["requested"]), meta
+    except Exception:  # a record of another version: neither continued nor answering
         return None
-    if before.replace(t_end=spec.t_end) != spec or spec.n_steps <= done:
+
+
+def _same_layer(before: RunSpec, spec: RunSpec) -> bool:
+    """Whether two requests differ in their length (LENGTH_FIELDS) alone."""
+    return before.replace(**{f: getattr(spec, f) for f in LENGTH_FIELDS}) == spec
+
+
+def _stricter(old: float | None, new: float | None) -> bool:
+    """Whether an error target ``new`` asks more than ``old`` (None: no target)."""
+    return new is not None and (old is None or new < old)
+
+
+def answers(rd: RunDir, spec: RunSpec, identical: bool = True) -> bool:
+    """Whether the finished run in ``rd`` is the very run ``spec`` asks for: the same request
+    (``identical``), or an adaptive run that stopped by its rule before ``spec``'s cap with
+    the same rule, which a run asked for with the longer cap makes in the same steps (its
+    checks come at the same steps, ``check_chunk``) and stops at the same one."""
+    found = _finished(rd)
+    if found is None:
+        return False
+    before, meta = found
+    if before == spec:
+        return identical
+    if not _same_layer(before, spec) or before.target_error != spec.target_error:
+        return False
+    stopped = (meta.get("adaptive") or {}).get("reached") and before.adaptive
+    return bool(stopped) and spec.n_steps >= int(meta["derived"]["n_steps"])
+
+
+def other_request(rd: RunDir, spec: RunSpec) -> str | None:
+    """Why the finished run in ``rd``, of the same layer as ``spec``, neither answers nor is
+    continued by ``spec`` (None: another layer, or no finished run)."""
+    found = _finished(rd)
+    if found is None or not _same_layer(found[0], spec) or found[0] == spec:
         return None
+    before, meta = found
+    t_run = int(meta["derived"]["n_steps"]) * before.dt
+    if before.target_error is not None and not _stricter(
+            before.target_error, spec.target_error) and before.target_error != spec.target_error:
+        return (f"it ran to t = {t_run:g} for mu_bar error <= {before.target_error:g}, a "
+                "stricter target than this request's: a run continues only to a longer cap "
+                "or a smaller --target-error")
+    return (f"it ran to t = {t_run:g} (asked for t_end {before.t_end:g}); a run continues "
+            "only to a longer --t-end or a smaller --target-error")
+
+
+def continuation(rd: RunDir, spec: RunSpec) -> dict | None:
+    """The completion record of the finished run in ``rd`` that ``spec`` continues, or None:
+    the same run (every parameter but the length, LENGTH_FIELDS, and the companion's too)
+    that ran fewer steps than ``spec`` may run and would not have stopped before them under
+    ``spec``'s rule: one that ran to its cap, asked for a longer cap under the same or a
+    stricter error target, or one that stopped by its own rule, asked for a stricter target.
+    A longer run then continues from where it stopped and never simulates again what it has:
+    its series are appended to, and its trajectory is the very one the request makes from the
+    start (bit for bit on the fused path, whose restart is exact), its stop rule checked at
+    the very steps (``check_chunk``, ``next_check``)."""
+    legs = [rd] + ([rd.companion()] if spec.companion is not None else [])
+    for d in legs:  # a continuation cut short: the finished run as it was
+        d.undo_continuation()
+    found = _finished(rd)
+    if found is None:
+        return None
+    before, meta = found
+    done = int(meta["derived"]["n_steps"])
+    if not _same_layer(before, spec) or spec.n_steps <= done:
+        return None
+    stricter = _stricter(before.target_error, spec.target_error)
     if before.adaptive and (meta.get("adaptive") or {}).get("reached"):
-        return None   # it stopped by its own rule: a longer cap changes nothing
+        if not stricter:
+            return None   # it stopped by its own rule: a longer cap changes nothing
+    elif not (stricter or before.target_error == spec.target_error):
+        return None       # a looser rule might have stopped it sooner
     if not all((d.meta() or {}).get("restart") and d.file(d.meta()["restart"]).is_file()
                for d in legs):
         return None

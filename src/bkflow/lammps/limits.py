@@ -162,6 +162,35 @@ def check(c: Cost, out, what: str, force: bool = False) -> None:
                         f"--dt-factor or use a smaller lattice{hint}")
 
 
+def within_limits(spec: RunSpec, out) -> str | None:
+    """Why one run of ``spec`` into ``out`` is above the limits (``check``'s message), or
+    None when it is within them."""
+    try:
+        check(cost(spec), out, "it")
+    except CostError as exc:   # the limit it passes, without the advice of a refusal
+        return str(exc).split(": ")[0].split(" (")[0]
+    except OSError:
+        return "no space left where it would be written"
+    return None
+
+
+def longest_run(spec: RunSpec, out, t_max: float) -> float | None:
+    """The longest t_end (at most ``t_max``, to 2 significant digits) at which a run of
+    ``spec`` into ``out`` is within the limits; None when not even spec.t_end is."""
+    if within_limits(spec, out) is not None:
+        return None
+    lo, hi = spec.t_end, t_max
+    if within_limits(spec.replace(t_end=hi), out) is None:
+        return hi
+    for _ in range(40):   # the cost grows with t_end: bisect in log t
+        mid = (lo * hi) ** 0.5
+        if within_limits(spec.replace(t_end=mid), out) is None:
+            lo = mid
+        else:
+            hi = mid
+    return float(f"{lo:.2g}") if float(f"{lo:.2g}") <= lo else float(f"{lo * 0.95:.2g}")
+
+
 def check_cost(spec: RunSpec, out, force: bool = False) -> Cost:
     """The cost of one run, refused above the limits unless ``force``."""
     c = cost(spec)

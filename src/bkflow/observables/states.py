@@ -198,6 +198,33 @@ def window_variance(observable: str, phi: float, n: int, window: float,
     return math.exp(_interp(math.log(phi), phis, at_w))
 
 
+#: where the calibration does not hold (another size, other model parameters), the error of a
+#: mean still covers slow fluctuations as the nearest calibrated layer has them, wider: the
+#: variance of the nearest calibrated size, times N_calibrated / N where the layer is smaller
+#: (a smaller layer fluctuates more: the calibrated variance falls as 1/N or faster from N =
+#: 100 to 400), times BORROWED_FACTOR where the model's parameters are not the defaults
+#: (measured on the held-out long runs of benchmarks/offgrid.py: benchmarks/RESULTS.md,
+#: "The verdict off the grid")
+BORROWED_FACTOR = 2.0
+
+
+def borrowed_variance(observable: str, spec, window: float) -> float | None:
+    """The relative window variance an uncalibrated run's error borrows (see
+    BORROWED_FACTOR); None where no calibration is installed or the window is empty."""
+    sizes = calibration().get("sizes", {})
+    if not sizes or not window > 0:
+        return None
+    near = min(sizes, key=lambda k: abs(math.log(int(k) / spec.N)))
+    v = window_variance(observable, spec.phi, int(near), window, sizes[near])
+    if v is None:
+        return None
+    from bkflow.model.params import RunSpec
+
+    default = RunSpec(phi=1.0)
+    other = any(getattr(spec, f) != getattr(default, f) for f in CALIBRATED_FIELDS)
+    return v * max(1.0, int(near) / spec.N) * (BORROWED_FACTOR if other else 1.0)
+
+
 # ------------------------------------------------------------------------- the verdict
 #: what a window's verdict may say (docs/model.md "Steady state"): steady (its own statistics
 #: give the long-run mean), drifting (the stress trends, and no switching explains it),
@@ -300,14 +327,24 @@ class Window:
     comp: Composition | None
     state: str
     n: int                      # the layer's contacts
+    #: where the switching is not calibrated: the variance borrowed from the nearest
+    #: calibrated layer, wider (``borrowed_variance``), which the errors cover (not the verdict)
+    var_borrowed: float | None = None
+    spec: object = None
+
+    @property
+    def var_error(self) -> float | None:
+        """The relative variance the errors cover: the calibrated, or the borrowed one."""
+        return self.var_switching if self.var_switching is not None else self.var_borrowed
 
     @property
     def err(self) -> float:
         """The error of the mean as an estimate of the layer's long-run mean: the larger of
-        the run's own and the calibrated switching's."""
-        if self.var_switching is None:
+        the run's own and the calibrated switching's (where not calibrated, the borrowed
+        one's)."""
+        if self.var_error is None:
             return self.err_run
-        cal = math.sqrt(self.var_switching) * abs(self.mean)
+        cal = math.sqrt(self.var_error) * abs(self.mean)
         return cal if not math.isfinite(self.err_run) else max(self.err_run, cal)
 
     @property
@@ -319,9 +356,13 @@ class Window:
 
     def err_of(self, observable: str, value: float, own: float, phi: float, n: int) -> float:
         """The error of another window mean (``observable`` "mu_bar") in the same way."""
-        if self.calibration is not None or not math.isfinite(value):
+        if not math.isfinite(value):
             return own
-        v = window_variance(observable, phi, n, self.t1 - self.t0)
+        if self.calibration is None:
+            v = window_variance(observable, phi, n, self.t1 - self.t0)
+        else:
+            v = None if self.spec is None else borrowed_variance(observable, self.spec,
+                                                                 self.t1 - self.t0)
         cal = math.sqrt(v) * abs(value) if v is not None else math.nan
         if not math.isfinite(cal):
             return own
@@ -358,6 +399,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
     var = None if why is not None else window_variance("stress", spec.phi, spec.N, t1 - t0)
+    borrowed = None if why is None else borrowed_variance("stress", spec, t1 - t0)
     contacts = comp = None
     if phase is not None and len(phase["t"]):
         contacts = coherence(phase["t"], np.asarray(phase["Z_re"]) + 1j * np.asarray(
@@ -372,7 +414,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     switching = not_averaged(var, err_block, mean, spec.phi, spec.N)
     state = verdict(bool(trend.stationary), chi, comp, spec.N, switching)
     return Window(float(t0), t1, mean, err_run, err_block, var, why, trend, contacts, comp,
-                  state, spec.N)
+                  state, spec.N, borrowed, spec)
 
 
 def trend_within_fluctuations(trend, half_var: float | None):
@@ -414,13 +456,16 @@ def pair_disagrees(a: Window, b: Window, agreement: float) -> bool:
     return gap > max(agreement, 2 * both)
 
 
-def needed_length(spec, mu_bar: float) -> float | None:
+def needed_length(spec, mu_bar: float, legs: int = 1) -> float | None:
     """The run length at which the calibrated switching error of mu_bar falls to the run's
-    target_error (what the layer's physics asks of a run, the cap aside); None where the
-    calibration does not hold or gives no switching error."""
+    target_error (what the layer's physics asks of a run, the cap aside), for the mean of
+    ``legs`` runs of the layer side by side (a run and its companion: 2, each window's
+    variance over ``legs``); None where the calibration does not hold or gives no
+    switching error. It depends on the measured mu_bar only through target_error / mu_bar,
+    so that it is the same, to a few percent, for every run of the layer."""
     if calibrated(spec) is not None or spec.target_error is None or not mu_bar > 0:
         return None
-    want = (spec.target_error / mu_bar) ** 2
+    want = legs * (spec.target_error / mu_bar) ** 2
     lo, hi = math.log(10.0), math.log(1e12)
     if (window_variance("mu_bar", spec.phi, spec.N, math.exp(lo)) or 0.0) <= want:
         return None
@@ -431,6 +476,46 @@ def needed_length(spec, mu_bar: float) -> float | None:
         else:
             hi = mid
     return math.exp(hi) / (1 - spec.transient)
+
+
+@dataclass(frozen=True)
+class PairMean:
+    """The mean of one observable over a run and its companion from another start (the
+    steady protocol's pair, docs/steady.md): ``value`` their mean, ``a`` and ``b`` each one's,
+    ``noise`` the error of the mean from the two errors (each covering the switching),
+    ``bracket`` half their difference, and ``err`` the larger of the two.
+
+    Why the bracket: the two starts approach the steady state from either side (the random
+    start from below, the partial one from above or, at N = 400, from just below), and the
+    part of either that still remembers its start has one sign for every seed, which no
+    error of a single run shows and no average over seeds removes. The long-run mean then lies
+    between them, within half their difference of their mean; once the pair agrees that
+    bound is below the noise."""
+
+    value: float
+    a: float
+    b: float
+    noise: float
+    bracket: float
+
+    @property
+    def err(self) -> float:
+        if not math.isfinite(self.bracket):
+            return self.noise
+        return max(self.noise, self.bracket) if math.isfinite(self.noise) else self.bracket
+
+    @property
+    def gap(self) -> float:
+        """a / b - 1: how far the run lies from its companion, relative."""
+        return self.a / self.b - 1 if self.b else math.nan
+
+
+def pair_mean(a: float, err_a: float, b: float, err_b: float) -> PairMean:
+    """The ``PairMean`` of values ``a`` and ``b`` with their errors (NaN where unknown: the
+    noise is then NaN, and the error the bracket alone)."""
+    noise = math.hypot(err_a, err_b) / 2 if math.isfinite(err_a) and math.isfinite(err_b) \
+        else math.nan
+    return PairMean(0.5 * (a + b), a, b, noise, 0.5 * abs(a - b))
 
 
 def block_verdict(t0, t1, stress, R, R2abs, Zre, Zim, samples, phi: float, n: int,
