@@ -258,6 +258,7 @@ class Sweep:
         there too, with runs.csv's job column to join the parameters)."""
         from bkflow.store.rundir import SIGNAC_FILES
         from bkflow.store.tables import catalogue_table, check_tables
+        from bkflow.sweeps.project import LENGTH
 
         check_tables(self.path)   # runs.csv as the last collect wrote it, or a typed error
         parts = []
@@ -266,6 +267,9 @@ class Sweep:
             why = rd.problem()
             try:
                 statepoint = formats.read_json(rd.file(SIGNAC_FILES[0]))
+                if rd.file(SIGNAC_FILES[1]).exists():   # the length a later sweep asked
+                    statepoint.update(formats.read_json(rd.file(SIGNAC_FILES[1])).get(
+                        LENGTH, {}))
             except (OSError, ValueError) as exc:
                 why = why or f"its parameters are unreadable ({exc})"
             if why is not None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import subprocess
 
+import pandas as pd
 import pytest
 
 from bkflow.lammps.engine import continuation, run
@@ -55,9 +56,34 @@ def test_a_capped_pair_continued_is_the_pair_with_the_larger_cap(tmp_path):
     fresh = run(longer, tmp_path / "fresh", progress=False).meta
     assert meta["adaptive"]["t_run"] == fresh["adaptive"]["t_run"]
     _same(tmp_path / "c", tmp_path / "fresh")
-    # the companion keeps its blocks only
-    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion", ("blocks.npy", "in.bk"))
-    assert not (tmp_path / "c" / "companion" / "extrema.npy").exists()
+    # the companion keeps its slips' turning points too (the pair's estimate reads both)
+    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion")
+
+
+def test_a_stricter_target_continues_a_run_that_stopped_by_its_rule(tmp_path):
+    """A run that stopped by its rule, asked again on its directory with a smaller
+    --target-error, goes on from its restart file to where the stricter rule stops: the very
+    run the stricter request makes from the start, nothing simulated twice; a larger cap alone
+    is answered by the finished run, and a looser target refused with the reason."""
+    from bkflow.lammps.engine import RunExistsError
+
+    loose = _spec("steady", phi=10.0, t_end=50000.0, target_error=2e-3)
+    first = run(loose, tmp_path / "c", progress=False).meta
+    assert first["adaptive"]["reached"]
+    done = first["derived"]["n_steps"]
+    # a larger cap: the finished run is the run that request makes (it stops at the same check)
+    again = run(loose.replace(t_end=90000.0), tmp_path / "c", progress=False)
+    assert not again.ran and again.meta == RunDir(tmp_path / "c").meta()
+    strict = loose.replace(target_error=1e-3)
+    meta = run(strict, tmp_path / "c", progress=False).meta
+    assert meta["continued"][0]["to_step"] == done < meta["derived"]["n_steps"]
+    assert meta["adaptive"]["reached"] and meta["requested"]["target_error"] == 1e-3
+    fresh = run(strict, tmp_path / "fresh", progress=False).meta
+    assert fresh["derived"]["n_steps"] == meta["derived"]["n_steps"]
+    _same(tmp_path / "c", tmp_path / "fresh")
+    _same(tmp_path / "c" / "companion", tmp_path / "fresh" / "companion")
+    with pytest.raises(RunExistsError, match="a stricter target than this request"):
+        run(loose, tmp_path / "c", progress=False)
 
 
 @pytest.mark.parametrize("scene", ["figures", "series"])
@@ -128,14 +154,61 @@ def test_nothing_is_continued_from_another_run(tmp_path):
         assert continuation(rd, other) is None
 
 
+@pytest.mark.slow
 def test_a_sweep_with_a_longer_t_end_continues_its_runs(tmp_path):
-    args = [tool("bkflow"), "sweep", "--phi", "1000", "--seeds", "1", "--sizes", "12x3",
-            "--aspect", "any", "--protocol", "paper", "--scene", "friction", "--jobs", "1",
-            "--out", str(tmp_path / "s")]
-    for t in ("1000", "2000"):
-        proc = subprocess.run(args + ["--t-end", t], capture_output=True, text=True,
-                              timeout=600)
+    """The same sweep asked again with a longer --t-end asks it of the same jobs: the run that
+    stopped at its cap goes on in place (the very run a sweep with that cap makes from the
+    start), the one that stopped by its rule is left as it was, nothing is simulated twice,
+    the tables keep one row per run and the figures their paths; a shorter --t-end is
+    refused before anything is written."""
+    args = [tool("bkflow"), "sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3",
+            "--aspect", "any", "--scene", "friction", "--target-error", "2e-3", "--jobs", "1",
+            "--quiet"]
+
+    def sweep(out, t):
+        proc = subprocess.run(args + ["--out", str(out), "--t-end", t], capture_output=True,
+                              text=True, timeout=600)
         assert proc.returncode == 0, proc.stderr
-    metas = [json.loads(p.read_text()) for p in (tmp_path / "s").glob("workspace/*/meta.json")]
-    longer = next(m for m in metas if m["params"]["t_end"] == 2000.0)
-    assert len(longer["continued"]) == 2
+        return proc
+
+    def plot(out):
+        proc = subprocess.run([tool("bkflow"), "plot", str(out)], capture_output=True,
+                              text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr
+        return sorted(p.relative_to(out).as_posix() for p in (out / "figures").rglob("*.png"))
+
+    s = tmp_path / "s"
+    sweep(s, "3000")
+    figures = plot(s)
+    before = {p.parent.name: p.read_bytes() for p in s.glob("workspace/*/meta.json")}
+    assert len(before) == 2
+    sweep(s, "6000")
+    after = {p.parent.name: p.read_bytes() for p in s.glob("workspace/*/meta.json")}
+    assert set(after) == set(before)   # the same jobs: no new run
+    metas = {k: json.loads(v) for k, v in after.items()}
+    stopped = [k for k, m in metas.items() if "continued" not in m]
+    continued = [k for k, m in metas.items() if "continued" in m]
+    assert len(stopped) == len(continued) == 1
+    assert after[stopped[0]] == before[stopped[0]]   # left as it was
+    m = metas[continued[0]]
+    assert [c["to_step"] for c in m["continued"]][0] == json.loads(
+        before[continued[0]])["derived"]["n_steps"]
+    runs = pd.read_csv(s / "runs.csv")
+    assert len(runs) == 2 and (runs.t_end == 6000).all()
+    assert plot(s) == figures
+    # the continued sweep's runs are the runs a sweep with the longer cap makes at once
+    fresh = tmp_path / "fresh"
+    sweep(fresh, "6000")
+
+    def by_phi(root):
+        return {json.loads(p.read_text())["phi"]: p.parent
+                for p in root.glob("workspace/*/signac_statepoint.json")}
+
+    ours, theirs = by_phi(s), by_phi(fresh)
+    assert set(ours) == set(theirs) == {1.0, 1000.0}
+    for phi, d in ours.items():   # (the deck of the run left as it was names its cap)
+        _same(d, theirs[phi], SERIES[:2])
+        _same(d / "companion", theirs[phi] / "companion", SERIES[:2])
+    proc = subprocess.run(args + ["--out", str(s), "--t-end", "3000"], capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 2 and "only go on" in proc.stderr and proc.stdout == ""

@@ -159,12 +159,13 @@ def _sweep_specs(a) -> tuple:
 def _sweep(a) -> int:
     from bkflow.lammps.limits import check_sweep
     from bkflow.sweeps.local import available_cores, sweep
-    from bkflow.sweeps.project import check_sweep_dir
+    from bkflow.sweeps.project import check_lengths, check_sweep_dir
 
     phis, sizes, axes, specs = _sweep_specs(a)
     settings = analysis_assignments(a.analysis) if a.analysis else None
     jobs = a.jobs or available_cores()
     check_sweep_dir(a.out)
+    check_lengths(a.out, specs)
     total = check_sweep(specs, a.out, jobs, available_cores(), a.force)
     if a.init:
         return _init_jobs(a, specs, settings)

@@ -30,6 +30,11 @@ def _g(s: dict, key: str, fmt: str) -> str:
 
 
 # ------------------------------------------------------------------------- a run's stop
+def _e(v: float) -> str:
+    """An error as the report prints it everywhere (the stop line, the summary's lines)."""
+    return format(v, ".4f") if abs(v) >= 1e-3 else format(v, ".2g")
+
+
 def _pair(ad: dict) -> bool:
     return ad.get("estimate") == "pair"
 
@@ -54,7 +59,7 @@ def _reached(ad: dict, companion: str | None) -> str:
     parts = []
     err = ad.get("mu_bar_err_at_stop")
     if ad.get("target_error") is not None and err is not None:
-        parts.append(f"mu_bar error {err:.2g} <= {ad['target_error']:g}"
+        parts.append(f"mu_bar error {_e(err)} <= {ad['target_error']:g}"
                      + (" (of the mean of the run and its companion)" if _pair(ad) else ""))
     gap = ad.get("companion_gap_at_stop")
     if companion and ad.get("target_error") is not None and gap is not None:
@@ -74,7 +79,7 @@ def _error_missed(ad: dict) -> str | None:
         return None
     if err is None or not math.isfinite(err):
         return "mu_bar error not measurable yet (too few slips after the transient)"
-    return (f"mu_bar error {err:.2g} > {target:g}"
+    return (f"mu_bar error {_e(err)} > {target:g}"
             + (" (of the mean of the run and its companion)" if _pair(ad) else ""))
 
 

@@ -22,8 +22,10 @@ def simulated(out, spec: RunSpec | None = None) -> bool:
         return False
     if spec is None:
         return True
-    requested = rd.meta().get("requested")
-    return requested == spec.to_dict()
+    from bkflow.lammps.engine import answers
+
+    # the same request, or a run that stopped by its rule before this request's longer cap
+    return answers(rd, spec)
 
 
 def analysed(out, spec: RunSpec, settings: AnalysisSettings) -> bool:

@@ -34,6 +34,7 @@ from bkflow.sweeps.project import (
     check_sweep_dir,
     clear_failure,
     finished,
+    open_jobs,
     open_project,
     permit_above_limits,
     set_settings,
@@ -282,7 +283,7 @@ def _sweep(specs, out, jobs, progress, settings, force=False) -> SweepReport:
     project = open_project(out)
     if settings is not None:
         set_settings(project, settings)
-    selected = [project.open_job(s.to_dict()).init() for s in specs]
+    selected = open_jobs(project, specs)
     for job in selected:  # a previous failure is retried
         clear_failure(job)
         permit_above_limits(job, force)
@@ -360,7 +361,7 @@ def _collect(project, settings, jobs) -> Collection:
         _run_pending(project, stale, [ANALYZE], jobs)
     done = [j for j in all_jobs if finished(j)]
     runs, results = write_tables(
-        project.path, [(j.id, j.cached_statepoint, RunDir(j.path).summary()) for j in done],
+        project.path, [(j.id, spec_of(j).to_dict(), RunDir(j.path).summary()) for j in done],
         settings.to_dict())
     failed = [j for j in all_jobs if not finished(j) and "error" in j.document]
     damaged = _damaged(all_jobs)
