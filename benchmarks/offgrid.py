@@ -18,8 +18,13 @@ Each case records blocks of 1000 time units into benchmarks/records/offgrid/ (Pa
 from __future__ import annotations
 
 import argparse
+import math
+import re
 import sys
 from pathlib import Path
+
+import numpy as np
+import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -54,6 +59,60 @@ def cases(variants=None, phis=PHI, seeds=SEEDS, starts=STARTS):
                 for start in starts:
                     spec = RunSpec(phi=phi, Lx=Lx, Ly=Ly, seed=seed, start=start, **fields)
                     yield name, spec.replace(dt_factor=dt_factor(spec))
+
+
+NAME = re.compile(r"N(\d+)_([\w.]+?)_phi([\d.]+)_(\w+?)_s(\d+)_C([\d.]+)\.parquet$")
+#: the share of each run left out as its start's transient (as benchmarks/states_report.py)
+TRANSIENT = 0.2
+
+
+def load(root=OUT) -> pd.DataFrame:
+    """One row per run: variant, N, phi, start, seed, C, its kept blocks and its whole
+    record."""
+    rows = []
+    for f in sorted(Path(root).glob("*.parquet")):
+        m = NAME.search(f.name)
+        if not m:
+            continue
+        n, variant, phi, start, seed, c = m.groups()
+        rec = pd.read_parquet(f)
+        rows.append({"variant": variant, "N": int(n), "phi": float(phi), "start": start,
+                     "seed": int(seed), "C": float(c), "t": float(rec.t1.iloc[-1]),
+                     "blocks": rec.iloc[int(TRANSIENT * len(rec)):].reset_index(drop=True),
+                     "whole": rec})
+    return pd.DataFrame(rows)
+
+
+def _chi(b: pd.DataFrame, n: int) -> float:
+    w = b.n.to_numpy(float)
+    return float(n * (np.average(b.R2abs, weights=w) - np.average(b.Zre, weights=w) ** 2
+                      - np.average(b.Zim, weights=w) ** 2))
+
+
+def truths(runs: pd.DataFrame | None = None) -> dict:
+    """(variant, N, phi, seed) -> the layer's long-run means: {"stress", "mu_bar", "starts"
+    (those pooled), "spread" (the largest relative difference of their means)}. Every start's
+    kept blocks pooled, but a start whose kept part still holds the start's common phase
+    (chi above bkflow's memory threshold: the synchronized start of a stiff layer) is left
+    out: its numbers are its start's."""
+    from bkflow.observables.states import memory_chi
+
+    runs = load() if runs is None else runs
+    out = {}
+    for key, g in runs.groupby(["variant", "N", "phi", "seed"]):
+        n = key[1]
+        keep = [r for _, r in g.iterrows() if _chi(r.blocks, n) <= memory_chi(n)]
+        if not keep:
+            continue
+        allb = pd.concat([r.blocks for r in keep], ignore_index=True)
+        w = (allb.t1 - allb.t0).to_numpy()
+        nslip = allb["nslip_0.01"].sum()
+        per = [np.average(r.blocks.s, weights=r.blocks.t1 - r.blocks.t0) for r in keep]
+        out[key] = {"stress": float(np.average(allb.s, weights=w)),
+                    "mu_bar": float(allb["sfail_0.01"].sum() / nslip) if nslip else math.nan,
+                    "starts": [r.start for r in keep],
+                    "spread": float((max(per) - min(per)) / np.mean(per))}
+    return out
 
 
 def main(argv=None):

@@ -205,9 +205,10 @@ def blocks(record: dict) -> dict[str, str]:
         wall = s["wall_s"] if wall is None else wall
         out["sweep-cost"] = (
             f"The sweep runs 13 phi from 0.1 to 1000 x 3 seeds on the paper's 20x5 lattice, each "
-            f"run beside\na companion from another start until both are steady and agree, or, "
-            "where a stiff layer\nswitches between states, until the mean of the states it "
-            f"visited is within the target: "
+            f"run beside\na companion from the other side of the steady state until both are "
+            "steady, agree within the\nerror target and their mean is within it, or to the cap "
+            "(the stiff layers, which switch\nbetween states more slowly than a run averages "
+            f"over): "
             f"{s['runs']} pairs of runs in\n{duration(wall)} on a {s['cores']}-core "
             f"machine ({s['jobs']} at a time), {human(s['bytes'])} on disk\n"
             "(`benchmarks/readme_numbers.py` measured it; the default scene keeps what the table "

@@ -621,6 +621,75 @@ def states_starts() -> str:
     return "\n".join(out) + "\n"
 
 
+# ---------------------------------------------------------------- the protocol, judged
+def protocol_bias() -> str:
+    """The steady protocol's estimate against each layer's long-run mean, per size and phi
+    (benchmarks/protocol_bias.py's records of the model's defaults)."""
+    import protocol_bias as pb
+
+    rows = pb.bias_rows()
+    if rows.empty:
+        return "(not measured yet: python benchmarks/protocol_bias.py run --n 100)\n"
+    return pb.before_after(rows) + "\n"
+
+
+def protocol_offgrid() -> str:
+    """The verdict and the estimate off the calibrated grid (benchmarks/protocol_bias.py's
+    records of benchmarks/offgrid.py's variants): per variant and phi, then the rates."""
+    import offgrid
+    import protocol_bias as pb
+
+    rows = pb.bias_rows()
+    off = rows[rows.record.isin(list(offgrid.VARIANTS))] if not rows.empty else rows
+    if off.empty:
+        return "(not measured yet: python benchmarks/protocol_bias.py run ... --label VARIANT)\n"
+    out = [pb.markdown(pb.aggregate(off)), "",
+           "| set | runs | false metastable | false drifting | false steady |",
+           "|---|---|---|---|---|"]
+    for name, d in (("off the grid (the variants above)", off),
+                    *((f"N = {n}, the model's defaults", rows[rows.record == f"N{n}"])
+                      for n in (100, 400, 900))):
+        if len(d):
+            r = pb.rates(d)
+            out.append(f"| {name} | {len(d)} | {r['false metastable']:.3f} | "
+                       f"{r['false drifting']:.3f} | {r['false steady']:.3f} |")
+    return "\n".join(out) + "\n"
+
+
+def step_states() -> str:
+    """The time step at the stiff end (benchmarks/step_states.py): each C's states and means
+    against C = 1, paired by seed, and C = 1's bias against dt -> 0."""
+    import step_states as ss
+
+    t = ss.table()
+    if t.empty or not (t.C != 1.0).any():
+        return "(not measured yet: python benchmarks/step_states.py run)\n"
+    out = ["| phi | C | seeds | quiet share | residence quiet / coherent | <sigma_x>/sigma_n "
+           "quiet / coherent / all, against C = 1 | mu_bar quiet / coherent / all, against "
+           "C = 1 |", "|---|---|---|---|---|---|---|"]
+
+    def d(r, k):
+        return f"{_pct(r[f'd_{k}'])} +- {_se(r[f'd_{k}_se'])}"
+
+    for _, r in t.iterrows():
+        out.append(f"| {r.phi:g} | {r.C:g} | {r.seeds} | {r.quiet:.2f} +- {_g(r.quiet_sd, '.2f')} "
+                   f"| {_g(r.res_quiet, '.2g')} / {_g(r.res_coherent, '.2g')} | "
+                   f"{d(r, 's_quiet')} / {d(r, 's_coherent')} / {d(r, 's_all')} | "
+                   f"{d(r, 'mu_quiet')} / {d(r, 'mu_coherent')} / {d(r, 'mu_all')} |")
+    ex = ss.extrapolated(t)
+    if len(ex):
+        out += ["", "The long runs' own step (C = 1) against dt -> 0, extrapolated from C = 0.5 "
+                "and 1 (second order):", "",
+                "| phi | <sigma_x>/sigma_n quiet / coherent / all | mu_bar quiet / coherent / "
+                "all |", "|---|---|---|"]
+        for _, r in ex.iterrows():
+            cells = [" / ".join(f"{_pct(r[k])} +- {_se(r[f'{k}_se'])}"
+                                for k in (f"{o}_quiet", f"{o}_coherent", f"{o}_all"))
+                     for o in ("s", "mu")]
+            out.append(f"| {r.phi:g} | {cells[0]} | {cells[1]} |")
+    return "\n".join(out) + "\n"
+
+
 BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
@@ -632,7 +701,9 @@ BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "steady-sizes": steady_sizes, "fixed-cost": fixed_cost,
           "faults": faults, "fresh-attack": fresh_attack,
           "readme-numbers": readme_numbers, "accuracy-presets": accuracy_presets,
-          "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts}
+          "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts,
+          "protocol-bias": protocol_bias, "protocol-offgrid": protocol_offgrid,
+          "step-states": step_states}
 
 
 def large_drops() -> str:

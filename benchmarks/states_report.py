@@ -234,8 +234,8 @@ def verdicts(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
 
 def _verdict_row(r, lm, b: pd.DataFrame, T: float, first: bool) -> dict:
     """The verdict of one window (blocks ``b``) of run ``r`` of the layer ``lm``, as
-    bkflow.observables.states gives it from the blocks (``block_verdict``)."""
-    v, mean, err = states.block_verdict(b.t0, b.t1, b.s, b.R, b.R2abs, b.Zre, b.Zim, b.n,
+    bkflow.observables.switching gives it from the blocks (``block_verdict``)."""
+    v, mean, err = switching.block_verdict(b.t0, b.t1, b.s, b.R, b.R2abs, b.Zre, b.Zim, b.n,
                                         r.phi, r.N)
     return {"N": r.N, "phi": r.phi, "T": T, "verdict": v, "first": first,
             "off": abs(mean / lm["stress"] - 1),

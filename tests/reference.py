@@ -241,7 +241,7 @@ def phase_statistics(dr, k_e, f_max) -> dict:
 
 #: the accuracy presets' time-step constants as docs/model.md ("Integration") states them:
 #: (c_contact, c_stable) of dt = min(c_contact / omega_c, c_stable / omega_max)
-TIME_STEP_RULE = {"fast": (0.2, 1.5), "default": (0.1, 1.5), "precise": (0.05, 1.0)}
+TIME_STEP_RULE = {"fast": (0.2, 1.8), "default": (0.1, 1.5), "precise": (0.05, 1.0)}
 
 
 def time_step(preset: str, k_b: float, k_e: float, k_d: float, dk_d: float,

@@ -1,6 +1,6 @@
 """bkflow: the 2D Burridge-Knopoff friction model of Giacco et al. (Sci. Rep. 2014) on LAMMPS."""
 
-__version__ = "0.5.0"
+__version__ = "0.6.0"
 
 
 def __getattr__(name):

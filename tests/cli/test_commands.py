@@ -234,3 +234,40 @@ def test_the_progress_bar_shows_steps_and_the_stress(capsys):
     quiet.update(5, 0.1)
     quiet.close()
     assert capsys.readouterr().err == ""
+
+
+def test_the_advice_of_a_capped_run_can_be_followed_to_its_end(lammps, tmp_path):
+    """A steady run whose cap came before its error target prints the length the calibration
+    gives for it, its cost and the command that continues the run there: that command, as
+    printed, runs (continuing the run in place, nothing simulated twice); asked again with
+    only a longer cap, a run that stopped by its rule says it already answers it."""
+    import shlex
+
+    out = tmp_path / "run"
+    args = ["run", "--phi", "10", "--n", "100", "--seed", "1", "--scene", "friction",
+            "--t-end", "5000", "--out", str(out)]
+    proc = subprocess.run([tool("bkflow"), *args], capture_output=True, text=True,
+                          timeout=600, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    advice = next(line for line in proc.stdout.splitlines()
+                  if "a run needs about t = " in line)
+    meta = json.loads((out / "meta.json").read_text())
+    adv = meta["adaptive"]["advice"]
+    assert f"t = {adv['t_end']:g}" in advice and adv["above_limits"] is None
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["t_needed"] == pytest.approx(meta["adaptive"]["t_needed"])
+    command = advice.split(": ", 1)[1].split(" continues this run to it")[0]
+    assert command.startswith("bkflow run ") and f"--t-end {adv['t_end']:g}" in command
+    words = shlex.split(command)
+    again = subprocess.run([tool("bkflow"), *words[1:]], capture_output=True, text=True,
+                           timeout=600, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    longer = json.loads((out / "meta.json").read_text())
+    assert longer["continued"][0]["to_step"] == meta["derived"]["n_steps"]
+    assert longer["requested"]["t_end"] == adv["t_end"]
+    if longer["adaptive"]["reached"]:   # it stopped by its rule: a longer cap is answered
+        more = subprocess.run([tool("bkflow"), *words[1:-1], f"{2 * adv['t_end']:g}"],
+                              capture_output=True, text=True, timeout=600, cwd=tmp_path)
+        assert more.returncode == 0, more.stderr
+        assert "already answers this request" in more.stdout
+        assert json.loads((out / "meta.json").read_text()) == longer

@@ -13,7 +13,6 @@ import pytest
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
 from bkflow.model.params import (
-    STEADY_AGREEMENT,
     STEADY_COMPANION,
     STEADY_DRIFT_BOUND,
     STEADY_START,
@@ -83,7 +82,7 @@ def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
     """The synchronized start of a stiff layer stays on its metastable plateau past a short
     cap: the run says so, in meta.json (as data) and in its report (bkflow.cli.report), and names
     every cause with the value the last check found (here also an unreachable mu_bar error)."""
-    from bkflow.cli.report import stop_line
+    from bkflow.cli.stops import stop_line
     from bkflow.observables.states import memory_chi
 
     spec = _steady(phi=1000.0, start="synchronized", t_end=1500.0, target_error=1e-7)
@@ -108,7 +107,8 @@ def test_a_switching_layer_runs_to_its_cap_and_says_what_it_would_need(lammps, t
     states it visited, reports the pair's mean with the error that covers the switching, and
     the run length the calibration gives for the target, which the printed lines and the
     summary say alike."""
-    from bkflow.cli.report import adaptive_lines, stop_line, summary_lines
+    from bkflow.cli.report import summary_lines
+    from bkflow.cli.stops import adaptive_lines, stop_line
     from bkflow.observables.states import SWITCHING, needed_length
 
     spec = RunSpec(phi=1000.0, scene="friction", **{**protocol_fields("steady"),

@@ -11,7 +11,8 @@ import subprocess
 import pandas as pd
 import pytest
 
-from bkflow.lammps.engine import continuation, run
+from bkflow.lammps.continuation import continuation
+from bkflow.lammps.engine import run
 from bkflow.model.params import RunSpec
 from bkflow.model.protocols import protocol_fields
 from bkflow.store.rundir import CONTINUING, RunDir

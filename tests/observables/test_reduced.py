@@ -328,9 +328,8 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
     run(base.replace(t_end=600.0, companion="partial", until_steady=True, start="random"),
         tmp_path / "p", progress=False)
     comp = load_run(tmp_path / "p" / "companion")
-    with pytest.raises(AnalysisError, match="Run.blocks"):
-        _ = comp.stress
-    assert len(comp.blocks) > 10
+    # the companion keeps its turning points too: the pair's estimate reads its slips
+    assert len(comp.stress) and len(comp.blocks) > 10
 
 
 @pytest.mark.usefixtures("lammps")

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from bkflow.observables import states, switching
+from bkflow.observables import pair, states, switching
 from bkflow.observables.stationarity import mean_error
 
 QUIET, COHERENT = 0.1030, 0.1048     # the two levels (stress ratio), as at phi = 1000
@@ -108,3 +108,57 @@ def test_the_verdict(stationary, chi, seen, dominating, pair, want):
     comp = states.Composition({s: (1.0 / len(seen) if s in seen else 0.0)
                                for s in states.STATE_NAMES}, {}, {})
     assert states.verdict(stationary, chi, comp, 100, dominating, pair) == want
+
+
+def _approach(t, truth, amp, tau, noise, rng):
+    """Block means of a stress ratio approaching ``truth`` as truth (1 + amp e^(-t/tau)),
+    with white noise of relative size ``noise`` per block."""
+    return truth * (1 + amp * np.exp(-t / tau) + noise * rng.standard_normal(len(t)))
+
+
+@pytest.mark.parametrize("amp, tau", [(-0.015, 2e4), (-0.02, 5e4), (-0.01, 1e4)])
+def test_the_pair_does_not_stop_inside_a_slow_approach_from_below(amp, tau):
+    """A run whose start approaches the steady state slowly from below (as the random start
+    does at the stiff end, benchmarks/RESULTS.md "Time to steady") beside a companion already
+    there: at no check may the pair stop while the run's window still lies further below than
+    the error target, whatever its own errors say, and where it stops the pair's estimate is
+    within the target of the truth."""
+    from bkflow.model.params import RunSpec
+
+    rng = np.random.default_rng(7)
+    spec = RunSpec(phi=10.0, target_error=2e-4, until_steady=True, companion="partial")
+    truth, mu_over_stress = 0.1133, 1.043
+    t = np.arange(0.0, 3e5, 20.0)
+    main = _approach(t, truth, amp, tau, 2e-4, rng) * spec.sigma_n
+    comp = _approach(t, truth, 0.0, tau, 2e-4, rng) * spec.sigma_n
+    stopped = None
+    for check in np.arange(1000.0, 3e5, 1000.0):
+        upto = t <= check
+        legs = []
+        for sigma in (main, comp):
+            w = states.window(spec, t[upto], sigma[upto], None, 0.2 * check)
+            legs.append(pair.Leg(w, True, w.mean * mu_over_stress, w.err * mu_over_stress,
+                                   True))
+        d = pair.pair_rule(legs[0], legs[1], spec.target_error, 0.005)
+        late = (t >= 0.2 * check) & upto
+        deficit = 1 - np.mean(1 + amp * np.exp(-t[late] / tau))   # the approach's, noise-free
+        target_rel = spec.target_error / d.mu_bar.value
+        if deficit > 2 * target_rel:
+            assert not d.stop, (check, deficit)
+        if d.stop:
+            stopped = check
+            break
+    assert stopped is not None
+    both = 0.5 * (legs[0].window.mean + legs[1].window.mean)
+    assert abs(both / truth - 1) <= spec.target_error / d.mu_bar.value
+    # the error it reports covers what is left of the approach
+    assert abs(d.mu_bar.value / (truth * mu_over_stress) - 1) <= 2 * d.mu_bar.err / d.mu_bar.value
+
+
+def test_the_pairs_error_covers_half_its_difference():
+    m = pair.pair_mean(0.110, 1e-4, 0.106, 1e-4)
+    assert m.value == pytest.approx(0.108) and m.bracket == pytest.approx(0.002)
+    assert m.err == pytest.approx(0.002) and m.noise == pytest.approx(math.hypot(1e-4, 1e-4) / 2)
+    close = pair.pair_mean(0.1080, 1e-3, 0.1081, 1e-3)
+    assert close.err == pytest.approx(close.noise)
+    assert math.isnan(pair.pair_mean(0.1, math.nan, 0.1, 1e-3).noise)

@@ -1,5 +1,5 @@
 """The verdict on recorded long runs of each state (benchmarks/records/stiff_states: blocks of
-1000 time units, bkflow.observables.states.block_verdict): a stiff layer's quiet and coherent
+1000 time units, bkflow.observables.switching.block_verdict): a stiff layer's quiet and coherent
 stretches are named as such, a window across a switch names both, a soft layer's window is steady,
 and the synchronized start's plateau is its memory; each error covers the layer's long-run mean,
 which the records hold (every start of the layer pooled)."""
@@ -9,7 +9,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from bkflow.observables import states
+from bkflow.observables import switching
 from tests.support import ROOT
 
 RECORDS = ROOT / "benchmarks" / "records" / "stiff_states"
@@ -35,7 +35,7 @@ def _long_run(n: int, phi: float, seed: int) -> float:
 ])
 def test_the_verdict_names_the_recorded_state(name, blocks, phi, want):
     r = pd.read_parquet(RECORDS / f"{name}.parquet").iloc[slice(*blocks)]
-    got, mean, err = states.block_verdict(r.t0, r.t1, r.s, r.R, r.R2abs, r.Zre, r.Zim, r.n,
+    got, mean, err = switching.block_verdict(r.t0, r.t1, r.s, r.R, r.R2abs, r.Zre, r.Zim, r.n,
                                           phi, 100)
     assert got == want
     if want != "metastable":   # the memory of the start is not the layer's: no error covers it

@@ -15,6 +15,7 @@ from bkflow.analysis import registry
 from bkflow.model.params import RunSpec
 from bkflow.observables import (
     clusters,
+    pair,
     phases,
     states,
     stationarity,
@@ -44,7 +45,7 @@ class FrictionResult:
     mu_bar_err: float = math.nan
     mu_bar_err_by_threshold: dict = field(default_factory=dict)
     #: with a companion run that kept its slips (the steady protocol's pair): each number as
-    #: the mean of the two runs (key -> bkflow.observables.states.PairMean: "mu_bar",
+    #: the mean of the two runs (key -> bkflow.observables.pair.PairMean: "mu_bar",
     #: "mean_stress_ratio", "scaled" and each report threshold's key), the run's own beside it
     pair: dict = field(default_factory=dict)
     #: the run length at which the calibrated error of the estimate (the pair's mean, or the
@@ -66,24 +67,24 @@ class FrictionResult:
 
     def paired(self, other: FrictionResult) -> FrictionResult:
         """This run's numbers and its companion's (``other``, both covering the switching)
-        as the pair's means (``bkflow.observables.states.pair_mean``): the estimate of the
+        as the pair's means (``bkflow.observables.pair.pair_mean``): the estimate of the
         steady protocol, whose two starts approach the steady state from either side."""
         f, g = self.friction, other.friction
-        pair = {"mu_bar": states.pair_mean(f.mu_bar, self.mu_bar_err, g.mu_bar,
+        means = {"mu_bar": pair.pair_mean(f.mu_bar, self.mu_bar_err, g.mu_bar,
                                            other.mu_bar_err),
-                "mean_stress_ratio": states.pair_mean(
+                "mean_stress_ratio": pair.pair_mean(
                     f.mean_stress_ratio, self.mean_stress_ratio_err, g.mean_stress_ratio,
                     other.mean_stress_ratio_err)}
         for k, v in self.by_threshold.items():
             w = other.by_threshold.get(k)
             if w is not None:
-                pair[k] = states.pair_mean(v.mu_bar, self.mu_bar_err_by_threshold.get(
+                means[k] = pair.pair_mean(v.mu_bar, self.mu_bar_err_by_threshold.get(
                     k, v.mu_bar_err), w.mu_bar, other.mu_bar_err_by_threshold.get(
                     k, w.mu_bar_err))
         if self.scaled is not None and other.scaled is not None:
-            pair["scaled"] = states.pair_mean(self.scaled.mu_bar, self.scaled.mu_bar_err,
+            means["scaled"] = pair.pair_mean(self.scaled.mu_bar, self.scaled.mu_bar_err,
                                               other.scaled.mu_bar, other.scaled.mu_bar_err)
-        return dataclasses.replace(self, pair=pair)
+        return dataclasses.replace(self, pair=means)
 
     def row(self) -> dict:
         f = self.friction
@@ -109,9 +110,11 @@ class FrictionResult:
                "mu_bar_run": f.mu_bar, "mean_stress_ratio_run": f.mean_stress_ratio,
                "companion_mu_bar": math.nan, "mu_bar_bracket": math.nan,
                "mean_stress_ratio_bracket": math.nan, "t_needed": self.t_needed}
+        return self._paired_row(row) if self.pair else row
+
+    def _paired_row(self, row: dict) -> dict:
+        """``row`` with the pair's means in place of the run's own."""
         p = self.pair
-        if not p:
-            return row
         row.update(mu_bar=p["mu_bar"].value, mu_bar_err=p["mu_bar"].err,
                    companion_mu_bar=p["mu_bar"].b, mu_bar_bracket=p["mu_bar"].bracket,
                    mean_stress_ratio=p["mean_stress_ratio"].value,
@@ -141,7 +144,7 @@ class LargeDropResult:
     estimate: stationarity.MeanEstimate
     err: float = math.nan
     #: the pair's mean with a companion that kept its slips (``FrictionResult.pair``)
-    pair: states.PairMean | None = None
+    pair: pair.PairMean | None = None
 
     def covering(self, window: states.Window, spec: RunSpec) -> LargeDropResult:
         e = self.estimate
@@ -149,7 +152,7 @@ class LargeDropResult:
                                                            spec.N))
 
     def paired(self, other: LargeDropResult) -> LargeDropResult:
-        return dataclasses.replace(self, pair=states.pair_mean(
+        return dataclasses.replace(self, pair=pair.pair_mean(
             self.estimate.mean, self.err, other.estimate.mean, other.err))
 
     def row(self) -> dict:

@@ -38,6 +38,7 @@ from bkflow.model.settings import AnalysisSettings
 from bkflow.observables import (
     catalogue,
     order,
+    pair,
     reduced,
     states,
     stationarity,
@@ -179,7 +180,7 @@ def state_result(window: states.Window,
                  companion: CompanionResult | None = None) -> StateResult:
     if companion is None:
         return StateResult(window.state, window)
-    disagree = states.pair_disagrees(window, companion.window, STEADY_AGREEMENT)
+    disagree = pair.pair_disagrees(window, companion.window, STEADY_AGREEMENT)
     return StateResult(pair_state(window.state, companion.state, disagree), window, companion)
 
 
@@ -247,7 +248,7 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     large = large_drop_result(spec, settings, events, t0).covering(win, spec)
     if comp is not None and companion.has_extrema:
         # the steady protocol's estimate: the mean of the pair, whose starts approach the
-        # steady state from either side (states.PairMean)
+        # steady state from either side (pair.PairMean)
         cspec = spec.companion_spec
         cfr = friction_result(cspec, settings, companion, *companion.series()[:2], t0)
         cfr = cfr.covering(comp.window, cspec)

@@ -23,7 +23,7 @@ import sys
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-from bkflow.cli import guards, report  # noqa: E402
+from bkflow.cli import guards, report, stops  # noqa: E402
 from bkflow.cli.assignments import (  # noqa: E402
     analysis_assignments,
     parse_aspect,
@@ -78,11 +78,11 @@ def _run_locked(a, argv, spec) -> int:
     res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
               command="bkflow " + shlex.join(argv), force=a.force, path=a.path)
     if not res.ran:
-        print(report.answered_line(a.out, res.meta, spec.t_end))
+        print(stops.answered_line(a.out, res.meta, spec.t_end))
         return 0 if a.no_analyze else _analyze_run(a.out)
     print(report.run_line(a.out, res.meta))
     if res.meta.get("adaptive"):
-        print("\n".join(report.adaptive_lines(res.meta["adaptive"], spec.companion,
+        print("\n".join(stops.adaptive_lines(res.meta["adaptive"], spec.companion,
                                                res.meta.get("command"),
                                                res.meta.get("atom_steps_per_s"))))
     return 0 if a.no_analyze else _analyze_run(a.out)
@@ -158,8 +158,9 @@ def _sweep_specs(a) -> tuple:
 
 def _sweep(a) -> int:
     from bkflow.lammps.limits import check_sweep
+    from bkflow.sweeps.lengths import check_lengths
     from bkflow.sweeps.local import available_cores, sweep
-    from bkflow.sweeps.project import check_lengths, check_sweep_dir
+    from bkflow.sweeps.project import check_sweep_dir
 
     phis, sizes, axes, specs = _sweep_specs(a)
     settings = analysis_assignments(a.analysis) if a.analysis else None
@@ -199,7 +200,7 @@ def _print_sweep(out, rep, specs, axes: list) -> None:
         res = rows_of(res, specs)
         print("\n".join(report.results_lines(res, axes)))
     if len(res):
-        print(report.states_line(res))
+        print(report.states_line(res, max(s.t_end for s in specs)))
     print(report.tables_line(out))
     for line in report.retired_lines(out, rep.retired_figures):
         print(line)

@@ -22,7 +22,7 @@ from bkflow.model.params import (
     RunSpec,
     transient_step,
 )
-from bkflow.observables import states
+from bkflow.observables import pair, states
 from bkflow.observables.stationarity import mean_error
 from bkflow.observables.stress import Zigzag
 from bkflow.store.rundir import RunDir
@@ -45,10 +45,10 @@ class AdaptiveStop:
       excluded) or names the states of a layer that switches (its trend is the switching's).
 
     With a companion the pair decides (``stop_now``): the error target then applies to the
-    pair's mean (``bkflow.observables.states.pair_mean``), and the two legs must agree within
+    pair's mean (``bkflow.observables.pair.pair_mean``), and the two legs must agree within
     it. What the last check found is ``last`` (a ``bkflow.observables.states.Window``) and the
     pair's numbers; ``record`` returns them as data (meta.json's ``adaptive``), and
-    ``bkflow.cli.report.stop_line`` words it."""
+    ``bkflow.cli.stops.stop_line`` words it."""
 
     def __init__(self, spec: RunSpec, run_dir: RunDir):
         self.spec, self.rd = spec, run_dir
@@ -116,6 +116,13 @@ class AdaptiveStop:
         self.met = met
         return met
 
+    def leg(self) -> pair.Leg:
+        """This leg at the last check, as the pair's rule reads it."""
+        est = self.estimate
+        return pair.Leg(self.last, self.state_ok,
+                          est.mean if est is not None else math.nan, _err(self.last_error),
+                          bool(est is not None and est.n >= 2 and est.reliable))
+
     def error_met(self, err, target: float) -> bool:
         """Whether an error of mu_bar (this leg's, or its pair's) meets ``target``: finite,
         from a reliable estimate, and at most the target."""
@@ -124,7 +131,7 @@ class AdaptiveStop:
                     and math.isfinite(err) and err <= target)
 
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
-        """What the stop rule found, as data (``bkflow.cli.report.stop_line`` words it)."""
+        """What the stop rule found, as data (``bkflow.cli.stops.stop_line`` words it)."""
         w = self.last
         trend, comp, contacts = _attr(w, "trend"), _attr(w, "comp"), _attr(w, "contacts")
         mu = self.mu_bar if self.mu_bar is not None else math.nan
@@ -205,11 +212,9 @@ def pair_agreement(spec: RunSpec, mu_bar: float) -> float:
 
 def stop_now(stops: list, step: int) -> bool:
     """The stop rule of an adaptive run at ``step``: its own (``stops[0]``), and with a
-    companion (``stops[1]``) the pair's: each leg's state allows a stop, the pair's mean of
-    mu_bar has an error (``bkflow.observables.states.pair_mean``: the noise of both, each
-    covering the switching, or half their difference if larger) within the target, their mean
-    stresses agree within it (``pair_agreement``), and neither remembers its start beyond both
-    errors (``bkflow.observables.states.pair_disagrees``)."""
+    companion (``stops[1]``) the pair's (``bkflow.observables.pair.pair_rule``): each leg's
+    state allows a stop, neither remembers its start beyond both errors, and with an error
+    target the pair's mean of mu_bar is within it and their mean stresses agree within it."""
     if len(stops) == 1 or stops[1] is None:
         # alone, or beside a companion with no rule of its own (a fixed-length protocol's run
         # with only an error target): the run's own rule decides
@@ -219,21 +224,18 @@ def stop_now(stops: list, step: int) -> bool:
     main, comp = stops
     if main.last is None or comp.last is None:
         return False
-    main.companion_gap = main.last_mean / comp.last_mean - 1 if comp.last_mean else math.nan
-    main.pair_disagrees = states.pair_disagrees(main.last, comp.last, STEADY_AGREEMENT)
-    ok = main.state_ok and comp.state_ok and not main.pair_disagrees
-    spec = main.spec
-    if spec.target_error is not None:
-        if comp.estimate is not None and comp.estimate.n >= 2:
-            mu = states.pair_mean(main.estimate.mean, _err(main.last_error),
-                                  comp.estimate.mean, _err(comp.last_error))
-            main.pair_legs, main.mu_bar, main.last_error = 2, mu.value, mu.err
-            ok &= main.error_met(mu.err, spec.target_error) and comp.error_met(
-                mu.err, spec.target_error)
-            ok &= bool(abs(main.companion_gap) <= pair_agreement(spec, mu.value))
-        else:   # a companion without slips of its own (none yet): the run's own error
-            ok &= main.error_met(main.last_error, spec.target_error)
-    main.met = bool(ok)
+    target = main.spec.target_error
+    if target is not None and not (comp.estimate is not None and comp.estimate.n >= 2):
+        # a companion without slips of its own yet: the pair's gap and the run's own error
+        d = pair.pair_rule(main.leg(), comp.leg(), None, STEADY_AGREEMENT)
+        main.companion_gap, main.pair_disagrees = d.gap, d.disagrees
+        main.met = d.stop and main.error_met(main.last_error, target)
+        return main.met
+    d = pair.pair_rule(main.leg(), comp.leg(), target, STEADY_AGREEMENT)
+    main.companion_gap, main.pair_disagrees = d.gap, d.disagrees
+    if target is not None:
+        main.pair_legs, main.mu_bar, main.last_error = 2, d.mu_bar.value, d.mu_bar.err
+    main.met = d.stop
     return main.met
 
 

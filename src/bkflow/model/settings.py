@@ -30,7 +30,7 @@ from bkflow.model.params import (
 
 #: revision of the analysis code: raised whenever a change to it changes a summary, so that
 #: every summary made before is stale and redone (recorded in summary.json)
-ANALYSIS_REVISION = 11
+ANALYSIS_REVISION = 12
 
 
 @dataclass(frozen=True)

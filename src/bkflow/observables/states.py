@@ -170,7 +170,18 @@ def calibrated(spec) -> str | None:
     if str(spec.N) not in cal.get("sizes", {}):
         sizes = ", ".join(sorted(cal.get("sizes", {}), key=int))
         return f"the switching is calibrated at N = {sizes}, not N = {spec.N}"
+    lattice = _calibrated_lattice(spec.N)
+    if lattice is not None and (spec.Lx, spec.Ly) != lattice:
+        return (f"the switching is calibrated on the {lattice[0]}x{lattice[1]} lattice at "
+                f"N = {spec.N}, not {spec.Lx}x{spec.Ly}")
     return None
+
+
+def _calibrated_lattice(n: int) -> tuple[int, int] | None:
+    """The lattice the calibration's long runs used at N = n (the paper's, Ly = Lx / 4)."""
+    from bkflow.model.params import PAPER_SIZES
+
+    return PAPER_SIZES.get(n)
 
 
 def _interp(x, xs, ys):
@@ -202,7 +213,8 @@ def window_variance(observable: str, phi: float, n: int, window: float,
 #: mean still covers slow fluctuations as the nearest calibrated layer has them, wider: the
 #: variance of the nearest calibrated size, times N_calibrated / N where the layer is smaller
 #: (a smaller layer fluctuates more: the calibrated variance falls as 1/N or faster from N =
-#: 100 to 400), times BORROWED_FACTOR where the model's parameters are not the defaults
+#: 100 to 400), times BORROWED_FACTOR where the model's parameters or the lattice's aspect are
+#: not the calibrated ones
 #: (measured on the held-out long runs of benchmarks/offgrid.py: benchmarks/RESULTS.md,
 #: "The verdict off the grid")
 BORROWED_FACTOR = 2.0
@@ -221,7 +233,8 @@ def borrowed_variance(observable: str, spec, window: float) -> float | None:
     from bkflow.model.params import RunSpec
 
     default = RunSpec(phi=1.0)
-    other = any(getattr(spec, f) != getattr(default, f) for f in CALIBRATED_FIELDS)
+    other = any(getattr(spec, f) != getattr(default, f) for f in CALIBRATED_FIELDS) or (
+        _calibrated_lattice(spec.N) not in (None, (spec.Lx, spec.Ly)))
     return v * max(1.0, int(near) / spec.N) * (BORROWED_FACTOR if other else 1.0)
 
 
@@ -380,7 +393,6 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     own error of the mean (the costly part, which only the summary reports); ``weights``: the
     samples behind each value of a series of block means (bkflow.observables.reduced), for its
     mean."""
-    from bkflow.observables.phases import coherence
     from bkflow.observables.stationarity import mean_error, stationarity
 
     t, sigma = np.asarray(t, float), np.asarray(sigma, float)
@@ -400,21 +412,33 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
     var = None if why is not None else window_variance("stress", spec.phi, spec.N, t1 - t0)
     borrowed = None if why is None else borrowed_variance("stress", spec, t1 - t0)
-    contacts = comp = None
-    if phase is not None and len(phase["t"]):
-        contacts = coherence(phase["t"], np.asarray(phase["Z_re"]) + 1j * np.asarray(
-            phase["Z_im"]), t0, spec.N, phase.get("R2"), phase.get("u_std"), n_blocks, alpha,
-            phase.get("R"), phase.get("Z2"))
-        if late.any():
-            b = blocks(phase["t"], phase["R"], t, ratio, t0, spec.N)
-            fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.sigma_n
-            comp = composition(b, t_fail, fail)
+    contacts, comp = _contacts(spec, t, ratio, phase, t0, late.any(), n_blocks, alpha,
+                               t_fail, sigma_fail)
     chi = None if contacts is None or not math.isfinite(contacts.fluctuation) \
         else contacts.fluctuation
     switching = not_averaged(var, err_block, mean, spec.phi, spec.N)
     state = verdict(bool(trend.stationary), chi, comp, spec.N, switching)
     return Window(float(t0), t1, mean, err_run, err_block, var, why, trend, contacts, comp,
                   state, spec.N, borrowed, spec)
+
+
+def _contacts(spec, t, ratio, phase, t0: float, any_late: bool, n_blocks: int, alpha: float,
+              t_fail, sigma_fail):
+    """The contacts' phase statistics over the window and the states its blocks visited
+    (None, None without a phase series)."""
+    from bkflow.observables.phases import coherence
+
+    if phase is None or not len(phase["t"]):
+        return None, None
+    contacts = coherence(phase["t"], np.asarray(phase["Z_re"]) + 1j * np.asarray(
+        phase["Z_im"]), t0, spec.N, phase.get("R2"), phase.get("u_std"), n_blocks, alpha,
+        phase.get("R"), phase.get("Z2"))
+    comp = None
+    if any_late:
+        b = blocks(phase["t"], phase["R"], t, ratio, t0, spec.N)
+        fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.sigma_n
+        comp = composition(b, t_fail, fail)
+    return contacts, comp
 
 
 def trend_within_fluctuations(trend, half_var: float | None):
@@ -443,19 +467,6 @@ def trend_within_fluctuations(trend, half_var: float | None):
                                stationary=bool(p >= trend.alpha))
 
 
-def pair_disagrees(a: Window, b: Window, agreement: float) -> bool:
-    """Whether two windows of one layer (a run and its companion from another start) differ
-    by more than ``agreement`` (relative) and more than twice their combined error: one of
-    them still remembers its start."""
-    if not (math.isfinite(a.mean) and math.isfinite(b.mean) and b.mean):
-        return False
-    gap = abs(a.mean / b.mean - 1)
-    ea, eb = a.err_verdict, b.err_verdict
-    both = math.hypot(ea / abs(a.mean), eb / abs(b.mean)) \
-        if math.isfinite(ea) and math.isfinite(eb) else 0.0
-    return gap > max(agreement, 2 * both)
-
-
 def needed_length(spec, mu_bar: float, legs: int = 1) -> float | None:
     """The run length at which the calibrated switching error of mu_bar falls to the run's
     target_error (what the layer's physics asks of a run, the cap aside), for the mean of
@@ -476,78 +487,3 @@ def needed_length(spec, mu_bar: float, legs: int = 1) -> float | None:
         else:
             hi = mid
     return math.exp(hi) / (1 - spec.transient)
-
-
-@dataclass(frozen=True)
-class PairMean:
-    """The mean of one observable over a run and its companion from another start (the
-    steady protocol's pair, docs/steady.md): ``value`` their mean, ``a`` and ``b`` each one's,
-    ``noise`` the error of the mean from the two errors (each covering the switching),
-    ``bracket`` half their difference, and ``err`` the larger of the two.
-
-    Why the bracket: the two starts approach the steady state from either side (the random
-    start from below, the partial one from above or, at N = 400, from just below), and the
-    part of either that still remembers its start has one sign for every seed, which no
-    error of a single run shows and no average over seeds removes. The long-run mean then lies
-    between them, within half their difference of their mean; once the pair agrees that
-    bound is below the noise."""
-
-    value: float
-    a: float
-    b: float
-    noise: float
-    bracket: float
-
-    @property
-    def err(self) -> float:
-        if not math.isfinite(self.bracket):
-            return self.noise
-        return max(self.noise, self.bracket) if math.isfinite(self.noise) else self.bracket
-
-    @property
-    def gap(self) -> float:
-        """a / b - 1: how far the run lies from its companion, relative."""
-        return self.a / self.b - 1 if self.b else math.nan
-
-
-def pair_mean(a: float, err_a: float, b: float, err_b: float) -> PairMean:
-    """The ``PairMean`` of values ``a`` and ``b`` with their errors (NaN where unknown: the
-    noise is then NaN, and the error the bracket alone)."""
-    noise = math.hypot(err_a, err_b) / 2 if math.isfinite(err_a) and math.isfinite(err_b) \
-        else math.nan
-    return PairMean(0.5 * (a + b), a, b, noise, 0.5 * abs(a - b))
-
-
-def block_verdict(t0, t1, stress, R, R2abs, Zre, Zim, samples, phi: float, n: int,
-                  n_blocks: int = 10, alpha: float = 0.05):
-    """The verdict of ``window`` from block averages of a window instead of its series (the
-    long runs' records: blocks of BLOCK_T): per block its edges, mean stress ratio, mean R,
-    mean |Z|^2, mean Z and sample count. The trend test's ``n_blocks`` blocks are groups of
-    these, chi comes from the blocks' moments; the calibration is the installed one (the
-    model's defaults). Returns (verdict, mean stress ratio, its error as ``Window.err``
-    with the groups' scatter as the run's own)."""
-    from bkflow.observables.stationarity import Stationarity, linear_fit
-
-    t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
-    w = np.asarray(samples, float)
-    s = np.asarray(stress, float)
-    mean = float(np.average(s, weights=w))
-    groups = np.array_split(np.arange(len(s)), n_blocks)
-    gm = np.array([np.average(s[g], weights=w[g]) for g in groups])
-    gt = np.array([0.5 * (t0[g[0]] + t1[g[-1]]) for g in groups])
-    slope, stderr, p = linear_fit(gt, gm)
-    span, level = float(t1[-1] - t0[0]), float(gm.mean())
-    trend = Stationarity(float(t0[0]), float(t1[-1]), gt, gm, slope * span / level,
-                         stderr * span / level, slope / stderr if stderr else 0.0, p,
-                         p >= alpha, alpha)
-    trend = trend_within_fluctuations(trend, window_variance("stress", phi, n, span / 2))
-    err_block = float(gm.std(ddof=1) / math.sqrt(len(gm)))
-    chi = n * (np.average(R2abs, weights=w) - np.average(Zre, weights=w) ** 2
-               - np.average(Zim, weights=w) ** 2)
-    quiet = float(np.mean(np.asarray(R, float) < r_independent(n)))
-    comp = Composition({QUIET: quiet, COHERENT: 1 - quiet}, {}, {})
-    var = window_variance("stress", phi, n, span)
-    switching = not_averaged(var, err_block, mean, phi, n)
-    state = verdict(bool(trend.stationary), float(chi), comp, n, switching)
-    err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
-    return state, mean, err

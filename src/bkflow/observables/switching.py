@@ -9,7 +9,17 @@ import math
 
 import numpy as np
 
-from bkflow.observables.states import BLOCK_T
+from bkflow.observables.states import (
+    BLOCK_T,
+    COHERENT,
+    QUIET,
+    Composition,
+    not_averaged,
+    r_independent,
+    trend_within_fluctuations,
+    verdict,
+    window_variance,
+)
 
 
 def slide(x, k: int, step: int | None = None) -> np.ndarray:
@@ -64,3 +74,38 @@ def calibrate(layers: dict, windows, block_t: float = BLOCK_T) -> dict:
                 row[j] = row[j - 1] * windows[j - 1] / windows[j]
         table.append(row)
     return {"phi": phis, "windows": list(windows), "table": table}
+
+
+def block_verdict(t0, t1, stress, R, R2abs, Zre, Zim, samples, phi: float, n: int,
+                  n_blocks: int = 10, alpha: float = 0.05):
+    """The verdict of ``window`` from block averages of a window instead of its series (the
+    long runs' records: blocks of BLOCK_T): per block its edges, mean stress ratio, mean R,
+    mean |Z|^2, mean Z and sample count. The trend test's ``n_blocks`` blocks are groups of
+    these, chi comes from the blocks' moments; the calibration is the installed one (the
+    model's defaults). Returns (verdict, mean stress ratio, its error as ``Window.err``
+    with the groups' scatter as the run's own)."""
+    from bkflow.observables.stationarity import Stationarity, linear_fit
+
+    t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
+    w = np.asarray(samples, float)
+    s = np.asarray(stress, float)
+    mean = float(np.average(s, weights=w))
+    groups = np.array_split(np.arange(len(s)), n_blocks)
+    gm = np.array([np.average(s[g], weights=w[g]) for g in groups])
+    gt = np.array([0.5 * (t0[g[0]] + t1[g[-1]]) for g in groups])
+    slope, stderr, p = linear_fit(gt, gm)
+    span, level = float(t1[-1] - t0[0]), float(gm.mean())
+    trend = Stationarity(float(t0[0]), float(t1[-1]), gt, gm, slope * span / level,
+                         stderr * span / level, slope / stderr if stderr else 0.0, p,
+                         p >= alpha, alpha)
+    trend = trend_within_fluctuations(trend, window_variance("stress", phi, n, span / 2))
+    err_block = float(gm.std(ddof=1) / math.sqrt(len(gm)))
+    chi = n * (np.average(R2abs, weights=w) - np.average(Zre, weights=w) ** 2
+               - np.average(Zim, weights=w) ** 2)
+    quiet = float(np.mean(np.asarray(R, float) < r_independent(n)))
+    comp = Composition({QUIET: quiet, COHERENT: 1 - quiet}, {}, {})
+    var = window_variance("stress", phi, n, span)
+    switching = not_averaged(var, err_block, mean, phi, n)
+    state = verdict(bool(trend.stationary), float(chi), comp, n, switching)
+    err = max(err_block, math.sqrt(var) * mean if var is not None else 0.0)
+    return state, mean, err

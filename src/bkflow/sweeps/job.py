@@ -22,7 +22,7 @@ def simulated(out, spec: RunSpec | None = None) -> bool:
         return False
     if spec is None:
         return True
-    from bkflow.lammps.engine import answers
+    from bkflow.lammps.continuation import answers
 
     # the same request, or a run that stopped by its rule before this request's longer cap
     return answers(rd, spec)
@@ -37,7 +37,7 @@ def analysed(out, spec: RunSpec, settings: AnalysisSettings) -> bool:
 def simulate(spec: RunSpec, out, command: str | None = None, force: bool = False) -> bool:
     """Run ``spec`` into ``out`` unless it is there; True when LAMMPS ran. ``force``: above
     the cost limits too."""
-    from bkflow.lammps.engine import continuation
+    from bkflow.lammps.continuation import continuation
 
     rd = RunDir(out)
     with rd.lock():
@@ -58,7 +58,7 @@ def seed(out, donors, spec: RunSpec) -> str | None:
     import shutil
     from pathlib import Path
 
-    from bkflow.lammps.engine import continuation
+    from bkflow.lammps.continuation import continuation
     from bkflow.store.formats import atomic_file
     from bkflow.store.rundir import (
         ANALYSIS_FILES,

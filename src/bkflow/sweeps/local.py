@@ -27,6 +27,7 @@ from bkflow.store.rundir import RunDir
 from bkflow.store.tables import retire_figures
 from bkflow.sweeps import flowcompat
 from bkflow.sweeps.grid import run_cost
+from bkflow.sweeps.lengths import open_jobs
 from bkflow.sweeps.project import (
     ANALYZE,
     SIMULATE,
@@ -34,7 +35,6 @@ from bkflow.sweeps.project import (
     check_sweep_dir,
     clear_failure,
     finished,
-    open_jobs,
     open_project,
     permit_above_limits,
     set_settings,

@@ -42,7 +42,7 @@ class SweepProject(FlowProject):
 #: the job document's key of the length a sweep asks of the job's run now (RunSpec fields of
 #: ``bkflow.lammps.engine.LENGTH_FIELDS``), where it differs from the job's state point: a
 #: sweep run again with a longer --t-end (or a smaller --target-error) asks it of the same job,
-#: whose run then goes on in its directory (``open_jobs``)
+#: whose run then goes on in its directory (``bkflow.sweeps.lengths.open_jobs``)
 LENGTH = "length"
 
 
@@ -50,83 +50,6 @@ def spec_of(job) -> RunSpec:
     """The RunSpec a job's run is asked for: its state point, with the length a later sweep
     asked of it (``LENGTH``)."""
     return RunSpec.from_dict({**job.cached_statepoint, **dict(job.document.get(LENGTH, {}))})
-
-
-def _set_length(job, spec: RunSpec) -> None:
-    from bkflow.lammps.engine import LENGTH_FIELDS
-
-    sp = job.cached_statepoint
-    length = {f: getattr(spec, f) for f in LENGTH_FIELDS if sp.get(f) != getattr(spec, f)}
-    if length:
-        job.document[LENGTH] = length
-    elif LENGTH in job.document:
-        del job.document[LENGTH]
-
-
-class ShorterRequestError(SpecError):
-    """A sweep asked for a shorter length than its runs were asked for before."""
-
-
-def _takes(job, spec: RunSpec) -> bool:
-    """Whether the run of ``job`` (a layer's, asked for another length before) goes on to
-    ``spec``, or already is its run: nothing it has is simulated again (continued in place,
-    ``bkflow.lammps.engine.continuation``, or answered, ``answers``); a job whose run never
-    finished takes any length (its partial run is redone anyway)."""
-    from bkflow.lammps.engine import answers, continuation
-    from bkflow.store.rundir import RunBusyError
-
-    rd = RunDir(job.path)
-    try:
-        with rd.lock():
-            if not rd.is_complete():
-                return True
-            return answers(rd, spec) or continuation(rd, spec) is not None
-    except RunBusyError:   # another process is writing it: that one decides
-        return False
-
-
-def check_lengths(path, specs) -> None:
-    """Refuse (``ShorterRequestError``), before anything is printed or written, a sweep into
-    an existing sweep directory whose runs went further than ``specs`` ask (``open_jobs``)."""
-    if (Path(path) / ".signac").is_dir():
-        open_jobs(open_project(path, create=False), specs, dry=True)
-
-
-def open_jobs(project, specs, dry: bool = False) -> list:
-    """One job per RunSpec of ``specs``, created where new. A sweep asked again with another
-    length (--t-end, --target-error; ``bkflow.lammps.engine.LENGTH_FIELDS``), when the sweep
-    does not vary that length, asks it of the job of the same layer it already has (its
-    ``LENGTH``), not of a new job: a run that stopped at its cap goes on from its restart file,
-    one that stopped by its rule is left as it is (it answers the longer request), and the
-    sweep's tables and figures keep one row per run. A shorter length than a finished run went
-    to is refused (``ShorterRequestError``): it would redo the run. ``dry``: only that check,
-    nothing created or changed."""
-    from bkflow.lammps.engine import LENGTH_FIELDS
-
-    specs = list(specs)
-    axes = {f for f in LENGTH_FIELDS if len({getattr(s, f) for s in specs}) > 1}
-    jobs = []
-    for spec in specs:
-        job = project.open_job(spec.to_dict())
-        if not axes:
-            layer = {k: v for k, v in spec.to_dict().items() if k not in LENGTH_FIELDS}
-            same = [j for j in project.find_jobs(layer)] if job not in project else [job]
-            if same:
-                taken = [j for j in same if _takes(j, spec)]
-                if not taken:
-                    raise ShorterRequestError(
-                        f"the sweep's run of {spec.label} in {same[0].path} went further than "
-                        f"this request (t_end {spec.t_end:g}, target error "
-                        f"{spec.target_error}) asks, and a sweep's runs only go on: ask for "
-                        "at least the length it was asked for before (its runs.csv says), or "
-                        "sweep into another --out")
-                job = taken[0]
-                if not dry:
-                    _set_length(job, spec)
-                jobs.append(job)
-                continue
-        jobs.append(job if dry else job.init())
-    return jobs
 
 
 def settings_of(project) -> AnalysisSettings:
@@ -510,6 +433,8 @@ def init_jobs(specs, root, settings: AnalysisSettings | None = None,
         project = open_project(root)
         if settings is not None:
             set_settings(project, settings)
+        from bkflow.sweeps.lengths import open_jobs
+
         jobs = open_jobs(project, specs)
         for job in jobs:
             permit_above_limits(job, force)

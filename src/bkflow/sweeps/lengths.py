@@ -1,0 +1,95 @@
+"""The length a sweep asks of its runs (--t-end, --target-error:
+``bkflow.lammps.continuation.LENGTH_FIELDS``): a sweep asked again with another length asks
+it of the jobs it has, not of new ones (``open_jobs``), so that its runs go on in place and
+its tables keep one row per run; a shorter request is refused (``ShorterRequestError``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from bkflow.lammps.continuation import LENGTH_FIELDS, answers, continuation
+from bkflow.model.params import RunSpec, SpecError
+from bkflow.store.rundir import RunBusyError, RunDir
+from bkflow.sweeps.project import LENGTH, open_project
+
+
+def _set_length(job, spec: RunSpec) -> None:
+    sp = job.cached_statepoint
+    length = {f: getattr(spec, f) for f in LENGTH_FIELDS if sp.get(f) != getattr(spec, f)}
+    if length:
+        job.document[LENGTH] = length
+    elif LENGTH in job.document:
+        del job.document[LENGTH]
+
+
+class ShorterRequestError(SpecError):
+    """A sweep asked for a shorter length than its runs were asked for before."""
+
+
+def _takes(job, spec: RunSpec) -> bool:
+    """Whether the run of ``job`` (a layer's, asked for another length before) goes on to
+    ``spec``, or already is its run: nothing it has is simulated again (continued in place,
+    ``bkflow.lammps.engine.continuation``, or answered, ``answers``); a job whose run never
+    finished takes any length (its partial run is redone anyway)."""
+    rd = RunDir(job.path)
+    try:
+        with rd.lock():
+            if not rd.is_complete():
+                return True
+            return answers(rd, spec) or continuation(rd, spec) is not None
+    except RunBusyError:   # another process is writing it: that one decides
+        return False
+
+
+def check_lengths(path, specs) -> None:
+    """Refuse (``ShorterRequestError``), before anything is printed or written, a sweep into
+    an existing sweep directory whose runs went further than ``specs`` ask (``open_jobs``)."""
+    if (Path(path) / ".signac").is_dir():
+        open_jobs(open_project(path, create=False), specs, dry=True)
+
+
+def open_jobs(project, specs, dry: bool = False) -> list:
+    """One job per RunSpec of ``specs``, created where new. A sweep asked again with another
+    length (--t-end, --target-error; ``bkflow.lammps.engine.LENGTH_FIELDS``), when the sweep
+    does not vary that length, asks it of the job of the same layer it already has (its
+    ``LENGTH``), not of a new job: a run that stopped at its cap goes on from its restart file,
+    one that stopped by its rule is left as it is (it answers the longer request), and the
+    sweep's tables and figures keep one row per run. A shorter length than a finished run went
+    to is refused (``ShorterRequestError``): it would redo the run. ``dry``: only that check,
+    nothing created or changed."""
+    specs = list(specs)
+    axes = {f for f in LENGTH_FIELDS if len({getattr(s, f) for s in specs}) > 1}
+    jobs = []
+    for spec in specs:
+        job = project.open_job(spec.to_dict())
+        same = [] if axes else _same_layer(project, job, spec)
+        if same:
+            job = _taken(same, spec)
+            if not dry:
+                _set_length(job, spec)
+        elif not dry:
+            job.init()
+        jobs.append(job)
+    return jobs
+
+
+def _same_layer(project, job, spec: RunSpec) -> list:
+    """The jobs of ``project`` of ``spec``'s layer (``spec``'s own job where it exists)."""
+    if job in project:
+        return [job]
+    layer = {k: v for k, v in spec.to_dict().items() if k not in LENGTH_FIELDS}
+    return list(project.find_jobs(layer))
+
+
+def _taken(same: list, spec: RunSpec):
+    """The job of ``same`` whose run takes ``spec`` (``_takes``); ShorterRequestError where
+    none does."""
+    taken = [j for j in same if _takes(j, spec)]
+    if not taken:
+        raise ShorterRequestError(
+            f"the sweep's run of {spec.label} in {same[0].path} went further than this "
+            f"request (t_end {spec.t_end:g}, target error {spec.target_error}) asks, and a "
+            "sweep's runs only go on: ask for at least the length it was asked for before "
+            "(its runs.csv says), or sweep into another --out")
+    return taken[0]
