@@ -137,9 +137,9 @@ def test_the_pair_does_not_stop_inside_a_slow_approach_from_below(amp, tau):
         legs = []
         for sigma in (main, comp):
             w = states.window(spec, t[upto], sigma[upto], None, 0.2 * check)
-            legs.append(pair.Leg(w, True, w.mean * mu_over_stress, w.err * mu_over_stress,
-                                   True))
-        d = pair.pair_rule(legs[0], legs[1], spec.target_error, 0.005)
+            legs.append(pair.Leg(w, w.mean * mu_over_stress, w.err * mu_over_stress, True))
+        both = states.window(spec, t[upto], 0.5 * (main + comp)[upto], None, 0.2 * check)
+        d = pair.pair_rule(legs[0], legs[1], both, spec.target_error, 0.005, 0.01)
         late = (t >= 0.2 * check) & upto
         deficit = 1 - np.mean(1 + amp * np.exp(-t[late] / tau))   # the approach's, noise-free
         target_rel = spec.target_error / d.mu_bar.value

@@ -198,18 +198,6 @@ class CompanionResult:
         return self.window.mean
 
 
-def pair_state(main: str, other: str, disagree: bool) -> str:
-    """The verdict of a run and its companion (``bkflow.observables.states.VERDICTS``): metastable
-    when either is, or their means disagree beyond both errors; the states either visited where
-    either names its states; drifting when either drifts; steady when both are."""
-    if disagree or "metastable" in (main, other):
-        return "metastable"
-    if main in states.SWITCHING or other in states.SWITCHING:
-        seen = {s for v in (main, other) if v in states.SWITCHING for s in v.split("+")}
-        return "+".join(s for s in states.STATE_NAMES if s in seen)
-    return "drifting" if "drifting" in (main, other) else "steady"
-
-
 @dataclass(frozen=True)
 class StateResult:
     """The state of the run over its analysed window (docs/model.md "Steady state",
@@ -217,7 +205,7 @@ class StateResult:
     where the layer switches between states more slowly than the window averages over them, from the
     stress's trend test, the contacts' phases (``contacts`` None for a run directory without
     a phase record) and the calibrated switching (``bkflow.observables.states``); with a companion
-    run, from the pair (``pair_state``)."""
+    run, from the pair (``bkflow.observables.pair.pair_verdict``)."""
 
     state: str
     window: states.Window

@@ -29,7 +29,6 @@ from bkflow.analysis.run_results import (
     OrderResult,
     StateResult,
     StationarityResult,
-    pair_state,
     threshold_key,
 )
 from bkflow.model.lattice import square_lattice
@@ -176,12 +175,28 @@ def companion_result(spec: RunSpec, settings: AnalysisSettings, t_transient: flo
     return CompanionResult(comp.start, w, gap)
 
 
-def state_result(window: states.Window,
-                 companion: CompanionResult | None = None) -> StateResult:
+def state_result(window: states.Window, companion: CompanionResult | None = None,
+                 both: states.Window | None = None) -> StateResult:
+    """The run's verdict, or with a companion the pair's (``pair.pair_verdict``; ``both``:
+    the window of the pair's mean stress)."""
     if companion is None:
         return StateResult(window.state, window)
     disagree = pair.pair_disagrees(window, companion.window, STEADY_AGREEMENT)
-    return StateResult(pair_state(window.state, companion.state, disagree), window, companion)
+    return StateResult(pair.pair_verdict(window.state, companion.state, both, disagree),
+                       window, companion)
+
+
+def pair_window(spec: RunSpec, settings: AnalysisSettings, red: reduced.Reduced,
+                companion: reduced.Reduced, t_transient: float) -> states.Window | None:
+    """The window of the pair's mean stress (the mean of the run's and its companion's block
+    series, sample for sample), whose trend the pair's verdict tests; None where the two
+    series are not of one length (a companion recorded otherwise)."""
+    t, sigma, _ = red.series()
+    tc, sc, _ = companion.series()
+    if len(tc) != len(t) or not np.array_equal(red.weights(), companion.weights()):
+        return None
+    return run_window(spec, settings, t, 0.5 * (sigma + sc), None, t_transient,
+                      weights=red.weights())
 
 
 def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,
@@ -215,6 +230,27 @@ def order_from_record(spec: RunSpec, settings: AnalysisSettings, steps, psi) -> 
     return OrderResult(ts, p, order.psi_inf(ts, p, settings.psi_late_fraction), recorded=True)
 
 
+def estimates(spec: RunSpec, settings: AnalysisSettings, fr: FrictionResult,
+              large: LargeDropResult, comp: CompanionResult | None,
+              companion: reduced.Reduced | None, t0: float):
+    """The friction numbers a run reports, each covering the switching: with a companion
+    that kept its slips, the pair's means (the steady protocol's estimate: its two starts
+    approach the steady state from either side, pair.PairMean); and the length the error
+    target would need (states.needed_length)."""
+    if comp is not None and companion.has_extrema:
+        cspec = spec.companion_spec
+        cfr = friction_result(cspec, settings, companion, *companion.series()[:2], t0)
+        cfr = cfr.covering(comp.window, cspec)
+        fr = fr.paired(cfr)
+        large = large.paired(large_drop_result(cspec, settings, cfr.friction.events,
+                                               t0).covering(comp.window, cspec))
+    if spec.target_error is not None and states.calibrated(spec) is None:
+        mu = fr.pair["mu_bar"].value if fr.pair else fr.friction.mu_bar
+        fr = dataclasses.replace(fr, t_needed=states.needed_length(spec, mu,
+                                                                   2 if fr.pair else 1))
+    return fr, large
+
+
 def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=None,
               settings: AnalysisSettings = AnalysisSettings(), companion=None,
               slip_breaks=None, psi=None, slip_rows=None) -> RunAnalysis:
@@ -238,27 +274,15 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     fr = friction_result(spec, settings, red, t, sigma, t0)
     events = fr.friction.events
     win = run_window(spec, settings, t, sigma, phase, t0, events, weights=red.weights())
-    # the trend the verdict read (its error widened by the layer's calibrated fluctuations),
-    # not a second test of the same window that the summary would report beside it
-    steady = StationarityResult(win.trend, t_equil)
     comp = None if companion is None else companion_result(
         spec, settings, t0, fr.friction.mean_stress_ratio, companion)
-    verdict = state_result(win, comp)
-    fr = fr.covering(win, spec)
-    large = large_drop_result(spec, settings, events, t0).covering(win, spec)
-    if comp is not None and companion.has_extrema:
-        # the steady protocol's estimate: the mean of the pair, whose starts approach the
-        # steady state from either side (pair.PairMean)
-        cspec = spec.companion_spec
-        cfr = friction_result(cspec, settings, companion, *companion.series()[:2], t0)
-        cfr = cfr.covering(comp.window, cspec)
-        fr = fr.paired(cfr)
-        large = large.paired(large_drop_result(cspec, settings, cfr.friction.events,
-                                               t0).covering(comp.window, cspec))
-    if spec.target_error is not None and verdict.window.calibration is None:
-        mu = fr.pair["mu_bar"].value if fr.pair else fr.friction.mu_bar
-        fr = dataclasses.replace(fr, t_needed=states.needed_length(spec, mu,
-                                                                   2 if fr.pair else 1))
+    both = None if companion is None else pair_window(spec, settings, red, companion, t0)
+    # the trend the verdict read (its error widened by the layer's calibrated fluctuations;
+    # with a companion, the pair's mean's), not a second test that the summary would report
+    steady = StationarityResult((both or win).trend, t_equil)
+    verdict = state_result(win, comp, both)
+    fr, large = estimates(spec, settings, fr.covering(win, spec), large_drop_result(
+        spec, settings, events, t0).covering(win, spec), comp, companion, t0)
     drops = drop_result(settings, events.after(t0))
     orders = order_from_record(spec, settings, *psi) if psi is not None else \
         None if snapshots is None else order_result(spec, settings, *snapshots)

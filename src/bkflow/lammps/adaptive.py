@@ -67,6 +67,9 @@ class AdaptiveStop:
         self.companion_gap = None   # the pair's gap of mean stresses at the last check
         self.pair_disagrees = False
         self.pair_legs = 1          # 2 once the pair's mean is the estimate
+        self.series = None          # (t, sigma, weights, t0) read at the last check
+        self.both = None            # the window of the pair's mean stress (the main run's)
+        self.pair_state = None      # the pair's verdict at the last check
 
     @property
     def last_mean(self) -> float:
@@ -101,6 +104,7 @@ class AdaptiveStop:
         self._read_slips(red)
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
+        self.series = (t, sigma, red.weights(), t0)
         self.last = win = states.window(spec, t, sigma, phase if spec.until_steady else None,
                                         t0, own_error=False, weights=red.weights())
         self.estimate = est = self.error(t0)
@@ -119,9 +123,9 @@ class AdaptiveStop:
     def leg(self) -> pair.Leg:
         """This leg at the last check, as the pair's rule reads it."""
         est = self.estimate
-        return pair.Leg(self.last, self.state_ok,
-                          est.mean if est is not None else math.nan, _err(self.last_error),
-                          bool(est is not None and est.n >= 2 and est.reliable))
+        return pair.Leg(self.last, est.mean if est is not None else math.nan,
+                        _err(self.last_error),
+                        bool(est is not None and est.n >= 2 and est.reliable))
 
     def error_met(self, err, target: float) -> bool:
         """Whether an error of mu_bar (this leg's, or its pair's) meets ``target``: finite,
@@ -133,7 +137,8 @@ class AdaptiveStop:
     def record(self, requested: RunSpec, t_run: float, stopped_early: bool) -> dict:
         """What the stop rule found, as data (``bkflow.cli.stops.stop_line`` words it)."""
         w = self.last
-        trend, comp, contacts = _attr(w, "trend"), _attr(w, "comp"), _attr(w, "contacts")
+        trend = _attr(self.both if self.both is not None else w, "trend")
+        comp, contacts = _attr(w, "comp"), _attr(w, "contacts")
         mu = self.mu_bar if self.mu_bar is not None else math.nan
         needed = states.needed_length(requested, mu, self.pair_legs) \
             if requested.target_error is not None else None
@@ -147,7 +152,7 @@ class AdaptiveStop:
                 "estimate": "pair" if self.pair_legs == 2 else "run",
                 "mu_bar_at_stop": self.mu_bar,
                 "mu_bar_err_at_stop": self.last_error,
-                "state_at_stop": _attr(w, "state"),
+                "state_at_stop": self.pair_state if self.pair_state else _attr(w, "state"),
                 "states_visited_at_stop": _attr(comp, "name"),
                 "drift_at_stop": _attr(trend, "drift"),
                 "drift_err_at_stop": _attr(trend, "drift_err"),
@@ -225,17 +230,21 @@ def stop_now(stops: list, step: int) -> bool:
     if main.last is None or comp.last is None:
         return False
     target = main.spec.target_error
-    if target is not None and not (comp.estimate is not None and comp.estimate.n >= 2):
-        # a companion without slips of its own yet: the pair's gap and the run's own error
-        d = pair.pair_rule(main.leg(), comp.leg(), None, STEADY_AGREEMENT)
-        main.companion_gap, main.pair_disagrees = d.gap, d.disagrees
-        main.met = d.stop and main.error_met(main.last_error, target)
-        return main.met
-    d = pair.pair_rule(main.leg(), comp.leg(), target, STEADY_AGREEMENT)
-    main.companion_gap, main.pair_disagrees = d.gap, d.disagrees
-    if target is not None:
+    t, sigma, weights, t0 = main.series
+    tc, sc, wc, _ = comp.series
+    if len(tc) != len(t):   # (the legs advance together: never, but said rather than assumed)
+        return False
+    main.both = states.window(main.spec, t, 0.5 * (sigma + sc), None, t0, own_error=False,
+                              weights=weights)
+    paired = target is not None and comp.estimate is not None and comp.estimate.n >= 2
+    d = pair.pair_rule(main.leg(), comp.leg(), main.both, target if paired else None,
+                       STEADY_AGREEMENT, STEADY_DRIFT_BOUND)
+    main.companion_gap, main.pair_disagrees, main.pair_state = d.gap, d.disagrees, d.state
+    if paired:
         main.pair_legs, main.mu_bar, main.last_error = 2, d.mu_bar.value, d.mu_bar.err
-    main.met = d.stop
+        main.met = d.stop
+    else:   # a companion without slips of its own yet: the run's own error
+        main.met = d.stop and (target is None or main.error_met(main.last_error, target))
     return main.met
 
 

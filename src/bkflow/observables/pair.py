@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from bkflow.observables.states import Window
+from bkflow.observables.states import STATE_NAMES, SWITCHING, Window
 
 
 def pair_disagrees(a: Window, b: Window, agreement: float) -> bool:
@@ -67,15 +67,34 @@ def pair_mean(a: float, err_a: float, b: float, err_b: float) -> PairMean:
     return PairMean(0.5 * (a + b), a, b, noise, 0.5 * abs(a - b))
 
 
+def pair_verdict(main: str, other: str, both: Window | None, disagree: bool) -> str:
+    """The verdict of a run and its companion (``bkflow.observables.states.VERDICTS``):
+    metastable when either holds its start's common phase, or their means disagree beyond
+    both errors; the states either visited where either names its states; else the trend of
+    the pair's mean (``both``: the window of the mean of their two stress series, what the
+    pair reports), drifting or steady. One test of the pair's mean rather than one per run:
+    a run's trend that its companion does not share, the two approaching from either side,
+    is their gap's, which the pair's disagreement and its bracket judge; and two tests would
+    call twice as many flat pairs drifting. Without ``both`` (a pair recorded without it),
+    drifting when either drifts."""
+    if disagree or "metastable" in (main, other):
+        return "metastable"
+    if main in SWITCHING or other in SWITCHING:
+        seen = {s for v in (main, other) if v in SWITCHING for s in v.split("+")}
+        return "+".join(s for s in STATE_NAMES if s in seen)
+    if both is None:
+        return "drifting" if "drifting" in (main, other) else "steady"
+    return "steady" if both.trend.stationary else "drifting"
+
+
 @dataclass(frozen=True)
 class Leg:
     """What the stop rule of a run in progress knows of one leg at a check: its window (a
-    ``Window``), whether its state alone allows a stop (``state_ok``), and mu_bar over its
-    slips after the transient with the error that covers the switching (``mu_err``, NaN
-    where not measurable) and whether that estimate is reliable."""
+    ``Window``), and mu_bar over its slips after the transient with the error that covers the
+    switching (``mu_err``, NaN where not measurable) and whether that estimate is
+    reliable."""
 
     window: Window
-    state_ok: bool
     mu_bar: float
     mu_err: float
     reliable: bool
@@ -86,30 +105,33 @@ class PairDecision:
     """The steady protocol's decision at a check (``pair_rule``)."""
 
     stop: bool
+    state: str                  # the pair's verdict (pair_verdict)
     mu_bar: PairMean            # the pair's mean of mu_bar, with its error
     gap: float                  # main / companion - 1 of the mean stresses
     agreement: float            # the gap the rule allows (relative)
     disagrees: bool             # beyond both errors (pair_disagrees): a start remembered
 
 
-def pair_rule(main: Leg, comp: Leg, target: float | None,
-              agreement_without_target: float) -> PairDecision:
-    """Whether a run and its companion from the other start may stop: both legs' states
-    allow it, neither remembers its start beyond both errors (``pair_disagrees``), and, with
-    an error ``target`` (absolute, of mu_bar): the pair's mean of mu_bar (``pair_mean``: the
-    noise of both, each covering the switching, or half their difference where larger) has
-    an error within it, both estimates reliable, and their mean stresses agree within it,
-    relative to mu_bar. A start approaching the steady state from one side therefore keeps
-    the pair going until it is within the target of the other, whatever the switching's
-    error (tests/observables/test_states.py, on a synthetic approach from below)."""
+def pair_rule(main: Leg, comp: Leg, both: Window, target: float | None,
+              agreement_without_target: float, drift_bound: float) -> PairDecision:
+    """Whether a run and its companion from the other start may stop: the pair's verdict
+    (``pair_verdict``) is steady with a drift above ``drift_bound`` excluded (the trend of the
+    pair's mean, ``both``), or names the states of a layer that switches; and, with an error
+    ``target`` (absolute, of mu_bar): the pair's mean of mu_bar (``pair_mean``: the noise of
+    both, each covering the switching, or half their difference where larger) has an error
+    within it, both estimates reliable, and their mean stresses agree within it, relative to
+    mu_bar. A start approaching the steady state from one side therefore keeps the pair going
+    until it is within the target of the other, whatever the switching's error
+    (tests/observables/test_states.py, on a synthetic approach from below)."""
     mu = pair_mean(main.mu_bar, main.mu_err, comp.mu_bar, comp.mu_err)
     a, b = main.window.mean, comp.window.mean
     gap = a / b - 1 if b and math.isfinite(a) and math.isfinite(b) else math.nan
     disagrees = pair_disagrees(main.window, comp.window, agreement_without_target)
-    stop = main.state_ok and comp.state_ok and not disagrees
+    state = pair_verdict(main.window.state, comp.window.state, both, disagrees)
+    stop = state in SWITCHING or (state == "steady" and both.trend.drift_bound <= drift_bound)
     agreement = agreement_without_target
     if target is not None:
         agreement = target / mu.value if mu.value > 0 else math.nan
         stop = stop and main.reliable and comp.reliable and math.isfinite(mu.err) \
             and mu.err <= target and abs(gap) <= agreement
-    return PairDecision(bool(stop), mu, gap, agreement, disagrees)
+    return PairDecision(bool(stop), state, mu, gap, agreement, disagrees)
