@@ -52,11 +52,19 @@ KEEP = ("phi", "N", "Lx", "Ly", "seed", "state", "estimate", "t_run", "mu_bar", 
 
 
 def _commit() -> str:
+    """The commit of the bkflow that ran (the checkout its package was imported from), with
+    "-dirty" where that checkout had changes not committed."""
+    import bkflow
+
+    where = Path(bkflow.__file__).parent
     try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=where,
                               capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "."],
+                               cwd=where, capture_output=True, text=True).stdout.strip()
     except OSError:
         return ""
+    return head + ("-dirty" if dirty else "")
 
 
 def run(n: int | None, size: str | None, phi: str, seeds: str, jobs: int, label: str,
@@ -70,7 +78,7 @@ def run(n: int | None, size: str | None, phi: str, seeds: str, jobs: int, label:
     from bkflow.sweeps.local import sweep
 
     lx, ly = size_from_n(n) if size is None else (int(v) for v in size.split("x"))
-    phis = phi_values(phi, None)
+    phis = phi_values(phi, 3)
     fields = {**protocol_fields("steady"), "scene": "friction", **run_assignments(sets)}
     specs = sweep_specs(phis, [(lx, ly)], [int(s) for s in seeds.split(",")], **fields)
     out = WORK / label

@@ -690,6 +690,27 @@ def step_states() -> str:
     return "\n".join(out) + "\n"
 
 
+def work_precision() -> str:
+    """Each accuracy preset at its own step: the bias of both observables against dt -> 0
+    (benchmarks/work_precision.py's record)."""
+    import pandas as pd
+    import work_precision as wp
+
+    from bkflow.model.params import ACCURACY
+
+    t = pd.read_csv(wp.RECORD)
+    pts = wp.preset_points(t)
+    out = ["| preset (target) | N | phi | steps per time unit | bias <sigma_x>/sigma_n | "
+           "bias mu_bar |", "|---|---|---|---|---|---|"]
+    for _, r in pts.sort_values(["preset", "N", "phi"],
+                                key=lambda c: c.map(list(ACCURACY).index)
+                                if c.name == "preset" else c).iterrows():
+        out.append(f"| {r.preset} ({100 * r.target:g}%) | {r.N} | {r.phi:g} | "
+                   f"{r.steps_per_t:.0f} | {_pct(r.stress_bias)} +- {_se(r.stress_se)} | "
+                   f"{_pct(r.mu_bar_bias)} +- {_se(r.mu_bar_se)} |")
+    return "\n".join(out) + "\n"
+
+
 BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
@@ -703,7 +724,7 @@ BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "readme-numbers": readme_numbers, "accuracy-presets": accuracy_presets,
           "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts,
           "protocol-bias": protocol_bias, "protocol-offgrid": protocol_offgrid,
-          "step-states": step_states}
+          "step-states": step_states, "work-precision": work_precision}
 
 
 def large_drops() -> str:

@@ -1,218 +1,190 @@
-"""Work-precision: error of mu_bar, <sigma_x>/sigma_n and Psi(inf) against cost, as the
-dt-factor C and the run length t_end vary, against a converged reference.
+"""Work-precision of the time step: the bias of the steady observables against the cost of a
+time unit, per phi and size, against a dt -> 0 reference, with each accuracy preset's step and
+its error target marked.
 
-For each phi (default 0.1, 10, 1000) at N = 100 (20x5), every (C, t_end) of the grid runs
-seeds 1..S (a bkflow sweep, so re-running only computes what is missing); the reference is
-the smallest C with the longest t_end, same seeds. The error of a configuration is the
-difference between its mean over seeds and the reference's, relative to the reference; the
-seed-to-seed spread (standard error over seeds, relative) is reported beside it so that
-statistical and discretization error are not confused. The seeds fix the disorder k_d^i, so
-configuration and reference share it (common random numbers); what remains of the spread is
-the run's own sampling noise. Cost = mean LAMMPS wall time per run (meta.json) measured with 2
-runs side by side on the 2 cores, and atom-steps.
-
-    python benchmarks/work_precision.py [--phi 0.1 10 1000] [--size 20x5] [--seeds 3]
-        [--contact-rule reset|reset/step|coulomb] [--damping implicit|half]
-        [--out runs/bench/work_precision] [--plot benchmarks/work_precision.png]
+    python benchmarks/work_precision.py [--plot benchmarks/work_precision.png]
     python benchmarks/work_precision.py --from-record [CSV]
 
-Prints markdown tables (one per phi), writes them to benchmarks/records/work_precision.csv
-(the record) and draws the plot; --from-record redraws the plot from the record alone.
+The runs are benchmarks/timestep.py's (records benchmarks/records/timestep/): per phi (0.1 to
+1000), size (N = 100, 400) and seed, one run from the random start at each C = dt omega_max
+of a grid, in the steady state (the first 20% of each run left out: no start's transient is
+measured). The reference of each (N, phi, seed) is the extrapolation to dt -> 0 of its three
+smallest steps (velocity Verlet's bias falls as dt^2: x(C) = x0 + a C^2, least squares; the
+same seed has the same disorder and start at every C, so the pairs share their noise). The
+bias at C is x(C) / x0 - 1, its mean over the seeds with its standard error. Cost: steps per
+time unit, which the wall time of a run follows (benchmarks/RESULTS.md, "Speed").
+
+Writes the table to benchmarks/records/work_precision.csv (the record; --from-record redraws
+the plot from it alone) and draws the plot.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bkflow.cli.assignments import parse_size
-from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec
-from bkflow.store.tables import read_tables
-from bkflow.sweeps.grid import sweep_specs
-from bkflow.sweeps.local import sweep
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
 
-C_VALUES = (0.025, 0.05, 0.1, 0.2, 0.4)
-T_VALUES = (1000.0, 2000.0, 4000.0, 8000.0)
-REFERENCE = (0.025, 16000.0)
-#: the reference's length at the larger C too (the precise preset is one of them)
-EXTRA = ((0.1, 16000.0), (0.2, 16000.0), (0.4, 16000.0))
-OBSERVABLES = (("mu_bar", "mu_bar"), ("mean_stress_ratio", "<sigma_x>/sigma_n"),
-               ("psi_inf", "Psi(inf)"))
-
-
-def specs_for(phis, size, seeds, **scheme):
-    lx, ly = size
-    out = []
-    for phi in phis:
-        for c, t in [(c, t) for c in C_VALUES for t in T_VALUES] + list(EXTRA) + [REFERENCE]:
-            out += sweep_specs([phi], [(lx, ly)], seeds, dt_factor=c, t_end=t, scene="order",
-                               **scheme)
-    return out
+RECORD = HERE / "records" / "work_precision.csv"
+PLOT = HERE / "work_precision.png"
+OBSERVABLES = (("stress", "<sigma_x>/sigma_n"), ("mu_bar", "mu_bar"))
+#: the presets' markers on each phi's line, and the colours of their targets' lines
+MARKERS = {"fast": "^", "default": "o", "precise": "s"}
+TARGET_COLOURS = {"fast": "tab:red", "default": "tab:blue", "precise": "0.2"}
+#: the reference: the steps extrapolated to dt -> 0 (the smallest this many C of each phi)
+RICHARDSON_POINTS = 3
+#: a bias below this (relative) is drawn at it (the y axis is symmetric-logarithmic)
+LINEAR_BELOW = 1e-3
 
 
-def table(runs: pd.DataFrame, phi: float, size=(RunSpec.Lx, RunSpec.Ly)) -> pd.DataFrame:
-    lx, ly = size
-    r = runs[np.isclose(runs.phi, phi)]
-    g = r.groupby(["dt_factor", "t_end"])
-    mean = g[[o for o, _ in OBSERVABLES] + ["wall_time_s"]].mean()
-    sem = g[[o for o, _ in OBSERVABLES]].std(ddof=1) / np.sqrt(g.size().to_numpy())[:, None]
-    ref = mean.loc[REFERENCE]
+def richardson(c, x) -> float:
+    """x0 of x(C) = x0 + a C^2 fitted to the points (least squares)."""
+    c2 = np.asarray(c, float) ** 2
+    A = np.vstack([np.ones_like(c2), c2]).T
+    return float(np.linalg.lstsq(A, np.asarray(x, float), rcond=None)[0][0])
+
+
+def table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per (N, phi, C): the steps per time unit, omega_c dt, and each observable's bias
+    against the seed's dt -> 0 reference (mean over seeds, standard error), the seeds."""
+    from timestep_report import spec_of
+
     rows = []
-    for (c, t), m in mean.iterrows():
-        spec = RunSpec(phi=phi, Lx=lx, Ly=ly, dt_factor=c, t_end=t)
-        row = {"C": c, "t_end": t, "wall_s": m.wall_time_s,
-               "atom_steps": float(spec.N * spec.n_steps)}
-        for o, _ in OBSERVABLES:
-            row[f"{o}_err"] = abs(m[o] - ref[o]) / abs(ref[o])
-            row[f"{o}_spread"] = sem.loc[(c, t), o] / abs(ref[o])
-        row["reference"] = (c, t) == REFERENCE
-        rows.append(row)
-    return pd.DataFrame(rows).sort_values(["C", "t_end"]), ref
+    for (n, phi), g in runs.groupby(["N", "phi"]):
+        smallest = sorted(g.C.unique())[:RICHARDSON_POINTS]
+        refs = {}
+        for seed, gs in g[g.C.isin(smallest)].groupby("seed"):
+            if gs.C.nunique() == len(smallest):
+                refs[seed] = {o: richardson(gs.C, gs[o]) for o, _ in OBSERVABLES}
+        for c, gc in g.groupby("C"):
+            gc = gc[gc.seed.isin(list(refs))]
+            if gc.empty:
+                continue
+            spec = spec_of(n, phi, c)
+            row = {"N": n, "phi": phi, "C": c, "seeds": len(gc),
+                   "steps_per_t": 1 / spec.dt, "wc_dt": spec.dt * spec.omega_contact,
+                   "in_reference": c in smallest}
+            for o, _ in OBSERVABLES:
+                d = np.array([r[o] / refs[r.seed][o] - 1 for _, r in gc.iterrows()])
+                row[f"{o}_bias"] = float(d.mean())
+                row[f"{o}_se"] = float(d.std(ddof=1) / math.sqrt(len(d))) if len(d) > 1 \
+                    else math.nan
+            rows.append(row)
+    return pd.DataFrame(rows)
 
 
-def markdown(df: pd.DataFrame, ref, phi) -> str:
-    out = [f"phi = {phi:g}: reference (C = {REFERENCE[0]}, t_end = {REFERENCE[1]:g}) mu_bar = "
-           f"{ref.mu_bar:.5f}, <sigma_x>/sigma_n = {ref.mean_stress_ratio:.5f}, "
-           f"Psi(inf) = {ref.psi_inf:.4f}", "",
-           "| C | t_end | wall/run | mu_bar err | (spread) | <sigma_x>/sigma_n err | (spread) "
-           "| Psi(inf) err | (spread) |", "|---|---|---|---|---|---|---|---|---|"]
-    for _, r in df.iterrows():
-        if r.reference:
-            continue
-        out.append(f"| {r.C:g} | {r.t_end:g} | {r.wall_s:.2f} s | {100 * r.mu_bar_err:.2f}% | "
-                   f"{100 * r.mu_bar_spread:.2f}% | {100 * r.mean_stress_ratio_err:.2f}% | "
-                   f"{100 * r.mean_stress_ratio_spread:.2f}% | {100 * r.psi_inf_err:.2f}% | "
-                   f"{100 * r.psi_inf_spread:.2f}% |")
-    return "\n".join(out)
+def preset_points(t: pd.DataFrame) -> pd.DataFrame:
+    """Per preset, N and phi: its step's cost and the bias there (measured at that step, or
+    interpolated in dt between the steps measured)."""
+    from bkflow.model.params import ACCURACY
+    from timestep_report import spec_of
+
+    rows = []
+    for (n, phi), g in t.groupby(["N", "phi"]):
+        g = g.sort_values("steps_per_t")
+        for name, p in ACCURACY.items():
+            s = spec_of(n, phi, preset=name)
+            row = {"preset": name, "target": p.dt_error, "N": n, "phi": phi,
+                   "steps_per_t": 1 / s.dt}
+            for o, _ in OBSERVABLES:
+                row[f"{o}_bias"] = float(np.interp(1 / s.dt, g.steps_per_t, g[f"{o}_bias"]))
+                row[f"{o}_se"] = float(np.interp(1 / s.dt, g.steps_per_t, g[f"{o}_se"]))
+            rows.append(row)
+    return pd.DataFrame(rows)
 
 
-#: the smallest error the log axes show (%): an error at or below it (a configuration that
-#: agrees with the reference to the digits of the table) is drawn on this floor, marked
-ERROR_FLOOR = 0.01
-#: the record of the measurement (every table), from which the plot is redrawn without
-#: running anything: python benchmarks/work_precision.py --from-record
-RECORD = Path(__file__).with_name("records") / "work_precision.csv"
-
-
-def plot(tables: dict, path: Path, n_atoms: int = RunSpec.Lx * RunSpec.Ly):
-    """Error against wall time per run, one column per phi, one row per observable: one
-    line per C (colour), along which t_end grows (marker size, keyed); solid the error
-    against the reference, dotted the seed spread. The key is below the panels (it covers no
-    point); an error at or below ERROR_FLOOR is drawn on the floor as a down-pointing
-    triangle. Writes ``path`` and returns the Figure."""
+def plot(t: pd.DataFrame, path: Path):
+    """The figure: a column per size, a row per observable; per phi a line of the bias
+    against the cost (symmetric-logarithmic in the bias), its standard error as a band, each
+    preset's step marked on it, and each preset's target as dashed lines at +-target."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
-    phis = list(tables)
-    c_values = sorted({float(c) for df in tables.values() for c in df.C})
-    t_values = sorted({float(t) for df in tables.values() for t in df.t_end[~df.reference]})
-    colours = dict(zip(c_values, plt.get_cmap("viridis")(np.linspace(0, 0.9, len(c_values)))))
-    size = dict(zip(t_values, np.linspace(2.5, 6.5, len(t_values))))
-    fig, axes = plt.subplots(len(OBSERVABLES), len(phis), figsize=(3.2 * len(phis), 8.2),
-                             squeeze=False, sharex="col", layout="constrained")
-    floored = False
-    for j, phi in enumerate(phis):
-        df = tables[phi][~tables[phi].reference]
+    from bkflow.model.params import ACCURACY
+
+    sizes = sorted(t.N.unique())
+    phis = sorted(t.phi.unique())
+    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(phis)))
+    pts = preset_points(t)
+    fig, axes = plt.subplots(len(OBSERVABLES), len(sizes), figsize=(4.2 * len(sizes), 6.8),
+                             sharex=True, sharey=True, squeeze=False)
+    for j, n in enumerate(sizes):
         for i, (o, label) in enumerate(OBSERVABLES):
-            ax = axes[i, j]
-            for c, g in df.groupby("C"):
-                g = g.sort_values("t_end")
-                err = 100 * g[f"{o}_err"].to_numpy(float)
-                low = err <= ERROR_FLOOR
-                floored |= bool(low.any())
-                y = np.maximum(err, ERROR_FLOOR)
-                colour = colours[float(c)]
-                ax.plot(g.wall_s, y, "-", lw=0.9, color=colour)
-                for x, yy, t, lo in zip(g.wall_s, y, g.t_end, low):
-                    ax.plot(x, yy, "v" if lo else "o", ms=size[float(t)], color=colour,
-                            mfc="white" if lo else colour, mew=0.9)
-                ax.plot(g.wall_s, np.maximum(100 * g[f"{o}_spread"], ERROR_FLOOR), ":",
-                        lw=0.8, color=colour)
-            ax.axhline(1.0, color="grey", lw=0.6, ls="--")
+            ax = axes[i][j]
+            for name, p in ACCURACY.items():
+                for sign in (1, -1):
+                    ax.axhline(100 * sign * p.dt_error, color=TARGET_COLOURS[name], lw=0.8,
+                               ls="--", alpha=0.8)
+            for k, phi in enumerate(phis):
+                g = t[(t.N == n) & (t.phi == phi)].sort_values("steps_per_t")
+                if g.empty:
+                    continue
+                x, y = g.steps_per_t.to_numpy(), 100 * g[f"{o}_bias"].to_numpy()
+                se = 100 * np.nan_to_num(g[f"{o}_se"].to_numpy())
+                ax.fill_between(x, y - se, y + se, color=colours[k], alpha=0.15, lw=0)
+                ax.plot(x, y, "-", color=colours[k], lw=1.3)
+                for name, mk in MARKERS.items():
+                    q = pts[(pts.N == n) & (pts.phi == phi) & (pts.preset == name)]
+                    if len(q):
+                        ax.plot(q.steps_per_t, 100 * q[f"{o}_bias"], mk, color=colours[k],
+                                ms=6, mec="k", mew=0.6)
             ax.set_xscale("log")
-            ax.set_yscale("log")
-            if i == 0:
-                ax.set_title(f"phi = {phi:g}, N = {n_atoms}", fontsize=9)
+            ax.set_yscale("symlog", linthresh=100 * LINEAR_BELOW, linscale=0.6)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_title(f"N = {n}: {label}", fontsize=9)
             if j == 0:
-                ax.set_ylabel(f"{label}: error (%)", fontsize=8)
+                ax.set_ylabel("bias against dt -> 0 (%)")
             if i == len(OBSERVABLES) - 1:
-                ax.set_xlabel("wall time per run (s)", fontsize=8)
-            ax.tick_params(labelsize=7)
-    groups = [[(Line2D([], [], color=colours[c], lw=0.9, marker="o", ms=3.5), f"C = {c:g}")
-               for c in c_values],
-              [(Line2D([], [], color="0.4", ls="none", marker="o", ms=size[t]),
-                f"t_end = {t:g}") for t in t_values],
-              [(Line2D([], [], color="0.4", lw=0.9), "error against the reference"),
-               (Line2D([], [], color="0.4", lw=0.8, ls=":"), "seed spread (standard error)"),
-               (Line2D([], [], color="grey", lw=0.6, ls="--"), "1%")]]
-    if floored:
-        groups[-1].append((Line2D([], [], color="0.4", ls="none", marker="v", mfc="white"),
-                           f"error <= {ERROR_FLOOR:g}%, drawn at {ERROR_FLOOR:g}%"))
-    # one group per row of the key (a legend fills column by column: the rows laid out so)
-    ncol = max(len(g) for g in groups)
-    rows = [g + [(Line2D([], [], alpha=0), "")] * (ncol - len(g)) for g in groups]
-    keys = [rows[r][c] for c in range(ncol) for r in range(len(rows))]
-    fig.legend(*zip(*keys), loc="outside lower center", ncol=ncol, frameon=False, fontsize=7,
-               title="one line per C (colour); along each line t_end grows (marker size)",
-               title_fontsize=7)
+                ax.set_xlabel("cost: steps per time unit")
+            ax.tick_params(labelsize=8)
+    handles = [Line2D([], [], color=colours[k], lw=1.5, label=f"phi = {phi:g}")
+               for k, phi in enumerate(phis)]
+    handles += [Line2D([], [], ls="", marker=mk, color="0.5", mec="k", label=f"{name} preset")
+                for name, mk in MARKERS.items()]
+    handles += [Line2D([], [], color=TARGET_COLOURS[name], lw=0.8, ls="--",
+                       label=f"{name}'s target: +-{100 * p.dt_error:g}%")
+                for name, p in ACCURACY.items()]
+    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False,
+               title="band: standard error over the seeds", title_fontsize=8)
+    fig.tight_layout(rect=(0, 0.14, 1, 1))
     fig.savefig(path, dpi=150)
     return fig
 
 
-def write_record(tables: dict, path: Path = RECORD) -> None:
-    """The tables of a measurement, one CSV (a column phi beside each table's)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    pd.concat([df.assign(phi=phi) for phi, df in tables.items()]).to_csv(path, index=False)
+def write_record(t: pd.DataFrame, path: Path = RECORD) -> None:
+    t.to_csv(path, index=False)
 
 
-def read_record(path: Path = RECORD) -> dict:
-    """phi -> table, as write_record wrote them."""
-    rec = pd.read_csv(path)
-    return {float(phi): g.drop(columns="phi").reset_index(drop=True)
-            for phi, g in rec.groupby("phi", sort=False)}
+def read_record(path: Path = RECORD) -> pd.DataFrame:
+    return pd.read_csv(path)
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
-    ap.add_argument("--phi", type=float, nargs="+", default=[0.1, 10.0, 1000.0])
-    ap.add_argument("--size", default="20x5")
-    ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--contact-rule", choices=CONTACT_RULES, default=RunSpec.contact_rule)
-    ap.add_argument("--damping", choices=DAMPING_MODES, default=RunSpec.damping)
-    ap.add_argument("--out", default="runs/bench/work_precision")
-    ap.add_argument("--plot", default=str(Path(__file__).with_name("work_precision.png")))
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--plot", default=str(PLOT))
     ap.add_argument("--from-record", nargs="?", const=str(RECORD), default=None,
-                    metavar="CSV", help="redraw the plot from the record of a measurement "
-                    f"(default {RECORD.relative_to(Path(__file__).parent.parent)}) without "
-                    "running anything")
+                    metavar="CSV", help="redraw the plot from the record without reading the "
+                    "runs' records")
     a = ap.parse_args(argv)
-    lx, ly = parse_size(a.size)
     if a.from_record:
-        plot(read_record(Path(a.from_record)), Path(a.plot), lx * ly)
-        print(f"plot: {a.plot} (from {a.from_record})")
-        return
-    specs = specs_for(a.phi, (lx, ly), a.seeds, contact_rule=a.contact_rule,
-                      damping=a.damping)
-    rep = sweep(specs, a.out, jobs=a.jobs)
-    print(f"{len(rep.finished)} runs done, {rep.finished_before} earlier, {len(rep.failed)} "
-          f"failed\n")
-    runs, _ = read_tables(a.out)  # runs.csv, as sweep() wrote it: every run of the directory
-    runs = runs[(runs.contact_rule == a.contact_rule) & (runs.damping == a.damping)
-                & (runs.Lx == lx) & (runs.Ly == ly) & (runs.seed <= a.seeds)]
-    tables = {}
-    for phi in a.phi:
-        df, ref = table(runs, phi, (lx, ly))
-        tables[phi] = df
-        print(markdown(df, ref, phi) + "\n")
-    write_record(tables)
-    plot(tables, Path(a.plot), lx * ly)
+        t = read_record(Path(a.from_record))
+    else:
+        from timestep_report import load
+
+        from timestep import OUT
+
+        t = table(load(OUT))
+        write_record(t)
+    plot(t, Path(a.plot))
     print(f"plot: {a.plot}; record: {RECORD}")
 
 

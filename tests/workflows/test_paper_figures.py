@@ -245,68 +245,54 @@ def test_the_aspect_share_figure_tells_all_six_lattices_apart(
                      for lx, ly in reproduce.ASPECT_SIZES]
 
 
-def _wp_tables(wp, seed=0):
+def _wp_runs(seed=0):
+    """Runs of timestep.py's records, synthetic: a bias of -a C^2 plus noise per seed."""
     rng = np.random.default_rng(seed)
-    out = {}
-    for phi in (0.1, 1000.0):
-        rows = []
-        for c, t in [(c, t) for c in wp.C_VALUES for t in wp.T_VALUES] + [wp.REFERENCE]:
-            row = {"C": c, "t_end": t, "wall_s": t / 1000 * 0.01 / c, "atom_steps": 1.0,
-                   "reference": (c, t) == wp.REFERENCE}
-            for o, _ in wp.OBSERVABLES:
-                row[f"{o}_err"] = 0.0 if (c, t) == (0.1, 1000.0) else 10 ** rng.uniform(-4, -2)
-                row[f"{o}_spread"] = 10 ** rng.uniform(-4, -2)
-            rows.append(row)
-        out[phi] = pd.DataFrame(rows)
-    return out
+    rows = []
+    for n in (100, 400):
+        for phi in (0.1, 1000.0):
+            for s in range(1, 4):
+                x0 = 0.11 * (1 + 0.002 * rng.standard_normal())
+                for c in (0.025, 0.05, 0.1, 0.2, 0.4, 1.0, 1.5):
+                    rows.append({"N": n, "phi": phi, "seed": s, "C": c,
+                                 "stress": x0 * (1 - 0.01 * c ** 2) + 1e-6 * rng.standard_normal(),
+                                 "mu_bar": 1.04 * x0 * (1 - 0.01 * c ** 2)})
+    return pd.DataFrame(rows)
 
 
-def test_work_precision_keys_what_varies_along_a_line_and_redraws_from_its_record(
-        work_precision, tmp_path, monkeypatch):
-    """The plot: every point inside its axes and none under the key, the key below the panels
-    naming C (colour) and t_end (marker size, growing along each line), an error of 0 drawn
-    on the floor and said to be; the record written by a measurement gives the same tables
-    back, and --from-record draws from it without running anything."""
+def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_record(
+        work_precision, tmp_path):
+    """The bias is against the dt -> 0 extrapolation of the three smallest steps (a bias
+    falling as C^2 comes back as such); the plot draws a line per phi, every preset's step on
+    it, every target, data inside the axes and none under the key; --from-record redraws it
+    from the record alone."""
     import matplotlib.pyplot as plt
 
+    from bkflow.model.params import ACCURACY
+
     wp = work_precision
-    tables = _wp_tables(wp)
-    fig = wp.plot(tables, tmp_path / "wp.png")
+    t = wp.table(_wp_runs())
+    one = t[(t.N == 100) & (t.phi == 0.1)].set_index("C")
+    assert one.loc[1.0, "mu_bar_bias"] == pytest.approx(-0.01, rel=1e-6)
+    assert one.loc[0.4, "mu_bar_bias"] == pytest.approx(-0.0016, rel=1e-6)
+    assert list(one.in_reference) == [True] * 3 + [False] * 4
+    fig = wp.plot(t, tmp_path / "wp.png")
     try:
         assert (tmp_path / "wp.png").stat().st_size > 10000
         assert _hidden_points(fig) == []
-        (key,) = fig.legends
-        texts = [t.get_text() for t in key.get_texts()]
-        assert "t_end grows" in key.get_title().get_text()
-        assert [t for t in texts if t.startswith("t_end")] == [
-            f"t_end = {t:g}" for t in wp.T_VALUES]
-        assert f"error <= {wp.ERROR_FLOOR:g}%, drawn at {wp.ERROR_FLOOR:g}%" in texts
+        texts = [x.get_text() for leg in fig.legends for x in leg.get_texts()]
+        assert {"phi = 0.1", "phi = 1000"} <= set(texts)
+        for name, p in ACCURACY.items():
+            assert f"{name} preset" in texts
+            assert f"{name}'s target: +-{100 * p.dt_error:g}%" in texts
+        marked = [ln for ln in fig.axes[0].get_lines() if ln.get_marker() in wp.MARKERS.values()]
+        assert len(marked) == 2 * len(ACCURACY)   # every phi, every preset
         for ax in fig.axes:
-            for ln in ax.get_lines():
-                y = np.asarray(ln.get_ydata(), float)
-                assert (y >= wp.ERROR_FLOOR).all() and (y > 0).all()
-        # marker size grows with t_end along every line
-        ax = fig.axes[0]
-        sizes = {}
-        for ln in ax.get_lines():
-            if ln.get_marker() in ("o", "v") and len(ln.get_xdata()) == 1:
-                sizes.setdefault(ln.get_color() if isinstance(ln.get_color(), str)
-                                 else tuple(ln.get_color()), []).append(
-                    (float(ln.get_xdata()[0]), ln.get_markersize()))
-        for pts in sizes.values():
-            ms = [m for _, m in sorted(pts)]
-            assert ms == sorted(ms) and ms[0] < ms[-1]
+            assert ax.get_xlabel() in ("", "cost: steps per time unit")
     finally:
         plt.close(fig)
     record = tmp_path / "record.csv"
-    wp.write_record(tables, record)
-    back = wp.read_record(record)
-    assert list(back) == list(tables)
-    for phi in tables:
-        pd.testing.assert_frame_equal(back[phi], tables[phi], check_dtype=False)
-    def no_sweep(*a, **kw):
-        raise AssertionError("--from-record ran a sweep")
-
-    monkeypatch.setattr(wp, "sweep", no_sweep)
+    wp.write_record(t, record)
+    pd.testing.assert_frame_equal(wp.read_record(record), t, check_dtype=False)
     wp.main(["--from-record", str(record), "--plot", str(tmp_path / "again.png")])
     assert (tmp_path / "again.png").stat().st_size > 10000
