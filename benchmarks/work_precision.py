@@ -82,8 +82,9 @@ def table(runs: pd.DataFrame) -> pd.DataFrame:
 def preset_points(t: pd.DataFrame) -> pd.DataFrame:
     """Per preset, N and phi: its step's cost and the bias there (measured at that step, or
     interpolated in dt between the steps measured)."""
-    from bkflow.model.params import ACCURACY
     from timestep_report import spec_of
+
+    from bkflow.model.params import ACCURACY
 
     rows = []
     for (n, phi), g in t.groupby(["N", "phi"]):
@@ -178,9 +179,8 @@ def main(argv=None) -> None:
     if a.from_record:
         t = read_record(Path(a.from_record))
     else:
-        from timestep_report import load
-
         from timestep import OUT
+        from timestep_report import load
 
         t = table(load(OUT))
         write_record(t)
