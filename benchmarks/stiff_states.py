@@ -7,7 +7,9 @@ each, and what its long-run mean is (docs/model.md, "Steady state" and the stiff
 
 run
     One ``longrun.LongRun`` per (phi, start, seed) at the lattice of N particles: blocks of
-    1000 time units recorded in benchmarks/records/stiff_states/ (Parquet), resumable (run
+    1000 time units recorded in benchmarks/records/stiff_states/ (Parquet; --records another
+    folder, as benchmarks/records/truth/ for runs that only give a layer's long-run mean to
+    benchmarks/protocol_bias.py, not the calibration), resumable (run
     the same command again to go on, or with a larger --t-end to extend every run). --shard
     I/K takes every K-th case from the I-th: one process per core.
 report
@@ -68,6 +70,9 @@ def main(argv=None):
     r.add_argument("--seeds", default="1,2,3")
     r.add_argument("--shard", default="0/1")
     r.add_argument("--chunk", type=float, default=1e5)
+    r.add_argument("--records", default=None, help="the folder of the records (default "
+                   "benchmarks/records/stiff_states, the calibration's; the long runs that "
+                   "only give a layer's truth go to benchmarks/records/truth)")
     sub.add_parser("report")
     a = ap.parse_args(argv)
     if a.cmd == "run":
@@ -75,8 +80,9 @@ def main(argv=None):
         seeds = [int(s) for s in a.seeds.split(",")]
         i, k = (int(v) for v in a.shard.split("/"))
         todo = list(cases(a.n, a.phi, starts, seeds))[i::k]
+        out = OUT if a.records is None else Path(a.records)
         for spec in todo:
-            LongRun(spec, OUT / f"{case_name(spec)}.parquet", 1000.0, a.chunk).advance_to(
+            LongRun(spec, out / f"{case_name(spec)}.parquet", 1000.0, a.chunk).advance_to(
                 a.t_end, log=lambda m: print(m, flush=True))
     else:
         from states_report import report
