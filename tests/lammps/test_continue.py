@@ -213,3 +213,52 @@ def test_a_sweep_with_a_longer_t_end_continues_its_runs(tmp_path):
     proc = subprocess.run(args + ["--out", str(s), "--t-end", "3000"], capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 2 and "only go on" in proc.stderr and proc.stdout == ""
+
+
+def test_what_a_finished_run_answers_goes_on_with_or_refuses(tmp_path):
+    """The rules of bkflow.lammps.continuation on real runs: a fixed run is not continued by an
+    adaptive request; a capped run is not continued by a stricter target at the same cap; a
+    run that stopped by its rule answers a stricter target its records meet where it stopped;
+    a record of another stop rule, or of another step, is neither answered nor continued; and
+    each refusal says why."""
+    from types import SimpleNamespace
+
+    from bkflow.lammps.continuation import answers, other_request
+    from bkflow.store.formats import write_json_atomic
+    from bkflow.sweeps.lengths import _takes
+
+    fixed = _spec(t_end=1000.0)
+    run(fixed, tmp_path / "f", progress=False)
+    f = RunDir(tmp_path / "f")
+    adaptive = fixed.replace(t_end=2000.0, target_error=1e-3)
+    assert continuation(f, adaptive) is None and not answers(f, adaptive)
+    assert "a run of a fixed length" in other_request(f, adaptive)
+
+    capped = _spec("steady", phi=10.0, t_end=1500.0, target_error=1e-6)
+    run(capped, tmp_path / "c", progress=False)
+    c = RunDir(tmp_path / "c")
+    stricter = capped.replace(target_error=1e-7)
+    assert continuation(c, stricter) is None and not answers(c, stricter)
+    assert "it ran to its cap" in other_request(c, stricter)
+
+    loose = _spec("steady", phi=10.0, t_end=50000.0, target_error=2e-3)
+    meta = run(loose, tmp_path / "s", progress=False).meta
+    s = RunDir(tmp_path / "s")
+    ad = meta["adaptive"]
+    assert ad["reached"] and meta["derived"]["n_steps"] < loose.n_steps
+    met = loose.replace(target_error=0.5 * (ad["mu_bar_err_at_stop"] + 2e-3))
+    assert answers(s, met) and continuation(s, met) is None
+    unmet = loose.replace(target_error=0.5 * ad["mu_bar_err_at_stop"])
+    assert not answers(s, unmet) and continuation(s, unmet) is not None
+    job = SimpleNamespace(path=s.path)
+    assert _takes(job, unmet) and _takes(job, met)
+    assert not _takes(job, loose.replace(target_error=4e-3))   # looser: refused
+    # a record of an earlier stop rule, or of another step: another run
+    for key, value in (("adaptive", {**ad, "rule": 1}),
+                       ("derived", {**meta["derived"], "dt": 1.01 * meta["derived"]["dt"]})):
+        write_json_atomic(s.file("meta.json"), {**meta, key: value})
+        assert not answers(s, loose.replace(t_end=90000.0))
+        assert continuation(s, unmet) is None
+    write_json_atomic(s.file("meta.json"), {**meta, "adaptive": {**ad, "rule": 1}})
+    assert "an earlier bkflow" in other_request(s, unmet)
+    assert _takes(job, unmet)   # a sweep redoes a run of an earlier stop rule

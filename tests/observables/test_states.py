@@ -162,3 +162,30 @@ def test_the_pairs_error_covers_half_its_difference():
     close = pair.pair_mean(0.1080, 1e-3, 0.1081, 1e-3)
     assert close.err == pytest.approx(close.noise)
     assert math.isnan(pair.pair_mean(0.1, math.nan, 0.1, 1e-3).noise)
+
+
+def test_a_pair_apart_by_more_than_the_target_does_not_stop_whatever_its_errors():
+    """Two runs whose mean stresses differ by 1.5 times the error target, each flat and each
+    precise: the pair's error (half their difference) is within the target, but they do not
+    agree within it, and one of them still carries its start: no stop. Together, and at every
+    check, the pair's error is at least half the difference of its two mu_bar."""
+    from bkflow.model.params import RunSpec
+
+    rng = np.random.default_rng(3)
+    spec = RunSpec(phi=10.0, target_error=2e-4, until_steady=True, companion="partial")
+    truth, mu_over_stress = 0.1133, 1.043
+    rel = spec.target_error / (truth * mu_over_stress)
+    t = np.arange(0.0, 3e5, 20.0)
+    main = _approach(t, truth * (1 - 1.5 * rel), 0.0, 1.0, 1e-4, rng) * spec.sigma_n
+    comp = _approach(t, truth, 0.0, 1.0, 1e-4, rng) * spec.sigma_n
+    for check in np.arange(5000.0, 3e5, 5000.0):
+        upto = t <= check
+        legs = []
+        for sigma in (main, comp):
+            w = states.window(spec, t[upto], sigma[upto], None, 0.2 * check)
+            legs.append(pair.Leg(w, w.mean * mu_over_stress, 1e-6, True))
+        both = states.window(spec, t[upto], 0.5 * (main + comp)[upto], None, 0.2 * check)
+        d = pair.pair_rule(legs[0], legs[1], both, spec.target_error, 0.005, 0.01)
+        assert d.mu_bar.err <= spec.target_error   # the error alone would allow it
+        assert d.mu_bar.err >= 0.5 * abs(legs[0].mu_bar - legs[1].mu_bar)
+        assert not d.stop, check

@@ -51,13 +51,15 @@ from bkflow.store.formats import shell_word  # noqa: E402
 
 # ------------------------------------------------------------------------- a run
 def _run(a, argv) -> int:
+    from bkflow.lammps.continuation import answers
     from bkflow.lammps.engine import refuse_foreign
     from bkflow.lammps.limits import check_cost
 
     spec = run_spec(a)
     resumes_analysis = (not a.overwrite and not a.no_analyze
                         and rd.RunDir(a.out).only_analysis_left(spec))
-    if not resumes_analysis:  # (a finished run's analysis writes little: no estimate)
+    answered = not a.overwrite and answers(rd.RunDir(a.out), spec, identical=False)
+    if not (resumes_analysis or answered):  # (they run nothing: no estimate)
         check_cost(spec, a.out, a.force)  # before anything is created
     # refused before a lock file is left in someone else's directory
     refuse_foreign(rd.RunDir(a.out), a.out)

@@ -72,10 +72,12 @@ def _accuracy_args(p: argparse.ArgumentParser) -> None:
                         "/ m), instead of the --accuracy preset's rule (at most "
                         f"{DT_FACTOR_MAX:g}, the stability bound)")
     p.add_argument("--target-error", type=float, default=None, metavar="E",
-                   help="run until mu_bar's standard error is below this (checked every 1%% of "
-                        f"--t-end, at most every {ADAPTIVE_CHUNK_T:g} time units, from t = "
-                        f"{ADAPTIVE_T_MIN:g}), at most --t-end (default: the steady "
-                        "protocol's preset target; none for the paper's)")
+                   help="run until mu_bar's error (covering the layer's switching; with a "
+                        "companion, of the pair's mean, the two agreeing within it) is below "
+                        f"this (checked every {ADAPTIVE_CHUNK_T:g} time units from t = "
+                        f"{ADAPTIVE_T_MIN:g}, ever more sparsely later), at most --t-end "
+                        "(default: the steady protocol's preset target; none for the "
+                        "paper's)")
 
 
 def _contact_rule_arg(p: argparse.ArgumentParser) -> None:

@@ -151,8 +151,9 @@ def estimate_lines(s: dict, state: str) -> list[str]:
                      "difference")
     why = s.get("switching_not_calibrated_because")
     if why and state not in SWITCHING:
-        lines.append(f"  not calibrated here ({why}): the errors cover the slow fluctuations "
-                     "of the nearest calibrated layer, wider")
+        lines.append(f"  not calibrated here ({why}): " + (
+            "the errors are the run's own" if "installed" in why else
+            "the errors cover the slow fluctuations of the nearest calibrated layer, wider"))
     if s.get("t_needed") is not None and s.get("t_needed") > _num(s, "t_run"):
         lines.append(f"  the error target {s['params']['target_error']:g} needs a run of about "
                      f"t = {s['t_needed']:.2g} (this layer's switching, calibrated on long "

@@ -32,13 +32,14 @@ def stop_rules(ad: dict, companion: str | None) -> str:
                      f"{100 * (ad.get('agreement_required') or math.nan):.2g}%")
     if ad.get("until_steady"):
         rules.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g}"
-                     + (", both runs" if companion else "") + ")")
+                     + (", the pair's mean stress" if companion else "") + ")")
     return " and ".join(rules)
 
 
 def _reached(ad: dict, companion: str | None) -> str:
     """The rule an adaptive run met, with the values it met it with."""
     parts = []
+    state = ad.get("state_at_stop")
     err = ad.get("mu_bar_err_at_stop")
     if ad.get("target_error") is not None and err is not None:
         parts.append(f"mu_bar error {_e(err)} <= {ad['target_error']:g}"
@@ -47,9 +48,11 @@ def _reached(ad: dict, companion: str | None) -> str:
     if companion and ad.get("target_error") is not None and gap is not None:
         parts.append(f"the companion run from the {companion} start {-100 * gap:+.2f}% from it "
                      f"(within {100 * (ad.get('agreement_required') or math.nan):.2g}%)")
-    if ad.get("until_steady"):
+    if ad.get("until_steady") and state in SWITCHING:
+        parts.append(f"in the states it visited ({state})")
+    elif ad.get("until_steady"):
         parts.append(f"steady (drift bound <= {STEADY_DRIFT_BOUND:g}"
-                     + (", both runs" if companion else "") + ")")
+                     + (", the pair's mean stress" if companion else "") + ")")
     return " and ".join(parts)
 
 
@@ -96,7 +99,7 @@ def _pair_missed(ad: dict, companion: str | None) -> str | None:
         return None
     if gap is None or not math.isfinite(gap):
         return f"the companion run ({companion} start) not comparable yet"
-    agree = ad.get("agreement_required")
+    agree = ad.get("agreement_required") if ad.get("target_error") is not None else None
     if ad.get("pair_disagrees_at_stop"):
         return (f"the companion run ({companion} start) disagrees: its mean stress "
                 f"{-100 * gap:+.2f}% off, beyond {100 * STEADY_AGREEMENT:g}% and both errors "
@@ -127,13 +130,17 @@ def with_t_end(command: str, t_end: float) -> str:
     in place of its own."""
     import shlex
 
-    words, out, skip = shlex.split(command), [], False
-    for w in words:
+    words, out, skip = shlex.split(command), [], 0
+    for i, w in enumerate(words):
         if skip:
-            skip = False
+            skip -= 1
         elif w == "--t-end":
-            skip = True
-        elif not w.startswith("--t-end="):
+            skip = 1
+        elif w == "--set" and i + 1 < len(words) and words[i + 1].startswith("t_end="):
+            skip = 1
+        elif w.startswith(("--t-end=", "--set=t_end=")) or w == "--overwrite":
+            continue   # (--overwrite would redo the run the advice continues)
+        else:
             out.append(w)
     return shlex.join(out + ["--t-end", f"{t_end:g}"])
 
@@ -176,12 +183,13 @@ def advice_line(ad: dict, command: str | None, rate: float | None) -> str | None
 
 def answered_line(out, meta: dict, t_end: float) -> str:
     """A request that the finished run in ``out`` already answers (it stopped by its rule
-    before the requested cap): nothing ran."""
+    before the requested cap, where the request's rule stops too): nothing ran."""
     ad = meta.get("adaptive") or {}
     return (f"{out}: the run there already answers this request: it stopped by its rule at "
-            f"t = {ad.get('t_run', math.nan):g}, before the cap asked for now (t_end "
-            f"{t_end:g}), and a run asked for with that cap stops there too; nothing was run "
-            "(a smaller --target-error continues it)")
+            f"t = {ad.get('t_run', math.nan):g}, and a run asked for this way (cap "
+            f"{t_end:g}) stops at the same check; nothing was run (its record keeps the "
+            "request it was run for; a smaller --target-error continues it where that is not "
+            "met yet)")
 
 
 def adaptive_lines(ad: dict, companion: str | None, command: str | None = None,

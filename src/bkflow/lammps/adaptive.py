@@ -27,6 +27,12 @@ from bkflow.observables.stationarity import mean_error
 from bkflow.observables.stress import Zigzag
 from bkflow.store.rundir import RunDir
 
+#: the version of the stop rule a run's record says it stopped under (meta.json's
+#: ``adaptive``): a run stopped under another (bkflow before 0.6, where a switching layer
+#: stopped on its own error and the checks' spacing followed the cap) is neither continued
+#: nor taken as the answer to a request (bkflow.lammps.continuation)
+RULE = 2
+
 
 class AdaptiveStop:
     """One leg's side of the stop rule of an adaptive run (RunSpec.adaptive), checked between
@@ -68,6 +74,7 @@ class AdaptiveStop:
         self.pair_disagrees = False
         self.pair_legs = 1          # 2 once the pair's mean is the estimate
         self.series = None          # (t, sigma, weights, t0) read at the last check
+        self.has_slips = False      # the leg records its turning points (extrema.npy)
         self.both = None            # the window of the pair's mean stress (the main run's)
         self.pair_state = None      # the pair's verdict at the last check
 
@@ -101,6 +108,7 @@ class AdaptiveStop:
             return False
         self.checks += 1
         red = self.rd.read_reduced(spec)
+        self.has_slips = red.has_extrema
         self._read_slips(red)
         t, sigma, phase = red.series()
         t0 = transient_step(spec.transient, step) * spec.dt
@@ -142,7 +150,7 @@ class AdaptiveStop:
         mu = self.mu_bar if self.mu_bar is not None else math.nan
         needed = states.needed_length(requested, mu, self.pair_legs) \
             if requested.target_error is not None else None
-        return {"target_error": requested.target_error,
+        return {"rule": RULE, "target_error": requested.target_error,
                 "until_steady": requested.until_steady,
                 "drift_bound_required": STEADY_DRIFT_BOUND if requested.until_steady else None,
                 "agreement_required": (pair_agreement(requested, mu)
@@ -188,7 +196,9 @@ def advice(requested: RunSpec, mu_bar: float, legs: int, t_run: float,
         return None
     t_end = round_up(needed)
     longer = requested.replace(t_end=t_end)
-    out_ = {"t_end": t_end, "atom_steps": cost(longer).atom_steps,
+    # what the continuation adds: the steps from where the run stopped
+    more = cost(longer).atom_steps - cost(requested.replace(t_end=t_run)).atom_steps
+    out_ = {"t_end": t_end, "atom_steps": more,
             "above_limits": within_limits(longer, out), "t_end_max": None,
             "err_at_max": None}
     if out_["above_limits"] is not None:
@@ -229,23 +239,35 @@ def stop_now(stops: list, step: int) -> bool:
     main, comp = stops
     if main.last is None or comp.last is None:
         return False
-    target = main.spec.target_error
+    target, spec = main.spec.target_error, main.spec
     t, sigma, weights, t0 = main.series
     tc, sc, wc, _ = comp.series
     if len(tc) != len(t):   # (the legs advance together: never, but said rather than assumed)
         return False
-    main.both = states.window(main.spec, t, 0.5 * (sigma + sc), None, t0, own_error=False,
+    main.both = states.window(spec, t, 0.5 * (sigma + sc), None, t0, own_error=False,
                               weights=weights)
-    paired = target is not None and comp.estimate is not None and comp.estimate.n >= 2
+    paired = comp.has_slips   # the pair's estimate, as the summary reports it
     d = pair.pair_rule(main.leg(), comp.leg(), main.both, target if paired else None,
-                       STEADY_AGREEMENT, STEADY_DRIFT_BOUND)
+                       STEADY_AGREEMENT, STEADY_DRIFT_BOUND, spec.until_steady)
     main.companion_gap, main.pair_disagrees, main.pair_state = d.gap, d.disagrees, d.state
+    main.pair_legs = 2 if paired else 1
     if paired:
-        main.pair_legs, main.mu_bar, main.last_error = 2, d.mu_bar.value, d.mu_bar.err
+        main.mu_bar, main.last_error = d.mu_bar.value, d.mu_bar.err
         main.met = d.stop
-    else:   # a companion without slips of its own yet: the run's own error
+    else:   # a companion that keeps no slips (recorded so before 0.6): the run's own error
         main.met = d.stop and (target is None or main.error_met(main.last_error, target))
     return main.met
+
+
+def rule_met_at(spec: RunSpec, rd: RunDir, step: int) -> bool:
+    """Whether ``spec``'s stop rule is met, on the finished run's records in ``rd`` (and its
+    companion's), at its last step ``step``: what a run asked for with ``spec`` from the start
+    would find at that check (a stricter request of a run that stopped by its rule may be met
+    where the run stopped already)."""
+    stops = [AdaptiveStop(spec, rd)]
+    if spec.companion is not None:
+        stops.append(AdaptiveStop(spec.companion_spec, rd.companion()))
+    return stop_now(stops, step)
 
 
 def _err(e) -> float:

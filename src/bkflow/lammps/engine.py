@@ -253,7 +253,7 @@ class _Leg:
         self.spec, self.rd, self.options = spec, rd, options
         self.lmp = None
         self.breaks_before = 0.0
-        self.adaptive = AdaptiveStop(spec, rd) if spec.adaptive else None
+        self.adaptive = None
 
     def open(self, resume: str | None = None, step: int = 0) -> None:
         """LAMMPS set up for the run, or continuing it from ``resume`` (its restart file, of
@@ -361,7 +361,8 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     ``overwrite``: redo a finished run instead of refusing. A partial run of bkflow's is
     always cleared and redone; a directory holding anything else is refused. ``chunk_steps``:
     the first steps between checks (``next_check`` spaces the later ones further apart) and
-    progress updates (default: 1% of the run, at least 1000 steps).
+    progress updates (default: ``bkflow.lammps.adaptive.check_chunk``, 100 time units
+    whatever the cap).
     ``force``: run even when the cost estimate (``bkflow.lammps.limits.check_cost``) is above
     the limits. ``path``: the integration path (``bkflow.model.params.PATHS``): ``auto`` (the
     fused path when it can run, as it always can for bkflow's lattices on the engine's one
@@ -400,10 +401,14 @@ def _legs(spec: RunSpec, rd: RunDir, options: DeckOptions, prior: dict | None) -
     begun in each (``prior``: the record of the run it continues), or the companion's
     directory made and the inputs of both written."""
     legs = [_Leg(spec, rd, options)]
+    if spec.adaptive:
+        legs[0].adaptive = AdaptiveStop(spec, rd)
     if spec.companion is not None:
         # the companion keeps what the pair's verdict and estimate read of it: its blocks
         # and its extrema (its slips' mu_bar, beside the run's)
         legs.append(_Leg(spec.companion_spec, rd.companion(), options))
+        if spec.adaptive:   # the pair's rule reads the companion whatever its own rule
+            legs[1].adaptive = AdaptiveStop(spec.companion_spec, rd.companion())
     if prior is not None:
         for leg in legs:
             leg.rd.begin_continuation()

@@ -49,9 +49,11 @@ class PairMean:
 
     @property
     def err(self) -> float:
-        if not math.isfinite(self.bracket):
-            return self.noise
-        return max(self.noise, self.bracket) if math.isfinite(self.noise) else self.bracket
+        """The larger of the noise and the bracket; NaN where either leg's error is unknown
+        (a leg with fewer than two slips: the bracket alone would say nothing of the noise)."""
+        if not (math.isfinite(self.noise) and math.isfinite(self.bracket)):
+            return math.nan
+        return max(self.noise, self.bracket)
 
     @property
     def gap(self) -> float:
@@ -61,7 +63,7 @@ class PairMean:
 
 def pair_mean(a: float, err_a: float, b: float, err_b: float) -> PairMean:
     """The ``PairMean`` of values ``a`` and ``b`` with their errors (NaN where unknown: the
-    noise is then NaN, and the error the bracket alone)."""
+    noise and the error are then NaN)."""
     noise = math.hypot(err_a, err_b) / 2 if math.isfinite(err_a) and math.isfinite(err_b) \
         else math.nan
     return PairMean(0.5 * (a + b), a, b, noise, 0.5 * abs(a - b))
@@ -113,10 +115,12 @@ class PairDecision:
 
 
 def pair_rule(main: Leg, comp: Leg, both: Window, target: float | None,
-              agreement_without_target: float, drift_bound: float) -> PairDecision:
-    """Whether a run and its companion from the other start may stop: the pair's verdict
-    (``pair_verdict``) is steady with a drift above ``drift_bound`` excluded (the trend of the
-    pair's mean, ``both``), or names the states of a layer that switches; and, with an error
+              agreement_without_target: float, drift_bound: float,
+              until_steady: bool = True) -> PairDecision:
+    """Whether a run and its companion from the other start may stop: ``until_steady``, the
+    pair's verdict (``pair_verdict``) is steady with a drift above ``drift_bound`` excluded
+    (the trend of the pair's mean, ``both``), or names the states of a layer that switches,
+    and neither remembers its start beyond both errors; and, with an error
     ``target`` (absolute, of mu_bar): the pair's mean of mu_bar (``pair_mean``: the noise of
     both, each covering the switching, or half their difference where larger) has an error
     within it, both estimates reliable, and their mean stresses agree within it, relative to
@@ -128,7 +132,8 @@ def pair_rule(main: Leg, comp: Leg, both: Window, target: float | None,
     gap = a / b - 1 if b and math.isfinite(a) and math.isfinite(b) else math.nan
     disagrees = pair_disagrees(main.window, comp.window, agreement_without_target)
     state = pair_verdict(main.window.state, comp.window.state, both, disagrees)
-    stop = state in SWITCHING or (state == "steady" and both.trend.drift_bound <= drift_bound)
+    stop = not until_steady or state in SWITCHING or (
+        state == "steady" and both.trend.drift_bound <= drift_bound)
     agreement = agreement_without_target
     if target is not None:
         agreement = target / mu.value if mu.value > 0 else math.nan

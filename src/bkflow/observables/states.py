@@ -480,6 +480,8 @@ def needed_length(spec, mu_bar: float, legs: int = 1) -> float | None:
     lo, hi = math.log(10.0), math.log(1e12)
     if (window_variance("mu_bar", spec.phi, spec.N, math.exp(lo)) or 0.0) <= want:
         return None
+    if window_variance("mu_bar", spec.phi, spec.N, math.exp(hi)) > want:
+        return None   # beyond any run (a target far below the layer's fluctuations)
     for _ in range(60):   # the variance falls with the window: bisect in log W
         mid = 0.5 * (lo + hi)
         if window_variance("mu_bar", spec.phi, spec.N, math.exp(mid)) > want:

@@ -312,9 +312,10 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
             raise DamagedRunError(f"{self.file(where)} holds no run parameters (expected an "
                                   f"object of RunSpec fields)")
         try:
-            return RunSpec.from_dict(params)
+            spec = RunSpec.from_dict(params)
         except (TypeError, ValueError) as exc:
             raise DamagedRunError(f"{self.file(where)}: {exc}") from None
+        return _at_its_step(spec, meta if where == META else None)
 
     def finished_standalone(self) -> str | None:
         """For a deck run with ``lmp -in in.bk``: why it is not finished (None when its stress
@@ -336,3 +337,15 @@ def sweep_run_dir(root, job_id: str) -> RunDir:
     """The run directory of job ``job_id`` of the sweep in ``root``."""
     return RunDir(Path(root) / WORKSPACE / str(job_id))
 
+
+def _at_its_step(spec: RunSpec, meta: dict | None) -> RunSpec:
+    """``spec`` at the time step the run was made with (meta.json's ``derived``): a preset's
+    rule may give another step since (bkflow 0.6's fast preset at the stiff end), and the run's
+    records are of its own."""
+    try:
+        dt = float(meta["derived"]["dt"])
+    except (TypeError, KeyError, ValueError):
+        return spec
+    if not dt > 0 or abs(dt / spec.dt - 1) < 1e-12:
+        return spec
+    return spec.replace(dt_factor=dt * spec.omega_max)

@@ -52,9 +52,10 @@ def simulate(spec: RunSpec, out, command: str | None = None, force: bool = False
 
 def seed(out, donors, spec: RunSpec) -> str | None:
     """A directory without a run that one of ``donors`` (run directories of finished runs)
-    continues: the longest of them that ``spec`` continues (``bkflow.lammps.engine.continuation``)
-    copied into ``out``, so that the run goes on from its restart file rather than simulating
-    again what it has. Returns the donor copied, or None."""
+    continues: the longest of them that ``spec`` continues
+    (``bkflow.lammps.continuation.continuation``) copied into ``out``, so that the run goes on
+    from its restart file rather than simulating again what it has. Returns the donor copied,
+    or None."""
     import shutil
     from pathlib import Path
 

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bkflow.lammps.continuation import LENGTH_FIELDS, answers, continuation
+from bkflow.lammps.continuation import LENGTH_FIELDS, answers, continuation, other_request
 from bkflow.model.params import RunSpec, SpecError
-from bkflow.store.rundir import RunBusyError, RunDir
+from bkflow.store.rundir import RunDir
 from bkflow.sweeps.project import LENGTH, open_project
 
 
@@ -30,16 +30,23 @@ class ShorterRequestError(SpecError):
 def _takes(job, spec: RunSpec) -> bool:
     """Whether the run of ``job`` (a layer's, asked for another length before) goes on to
     ``spec``, or already is its run: nothing it has is simulated again (continued in place,
-    ``bkflow.lammps.engine.continuation``, or answered, ``answers``); a job whose run never
-    finished takes any length (its partial run is redone anyway)."""
+    ``bkflow.lammps.continuation.continuation``, or answered, ``answers``); a job whose run
+    never finished, is damaged or was made under an earlier stop rule takes any length (its
+    run is redone anyway). A run another process is writing raises RunBusyError: the sweep
+    says so."""
+    from bkflow.lammps.continuation import finished
+
     rd = RunDir(job.path)
-    try:
-        with rd.lock():
-            if not rd.is_complete():
-                return True
-            return answers(rd, spec) or continuation(rd, spec) is not None
-    except RunBusyError:   # another process is writing it: that one decides
-        return False
+    with rd.lock():
+        if not rd.is_complete() or rd.problem() is not None or finished(rd) is None:
+            return True   # never finished, damaged, or of an earlier bkflow: redone
+        return answers(rd, spec) or continuation(rd, spec) is not None
+
+
+def _steps(job) -> int:
+    """The steps the job's finished run ran (0 where none)."""
+    meta = RunDir(job.path).meta() or {}
+    return int((meta.get("derived") or {}).get("n_steps") or 0)
 
 
 def check_lengths(path, specs) -> None:
@@ -51,18 +58,27 @@ def check_lengths(path, specs) -> None:
 
 def open_jobs(project, specs, dry: bool = False) -> list:
     """One job per RunSpec of ``specs``, created where new. A sweep asked again with another
-    length (--t-end, --target-error; ``bkflow.lammps.engine.LENGTH_FIELDS``), when the sweep
-    does not vary that length, asks it of the job of the same layer it already has (its
+    length (--t-end, --target-error; ``bkflow.lammps.continuation.LENGTH_FIELDS``), when the
+    sweep does not vary that length, asks it of the job of the same layer it already has (its
     ``LENGTH``), not of a new job: a run that stopped at its cap goes on from its restart file,
     one that stopped by its rule is left as it is (it answers the longer request), and the
     sweep's tables and figures keep one row per run. A shorter length than a finished run went
-    to is refused (``ShorterRequestError``): it would redo the run. ``dry``: only that check,
-    nothing created or changed."""
+    to is refused (``ShorterRequestError``): it would redo the run; so is a grid that varies
+    the length over runs asked for another length before. Every job is checked before any is
+    created or changed; ``dry``: only that check."""
     specs = list(specs)
+    if not dry:
+        open_jobs(project, specs, dry=True)
     axes = {f for f in LENGTH_FIELDS if len({getattr(s, f) for s in specs}) > 1}
     jobs = []
     for spec in specs:
         job = project.open_job(spec.to_dict())
+        if axes and job in project and LENGTH in job.document:
+            raise ShorterRequestError(
+                f"the sweep's run of {spec.label} in {job.path} was asked for another length "
+                f"by a later sweep ({dict(job.document[LENGTH])}), and this grid varies "
+                f"{', '.join(sorted(axes))} over it, which would redo it: sweep into another "
+                "--out")
         same = [] if axes else _same_layer(project, job, spec)
         if same:
             job = _taken(same, spec)
@@ -83,13 +99,16 @@ def _same_layer(project, job, spec: RunSpec) -> list:
 
 
 def _taken(same: list, spec: RunSpec):
-    """The job of ``same`` whose run takes ``spec`` (``_takes``); ShorterRequestError where
-    none does."""
+    """The job of ``same`` whose run takes ``spec`` (``_takes``), the one that ran furthest
+    where several do; ShorterRequestError where none does."""
+    same = sorted(same, key=_steps, reverse=True)
     taken = [j for j in same if _takes(j, spec)]
     if not taken:
+        why = other_request(RunDir(same[0].path), spec)
+        target = "none" if spec.target_error is None else f"{spec.target_error:g}"
         raise ShorterRequestError(
-            f"the sweep's run of {spec.label} in {same[0].path} went further than this "
-            f"request (t_end {spec.t_end:g}, target error {spec.target_error}) asks, and a "
-            "sweep's runs only go on: ask for at least the length it was asked for before "
-            "(its runs.csv says), or sweep into another --out")
+            f"the sweep's run of {spec.label} in {same[0].path} cannot be asked for t_end "
+            f"{spec.t_end:g}, target error {target}" + (f": {why}" if why else "")
+            + "; a sweep's runs only go on: ask for at least the length they were asked for "
+            "before (runs.csv's t_end), or sweep into another --out")
     return taken[0]

@@ -40,7 +40,7 @@ class SweepProject(FlowProject):
 
 
 #: the job document's key of the length a sweep asks of the job's run now (RunSpec fields of
-#: ``bkflow.lammps.engine.LENGTH_FIELDS``), where it differs from the job's state point: a
+#: ``bkflow.lammps.continuation.LENGTH_FIELDS``), where it differs from the job's state point: a
 #: sweep run again with a longer --t-end (or a smaller --target-error) asks it of the same job,
 #: whose run then goes on in its directory (``bkflow.sweeps.lengths.open_jobs``)
 LENGTH = "length"
