@@ -92,24 +92,40 @@ def measure_sweep(command: str = SWEEP, hero: Path | None = None) -> dict:
     with tempfile.TemporaryDirectory(prefix="readme-numbers-", dir=_scratch()) as d:
         out, wall = _run(command, Path(d))
         size = disk_bytes(Path(d) / "runs" / "sweep")
+        by_size = where_it_goes(Path(d) / "runs" / "sweep")
         if hero is not None:
             _run("bkflow plot runs/sweep", Path(d))
             shutil.copyfile(Path(d) / "runs" / "sweep" / "figures" / "fig2a_friction.png", hero)
     runs = int(re.search(r"= (\d+) runs into", out).group(1))
     jobs = int(re.search(r", (\d+) at a time", out).group(1))
     return {"command": command, "wall_s": wall, "bytes": size, "runs": runs, "jobs": jobs,
-            "cores": os.cpu_count(), "output": out.rstrip("\n")}
+            "cores": os.cpu_count(), "output": out.rstrip("\n"), "by_size": by_size}
 
 
-#: the steady protocol at the paper's larger sizes (REPRODUCTION): the main command's grid
-SIZES = (400, 900)
+def where_it_goes(sweep: Path) -> dict:
+    """Per size of a finished sweep: its runs, the seconds they took (each run's and its
+    companion's LAMMPS time, meta.json's wall_time_s, summed), the runs that went to their cap
+    and the seconds those took (runs.csv)."""
+    import pandas as pd
+
+    runs = pd.read_csv(sweep / "runs.csv")
+    capped = runs.t_run >= runs.t_end * (1 - 1e-9)
+    return {str(n): {"runs": int(len(g)), "run_s": float(g.wall_time_s.sum()),
+                     "capped": int(capped[g.index].sum()),
+                     "capped_s": float(g.wall_time_s[capped[g.index]].sum())}
+            for n, g in runs.groupby("N")}
+
+
+#: the steady protocol at the paper's larger sizes (REPRODUCTION): the main command's grid,
+#: each alone and the paper's three in one command
+SIZES = ("400", "900", "100,400,900")
 
 
 def measure_sizes() -> dict:
     """The main command's grid under the steady protocol at N = SIZES, recording only the
     stress's and the phases' records (--scene friction: the protocol's time is the
     simulation's): {N: measure_sweep}."""
-    return {str(n): measure_sweep(f"{SWEEP} --sizes {n} --scene friction") for n in SIZES}
+    return {n: measure_sweep(f"{SWEEP} --sizes {n} --scene friction") for n in SIZES}
 
 
 def _commit() -> str:

@@ -392,6 +392,18 @@ def steady_sizes() -> str:
         states = next((ln for ln in m["output"].splitlines() if " runs are steady" in ln), "")
         out.append(f"| {n} | `{m['command']}` | {duration(m['wall_s'])} | "
                    f"{human(m['bytes'])} | {m['runs']} | {states.split(';')[0]} |")
+    goes = [(n, m["by_size"]) for n, m in rec.items()
+            if isinstance(m, dict) and len(m.get("by_size") or {}) > 1]
+    for n, by in goes:
+        total = sum(v["run_s"] for v in by.values())
+        out += ["", f"Where the time of `--sizes {n}` goes (the runs' LAMMPS seconds, each run "
+                "and its companion, summed over both cores):", "",
+                "| N | runs | seconds | share | runs to the cap | their seconds |",
+                "|---|---|---|---|---|---|"]
+        for size, v in by.items():
+            out.append(f"| {size} | {v['runs']} | {v['run_s']:.0f} | "
+                       f"{100 * v['run_s'] / total:.0f}% | {v['capped']} | "
+                       f"{v['capped_s']:.0f} |")
     return "\n".join(out) + "\n"
 
 
@@ -621,6 +633,38 @@ def states_starts() -> str:
     return "\n".join(out) + "\n"
 
 
+def states_starts_r() -> str:
+    """The contacts' coherence R (the mean of |Z| over blocks) of each start in the first
+    windows of a run, against its layer's long-run level (the long runs of
+    benchmarks/stiff_states.py, from t = 0; the median over the seeds), at the stiff end."""
+    import numpy as np
+
+    from bkflow.observables.states import BLOCK_T
+
+    sr, runs, means = _states()
+    half = BLOCK_T / 2
+    level, cell = {}, {}
+    for (n, phi, seed), g in runs.groupby(["N", "phi", "seed"]):
+        allb = sr.pd.concat(list(g.blocks), ignore_index=True)
+        level.setdefault((n, phi), []).append(float(np.average(allb.R, weights=allb.n)))
+    for _, r in runs[runs.phi >= 100].iterrows():
+        w = r.whole
+        for a, b in START_WINDOWS:
+            sel = w[(w.t0 >= a - half) & (w.t1 <= b + half)]
+            if len(sel):
+                cell.setdefault((r.N, r.phi, (a, b), r.start), []).append(
+                    float(np.average(sel.R, weights=sel.n)))
+    head = " | ".join(f"t = {a:g} to {b:g}" for a, b in START_WINDOWS)
+    out = [f"| N | phi | long run | {head} |", "|---|---|---|" + "---|" * len(START_WINDOWS)]
+    for n, phi in sorted({(k[0], k[1]) for k in cell}):
+        cells = [" / ".join(f"{np.median(cell[(n, phi, win, st)]):.3f}"
+                            if (n, phi, win, st) in cell else "n/a" for st in START_ORDER)
+                 for win in START_WINDOWS]
+        out.append(f"| {n} | {phi:g} | {np.median(level[(n, phi)]):.3f} | "
+                   + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------- the protocol, judged
 def protocol_bias() -> str:
     """The steady protocol's estimate against each layer's long-run mean, per size and phi
@@ -724,7 +768,8 @@ BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "readme-numbers": readme_numbers, "accuracy-presets": accuracy_presets,
           "scaling": scaling, "scaling-model": scaling_model, "states-starts": states_starts,
           "protocol-bias": protocol_bias, "protocol-offgrid": protocol_offgrid,
-          "step-states": step_states, "work-precision": work_precision}
+          "step-states": step_states, "work-precision": work_precision,
+          "states-starts-r": states_starts_r}
 
 
 def large_drops() -> str:

@@ -136,7 +136,7 @@ def test_a_switching_layer_runs_to_its_cap_and_says_what_it_would_need(lammps, t
     printed = "\n".join(summary_lines(s))
     assert f"+- {s['mu_bar_err']:.4f} ({s['state']})" in printed
     assert f"needs a run of about t = {s['t_needed']:.2g}" in printed
-    assert "by state: " in printed
+    assert "by state (this run): " in printed
 
 
 def test_every_summary_carries_its_state_and_reads_large_drops(lammps, tmp_path):

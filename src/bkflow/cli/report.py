@@ -96,8 +96,8 @@ def state_line(s: dict) -> str:
                   f"its errors cover the switching as the nearest calibrated layer has it, "
                   f"wider ({why})")
         return (f"{state.upper()} over {window}: the layer switches between a quiet and a "
-                f"coherent state more slowly than this window averages over them; it visited "
-                f"{composition(s) or 'n/a'}; {errors}{pair}")
+                f"coherent state more slowly than this window averages over them; this run "
+                f"visited {composition(s) or 'n/a'}; {errors}{pair}")
     if state == "drifting":
         return (f"DRIFTING over {window}: the stress still drifts ({trend}); its numbers are "
                 "a transient's")
@@ -174,7 +174,7 @@ def summary_lines(s: dict) -> list[str]:
         per = [f"{name}: mu_bar {_g(s, f'mu_bar_{name}', '.4f')}, <sigma_x>/sigma_n "
                f"{_g(s, f'mean_stress_ratio_{name}', '.4f')}"
                for name in ("quiet", "coherent") if s.get(f"time_{name}")]
-        lines.append("  by state: " + "; ".join(per))
+        lines.append("  by state (this run): " + "; ".join(per))
     lines += [f"  mu_bar over large drops (> {_g(s, 'large_drop_threshold', '.3g')}) = "
               f"{_g(s, 'mu_bar_large', '.4f')} +- {_g(s, 'mu_bar_large_err', '.4f')} over "
               f"{s.get('n_slips_large')} slips"]
