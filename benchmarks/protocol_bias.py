@@ -135,13 +135,17 @@ TOLERANCE = 0.005
 
 
 def verdict_class(row: dict) -> str:
-    """What a run's verdict was, judged by its layer's long-run truth: "false metastable",
-    "false drifting", "false steady" (a settled verdict on a wrong number), or "right"."""
+    """What a run's verdict was, judged by its layer's long-run truth: "false metastable"
+    (a start said to be remembered where neither run of the pair lies further than TOLERANCE
+    from the truth), "false drifting" (on numbers within TOLERANCE of it), "false steady" (a
+    settled verdict, steady or the states visited, on numbers further off than TOLERANCE and
+    beyond 1.96 of their errors), or "right"."""
     off = max(abs(row["b_stress"]), abs(row["b_mu"]))
     missed = off > TOLERANCE and max(abs(row["z_stress"]), abs(row["z_mu"])) > 1.96
     state = row["state"]
     if state == "metastable":
-        return "false metastable" if off <= TOLERANCE else "right"
+        legs = max(abs(row["b_stress_run"]), abs(row.get("b_stress_companion", math.nan)))
+        return "false metastable" if legs <= TOLERANCE else "right"
     if state == "drifting":
         return "false drifting" if off <= TOLERANCE else "right"
     return "false steady" if missed else "right"
@@ -183,6 +187,8 @@ def bias_rows(records=None) -> pd.DataFrame:
                                                r.mean_stress_ratio) / t["stress"] - 1,
                          "b_mu": r.mu_bar / t["mu_bar"] - 1,
                          "b_mu_run": r.get("mu_bar_run", r.mu_bar) / t["mu_bar"] - 1,
+                         "b_stress_companion": r.get("companion_mean_stress_ratio",
+                                                     math.nan) / t["stress"] - 1,
                          "z_stress": (r.mean_stress_ratio - t["stress"]) / r.mean_stress_ratio_err,
                          "z_mu": (r.mu_bar - t["mu_bar"]) / r.mu_bar_err})
             rows[-1]["verdict_class"] = verdict_class(rows[-1])
