@@ -218,12 +218,14 @@ def aggregate(d: pd.DataFrame) -> pd.DataFrame:
     return d.groupby(["record", "N", "phi"]).apply(agg, include_groups=False).reset_index()
 
 
-def markdown(t: pd.DataFrame) -> str:
-    def pct(v, se=math.nan):
-        if not math.isfinite(v):
-            return "n/a"
-        return f"{100 * v:+.2f}%" + (f" +- {100 * se:.2f}%" if math.isfinite(se) else "")
+def pct(v: float, se: float = math.nan) -> str:
+    """A relative bias in percent, with its standard error where there is one."""
+    if not math.isfinite(v):
+        return "n/a"
+    return f"{100 * v:+.2f}%" + (f" +- {100 * se:.2f}%" if math.isfinite(se) else "")
 
+
+def markdown(t: pd.DataFrame) -> str:
     lines = ["| record | N | phi | seeds | verdicts | mean t_run | <sigma_x>/sigma_n: bias "
              "(run alone) | mu_bar: bias (run alone) | largest abs(z) | covered |",
              "|---|---|---|---|---|---|---|---|---|---|"]
@@ -239,11 +241,6 @@ def before_after(rows: pd.DataFrame) -> str:
     """Per size and phi: the protocol now (records ``N<n>``) beside the one before this
     estimator (records ``before_N<n>``: bkflow 0.5.0's rule, its main run's numbers), on the
     same seeds and the same truth."""
-    def pct(v, se=math.nan):
-        if not math.isfinite(v):
-            return "n/a"
-        return f"{100 * v:+.2f}%" + (f" +- {100 * se:.2f}%" if math.isfinite(se) else "")
-
     now = aggregate(rows[rows.record.str.match(r"^N\d+$")])
     was = aggregate(rows[rows.record.str.match(r"^before_N\d+$")])
     was = {(r.N, round(r.phi, 6)): r for _, r in was.iterrows()} if len(was) else {}

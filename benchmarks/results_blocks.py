@@ -644,7 +644,7 @@ def states_starts_r() -> str:
     sr, runs, means = _states()
     half = BLOCK_T / 2
     level, cell = {}, {}
-    for (n, phi, seed), g in runs.groupby(["N", "phi", "seed"]):
+    for (n, phi, _seed), g in runs.groupby(["N", "phi", "seed"]):
         allb = sr.pd.concat(list(g.blocks), ignore_index=True)
         level.setdefault((n, phi), []).append(float(np.average(allb.R, weights=allb.n)))
     for _, r in runs[runs.phi >= 100].iterrows():
