@@ -238,11 +238,14 @@ def markdown(t: pd.DataFrame) -> str:
 
 
 def before_after(rows: pd.DataFrame) -> str:
-    """Per size and phi: the protocol now (records ``N<n>``) beside the one before this
-    estimator (records ``before_N<n>``: bkflow 0.5.0's rule, its main run's numbers), on the
-    same seeds and the same truth."""
-    now = aggregate(rows[rows.record.str.match(r"^N\d+$")])
-    was = aggregate(rows[rows.record.str.match(r"^before_N\d+$")])
+    """Per size and phi: the protocol now (records ``N<n>``, ``N<n>_...``: more seeds) beside
+    the one before this estimator (records ``before_N<n>...``: bkflow 0.5.0's rule, its main
+    run's numbers), on the same seeds and the same truth."""
+    def by_size(d):   # every record of a size at the defaults (more seeds: N100_seeds456)
+        return aggregate(d.assign(record=[f"N{n}" for n in d.N]))
+
+    now = by_size(rows[rows.record.str.match(r"^N\d+(_|$)")])
+    was = by_size(rows[rows.record.str.match(r"^before_N\d+(_|$)")])
     was = {(r.N, round(r.phi, 6)): r for _, r in was.iterrows()} if len(was) else {}
     lines = ["| N | phi | seeds | verdicts | mean t_run, before / now | <sigma_x>/sigma_n bias, "
              "before / now | mu_bar bias, before / now | largest abs(z) now | covered now |",

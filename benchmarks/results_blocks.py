@@ -690,8 +690,9 @@ def protocol_offgrid() -> str:
     out = [pb.markdown(pb.aggregate(off)), "",
            "| set | runs | false metastable | false drifting | false steady |",
            "|---|---|---|---|---|"]
+    defaults = rows.record.str.match(r"^N\d+(_|$)")
     for name, d in (("off the grid (the variants above)", off),
-                    *((f"N = {n}, the model's defaults", rows[rows.record == f"N{n}"])
+                    *((f"N = {n}, the model's defaults", rows[defaults & (rows.N == n)])
                       for n in (100, 400, 900))):
         if len(d):
             r = pb.rates(d)

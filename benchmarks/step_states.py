@@ -114,7 +114,10 @@ def table(t_end: float = 1e6) -> pd.DataFrame:
     for (phi, c), g in stats.groupby(["phi", "C"]):
         ref = stats[(stats.phi == phi) & (stats.C == 1.0)].set_index("seed")
         g = g.set_index("seed")
-        seeds = sorted(set(g.index) & set(ref.index))
+        # the seeds every C of this phi has: the pairs, and C = 1's row over the same seeds
+        common = set.intersection(*(set(x.seed) for _, x in stats[stats.phi == phi]
+                                    .groupby("C")))
+        seeds = sorted(set(g.index) & set(ref.index) & common)
         row = {"phi": phi, "C": c, "seeds": len(seeds)}
         for k in ("quiet", "res_quiet", "res_coherent"):
             row[k] = float(g.loc[seeds, k].mean())

@@ -220,9 +220,12 @@ def window_variance(observable: str, phi: float, n: int, window: float,
 BORROWED_FACTOR = 2.0
 
 
-def borrowed_variance(observable: str, spec, window: float) -> float | None:
+def borrowed_variance(observable: str, spec, window: float,
+                      widen: bool = True) -> float | None:
     """The relative window variance an uncalibrated run's error borrows (see
-    BORROWED_FACTOR); None where no calibration is installed or the window is empty."""
+    BORROWED_FACTOR); None where no calibration is installed or the window is empty.
+    ``widen`` False: the nearest calibrated layer's own, unwidened (what the trend test takes
+    for the slow fluctuations it must not call a drift)."""
     sizes = calibration().get("sizes", {})
     if not sizes or not window > 0:
         return None
@@ -233,6 +236,8 @@ def borrowed_variance(observable: str, spec, window: float) -> float | None:
     from bkflow.model.params import RunSpec
 
     default = RunSpec(phi=1.0)
+    if not widen:
+        return v
     other = any(getattr(spec, f) != getattr(default, f) for f in CALIBRATED_FIELDS) or (
         _calibrated_lattice(spec.N) not in (None, (spec.Lx, spec.Ly)))
     return v * max(1.0, int(near) / spec.N) * (BORROWED_FACTOR if other else 1.0)
@@ -404,9 +409,12 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     trend = stationarity(t, sigma, t0, n_blocks, alpha)
     why = calibrated(spec)
     t1 = float(t[-1]) if len(t) else t0
-    if why is None:
-        trend = trend_within_fluctuations(trend, window_variance(
-            "stress", spec.phi, spec.N, (t1 - t0) / 2))
+    # the drift's error no smaller than the layer's slow fluctuations imply: the calibrated
+    # ones, or where nothing is calibrated the nearest calibrated layer's (a slowly wandering
+    # layer is not called drifting for want of a calibration)
+    trend = trend_within_fluctuations(trend, window_variance(
+        "stress", spec.phi, spec.N, (t1 - t0) / 2) if why is None else borrowed_variance(
+        "stress", spec, (t1 - t0) / 2, widen=False))
     bm = np.asarray(trend.block_means, float) / spec.sigma_n
     err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
