@@ -189,3 +189,29 @@ def test_a_pair_apart_by_more_than_the_target_does_not_stop_whatever_its_errors(
         assert d.mu_bar.err <= spec.target_error   # the error alone would allow it
         assert d.mu_bar.err >= 0.5 * abs(legs[0].mu_bar - legs[1].mu_bar)
         assert not d.stop, check
+
+
+def test_where_nothing_is_calibrated_the_errors_borrow_wide():
+    """Another N, aspect or model parameter: the error of a window covers the nearest
+    calibrated layer's slow fluctuations, widened (N_calibrated / N for a smaller layer,
+    BORROWED_FACTOR for other parameters or another aspect), never the run's own alone; and
+    the run says why."""
+    from bkflow.model.params import RunSpec
+
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 2e4, 20.0)
+    home = RunSpec(phi=100.0)
+    base = states.window_variance("stress", 100.0, 100, 1.6e4)
+    for spec, factor in ((RunSpec(phi=100.0, Lx=12, Ly=3), 100 / 36),
+                         (RunSpec(phi=100.0, gamma=0.1), states.BORROWED_FACTOR),
+                         (RunSpec(phi=100.0, Lx=10, Ly=10), states.BORROWED_FACTOR),
+                         (RunSpec(phi=100.0, Lx=200, Ly=50), 1.0)):
+        assert states.calibrated(spec) is not None
+        sigma = spec.sigma_n * 0.107 * (1 + 1e-5 * rng.standard_normal(len(t)))
+        w = states.window(spec, t, sigma, None, 0.2 * t[-1])
+        near = min(map(int, states.calibration()["sizes"]),
+                   key=lambda n: abs(math.log(n / spec.N)))
+        v = states.window_variance("stress", 100.0, near, w.t1 - w.t0)
+        assert w.var_borrowed == pytest.approx(v * max(factor, 1.0), rel=1e-9)
+        assert w.err >= math.sqrt(w.var_borrowed) * w.mean > 10 * w.err_run
+    assert states.calibrated(home) is None and base > 0
