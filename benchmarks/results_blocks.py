@@ -717,7 +717,8 @@ def step_states() -> str:
         return f"{_pct(r[f'd_{k}'])} +- {_se(r[f'd_{k}_se'])}"
 
     for _, r in t.iterrows():
-        out.append(f"| {r.phi:g} | {r.C:g} | {int(r.seeds)} | {r.quiet:.2f} +- {_g(r.quiet_sd, '.2f')} "
+        out.append(f"| {r.phi:g} | {r.C:g} | {int(r.seeds)} | {r.quiet:.2f} +- "
+                   f"{_g(r.quiet_sd, '.2f')} "
                    f"| {_g(r.res_quiet, '.2g')} / {_g(r.res_coherent, '.2g')} | "
                    f"{d(r, 's_quiet')} / {d(r, 's_coherent')} / {d(r, 's_all')} | "
                    f"{d(r, 'mu_quiet')} / {d(r, 'mu_coherent')} / {d(r, 'mu_all')} |")
