@@ -198,7 +198,8 @@ def _sweep_command(sub) -> None:
                          + ",".join(map(str, PAPER_SIZES))
                          + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
     sw.add_argument("--aspect", default=None, metavar="R|any",
-                    help=f"Lx/Ly every size must have (default {ASPECT}, the paper's), or 'any'")
+                    help=f"Lx/Ly every size must have: a number or a ratio such as 7/3 "
+                         f"(default {ASPECT}, the paper's), or 'any'")
     sw.add_argument("--seeds", type=int, default=SEEDS, metavar="K",
                     help=f"seeds 1..K per (phi, size) (default {SEEDS})")
     _accuracy_args(sw)
