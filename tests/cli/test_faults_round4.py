@@ -80,3 +80,76 @@ def test_the_number_of_blocks_is_bounded(three_phi):
         assert p.returncode == 2
         one_line(p, "n_blocks must be an integer from 3 to 100")
     assert bk("analyze", run, "--analysis", "n_blocks=100").returncode == 0
+
+
+# ------------------------------------------------------------ class 13: extreme finite inputs
+def test_no_finite_input_makes_an_internal_error():
+    """Every float parameter at the ends of the float range: a RunSpec is either refused with
+    a SpecError or made with finite derived quantities (an infinite omega_max, dt = 0 or an
+    infinite step count gave ZeroDivisionError and OverflowError: exit 70)."""
+    import dataclasses
+    import math
+    import sys
+
+    from bkflow.model.params import RunSpec
+
+    derived = ("n_steps", "dt", "stress_nevery", "phase_nevery", "snapshot_nevery",
+               "block_nevery", "friction_threshold", "slip_threshold_stress",
+               "extrema_threshold_stress", "transient_step", "slips_start_step", "omega_max",
+               "omega_contact")
+    made = 0
+    for field in dataclasses.fields(RunSpec):
+        if not (isinstance(field.default, float) or field.type in ("float", "float | None")):
+            continue
+        for value in (5e-324, 1e-320, 1e-300, 1e300, 1e308, sys.float_info.max):
+            try:
+                spec = RunSpec(**{"phi": 10.0, field.name: value})
+            except SpecError:
+                continue
+            made += 1
+            for name in derived:
+                x = getattr(spec, name)
+                assert math.isfinite(x), (field.name, value, name, x)
+    assert made > 10   # the grid is not all refused
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--phi", "1e308"], "omega_max = sqrt(stiffness / mass) overflows to inf: choose smaller"),
+    (["--phi", "10", "--set", "mass=1e-320"], "choose smaller stiffnesses (phi, k_e, k_d) or "
+                                              "a larger mass"),
+    (["--phi", "10", "--dt-factor", "1e-320"], "underflows to 1.39e-321: choose a larger "
+                                               "--dt-factor"),
+    (["--phi", "10", "--set", "mu_s=1e-200", "--set", "sigma_n=1e-200"],
+     "mu_s sigma_n A underflows to 0: choose larger mu_s, sigma_n or area"),
+    (["--phi", "1e20"], "snapshot_every = 20 (the default) is 2.67e+11 time steps of dt = "),
+])
+def test_extreme_inputs_are_refused_in_one_line_that_points_the_right_way(args, says, tmp_path):
+    p = bk("run", *args, "--t-end", "100", "--out", tmp_path / "r")
+    assert p.returncode == 2
+    one_line(p, says)
+    assert not (tmp_path / "r").exists()
+
+
+# ------------------------------------------------------ class 8: phase_every and the verdict
+def test_the_phase_sampling_is_bounded_and_does_not_change_the_verdict(lammps, tmp_path):
+    """phase_every above a tenth of a block is refused (500 made the same trajectory
+    "DRIFTING" with another mean); within the bound the state and the mean stress agree."""
+    import json
+
+    for name, value in (("phase_every", "500"), ("phase_every", "2.5"),
+                        ("stress_every", "3")):
+        p = bk("run", "--phi", "10", "--set", f"{name}={value}", "--t-end", "100",
+               "--out", tmp_path / "no")
+        assert p.returncode == 2
+        one_line(p, f"choose {name} <= 2")
+    got = {}
+    for every in ("0.5", "2"):
+        out = tmp_path / every
+        p = bk("run", "--phi", "10", "--set", f"phase_every={every}", "--t-end", "8000",
+               "--quiet", "--out", out)
+        assert p.returncode == 0, p.stderr
+        got[every] = json.loads((out / "summary.json").read_text())
+    a, b = got["0.5"], got["2"]
+    assert a["state"] == b["state"]
+    assert abs(a["mean_stress_ratio"] - b["mean_stress_ratio"]) < 0.1 * a["mean_stress_ratio_err"]
+    assert a["mu_bar"] == b["mu_bar"]
