@@ -153,3 +153,17 @@ def test_the_phase_sampling_is_bounded_and_does_not_change_the_verdict(lammps, t
     assert a["state"] == b["state"]
     assert abs(a["mean_stress_ratio"] - b["mean_stress_ratio"]) < 0.1 * a["mean_stress_ratio_err"]
     assert a["mu_bar"] == b["mu_bar"]
+
+
+# ------------------------------------------------------ class 1: --contact-rule coulomb
+@pytest.mark.parametrize("path", ["general", "fused"])
+def test_the_coulomb_rule_runs_on_both_paths(lammps, path, tmp_path):
+    """Every coulomb run exited 1, "contacts moved past their whole range", even at
+    dt omega_max = 0.02: the overshoot counter counted the rescaling's rounding."""
+    import json
+
+    p = bk("run", "--phi", "10", "--contact-rule", "coulomb", "--path", path,
+           "--t-end", "2000", "--quiet", "--out", tmp_path / "c")
+    assert p.returncode == 0, p.stderr
+    meta = json.loads((tmp_path / "c" / "meta.json").read_text())
+    assert meta["contact_overshoots"] == 0
