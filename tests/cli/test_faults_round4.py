@@ -167,3 +167,101 @@ def test_the_coulomb_rule_runs_on_both_paths(lammps, path, tmp_path):
     assert p.returncode == 0, p.stderr
     meta = json.loads((tmp_path / "c" / "meta.json").read_text())
     assert meta["contact_overshoots"] == 0
+
+
+# ------------------------------------------- class 4: a slip that forms no cluster, on 3x3
+def test_a_slip_without_a_cluster_is_a_record_not_damage(lammps, tmp_path):
+    """On 3x3 some slips' slipped particles form no cluster: the run writes their extents as
+    NaN (n_clusters 0), which the analysis read as damage, "run the run again", for ever."""
+    import numpy as np
+
+    out = tmp_path / "small"
+    p = bk("run", "--phi", "10", "--size", "3x3", "--t-end", "30000", "--scene", "figures",
+           "--quiet", "--out", out)
+    assert p.returncode == 0, p.stderr
+    slips = np.load(out / "slips.npy")
+    none = slips["n_clusters"] == 0
+    assert none.any() and np.isnan(slips["cluster_lx"][none]).all()
+    assert np.isfinite(slips["cluster_lx"][~none]).all()
+    (out / "summary.json").unlink()
+    assert bk("analyze", out).returncode == 0
+
+
+def _slip_record(n_clusters, lx):
+    import numpy as np
+
+    from bkflow.observables.reduced import SLIP_FIELDS
+
+    r = np.zeros(2, [(f, "<i8" if f in ("step_max", "step_min", "n_slipped", "n_clusters",
+                                        "cluster_n", "cluster_nx", "cluster_ny") else "<f8")
+                     for f in SLIP_FIELDS])
+    r["step_min"] = 10
+    r["n_slipped"] = 4
+    r["n_clusters"] = n_clusters
+    r["cluster_lx"] = lx
+    return r
+
+
+def test_nan_extents_are_allowed_only_where_no_cluster_formed():
+    import numpy as np
+
+    from bkflow.observables.reduced import SLIP_FIELDS, checked
+
+    checked(_slip_record(0, np.nan), SLIP_FIELDS, "slips.npy")
+    with pytest.raises(ValueError, match="cluster_lx holds NaN"):
+        checked(_slip_record(1, np.nan), SLIP_FIELDS, "slips.npy")
+
+
+# ------------------------------------------------ class 11: impossible values in records
+@pytest.fixture(scope="module")
+def figures_run(lammps, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("fig") / "r"
+    p = bk("run", "--phi", "10", "--t-end", "3000", "--scene", "figures", "--quiet",
+           "--out", out)
+    assert p.returncode == 0, p.stderr
+    return out
+
+
+def _mutate_in_place(path, field, how) -> None:
+    """Change one value of ``field`` in the record file ``path`` (or, ``how`` "float", its
+    type in the header), its size unchanged: what a run's size check cannot see."""
+    import numpy as np
+
+    if how == "float":      # the header's type swapped: the step read as a float
+        raw = path.read_bytes()
+        old = f"('{field}', '<i8')".encode()
+        assert old in raw[:4096]
+        path.write_bytes(raw.replace(old, f"('{field}', '<f8')".encode(), 1))
+        return
+    r = np.load(path, mmap_mode="r+")
+    r[field][len(r) // 2] = how(r[field][len(r) // 2])
+    r.flush()
+    del r
+
+
+@pytest.mark.parametrize("name, field, how, says", [
+    ("psi.npy", "psi", lambda v: 5.0, "psi lies outside [0, 1]"),
+    ("blocks.npy", "R", lambda v: 1e6, "R lies outside [0, 1] per sample"),
+    ("blocks.npy", "u_std", lambda v: -1.0, "u_std lies outside"),
+    ("slips.npy", "n_slipped", lambda v: -3, "n_slipped is negative"),
+    ("slips.npy", "cluster_lx", lambda v: 1e300, "cluster_lx exceeds 40"),
+    ("slips.npy", "n_slipped", lambda v: 10 ** 6, "exceeds the lattice's 100 particles"),
+    ("clusters.npy", "n_x", lambda v: 10 ** 4, "n_x exceeds"),
+    ("slips.npy", "step_max", "float", "field step_max is <f8, not <i8"),
+    ("extrema.npy", "step", "float", "field step is <f8, not <i8"),
+])
+def test_a_record_with_an_impossible_value_is_refused(figures_run, tmp_path, name, field, how,
+                                                      says):
+    """Psi = 5, R = 10^6, negative counts, l_x = 10^300, a step read as a float: each was
+    analysed with exit 0. The reader checks every field's type and the model's bounds."""
+    import shutil
+
+
+    run = tmp_path / "r"
+    shutil.copytree(figures_run, run)
+    _mutate_in_place(run / name, field, how)
+    (run / "summary.json").unlink()
+    p = bk("analyze", run)
+    assert p.returncode != 0
+    line = one_line(p, says)
+    assert name in line and "damaged" in line

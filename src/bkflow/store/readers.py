@@ -234,11 +234,12 @@ class RunReaders:
         them (fix bk/slips ``catalogue``; structured arrays)."""
         from bkflow.observables.reduced import CLUSTER_FIELDS, SLIP_FIELDS, checked
 
+        spec = self.spec()
         out = []
         for name, fields in ((SLIP_ROWS, SLIP_FIELDS), (CLUSTER_ROWS, CLUSTER_FIELDS)):
             try:
                 out.append(checked(np.load(formats.regular(self.file(name)), allow_pickle=False),
-                                   fields, name))
+                                   fields, name, lattice=(spec.Lx, spec.Ly)))
             except (ValueError, EOFError) as exc:
                 raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
                                       "again") from None
