@@ -398,7 +398,7 @@ def _recorded_inputs(rd: RunDir, spec: RunSpec) -> dict:
         f = rd.read_slip_frames(spec.N)
         out["slip_frames"], out["slip_breaks"] = (f.steps, f.positions), f.breaks
     elif spec.writes_slips:
-        out["slip_rows"] = rd.read_slip_rows()
+        out["slip_rows"] = rd.read_slip_rows(spec)
     if spec.companion is not None:
         out["companion"] = rd.companion().read_reduced(spec.companion_spec)
     return out

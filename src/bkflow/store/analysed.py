@@ -169,7 +169,7 @@ class RunAnalysisFiles:
             at = {(int(round(a / spec.dt)), int(round(b / spec.dt))): k
                   for k, (a, b) in enumerate(zip(events["t_max"], events["t_min"]))
                   if a >= summary["t_transient"]}
-            slips, rows = self.read_slip_rows()
+            slips, rows = self.read_slip_rows(spec)
             end = dict(zip(slips["step_max"].tolist(), slips["step_min"].tolist()))
             steps = [(int(s), int(end.get(s, -1))) for s in rows["step_max"].tolist()]
             keep = np.array([s in at for s in steps], bool)
