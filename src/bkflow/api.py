@@ -64,8 +64,7 @@ class Run:
         if self._rd.is_complete():
             why = self._rd.problem()
             if why is not None:
-                raise DamagedRunError(f"{self.path}: {why}: the run is damaged; run it again "
-                                      "(bkflow run --overwrite, or the sweep redoes it)")
+                raise DamagedRunError(f"{self.path}: {why}: {self._rd.damage_advice()}")
         return self._rd
 
     @property

@@ -265,3 +265,111 @@ def test_a_record_with_an_impossible_value_is_refused(figures_run, tmp_path, nam
     assert p.returncode != 0
     line = one_line(p, says)
     assert name in line and "damaged" in line
+
+
+# ------------------------- classes 2, 3, 5: whose records and restart files a run reads
+def _digests(d: Path) -> dict:
+    import hashlib
+
+    return {str(p.relative_to(d)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(d.rglob("*")) if p.is_file() and not p.name.endswith(".lock")}
+
+
+@pytest.fixture(scope="module")
+def two_seeds(lammps, tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("seeds")
+    for seed in (1, 2):
+        p = bk("run", "--phi", "10", "--seed", seed, "--t-end", "1000", "--quiet",
+               "--out", d / f"s{seed}")
+        assert p.returncode == 0, p.stderr
+    return d
+
+
+@pytest.mark.parametrize("where", ["", "companion"])
+def test_another_runs_restart_file_is_refused(two_seeds, tmp_path, where):
+    """seed 1's restart file copied into seed 2's run (or the run's own into its companion):
+    a longer --t-end carried on seed 1's trajectory as "seed 2", bit for bit, with exit 0."""
+    import shutil
+
+    shutil.copytree(two_seeds, tmp_path / "d")
+    s1, s2 = tmp_path / "d" / "s1", tmp_path / "d" / "s2"
+    src = s1 if where == "" else s2
+    (restart,) = src.glob("restart.*.bk")
+    shutil.copy(restart, s2 / where / restart.name)
+    before = _digests(s2)
+    p = bk("run", "--phi", "10", "--seed", "2", "--t-end", "2000", "--quiet", "--out", s2)
+    assert p.returncode == 2
+    one_line(p, f"{restart.name} is not the file the run wrote")
+    assert _digests(s2) == before
+
+
+@pytest.mark.parametrize("name", ["blocks.npy", "psi.npy"])
+def test_another_runs_record_of_the_same_size_is_refused(two_seeds, tmp_path, name):
+    """blocks.npy and psi.npy of another seed of the same length have the same size: the
+    analysis mixed the two runs with exit 0."""
+    import shutil
+
+    shutil.copytree(two_seeds, tmp_path / "d")
+    s1, s2 = tmp_path / "d" / "s1", tmp_path / "d" / "s2"
+    assert (s1 / name).stat().st_size == (s2 / name).stat().st_size
+    shutil.copy(s1 / name, s2 / name)
+    p = bk("analyze", s2)
+    assert p.returncode != 0
+    one_line(p, f"{name} is not the file the run wrote")
+
+
+def test_a_sweep_redoes_a_run_damaged_in_place(lammps, tmp_path):
+    """A NaN written into a run's records in place (its size unchanged) counted as finished
+    for the sweep and as damaged for the analysis: the sweep failed for ever, and a longer
+    --t-end continued from it. Now the sweep sees it and redoes the run."""
+    import numpy as np
+
+    out = tmp_path / "s"
+    args = ["sweep", "--phi", "10", "--seeds", "1", "--t-end", "1000", "--jobs", "1",
+            "--quiet", "--out", out]
+    assert bk(*args).returncode == 0
+    (blocks,) = out.glob("workspace/*/blocks.npy")
+    clean = blocks.read_bytes()
+    r = np.load(blocks, mmap_mode="r+")
+    r["sigma"][3] = np.nan
+    r.flush()
+    del r
+    p = bk(*args)
+    assert p.returncode == 0, p.stderr
+    assert "1 run(s) done" in p.stdout or "1 run(s) done" in p.stderr
+    assert blocks.read_bytes() == clean   # redone, to the bit
+
+
+# ------------------------------ class 9: advice that would throw away a finished run
+def test_an_interrupted_continuation_is_not_called_damage(lammps, tmp_path):
+    """After a continuation killed mid-way, load_run(...).summary called the run damaged and
+    advised --overwrite; the finished run is intact, and the advice now given restores it."""
+    import json
+    import signal
+    import time
+
+    from bkflow import load_run
+    from bkflow.store.errors import DamagedRunError
+
+    out = tmp_path / "r"
+    assert bk("run", "--phi", "10", "--t-end", "1000", "--quiet", "--out", out).returncode == 0
+    before = json.loads((out / "summary.json").read_text())["mu_bar"]
+    size = (out / "blocks.npy").stat().st_size
+    p = subprocess.Popen([tool("bkflow"), "run", "--phi", "10", "--t-end", "400000", "--quiet",
+                          "--out", str(out)], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and not (
+            (out / ".bkflow-continuing").exists() and (out / "blocks.npy").stat().st_size > size):
+        time.sleep(0.05)
+    p.send_signal(signal.SIGKILL)
+    p.wait(timeout=60)
+    assert (out / ".bkflow-continuing").exists()
+    with pytest.raises(DamagedRunError) as err:
+        _ = load_run(out).summary
+    advice = str(err.value)
+    assert "--overwrite" not in advice and "interrupted" in advice
+    command = shlex.split(advice.split("is intact: ", 1)[1].split(", or the same")[0])
+    assert command[:2] == ["bkflow", "analyze"]
+    assert bk(*command[1:]).returncode == 0
+    assert load_run(out).summary["mu_bar"] == before

@@ -340,8 +340,7 @@ def _finished_meta(rd: RunDir) -> dict:
     if meta is not None:
         why = rd.problem()  # every file as large as the run left it
         if why is not None:
-            raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
-                                  "(bkflow run --overwrite, or the sweep redoes it)")
+            raise DamagedRunError(f"{rd.path}: {why}: {rd.damage_advice()}")
         return meta
     _check_decks_unchanged(rd)
     why = rd.finished_standalone()
