@@ -254,6 +254,7 @@ def test_a_record_with_an_impossible_value_is_refused(figures_run, tmp_path, nam
                                                       says):
     """Psi = 5, R = 10^6, negative counts, l_x = 10^300, a step read as a float: each was
     analysed with exit 0. The reader checks every field's type and the model's bounds."""
+    import json
     import shutil
 
 
@@ -261,6 +262,11 @@ def test_a_record_with_an_impossible_value_is_refused(figures_run, tmp_path, nam
     shutil.copytree(figures_run, run)
     _mutate_in_place(run / name, field, how)
     (run / "summary.json").unlink()
+    # as a run recorded before the files' digests (or a deck run standalone, which has no
+    # record): the values themselves are checked, not only that the file is the run's
+    meta = json.loads((run / "meta.json").read_text())
+    del meta["file_sha256"]
+    (run / "meta.json").write_text(json.dumps(meta))
     p = bk("analyze", run)
     assert p.returncode != 0
     line = one_line(p, says)
@@ -373,3 +379,35 @@ def test_an_interrupted_continuation_is_not_called_damage(lammps, tmp_path):
     assert command[:2] == ["bkflow", "analyze"]
     assert bk(*command[1:]).returncode == 0
     assert load_run(out).summary["mu_bar"] == before
+
+
+# ---------------------------------------------- class 6: the disk estimate, scene by scene
+@pytest.mark.slow
+def test_every_scenes_disk_estimate_is_within_2x_of_what_it_writes(lammps, tmp_path):
+    """The estimate left out fronts.bin: a --scene fronts sweep estimated 240 kB and wrote
+    13.4 MB, and was not refused up front on a small disk. Every scene at phi = 10, and the
+    fronts at the stiff end, where slips are short."""
+    import json
+
+    from bkflow.lammps.limits import cost
+    from bkflow.model.params import SCENES, RunSpec
+
+    for scene, phi in [(scene, 10.0) for scene in SCENES] + [("fronts", 1000.0)]:
+        out = tmp_path / f"{scene}{phi:g}"
+        p = bk("run", "--phi", phi, "--t-end", "2000", "--protocol", "paper", "--scene", scene,
+               "--quiet", "--out", out)
+        assert p.returncode == 0, p.stderr
+        meta = json.loads((out / "meta.json").read_text())
+        wrote = meta["bytes_written"]
+        estimate = cost(RunSpec.from_dict(meta["params"])).disk_bytes
+        assert wrote / 2 <= estimate <= 2 * wrote, (scene, estimate, wrote)
+
+
+def test_a_fronts_run_too_large_for_the_disk_is_refused_up_front(monkeypatch, tmp_path):
+    from bkflow.lammps import limits
+    from bkflow.model.params import RunSpec
+
+    spec = RunSpec(phi=10.0, t_end=4000.0, scene="fronts", start="random")
+    monkeypatch.setattr(limits, "_free_disk", lambda path: 4e6)   # 4 MB free: 2 MB allowed
+    with pytest.raises(limits.CostError, match="would write about"):
+        limits.check(limits.cost(spec), tmp_path, "the run")
