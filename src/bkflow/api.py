@@ -208,8 +208,8 @@ class Run:
                 ev = ev[(ev.t_max >= st.t.iloc[0])]
                 ax.plot(ev.t_max, ev.sigma_fail, "v", ms=3, color="tab:red",
                         label=r"$\sigma_{\rm fail}$")
-            ax.axhline(self.spec.friction_threshold / self.spec.area, color="grey", lw=0.6,
-                       ls="--", label=r"$\mu_s\sigma_n$")
+            ax.axhline(self.spec.friction_threshold, color="grey", lw=0.6,
+                       ls="--", label=r"$\mu_s\sigma_n A$")
             ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
             ax.set_title(rf"$\phi$ = {_num(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
                          f"seed {self.spec.seed}" + (f": {s['state']}" if s.get("state")

@@ -411,3 +411,39 @@ def test_a_fronts_run_too_large_for_the_disk_is_refused_up_front(monkeypatch, tm
     monkeypatch.setattr(limits, "_free_disk", lambda path: 4e6)   # 4 MB free: 2 MB allowed
     with pytest.raises(limits.CostError, match="would write about"):
         limits.check(limits.cost(spec), tmp_path, "the run")
+
+
+# ------------------------------------------ class 7: the contact area in every stress ratio
+def test_every_stress_ratio_is_per_contact_load(lammps, tmp_path):
+    """--set area=2 gave mu_bar = 0.2465, above mu_s = 0.2: the stress was divided by sigma_n,
+    not by the contact's load sigma_n A. The same contacts (mu_s sigma_n A = 2) reached by
+    A = 2, sigma_n = 5 and by A = 1, sigma_n = 10 are the same model: every key the registry
+    gives in units of sigma_n is the same, and mu_bar lies below mu_s."""
+    import json
+
+    from bkflow.analysis.registry import keys
+
+    got = []
+    for sets in (["area=2", "sigma_n=5"], ["sigma_n=10"]):
+        out = tmp_path / sets[0]
+        p = bk("run", "--phi", "10", *[a for s in sets for a in ("--set", s)], "--t-end",
+               "2000", "--quiet", "--out", out)
+        assert p.returncode == 0, p.stderr
+        got.append(json.loads((out / "summary.json").read_text()))
+    ratios = [k for k, key in keys().items() if key.unit == "sigma_n" and k in got[0]]
+    assert len(ratios) > 10
+    for k in ratios:
+        assert got[0][k] == got[1][k], k
+    assert got[0]["mu_bar"] < 0.2 and got[0]["mean_stress_ratio"] < 0.2
+
+
+def test_a_stress_ratio_above_what_contacts_hold_fails_loudly(tmp_path):
+    from bkflow.analysis.summary import _check_bounds
+    from bkflow.model.params import RunSpec
+    from bkflow.store.errors import AnalysisError
+    from bkflow.store.rundir import RunDir
+
+    spec = RunSpec(phi=10.0)
+    _check_bounds(RunDir(tmp_path), spec, {"mu_bar": 0.2, "mean_stress_ratio": 0.11})
+    with pytest.raises(AnalysisError, match=r"mu_bar = 0.2465 is above mu_s = 0.2"):
+        _check_bounds(RunDir(tmp_path), spec, {"mu_bar": 0.2465})

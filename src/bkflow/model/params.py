@@ -418,8 +418,8 @@ class RunSpec:
 
     @property
     def slip_threshold_stress(self) -> float:
-        """The slip threshold in stress units: slip_threshold * mu_s * sigma_n."""
-        return self.slip_threshold * self.mu_s * self.sigma_n
+        """The slip threshold in stress units: slip_threshold * mu_s * sigma_n A."""
+        return self.slip_threshold * self.mu_s * self.stress_unit
 
     @property
     def transient_step(self) -> int:
@@ -479,7 +479,8 @@ class RunSpec:
         REPORT_THRESHOLDS), so
         that the slips at every one of them are exact (bkflow.observables.reduced)."""
         scaled = self.slip_threshold * min(1.0, SCALED_N / self.N)
-        return min((self.slip_threshold, scaled) + REPORT_THRESHOLDS) * self.mu_s * self.sigma_n
+        return min((self.slip_threshold, scaled) + REPORT_THRESHOLDS) * self.mu_s * \
+            self.stress_unit
 
     @property
     def writes_snapshots(self) -> bool:
@@ -520,6 +521,15 @@ class RunSpec:
     def fronts_limit(self) -> int | None:
         """How many slips' fronts the run records (None: all)."""
         return FRONTS_IN_FULL if self.scene == "full" else None
+
+    @property
+    def stress_unit(self) -> float:
+        """sigma_n A, the normal load on one particle's contact: the unit of every stress ratio
+        (mu_bar, <sigma_x>/sigma_n, the slip thresholds' fractions of mu_s sigma_n). sigma_x
+        is the drive's force per particle (per cell l^2), so that its ratio to sigma_n A is a
+        friction coefficient, at most mu_s in steady sliding; the paper's A = l^2 makes it
+        sigma_n."""
+        return self.sigma_n * self.area
 
     @property
     def friction_threshold(self) -> float:
