@@ -213,7 +213,10 @@ def cost_line(total, jobs: int, adaptive: bool) -> str:
     return (f"cost: {total.atom_steps:.3g} atom-steps, at most {fmt_duration(seconds)} on "
             f"{jobs} core(s) at {ATOM_STEPS_PER_SECOND:.0e} atom-steps/s"
             + (" if every run goes to its cap (a run stops earlier once its rule is met)"
-               if adaptive else "") + f", about {fmt_bytes(total.disk_bytes)} on disk")
+               if adaptive else "")
+            + (f", at most {fmt_bytes(total.disk_bytes)} on disk (as much less as the runs "
+               "stop before their caps)" if adaptive else
+               f", about {fmt_bytes(total.disk_bytes)} on disk"))
 
 
 
