@@ -2,7 +2,7 @@
 ``bkflow.load_sweep(dir)``:
 
     sweep = bkflow.load_sweep("runs/sweep")
-    sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "state"]]
+    sweep.results[["phi", "N", "mu_bar", "mu_bar_err", "state"]]
     sweep.figure("fig2a")
     run = sweep.run(0)                      # the first row of sweep.runs
     run.stress.plot(x="t", y="sigma_x")
