@@ -447,3 +447,19 @@ def test_a_stress_ratio_above_what_contacts_hold_fails_loudly(tmp_path):
     _check_bounds(RunDir(tmp_path), spec, {"mu_bar": 0.2, "mean_stress_ratio": 0.11})
     with pytest.raises(AnalysisError, match=r"mu_bar = 0.2465 is above mu_s = 0.2"):
         _check_bounds(RunDir(tmp_path), spec, {"mu_bar": 0.2465})
+
+
+# ------------------------------------------------------------------ a newcomer's first steps
+@pytest.mark.parametrize("n, size", [(90, "18x5"), (144, "24x6")])
+def test_a_size_not_the_papers_points_to_size(lammps, n, size, tmp_path):
+    p = bk("run", "--phi", "10", "--n", n, "--out", tmp_path / "r")
+    assert p.returncode == 2
+    one_line(p, f"--size {size}")
+    q = bk("run", "--phi", "10", "--size", size, "--t-end", "50", "--protocol", "paper",
+           "--scene", "friction", "--quiet", "--out", tmp_path / "r")
+    assert q.returncode == 0, q.stderr
+
+
+def test_analyze_help_says_what_an_unset_setting_means():
+    p = bk("analyze", "--help")
+    assert "slip_threshold=None" not in p.stdout and "slip_threshold=the run's" in p.stdout

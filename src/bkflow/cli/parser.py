@@ -88,9 +88,16 @@ def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
 
 def _analysis_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--analysis", action="append", default=[], metavar="NAME=VALUE",
-                   help="an analysis setting (repeatable): " + ", ".join(
-                       f"{k}={','.join(map(str, v)) if isinstance(v, list) else v}"
+                   help="an analysis setting (repeatable), with its default: " + ", ".join(
+                       f"{k}={_setting_default(v)}"
                        for k, v in AnalysisSettings().to_dict().items()))
+
+
+def _setting_default(v) -> str:
+    """An analysis setting's default as --help shows it: None is the run's own value."""
+    if v is None:
+        return "the run's"
+    return ",".join(map(str, v)) if isinstance(v, list) else str(v)
 
 
 def _state_args(p: argparse.ArgumentParser) -> None:

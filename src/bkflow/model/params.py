@@ -187,7 +187,11 @@ def _normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None
 def size_from_n(n: int) -> tuple[int, int]:
     """The paper's lattice for N = 100, 400 or 900 particles."""
     if n not in PAPER_SIZES:
-        raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}")
+        shapes = sorted(((lx, n // lx) for lx in range(3, n // 3 + 1)
+                         if n % lx == 0 and n // lx >= 3), key=lambda s: abs(s[0] / s[1] - 4))
+        example = f"--size {shapes[0][0]}x{shapes[0][1]}" if shapes else "--size 20x5"
+        raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}; "
+                        f"for any other lattice give --size LXxLY (e.g. {example})")
     return PAPER_SIZES[n]
 
 
