@@ -463,3 +463,19 @@ def test_a_size_not_the_papers_points_to_size(lammps, n, size, tmp_path):
 def test_analyze_help_says_what_an_unset_setting_means():
     p = bk("analyze", "--help")
     assert "slip_threshold=None" not in p.stdout and "slip_threshold=the run's" in p.stdout
+
+
+def test_a_run_command_keeps_the_settings_of_the_runs_last_analysis(lammps, tmp_path):
+    """bkflow run again on a run re-analysed at another threshold went back to the default
+    one silently: it keeps them, and says so and how to go back."""
+    import json
+
+    out = tmp_path / "r"
+    assert bk("run", "--phi", "10", "--t-end", "1000", "--quiet", "--out", out).returncode == 0
+    assert bk("analyze", out, "--analysis", "slip_threshold=0.03").returncode == 0
+    p = bk("run", "--phi", "10", "--t-end", "2000", "--quiet", "--out", out)
+    assert p.returncode == 0, p.stderr
+    assert "analysed under the settings of its last analysis (slip_threshold=0.03)" in p.stdout
+    assert json.loads((out / "summary.json").read_text())["settings"]["slip_threshold"] == 0.03
+    assert bk("analyze", out).returncode == 0
+    assert json.loads((out / "summary.json").read_text())["settings"]["slip_threshold"] == 0.01
