@@ -479,3 +479,12 @@ def test_a_run_command_keeps_the_settings_of_the_runs_last_analysis(lammps, tmp_
     assert json.loads((out / "summary.json").read_text())["settings"]["slip_threshold"] == 0.03
     assert bk("analyze", out).returncode == 0
     assert json.loads((out / "summary.json").read_text())["settings"]["slip_threshold"] == 0.01
+
+
+def test_the_mpirun_refusal_gives_whole_commands():
+    """It ended mid-command ("... run that with mpirun -np K lmp -in")."""
+    from bkflow.lammps.limits import mpi_refusal
+
+    why = mpi_refusal({"OMPI_COMM_WORLD_SIZE": "2"})
+    assert "bkflow deck ... --out DIR, then cd DIR && mpirun -np K lmp -in in.bk" in why
+    assert (Path(__file__).parents[2] / "docs" / "cluster.md").exists()

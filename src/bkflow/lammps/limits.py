@@ -271,5 +271,5 @@ def mpi_refusal(env=os.environ) -> str | None:
     return (f"bkflow was started as {launched} MPI processes (mpirun -np {launched}), which "
             "would all write the same run and wait on each other: start it once (a sweep runs "
             "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
-            "one lattice on several ranks, write its deck with bkflow deck and run that with "
-            "mpirun -np K lmp -in")
+            "one lattice on K ranks: bkflow deck ... --out DIR, then cd DIR && mpirun -np K "
+            "lmp -in in.bk (docs/cluster.md)")
