@@ -488,3 +488,33 @@ def test_the_mpirun_refusal_gives_whole_commands():
     why = mpi_refusal({"OMPI_COMM_WORLD_SIZE": "2"})
     assert "bkflow deck ... --out DIR, then cd DIR && mpirun -np K lmp -in in.bk" in why
     assert (Path(__file__).parents[2] / "docs" / "cluster.md").exists()
+
+
+def test_a_run_can_be_looked_at_from_the_command_line(lammps, tmp_path):
+    """bkflow plot RUN_DIR was refused ("no runs.csv"), and Run.figure() of a long run was a
+    solid band of slip markers: it draws the block means of the stress and R, the quiet blocks
+    marked, and the drops' distribution; never over a user's file; gone with --overwrite."""
+    from io import BytesIO
+
+    from PIL import Image
+
+    from bkflow import load_run
+
+    out = tmp_path / "r"
+    assert bk("run", "--phi", "10", "--t-end", "3000", "--quiet", "--out", out).returncode == 0
+    p = bk("plot", out)
+    assert p.returncode == 0, p.stderr
+    assert {f.name for f in out.glob("run.*")} == {"run.png", "run.pdf"}
+    Image.open(BytesIO((out / "run.png").read_bytes())).load()
+    fig = load_run(out).figure()
+    labels = {ax.get_ylabel() for ax in fig.axes}
+    assert {"R (block)", "fraction of drops above"} <= labels
+    assert bk("plot", out, "--where", "phi=10").returncode == 2
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "run.png").write_bytes(b"my own figure")
+    q = bk("plot", out, "--out", mine)
+    assert q.returncode == 2 and (mine / "run.png").read_bytes() == b"my own figure"
+    assert bk("run", "--phi", "10", "--t-end", "3000", "--quiet", "--overwrite",
+              "--out", out).returncode == 0
+    assert not list(out.glob("run.*"))

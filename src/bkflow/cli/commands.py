@@ -270,6 +270,26 @@ def _plot(a) -> int:
 
     formats = tuple(f.strip() for f in a.format.split(","))
     where = parse_where(a.where)
+    from pathlib import Path
+
+    from bkflow.store.tables import RUNS_FILE
+
+    if not (Path(a.dir) / RUNS_FILE).exists() and rd.RunDir(a.dir).is_complete():
+        # a run directory: its own figure (stress and R per block, the drops' distribution)
+        from bkflow.figures.registry import plot_run
+
+        if where:
+            guards.say("bkflow: error: --where selects runs of a sweep; a run directory "
+                       "has one run")
+            return EXIT_BAD_INPUT
+        try:
+            paths = plot_run(a.dir, a.out, formats)
+        except PlotError as exc:
+            guards.say(f"bkflow: error: {exc}")
+            return EXIT_BAD_INPUT
+        for line in report.plot_lines(paths, {}):
+            print(line)
+        return 0
     try:
         paths, skipped = plot(a.dir, a.out, formats, where)
     except PlotError as exc:

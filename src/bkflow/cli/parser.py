@@ -237,9 +237,13 @@ def _sweep_dir_commands(sub) -> None:
                                         "finished runs of a sweep directory")
     co.add_argument("dir", help="sweep directory")
     _analysis_arg(co)
-    pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF)")
-    pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
-    pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
+    pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF), "
+                                     "or a run's own figure from a run directory")
+    pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR), or run directory "
+                                "(bkflow run --out DIR: its stress and R per block and its "
+                                "drops' distribution, DIR/run.png)")
+    pl.add_argument("--out", default=None, help="figure directory (default DIR/figures; for a "
+                                                "run directory DIR itself)")
     pl.add_argument("--format", default="png,pdf", help="comma-separated formats (default png,pdf)")
     pl.add_argument("--where", action="append", default=[], metavar="COLUMN=VALUE",
                     help="plot only the runs with this parameter value (repeatable), e.g. "

@@ -308,6 +308,9 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         for pattern in (MOVIE_PATTERN, FRONT_MAPS_PATTERN):
             for p in self.path.glob(pattern.format("*")):
                 p.unlink(missing_ok=True)
+        for p in self.path.glob("run.*"):   # bkflow plot's figure of the old run, not a user's
+            if p.is_file() and formats.made_by_bkflow(p):
+                p.unlink(missing_ok=True)
 
     def movie_file(self, slip: int) -> Path:
         return self.file(MOVIE_PATTERN.format(slip))
