@@ -518,3 +518,27 @@ def test_a_run_can_be_looked_at_from_the_command_line(lammps, tmp_path):
     assert bk("run", "--phi", "10", "--t-end", "3000", "--quiet", "--overwrite",
               "--out", out).returncode == 0
     assert not list(out.glob("run.*"))
+
+
+def test_a_sweep_beside_a_busy_run_runs_the_others(lammps, tmp_path):
+    """A run another process holds: the sweep runs the rest and says that one is busy (exit
+    3); the length check of a sweep asked again stopped the whole sweep at the busy run."""
+    import sys
+
+    d = tmp_path / "s"
+    args = ["sweep", "--phi", "1,10", "--seeds", "1", "--t-end", "100", "--scene", "friction",
+            "--jobs", "1", "--quiet", "--out", d]
+    assert bk(*args, "--init").returncode == 0
+    job = sorted((d / "workspace").iterdir())[0]
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import fcntl, os, time\n"
+        f"fd = os.open({str(job / '.bkflow.lock')!r}, os.O_RDWR | os.O_CREAT)\n"
+        "fcntl.flock(fd, fcntl.LOCK_EX)\nprint('held', flush=True)\ntime.sleep(60)")],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        holder.stdout.readline()
+        p = bk(*args)
+    finally:
+        holder.kill()
+    assert p.returncode == 3
+    assert "1 run(s) done" in p.stdout and "written by another process" in p.stdout

@@ -64,10 +64,6 @@ def main(argv=None) -> None:
         print(f"bkflow.cluster: error: no operation {', '.join(unknown)}: the operations are "
               f"{', '.join(sorted(p.operations))}", file=sys.stderr)
         sys.exit(2)
-    if sys.argv[1:2] == ["submit"] and not _has_scheduler():
-        print("bkflow.cluster: error: no batch scheduler in this environment"
-              f"{_scheduler_hint(sys.argv[1:])}", file=sys.stderr)
-        sys.exit(1)
     _run(p)
     if sys.argv[1:2] in (["run"], ["exec"]):
         _exit_if_failed(p, sys.argv[2:])
@@ -101,13 +97,6 @@ def _job_ids(argv: list[str]) -> list[str]:
     if sys.argv[1:2] == ["exec"]:
         ids += [a for a in argv[1:] if not a.startswith("-")]
     return ids
-
-
-def _has_scheduler() -> bool:
-    """Whether signac-flow's environment here has a batch scheduler to submit to."""
-    from flow.environment import get_environment
-
-    return getattr(get_environment(), "scheduler_type", None) is not None
 
 
 def unknown_operations(p, argv: list[str]) -> list[str]:
