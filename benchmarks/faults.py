@@ -22,7 +22,8 @@ finished run, [10] options and counts, [11] a hand-edited workspace, [12] other 
 directory touched, [T2] job scripts as Slurm reads them, [T3] a stale record marked current,
 [T4] a set changed in part, [T5] cut derived files, [T6] damage the command repairs, [T7] a
 foreign companion, [T8] the API's errors, [T9] --set through the options' checks, [T10] the
-advice, [T11] printed commands safe to paste, [T12] a planted mark.
+advice, [T11] printed commands safe to paste, [T12] a planted mark; and the fourth round's
+[F1]-[F18] (benchmarks/faults_round4.py).
 
     python benchmarks/faults.py --only third_round     # one part (a method's name)
 """
@@ -1035,9 +1036,17 @@ class Fuzz:
         for part in (self.arguments, self.paths, self.directories, self.damaged, self.writers,
                      self.disk_full, self.interrupts, self.pipes, self.hangs, self.users_files,
                      self.misread, self.options, self.workspace, self.tracebacks, self.signals,
-                     self.docs, self.cluster, self.third_round, self.fresh_attack):
+                     self.docs, self.cluster, self.third_round, self.fresh_attack,
+                     self.fourth_round):
             part()
         return self.results
+
+    def fourth_round(self):
+        """Issue "Faults and first steps, round 4": classes [F1]-[F18]
+        (benchmarks/faults_round4.py)."""
+        from faults_round4 import fourth_round
+
+        fourth_round(self)
 
 
 def _whole_figure(path: Path) -> bool:

@@ -121,6 +121,16 @@ static inline int bk_contact_over(double drx, double dry, double ke2, double fma
   return ke2 * (drx * drx + dry * dry) > fmax2;
 }
 
+/* whether the contact rule left a contact that broke past the threshold: the step carried it
+   further than the rule can bring back (BK_RESET when the step's own displacement exceeds the
+   range). BK_COULOMB rescales the contact onto the threshold itself, where rounding alone
+   leaves about half of them an ulp above it: never an overshoot. */
+static inline int bk_contact_overshoot(int rule, double drx, double dry, double ke2,
+                                       double fmax2)
+{
+  return rule != BK_COULOMB && bk_contact_over(drx, dry, ke2, fmax2);
+}
+
 /* The contact rule applied to a contact that broke in this step: (*drx, *dry) its displacement
    after the step, (wx, wy) = v dt the step's own displacement, fmax and ke the threshold and
    stiffness, lim2 = (f_max / k_e)^2. BK_RESET: the fraction th of the step at which |dr|

@@ -70,7 +70,7 @@ __attribute__((always_inline)) inline void advance_contact(int i, double *s, dou
     const double bx = s[L::DRX], by = s[L::DRY];
     bk_contact_break(CONTACT, &s[L::DRX], &s[L::DRY], vx * c.dt, vy * c.dt, c.fmax, c.ke,
                      c.lim2);
-    sum.nover += bk_contact_over(s[L::DRX], s[L::DRY], c.ke2, c.fmax2);
+    sum.nover += bk_contact_overshoot(CONTACT, s[L::DRX], s[L::DRY], c.ke2, c.fmax2);
     if constexpr (LEDGER) sum.lost += bk_break_loss(CONTACT, bx, by, s[L::DRX], s[L::DRY], c.ke);
   }
 }

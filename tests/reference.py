@@ -28,6 +28,9 @@ class ReferenceState:
     anchor: np.ndarray   # (N, 2) drive anchors at t0
     t: float = 0.0       # time since the anchors were taken
     breaks: int = 0
+    # breaks the contact rule left past the threshold (the step carried them further than the
+    # rule brings back); coulomb puts every one on the threshold itself: none
+    overshoot: int = 0
     f: np.ndarray = field(default=None)
     # the energy ledger (docs/model.md "Energy"), running sums since the start
     work_plate: float = 0.0   # work of the plate on the drive springs' anchors
@@ -135,6 +138,9 @@ class Reference:
                 else:
                     norm = np.sqrt((s.dr[over] ** 2).sum(axis=1))
                     s.dr[over] *= (self.f_max / (self.k_e * norm))[:, None]
+                if self.mode != "coulomb":
+                    s.overshoot += int((self.k_e * np.sqrt((s.dr[over] ** 2).sum(axis=1))
+                                        > self.f_max).sum())
                 # the energy a break takes out of the contact: reset, the contact's energy
                 # where it broke (f_max^2 / 2 k_e once located in the step; the whole of
                 # dr's at the end of the step for reset/step); coulomb, the energy above the

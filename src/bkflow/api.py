@@ -2,7 +2,7 @@
 ``bkflow.load_sweep(dir)``:
 
     sweep = bkflow.load_sweep("runs/sweep")
-    sweep.results[["phi", "N", "mu_bar", "mu_bar_sem", "state"]]
+    sweep.results[["phi", "N", "mu_bar", "mu_bar_err", "state"]]
     sweep.figure("fig2a")
     run = sweep.run(0)                      # the first row of sweep.runs
     run.stress.plot(x="t", y="sigma_x")
@@ -64,8 +64,7 @@ class Run:
         if self._rd.is_complete():
             why = self._rd.problem()
             if why is not None:
-                raise DamagedRunError(f"{self.path}: {why}: the run is damaged; run it again "
-                                      "(bkflow run --overwrite, or the sweep redoes it)")
+                raise DamagedRunError(f"{self.path}: {why}: {self._rd.damage_advice()}")
         return self._rd
 
     @property
@@ -187,43 +186,73 @@ class Run:
         return path
 
     def figure(self, window: float | None = None):
-        """sigma_x(t) with each slip's sigma_fail marked, and beneath it the contacts' phase
-        coherence R(t), over the last ``window`` time units (default: the whole run), as a
-        Figure."""
-        st = self.stress
-        phase = self.phase
+        """What a physicist looks at first, as a Figure: the stress's block means
+        (sigma_x / sigma_n A over blocks of 20 time units, however long the run), the analysed
+        window shaded, the blocks whose contacts were quiet marked; beneath, the contacts'
+        coherence R per block with the quiet threshold sqrt(pi / 4N); beside, the distribution
+        of the slips' stress drops after the transient (the fraction above each drop, log-log).
+        ``window``: the last so many time units of the time panels (default: the whole run)."""
+        import numpy as np
+
+        from bkflow.observables.states import r_independent
+
+        b = self.blocks
         if window is not None:
-            st = st[st.t >= st.t.iloc[-1] - window]
-            if phase is not None:
-                phase = phase[phase.t >= st.t.iloc[0]]
+            b = b[b.t >= b.t.iloc[-1] - window]
         s = self.summary or {}
+        ratio = b.sigma_x / self.spec.stress_unit
+        quiet = (b.R < r_independent(self.spec.N)).to_numpy() if "R" in b else None
         with style():
-            rows = 1 if phase is None else 2
-            fig, axes = Figures().subplots(rows, 1, figsize=(6.0, 2.6 + 1.6 * (rows - 1)),
-                                           sharex=True, squeeze=False,
-                                           gridspec_kw={"height_ratios": [1.6, 1][:rows]})
-            ax = axes[0, 0]
-            ax.plot(st.t, st.sigma_x, lw=0.6, color="tab:blue", label=r"$\sigma_x$")
-            ev = self.events
-            if ev is not None and len(ev):
-                ev = ev[(ev.t_max >= st.t.iloc[0])]
-                ax.plot(ev.t_max, ev.sigma_fail, "v", ms=3, color="tab:red",
-                        label=r"$\sigma_{\rm fail}$")
-            ax.axhline(self.spec.friction_threshold / self.spec.area, color="grey", lw=0.6,
-                       ls="--", label=r"$\mu_s\sigma_n$")
-            ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
-            ax.set_title(rf"$\phi$ = {_num(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
+            fig = Figures().figure(figsize=(7.2, 3.6))
+            grid = fig.add_gridspec(2, 2, width_ratios=[2.2, 1], height_ratios=[1.4, 1])
+            top = fig.add_subplot(grid[0, 0])
+            top.plot(b.t, ratio, lw=0.6, color="black", label="block means")
+            if quiet is not None and quiet.any():
+                top.plot(b.t[quiet], ratio[quiet], "o", ms=1.4, color="tab:orange", alpha=0.7,
+                         lw=0, label="quiet blocks (R below its threshold)")
+            # the range of the blocks, not of the start's first one (a start far off the
+            # steady stress would flatten the rest)
+            lo, hi = np.percentile(ratio, [1, 99]) if len(ratio) > 20 else (ratio.min(),
+                                                                             ratio.max())
+            pad = 0.25 * (hi - lo) if hi > lo else 0.01 * abs(hi) or 0.01
+            top.set_ylim(lo - pad, hi + pad)
+            t0 = s.get("t_transient")
+            if isinstance(t0, (int, float)):
+                top.axvspan(max(t0, float(b.t.iloc[0])), float(b.t.iloc[-1]), color="0.92",
+                            zorder=0, label="analysed window")
+            top.set_ylabel(r"$\sigma_x/\sigma_n A$")
+            top.tick_params(labelbottom=False)
+            fig.suptitle(rf"$\phi$ = {_num(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
                          f"seed {self.spec.seed}" + (f": {s['state']}" if s.get("state")
-                                                     else ""), loc="left", fontsize=8)
-            # above the axes, beside the title: never over a marker
-            ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=6,
-                      frameon=False, borderaxespad=0.1, handletextpad=0.3, columnspacing=1.0)
-            if phase is not None:
-                b = axes[1, 0]
-                b.plot(phase.t, phase.R, lw=0.5, color="indigo")
-                b.set_ylim(0, 1.02)
-                b.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
-            axes[-1, 0].set_xlabel(r"t ($\sqrt{m/k_d}$)")
+                                                     else ""), x=0.01, ha="left", fontsize=8)
+            top.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize=6,
+                       frameon=False, borderaxespad=0.1, handletextpad=0.3, columnspacing=1.0)
+            low = fig.add_subplot(grid[1, 0], sharex=top)
+            if "R" in b:
+                low.plot(b.t, b.R, lw=0.6, color="indigo")
+                low.axhline(r_independent(self.spec.N), color="tab:orange", lw=0.8, ls="--")
+                low.set_ylim(0, max(1.02 * float(b.R.max()), 2 * r_independent(self.spec.N)))
+            else:
+                low.text(0.5, 0.5, "no phase record", transform=low.transAxes, ha="center",
+                         fontsize=7)
+            low.set_ylabel("R (block)")
+            low.set_xlabel(r"t ($\sqrt{m/k_d}$)")
+            drops = fig.add_subplot(grid[:, 1])
+            ev = self.events
+            d = np.array([])
+            if ev is not None and len(ev) and isinstance(t0, (int, float)):
+                d = np.sort(ev["drop"][ev["t_max"] >= t0].to_numpy(float))
+                d = d[d > 0] / self.spec.stress_unit
+            if len(d):
+                drops.loglog(d, 1.0 - np.arange(len(d)) / len(d), lw=0.9, color="tab:red")
+                drops.set_title(f"{len(d)} slips after the transient", fontsize=7)
+            else:
+                drops.text(0.5, 0.5, "no slips", transform=drops.transAxes, ha="center")
+            from matplotlib.ticker import NullFormatter
+
+            drops.xaxis.set_minor_formatter(NullFormatter())
+            drops.set_xlabel(r"drop $\Delta\sigma/\sigma_n A$")
+            drops.set_ylabel("fraction of drops above")
         return fig
 
 

@@ -295,15 +295,17 @@ def test_loading_mpi_leaves_the_signal_handlers_as_they_were(lammps):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cmd", ["run", "sweep"])
+@pytest.mark.parametrize("cmd", ["run", "sweep", "sweep --jobs 1"])
 def test_a_directory_removed_under_a_command_is_said_so(lammps, cmd, tmp_path):
     """The directory a run or a sweep writes into, removed while it runs (by the user, a
     cleanup script): one line that says so, the file system's exit code, no traceback (a
-    sweep's worker met it inside flow, which wrapped it: "internal error", exit 70)."""
+    sweep's worker met it inside flow, which wrapped it: "internal error", exit 70; in one
+    process, --jobs 1, too)."""
     out = tmp_path / "gone"
     args = (["run", "--phi", "10", "--t-end", "20000", "--dt-factor", "0.05"] if cmd == "run"
             else ["sweep", "--phi", "300,1000", "--seeds", "1", "--t-end", "3000",
-                  "--dt-factor", "0.02", "--protocol", "paper", "--jobs", "2"])
+                  "--dt-factor", "0.02", "--protocol", "paper", "--jobs",
+                  "1" if cmd.endswith("1") else "2"])
     p = subprocess.Popen([tool("bkflow"), *args, "--scene", "friction", "--quiet", "--out",
                           str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120

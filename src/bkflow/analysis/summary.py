@@ -127,16 +127,16 @@ def friction_result(spec: RunSpec, settings: AnalysisSettings, red: reduced.Redu
     """mu_bar at the run's threshold and at the report thresholds (the slips from the run's
     extrema), the mean stress ratio (the block means ``t``, ``sigma`` weighted by their
     samples) and its error (batch means of the blocks)."""
-    unit = spec.mu_s * spec.sigma_n
+    unit = spec.mu_s * spec.stress_unit
     weights = red.weights()
 
     def at(fraction):
-        return stress.macroscopic_friction(t, sigma, spec.sigma_n, fraction * unit,
+        return stress.macroscopic_friction(t, sigma, spec.stress_unit, fraction * unit,
                                            t_transient=t_transient,
                                            events=red.events(fraction * unit), weights=weights)
 
     late = np.asarray(t, dtype=float) >= t_transient
-    ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.sigma_n)
+    ratio_err = stationarity.mean_error(np.asarray(sigma, dtype=float)[late] / spec.stress_unit)
     scaled = settings.slip_threshold * min(1.0, SCALED_N / spec.N)
     reachable = red.raw is not None or (red.has_extrema and
                                         scaled * unit >= red.threshold * (1 - 1e-12))
@@ -206,7 +206,7 @@ def large_drop_result(spec: RunSpec, settings: AnalysisSettings, events: stress.
         if late.any() else math.nan
     large = late & (events.drop > threshold)
     return LargeDropResult(threshold, large,
-                           stationarity.mean_error(events.sigma_fail[large] / spec.sigma_n))
+                           stationarity.mean_error(events.sigma_fail[large] / spec.stress_unit))
 
 
 def drop_result(settings: AnalysisSettings, late: stress.SlipEvents) -> DropResult:
@@ -329,7 +329,27 @@ def _analyze_locked(rd: RunDir, settings: AnalysisSettings) -> dict:
         raise AnalysisError(f"{rd.path}: {exc}") from None
     summary = {**res.summary(), "wall_time_s": meta.get("wall_time_s"),
                "bytes_written": meta.get("bytes_written")}
+    _check_bounds(rd, spec, summary)
     return rd.write_analysis(summary, res.tables())
+
+
+#: the summary's stress ratios that the model bounds (``stress.physical_bound``)
+BOUNDED = ("mu_bar", "mean_stress_ratio", "mu_bar_large", "mu_bar_run",
+           "mean_stress_ratio_run", "companion_mu_bar", "companion_mean_stress_ratio")
+
+
+def _check_bounds(rd: RunDir, spec: RunSpec, summary: dict) -> None:
+    """AnalysisError, loudly, where a stress ratio of ``summary`` is above what the model's
+    contacts can hold: nothing is written that no physics can give."""
+    drag = spec.mass * spec.gamma * spec.V_d / spec.stress_unit
+    for name in BOUNDED:
+        value = summary.get(name)
+        why = None if not isinstance(value, (int, float)) else stress.bound_problem(
+            name, float(value), spec.mu_s, drag)
+        if why is not None:
+            raise AnalysisError(f"{rd.path}: {why}: the analysis is wrong for these "
+                                "parameters; nothing was written (please report it, with the "
+                                "command that made the run)")
 
 
 def _finished_meta(rd: RunDir) -> dict:
@@ -340,8 +360,7 @@ def _finished_meta(rd: RunDir) -> dict:
     if meta is not None:
         why = rd.problem()  # every file as large as the run left it
         if why is not None:
-            raise DamagedRunError(f"{rd.path}: {why}: the run is damaged; run it again "
-                                  "(bkflow run --overwrite, or the sweep redoes it)")
+            raise DamagedRunError(f"{rd.path}: {why}: {rd.damage_advice()}")
         return meta
     _check_decks_unchanged(rd)
     why = rd.finished_standalone()
@@ -398,7 +417,7 @@ def _recorded_inputs(rd: RunDir, spec: RunSpec) -> dict:
         f = rd.read_slip_frames(spec.N)
         out["slip_frames"], out["slip_breaks"] = (f.steps, f.positions), f.breaks
     elif spec.writes_slips:
-        out["slip_rows"] = rd.read_slip_rows()
+        out["slip_rows"] = rd.read_slip_rows(spec)
     if spec.companion is not None:
         out["companion"] = rd.companion().read_reduced(spec.companion_spec)
     return out

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from fractions import Fraction
 
 from bkflow.model.params import PAPER_SIZES, RunSpec, SpecError
 from bkflow.model.settings import AnalysisSettings
@@ -98,16 +99,18 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def parse_aspect(text) -> float | None:
-    """``--aspect``: Lx / Ly that every size must have (a number), or ``any`` (None)."""
+    """``--aspect``: Lx / Ly that every size must have: a number (``1``, ``0.25``), a ratio
+    (``7/3``, exact where a decimal is not), or ``any`` (None)."""
     if text is None:
         return ASPECT
     if str(text).strip().lower() == "any":
         return None
     try:
-        v = float(text)
-    except ValueError:
-        raise SpecError(f"--aspect {text!r}: give Lx/Ly as a number (e.g. 1) or 'any'") \
-            from None
+        num, _, den = str(text).partition("/")
+        v = float(num) / float(den) if den else float(num)
+    except (ValueError, ZeroDivisionError):
+        raise SpecError(f"--aspect {text!r}: give Lx/Ly as a number (e.g. 1), a ratio "
+                        "(e.g. 7/3) or 'any'") from None
     if not (math.isfinite(v) and v > 0):
         raise SpecError(f"--aspect must be > 0, got {text}")
     return v
@@ -134,9 +137,10 @@ def parse_sizes(text: str, aspect: float | None = ASPECT) -> list[tuple[int, int
             continue
         lx, ly = _sweep_size(item)
         if aspect is not None and not math.isclose(lx, aspect * ly):
-            raise SpecError(f"--sizes {item}: Lx/Ly = {lx / ly:g}, not {aspect:g} (the "
-                            f"paper's lattices have Ly = Lx/4); pass --aspect {lx / ly:g} or "
-                            f"--aspect any to sweep other shapes")
+            ratio = Fraction(lx, ly)   # exact: a rounded decimal would not match it again
+            paper = " (the paper's lattices have Ly = Lx/4)" if aspect == ASPECT else ""
+            raise SpecError(f"--sizes {item}: Lx/Ly = {ratio}, not {aspect:g}{paper}; pass "
+                            f"--aspect {ratio} or --aspect any to sweep other shapes")
         sizes.append((lx, ly))
     if not sizes:
         raise SpecError("--sizes: give at least one LXxLY")
@@ -216,8 +220,10 @@ def analysis_assignments(items, settings: AnalysisSettings = AnalysisSettings()
 
 def parse_where(items) -> dict:
     """``["t_end=16000", "start=random"]`` -> {column: value} (numbers where they parse;
-    none for a parameter left unset, NaN in the tables): ``bkflow plot --where``."""
-    out = {}
+    none for a parameter left unset, NaN in the tables): ``bkflow plot --where``. A column
+    given more than once keeps the runs with any of its values, as a list:
+    ``["phi=10", "phi=100"]`` -> {"phi": [10.0, 100.0]}."""
+    out: dict = {}
     for item in items or ():
         try:
             key, text = split_assignment(item, "--where")
@@ -225,5 +231,9 @@ def parse_where(items) -> dict:
                 "any", text, f"--where {item!r}", none_words=("none", "nan"))
         except SpecError as exc:
             raise SpecError(f"{exc}; e.g. --where t_end=16000") from None
-        out[key] = value
+        if key in out:
+            before = out[key] if isinstance(out[key], list) else [out[key]]
+            out[key] = before + [value] if value not in before else before
+        else:
+            out[key] = value
     return out

@@ -45,6 +45,7 @@ from bkflow.cli.parser import (  # noqa: E402
     run_spec,
 )
 from bkflow.model.params import SpecError  # noqa: E402
+from bkflow.model.settings import AnalysisSettings  # noqa: E402
 from bkflow.store import rundir as rd  # noqa: E402
 from bkflow.store.formats import shell_word  # noqa: E402
 
@@ -57,7 +58,8 @@ def _run(a, argv) -> int:
 
     spec = run_spec(a)
     resumes_analysis = (not a.overwrite and not a.no_analyze
-                        and rd.RunDir(a.out).only_analysis_left(spec))
+                        and rd.RunDir(a.out).only_analysis_left(
+                            spec, rd.RunDir(a.out).kept_settings()))
     answered = not a.overwrite and answers(rd.RunDir(a.out), spec, identical=False)
     if not (resumes_analysis or answered):  # (they run nothing: no estimate)
         check_cost(spec, a.out, a.force)  # before anything is created
@@ -70,32 +72,44 @@ def _run(a, argv) -> int:
 def _run_locked(a, argv, spec) -> int:
     from bkflow.lammps.engine import run
 
-    if not a.overwrite and not a.no_analyze and rd.RunDir(a.out).only_analysis_left(spec):
+    # the settings of the run's last analysis (bkflow analyze --analysis ...), which the same
+    # run command keeps: it does not name settings, and never drops them silently
+    kept = rd.RunDir(a.out).kept_settings() if not a.overwrite else AnalysisSettings()
+    if not a.overwrite and not a.no_analyze and rd.RunDir(a.out).only_analysis_left(spec,
+                                                                                   kept):
         # the same command again after its analysis was cut short
         from bkflow.analysis.summary import analyze
 
         print(report.analysing_again_line(a.out))
-        report.print_summary(analyze(a.out))
+        report.print_summary(analyze(a.out, kept))
         return 0
     res = run(spec, a.out, overwrite=a.overwrite, progress=None if not a.quiet else False,
               command="bkflow " + shlex.join(argv), force=a.force, path=a.path)
     if not res.ran:
         print(stops.answered_line(a.out, res.meta, spec.t_end))
-        return 0 if a.no_analyze else _analyze_run(a.out)
+        return 0 if a.no_analyze else _analyze_run(a.out, kept)
     print(report.run_line(a.out, res.meta))
     if res.meta.get("adaptive"):
         print("\n".join(stops.adaptive_lines(res.meta["adaptive"], spec.companion,
                                                res.meta.get("command"),
                                                res.meta.get("atom_steps_per_s"))))
-    return 0 if a.no_analyze else _analyze_run(a.out)
+    return 0 if a.no_analyze else _analyze_run(a.out, kept)
 
 
-def _analyze_run(out) -> int:
-    """The analysis of the run ``bkflow run`` just finished, printed."""
+def _analyze_run(out, settings: AnalysisSettings) -> int:
+    """The analysis of the run ``bkflow run`` just finished, printed, under ``settings`` (its
+    last analysis's, said where they are not the defaults)."""
     from bkflow.analysis.summary import analyze
 
+    spec = rd.RunDir(out).spec()
+    if settings.resolved(spec) != AnalysisSettings().resolved(spec):
+        changed = {k: v for k, v in settings.resolved(spec).to_dict().items()
+                   if AnalysisSettings().resolved(spec).to_dict()[k] != v}
+        print("  analysed under the settings of its last analysis ("
+              + ", ".join(f"{k}={v}" for k, v in changed.items())
+              + f"); bkflow analyze {shell_word(out)} analyses it under the defaults")
     try:
-        summary = analyze(out)
+        summary = analyze(out, settings)
     except KeyboardInterrupt:
         guards.say(f"{guards.progress_newline()}bkflow: interrupted during the analysis; the "
                    f"run itself is finished: bkflow analyze {shell_word(out)} (or the same "
@@ -256,6 +270,26 @@ def _plot(a) -> int:
 
     formats = tuple(f.strip() for f in a.format.split(","))
     where = parse_where(a.where)
+    from pathlib import Path
+
+    from bkflow.store.tables import RUNS_FILE
+
+    if not (Path(a.dir) / RUNS_FILE).exists() and rd.RunDir(a.dir).is_complete():
+        # a run directory: its own figure (stress and R per block, the drops' distribution)
+        from bkflow.figures.registry import plot_run
+
+        if where:
+            guards.say("bkflow: error: --where selects runs of a sweep; a run directory "
+                       "has one run")
+            return EXIT_BAD_INPUT
+        try:
+            paths = plot_run(a.dir, a.out, formats)
+        except PlotError as exc:
+            guards.say(f"bkflow: error: {exc}")
+            return EXIT_BAD_INPUT
+        for line in report.plot_lines(paths, {}):
+            print(line)
+        return 0
     try:
         paths, skipped = plot(a.dir, a.out, formats, where)
     except PlotError as exc:

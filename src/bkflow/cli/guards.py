@@ -28,9 +28,13 @@ EXIT_CODES = {
     0: "done",
     EXIT_RUN_FAILED: "a run failed (blew up, tore apart, LAMMPS error); nothing of it looks "
                      "finished",
-    EXIT_BAD_INPUT: "bad input or a refused request (a bad argument, a directory that is not "
-                    "bkflow's, a finished run without --overwrite, a damaged run, a request "
-                    "above the cost limits without --force)",
+    EXIT_BAD_INPUT: "bad input or a refused request (a bad argument, parameters whose derived "
+                    "quantities overflow or underflow, a directory that is not bkflow's, a "
+                    "finished run without --overwrite, a damaged run: a file cut, changed or "
+                    "another run's, its restart file included, or a record holding a value "
+                    "the model cannot give; a request above the cost limits without --force); "
+                    "an analysis that finds a stress ratio above what the contacts hold stops "
+                    "here too",
     EXIT_BUSY: "another bkflow process is writing the same run or sweep",
     EXIT_FILE_SYSTEM: "the file system refused (permissions, full disk, a file where a "
                       "directory should be, a name too long, the directory removed while "

@@ -88,9 +88,16 @@ def _contact_rule_arg(p: argparse.ArgumentParser) -> None:
 
 def _analysis_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--analysis", action="append", default=[], metavar="NAME=VALUE",
-                   help="an analysis setting (repeatable): " + ", ".join(
-                       f"{k}={','.join(map(str, v)) if isinstance(v, list) else v}"
+                   help="an analysis setting (repeatable), with its default: " + ", ".join(
+                       f"{k}={_setting_default(v)}"
                        for k, v in AnalysisSettings().to_dict().items()))
+
+
+def _setting_default(v) -> str:
+    """An analysis setting's default as --help shows it: None is the run's own value."""
+    if v is None:
+        return "the run's"
+    return ",".join(map(str, v)) if isinstance(v, list) else str(v)
 
 
 def _state_args(p: argparse.ArgumentParser) -> None:
@@ -198,7 +205,8 @@ def _sweep_command(sub) -> None:
                          + ",".join(map(str, PAPER_SIZES))
                          + f"); default {RunSpec.Lx}x{RunSpec.Ly}")
     sw.add_argument("--aspect", default=None, metavar="R|any",
-                    help=f"Lx/Ly every size must have (default {ASPECT}, the paper's), or 'any'")
+                    help=f"Lx/Ly every size must have: a number or a ratio such as 7/3 "
+                         f"(default {ASPECT}, the paper's), or 'any'")
     sw.add_argument("--seeds", type=int, default=SEEDS, metavar="K",
                     help=f"seeds 1..K per (phi, size) (default {SEEDS})")
     _accuracy_args(sw)
@@ -229,9 +237,13 @@ def _sweep_dir_commands(sub) -> None:
                                         "finished runs of a sweep directory")
     co.add_argument("dir", help="sweep directory")
     _analysis_arg(co)
-    pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF)")
-    pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR)")
-    pl.add_argument("--out", default=None, help="figure directory (default DIR/figures)")
+    pl = sub.add_parser("plot", help="the paper's figures from a sweep directory (PNG + PDF), "
+                                     "or a run's own figure from a run directory")
+    pl.add_argument("dir", help="sweep directory (bkflow sweep --out DIR), or run directory "
+                                "(bkflow run --out DIR: its stress and R per block and its "
+                                "drops' distribution, DIR/run.png)")
+    pl.add_argument("--out", default=None, help="figure directory (default DIR/figures; for a "
+                                                "run directory DIR itself)")
     pl.add_argument("--format", default="png,pdf", help="comma-separated formats (default png,pdf)")
     pl.add_argument("--where", action="append", default=[], metavar="COLUMN=VALUE",
                     help="plot only the runs with this parameter value (repeatable), e.g. "

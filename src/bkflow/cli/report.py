@@ -184,7 +184,11 @@ def summary_lines(s: dict) -> list[str]:
     if s.get("psi_inf") is not None:
         lines.append(f"  Psi(inf) = {s['psi_inf']:.4f}")
     if s.get("n_clusters") is not None:
-        lines.append(f"  clusters: {s['n_clusters']} in {s['n_cluster_events']} slips, "
+        of = s.get("n_slips")
+        lines.append(f"  clusters: {s['n_clusters']} in the {s['n_cluster_events']} slips whose "
+                     "frames were found"
+                     + (f" (of the {of} after the transient)" if of is not None and of !=
+                        s["n_cluster_events"] else "") + ", "
                      f"<l_x/Lx> = {_g(s, 'lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
                      f"{_g(s, 'ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = "
                      f"{_g(s, 'lx_over_ly', '.3f')}, regime {s.get('regime') or 'n/a'}")
@@ -213,7 +217,10 @@ def cost_line(total, jobs: int, adaptive: bool) -> str:
     return (f"cost: {total.atom_steps:.3g} atom-steps, at most {fmt_duration(seconds)} on "
             f"{jobs} core(s) at {ATOM_STEPS_PER_SECOND:.0e} atom-steps/s"
             + (" if every run goes to its cap (a run stops earlier once its rule is met)"
-               if adaptive else "") + f", about {fmt_bytes(total.disk_bytes)} on disk")
+               if adaptive else "")
+            + (f", at most {fmt_bytes(total.disk_bytes)} on disk (as much less as the runs "
+               "stop before their caps)" if adaptive else
+               f", about {fmt_bytes(total.disk_bytes)} on disk"))
 
 
 

@@ -108,7 +108,7 @@ def _contact_panel(top, bottom, size, panel, width: float) -> bool:
     series, block): sigma_x/sigma_n above, R below, each smoothed over ``width`` time units,
     the analysed window shaded; whether the run is steady."""
     phi, row, t, sigma, phase, _ = panel
-    ts, ss = _smooth(t, sigma / row.sigma_n, width)
+    ts, ss = _smooth(t, sigma / (row.sigma_n * getattr(row, "area", 1.0)), width)
     top.plot(ts, ss, color="black", lw=0.8)
     bottom.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
     tr, rr = _smooth(phase["t"], phase["R"], width)

@@ -65,21 +65,29 @@ def _where_of(combo: dict) -> dict:
 
 
 def _select(df: pd.DataFrame, where: dict) -> pd.DataFrame:
-    """The rows of ``df`` whose columns hold the values of ``where`` ({column: value})."""
+    """The rows of ``df`` whose columns hold the values of ``where`` ({column: value}, or
+    {column: [values]} for any of them)."""
     for key, value in where.items():
         if key not in df:
             raise PlotError(f"--where {key}=...: the tables have no column {key!r}")
-        col = df[key]
-        if value is None:
-            df = df[col.isna() | col.astype(str).str.lower().isin(("none", "nan", ""))]
-        elif isinstance(value, bool):
-            df = df[col.astype(str).str.lower() == str(value).lower()]
-        elif isinstance(value, (int, float)):   # a number from Python, e.g. {"Lx": 20}
-            df = df[np.isclose(pd.to_numeric(col, errors="coerce"), float(value), rtol=1e-9,
-                               atol=0)]
-        else:
-            df = df[col.astype(str) == str(value)]
+        values = value if isinstance(value, (list, tuple)) else [value]
+        keep = np.zeros(len(df), dtype=bool)
+        for v in values:
+            keep |= _matches(df[key], v)
+        df = df[keep]
     return df
+
+
+def _matches(col: pd.Series, value) -> np.ndarray:
+    """Which cells of ``col`` hold ``value`` (None: a parameter left unset)."""
+    if value is None:
+        return (col.isna() | col.astype(str).str.lower().isin(("none", "nan", ""))).to_numpy()
+    if isinstance(value, bool):
+        return (col.astype(str).str.lower() == str(value).lower()).to_numpy()
+    if isinstance(value, (int, float)):   # a number from Python, e.g. {"Lx": 20}
+        return np.isclose(pd.to_numeric(col, errors="coerce"), float(value), rtol=1e-9,
+                          atol=0)
+    return (col.astype(str) == str(value)).to_numpy()
 
 
 class SweepData:
@@ -99,7 +107,9 @@ class SweepData:
             self.runs, self.results = _select(self.runs, where), _select(self.results, where)
             if self.runs.empty:
                 raise PlotError(f"{self.root}: no finished run has "
-                                + ", ".join(f"{k} = {v}" for k, v in where.items()))
+                                + ", ".join(f"{k} = {' or '.join(map(str, v))}"
+                                            if isinstance(v, (list, tuple)) else f"{k} = {v}"
+                                            for k, v in where.items()))
         if self.runs.empty:
             raise PlotError(f"{self.root}: no finished runs to plot yet")
         self._check_one_analysis()

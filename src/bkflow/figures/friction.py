@@ -49,7 +49,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
         lows.append(float(np.min(sigma[keep])))
         highs.append(float(max(np.max(sigma[keep]),
                                np.max(ev.sigma_fail[k].to_numpy(float), initial=-np.inf))))
-        tops.append(float(row.mu_s * row.sigma_n))
+        tops.append(float(row.mu_s * row.sigma_n * getattr(row, "area", 1.0)))
     # one y range for both panels, fitted to the traces, so that their stresses compare by eye
     lo, hi = min(lows), max(highs)
     pad = 0.06 * (hi - lo) if hi > lo else 0.05 * abs(hi) or 0.05

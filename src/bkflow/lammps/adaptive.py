@@ -84,7 +84,7 @@ class AdaptiveStop:
 
     def error(self, t_transient: float):
         """mu_bar's own error over the slips after ``t_transient`` found so far."""
-        return mean_error(self.fail[self.t_fail >= t_transient] / self.spec.sigma_n)
+        return mean_error(self.fail[self.t_fail >= t_transient] / self.spec.stress_unit)
 
     def _read_slips(self, red) -> None:
         if not (red.has_extrema and len(red.extrema)):

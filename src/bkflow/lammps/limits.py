@@ -12,7 +12,8 @@ The estimates are deliberately simple and a little generous:
 - disk: the reduced records (``RECORD_BYTES_PER_T`` a time unit, more with the ledger; Psi's
   16 bytes a snapshot), the raw series where the scene keeps them (60 bytes a stress sample),
   the snapshots of scene full (50 bytes per atom and frame) and the slip frames (two per slip,
-  at most one slip per 10 time units after the transient).
+  at most SLIPS_PER_T = 0.08 slips a time unit after the transient), and the fronts (4 bytes a
+  particle at every stress sample through a slip: FRONT_SHARE).
 """
 
 from __future__ import annotations
@@ -77,6 +78,18 @@ class Cost:
 RECORD_BYTES_PER_T = 16.0
 RECORD_BYTES_PER_T_LEDGER = 60.0
 SLIP_ROW_BYTES_PER_T = 20.0
+#: fronts.bin (scenes fronts, full): 4 bytes a particle at every stress sample through a slip
+#: after the transient. The share of that time spent slipping, measured at N = 100 (t_end
+#: 4000, paper's protocol): 0.52 at phi <= 10, 0.41 at 100, 0.21 at 1000, as
+#: FRONT_SHARE / (1 + phi / FRONT_PHI); a slip lasts at most FRONT_SAMPLES samples (77 at
+#: phi = 1, 27 at 1000), which bounds the full scene's FRONTS_IN_FULL slips
+#: (tests/cli/test_faults_round4.py checks every scene's estimate within 2x of what it writes)
+FRONT_SHARE = 0.52
+#: slips a time unit after the transient, at most (N = 100, paper's protocol: 0.063 at phi =
+#: 10, 0.068 at 1, 0.08 at 100 and 1000)
+SLIPS_PER_T = 0.08
+FRONT_PHI = 700.0
+FRONT_SAMPLES = 80.0
 
 
 def cost(spec: RunSpec) -> Cost:
@@ -85,7 +98,8 @@ def cost(spec: RunSpec) -> Cost:
     samples = steps / spec.stress_nevery + 1
     psi = steps / spec.snapshot_nevery + 1 if spec.writes_snapshots else 0
     snapshots = psi if spec.writes_frames else 0
-    slips = 2 * (1 - spec.transient) * spec.t_end / 10.0 if spec.writes_slip_frames else 0
+    # two frames a slip, at most SLIPS_PER_T slips a time unit after the transient
+    slips = 2 * (1 - spec.transient) * spec.t_end * SLIPS_PER_T if spec.writes_slip_frames else 0
     frames, frame_memory = 50.0 * n * (snapshots + slips), 16.0 * n * max(snapshots, slips)
     runs = 1 if spec.companion is None else 2  # the companion: its records, its data
     per_t = RECORD_BYTES_PER_T_LEDGER if spec.writes_energy else RECORD_BYTES_PER_T
@@ -94,6 +108,13 @@ def cost(spec: RunSpec) -> Cost:
     records = per_t * spec.t_end + 16.0 * psi   # what the analysis reads at once
     # stress.npy (16 bytes a sample, 80 with the ledger) and phase.npy
     series = (80.0 if spec.writes_energy else 24.0) * samples if spec.writes_series else 0.0
+    fronts = 0.0
+    if spec.writes_fronts:
+        after = (1 - spec.transient) * (samples - 1)
+        fronts = 4.0 * n * after * FRONT_SHARE / (1 + spec.phi / FRONT_PHI)
+        if spec.fronts_limit is not None:
+            fronts = min(fronts, 4.0 * n * FRONT_SAMPLES * spec.fronts_limit)
+    frames += fronts   # written once, read one slip at a time: disk, not memory
     disk = records + (runs - 1) * per_t * spec.t_end + runs * 120.0 * n + series + frames
     memory = 2e3 * n * runs + frame_memory + records
     return Cost(float(n) * steps * runs, memory, disk, frames, frame_memory, series, records)
@@ -250,5 +271,5 @@ def mpi_refusal(env=os.environ) -> str | None:
     return (f"bkflow was started as {launched} MPI processes (mpirun -np {launched}), which "
             "would all write the same run and wait on each other: start it once (a sweep runs "
             "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
-            "one lattice on several ranks, write its deck with bkflow deck and run that with "
-            "mpirun -np K lmp -in")
+            "one lattice on K ranks: bkflow deck ... --out DIR, then cd DIR && mpirun -np K "
+            "lmp -in in.bk (docs/cluster.md)")

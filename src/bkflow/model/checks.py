@@ -59,13 +59,14 @@ def fraction(closed_high: bool = False, why: str = "", optional: bool = False):
     return check
 
 
-def integer(ge: int, phrase: str | None = None, tail: str = ""):
-    """A check: an int (not a bool) >= ge; ``phrase`` replaces "an integer >= ge" in the
-    message, ``tail`` follows it."""
+def integer(ge: int, phrase: str | None = None, tail: str = "", le: int | None = None):
+    """A check: an int (not a bool) >= ge (and <= le, if given); ``phrase`` replaces "an
+    integer >= ge" in the message, ``tail`` follows it."""
     def check(name, v):
-        if not isinstance(v, int) or isinstance(v, bool) or v < ge:
-            raise SpecError(f"{name} must be {phrase or f'an integer >= {ge}'}, got {v!r}"
-                            f"{tail}")
+        if (not isinstance(v, int) or isinstance(v, bool) or v < ge
+                or (le is not None and v > le)):
+            bounds = f"an integer >= {ge}" if le is None else f"an integer from {ge} to {le}"
+            raise SpecError(f"{name} must be {phrase or bounds}, got {v!r}{tail}")
     return check
 
 

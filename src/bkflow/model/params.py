@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from dataclasses import dataclass
 
 from bkflow.model.checks import (
@@ -117,6 +118,10 @@ FRONTS_IN_FULL = 20
 #: whole phase samples): the analysis reads the series as means over these blocks
 #: (bkflow.observables.reduced), so its windows start and end on their edges
 BLOCK_EVERY = 20.0
+#: the longest interval between two samples of the contacts' phases (``phase_every``, and
+#: ``stress_every`` which sets a floor to it): a tenth of a block, so that every block holds
+#: ten samples or more and its length (whole samples) stays within 5% of BLOCK_EVERY
+MAX_PHASE_EVERY = BLOCK_EVERY / 10
 
 #: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
@@ -166,10 +171,27 @@ _TWO_CELLS = (": with 2 cells along an axis the bonds to the neighbours on eithe
               "is undefined")
 
 
+def _normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None:
+    """SpecError unless ``value`` is a finite positive number that has not underflowed (a
+    subnormal number has lost its digits); ``if_inf``/``if_zero``: what to choose when it
+    overflows/underflows."""
+    if math.isfinite(value) and value >= sys.float_info.min:
+        return
+    if value == math.inf:
+        raise SpecError(f"{what} overflows to inf: choose {if_inf}")
+    if math.isfinite(value) and 0 <= value:
+        raise SpecError(f"{what} underflows to {value:.3g}: choose {if_zero}")
+    raise SpecError(f"{what} is {value!r}, not a finite positive number")
+
+
 def size_from_n(n: int) -> tuple[int, int]:
     """The paper's lattice for N = 100, 400 or 900 particles."""
     if n not in PAPER_SIZES:
-        raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}")
+        shapes = sorted(((lx, n // lx) for lx in range(3, n // 3 + 1)
+                         if n % lx == 0 and n // lx >= 3), key=lambda s: abs(s[0] / s[1] - 4))
+        example = f"--size {shapes[0][0]}x{shapes[0][1]}" if shapes else "--size 20x5"
+        raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}; "
+                        f"for any other lattice give --size LXxLY (e.g. {example})")
     return PAPER_SIZES[n]
 
 
@@ -211,7 +233,8 @@ class RunSpec:
     stress_every: float = checked(0.1, number(gt=0))
     #: sampling interval of the contacts' phase statistics (phase.csv; time units, rounded to
     #: a whole number of stress samples): a load cycle of a contact lasts about
-    #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves
+    #: mu_s sigma_n A / (k_e V_d) = 5 time units, which this resolves; at most MAX_PHASE_EVERY
+    #: (a tenth of a block), so that the verdict and the mean do not depend on it
     phase_every: float = checked(1.0, number(gt=0))
     #: observables to record: friction (sigma_x and the phases, reduced in the run), series (+
     #: the raw series), order (+ Psi(t) in the run), clusters (+ positions at every slip's
@@ -260,9 +283,11 @@ class RunSpec:
         for what, value in (("k_b = phi dk_d", self.phi * self.dk_d),
                             ("the friction threshold mu_s sigma_n A",
                              self.mu_s * self.sigma_n * self.area)):
-            if not math.isfinite(value) or value <= 0:
-                raise SpecError(f"{what} = {value!r} is not a finite positive number; "
-                                "choose smaller values")
+            _normal_positive(what, value, *(("smaller phi or dk_d", "larger phi or dk_d")
+                                             if what.startswith("k_b") else
+                                             ("smaller mu_s, sigma_n or area",
+                                              "larger mu_s, sigma_n or area")))
+        self._check_time_step()
         if self.companion is not None and self.companion == self.start:
             raise SpecError(f"companion {self.companion!r} is the run's own start: a "
                             "companion runs from another start")
@@ -279,6 +304,25 @@ class RunSpec:
                 "against the layer's own motion (docs/model.md); choose a smaller V_d or "
                 "--dt-factor")
 
+    def _check_time_step(self) -> None:
+        """The fastest mode and the time step of finite inputs are finite and positive, and the
+        run's length in steps is a finite number (a mass of 1e-320 or a phi of 1e308 gave an
+        infinite omega_max and dt = 0; a dt_factor of 1e-320 an infinite step count)."""
+        stiff = "smaller stiffnesses (phi, k_e, k_d) or a larger mass"
+        soft = "larger stiffnesses (phi, k_e, k_d) or a smaller mass"
+        _normal_positive("the fastest mode omega_max = sqrt(stiffness / mass)", self.omega_max,
+                         stiff, soft)
+        _normal_positive("the contacts' cycle omega_c = sqrt(stiffness / mass)",
+                         self.omega_contact, stiff, soft)
+        _normal_positive(f"the time step dt ({self.dt_rule})", self.dt,
+                         f"a smaller --dt-factor or {soft}",
+                         f"a larger --dt-factor or {stiff}")
+        steps = self.t_end / self.dt
+        if not math.isfinite(steps) or steps > MAX_STEPS:
+            raise SpecError(f"t_end {self.t_end:g} is {steps:.3g} time steps of {self.dt:.3g}, "
+                            f"more than LAMMPS counts exactly ({MAX_STEPS:.3g}); choose a "
+                            "shorter --t-end or a larger time step")
+
     def _check_counts(self) -> None:
         """What LAMMPS has to count: steps, samples, atoms."""
         if self.n_steps < 1:
@@ -286,10 +330,25 @@ class RunSpec:
         if self.stress_every > self.t_end:
             raise SpecError(f"stress_every = {self.stress_every:g} is longer than the run "
                             f"(t_end = {self.t_end:g}): the stress would not be sampled")
-        if self.writes_snapshots and self.snapshot_nevery > 2**31 - 1:
-            raise SpecError(f"snapshot_every = {self.snapshot_every:g} is "
-                            f"{self.snapshot_nevery:.3g} steps, more than LAMMPS counts "
-                            "between two dumps; choose less")
+        if max(self.phase_every, self.stress_every) > MAX_PHASE_EVERY * (1 + 1e-9):
+            which = ("phase_every" if self.phase_every >= self.stress_every else
+                     "stress_every (the phases are sampled with the stress, at the longer of "
+                     "the two)")
+            raise SpecError(
+                f"{which.split()[0]} = {max(self.phase_every, self.stress_every):g} samples "
+                f"the contacts' phases less often than every {MAX_PHASE_EVERY:g} time units: "
+                f"the states are judged on blocks of {BLOCK_EVERY:g}, each of which must hold "
+                f"at least {BLOCK_EVERY / MAX_PHASE_EVERY:g} samples, or the verdict and the "
+                f"mean would depend on the sampling; choose {which.split()[0]} <= "
+                f"{MAX_PHASE_EVERY:g}")
+        if self.writes_snapshots and self.snapshot_every / self.dt > 2**31 - 1:
+            default = (" (the default)" if self.snapshot_every
+                       == type(self).__dataclass_fields__["snapshot_every"].default else "")
+            raise SpecError(f"snapshot_every = {self.snapshot_every:g}{default} is "
+                            f"{self.snapshot_every / self.dt:.3g} time steps of dt = {self.dt:.3g} "
+                            f"({self.dt_rule}), more than LAMMPS counts between two "
+                            "snapshots (2^31 - 1); choose a smaller --set snapshot_every, "
+                            "a scene without snapshots (--scene friction), or a smaller phi")
         if self.n_steps > MAX_STEPS:
             raise SpecError(f"t_end {self.t_end:g} is {self.n_steps:.3g} time steps of "
                             f"{self.dt:.3g}, more than LAMMPS counts exactly ({MAX_STEPS:.3g});"
@@ -363,8 +422,8 @@ class RunSpec:
 
     @property
     def slip_threshold_stress(self) -> float:
-        """The slip threshold in stress units: slip_threshold * mu_s * sigma_n."""
-        return self.slip_threshold * self.mu_s * self.sigma_n
+        """The slip threshold in stress units: slip_threshold * mu_s * sigma_n A."""
+        return self.slip_threshold * self.mu_s * self.stress_unit
 
     @property
     def transient_step(self) -> int:
@@ -424,7 +483,8 @@ class RunSpec:
         REPORT_THRESHOLDS), so
         that the slips at every one of them are exact (bkflow.observables.reduced)."""
         scaled = self.slip_threshold * min(1.0, SCALED_N / self.N)
-        return min((self.slip_threshold, scaled) + REPORT_THRESHOLDS) * self.mu_s * self.sigma_n
+        return min((self.slip_threshold, scaled) + REPORT_THRESHOLDS) * self.mu_s * \
+            self.stress_unit
 
     @property
     def writes_snapshots(self) -> bool:
@@ -465,6 +525,15 @@ class RunSpec:
     def fronts_limit(self) -> int | None:
         """How many slips' fronts the run records (None: all)."""
         return FRONTS_IN_FULL if self.scene == "full" else None
+
+    @property
+    def stress_unit(self) -> float:
+        """sigma_n A, the normal load on one particle's contact: the unit of every stress ratio
+        (mu_bar, <sigma_x>/sigma_n, the slip thresholds' fractions of mu_s sigma_n). sigma_x
+        is the drive's force per particle (per cell l^2), so that its ratio to sigma_n A is a
+        friction coefficient, at most mu_s in steady sliding; the paper's A = l^2 makes it
+        sigma_n."""
+        return self.sigma_n * self.area
 
     @property
     def friction_threshold(self) -> float:

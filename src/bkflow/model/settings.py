@@ -33,6 +33,10 @@ from bkflow.model.params import (
 ANALYSIS_REVISION = 12
 
 
+#: the most blocks the trend test takes (``--analysis n_blocks``)
+MAX_BLOCKS = 100
+
+
 @dataclass(frozen=True)
 class AnalysisSettings:
     """Every choice the analysis makes that docs/model.md leaves open, beside ``RunSpec``.
@@ -53,8 +57,10 @@ class AnalysisSettings:
     #: fixed: the first ``transient`` of the run; detect: from the stress series by
     #: equilibration detection (bkflow.observables.stationarity.equilibration_time)
     transient_rule: str = checked("fixed", choice(TRANSIENT_RULES))
-    #: blocks and level of the trend test (bkflow.observables.stationarity)
-    n_blocks: int = checked(10, integer(3))
+    #: blocks and level of the trend test (bkflow.observables.stationarity); at most
+    #: MAX_BLOCKS: blocks shorter than the stress's memory make the test's residuals
+    #: correlated, and the summary carries every block's mean
+    n_blocks: int = checked(10, integer(3, le=MAX_BLOCKS))
     alpha: float = checked(0.05, interval(0, 1))
     #: large drops: drop > large_drop_factor * mean drop after the transient
     large_drop_factor: float = checked(LARGE_DROP_FACTOR, number(gt=0, noun="a number "))

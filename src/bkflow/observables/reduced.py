@@ -255,10 +255,21 @@ SERIES_FIELDS = (("step", "sigma"), ("step", "sigma", *LEDGER_COLUMNS),
                  ("step", "R", "Z_re", "Z_im", "R2", "u_mean", "u_std"))
 
 
-def checked(records: np.ndarray, layouts, what: str) -> np.ndarray:
+#: the records' fields that count or index (int64, never negative); every other is float64
+COUNT_FIELDS = frozenset(("step", "step_max", "step_min", "n", "n_phase", "n_slipped",
+                          "n_clusters", "cluster_n", "cluster_nx", "cluster_ny", "label", "n_c",
+                          "n_x", "n_y"))
+#: float fields whose value is NaN where the slip formed no cluster (``n_clusters`` 0)
+NO_CLUSTER_NAN = ("cluster_lx", "cluster_ly")
+
+
+def checked(records: np.ndarray, layouts, what: str, lattice: tuple | None = None
+            ) -> np.ndarray:
     """``records`` when they are what the plugin writes: one dimension, the fields of one of
-    ``layouts`` (tuples of names), every field a little-endian int64 or float64, every float
-    finite; ValueError naming ``what`` otherwise."""
+    ``layouts`` (tuples of names), each of its own type (``COUNT_FIELDS`` little-endian int64,
+    the others float64), every float finite (but a slip's cluster extents where it formed no
+    cluster), and every value within the bounds the model gives it (``bounds_problem``;
+    ``lattice`` (Lx, Ly) adds those of the lattice); ValueError naming ``what`` otherwise."""
     got = records.dtype.names or ()
     if isinstance(layouts[0], str):
         layouts = (layouts,)
@@ -266,12 +277,80 @@ def checked(records: np.ndarray, layouts, what: str) -> np.ndarray:
         raise ValueError(f"{what} holds {records.dtype} of shape {records.shape}, not the "
                          f"records of fields {', '.join(layouts[0])}")
     for name in got:
+        want = "<i8" if name in COUNT_FIELDS else "<f8"
         kind = records.dtype[name]
-        if kind.str not in ("<i8", "<f8"):
-            raise ValueError(f"{what}: field {name} is {kind.str}, not <i8 or <f8")
-        if kind.kind == "f" and not np.isfinite(records[name]).all():
-            raise ValueError(f"{what}: field {name} holds NaN or infinity")
+        if kind.str != want:
+            raise ValueError(f"{what}: field {name} is {kind.str}, not {want}")
+        if kind.kind == "f":
+            values = records[name]
+            if name in NO_CLUSTER_NAN and "n_clusters" in got:
+                values = values[records["n_clusters"] > 0]
+            if not np.isfinite(values).all():
+                raise ValueError(f"{what}: field {name} holds NaN or infinity")
+    problem = bounds_problem(records, lattice)
+    if problem:
+        raise ValueError(f"{what}: {problem}")
     return records
+
+
+def _bounds(r: np.ndarray, lattice: tuple | None) -> list:
+    """(what, which rows break it) for each bound the model gives the fields of ``r``: counts
+    never negative; a sample's phase coherence R, R2, |Z|^2 in [0, 1], Z's parts in [-1, 1],
+    u in [0, 1) with spread at most 1/2 (in blocks, summed over their ``n_phase`` samples);
+    Psi in [0, 1]; a slip ends after it starts, its clusters and their particles are no more
+    than its slipped particles, its slips are not negative; with ``lattice`` (Lx, Ly), no count
+    above the lattice's and no extent above twice its side (a cluster filling the box has
+    l_x = Lx N/(N - 1))."""
+    names = set(r.dtype.names)
+    tol = 1e-9
+    out = [(f"{f} is negative", r[f] < 0) for f in sorted(names & COUNT_FIELDS)]
+    per = r["n_phase"].astype(float) if "n_phase" in names else (
+        1.0 if "R" in names else None)
+    if per is not None:
+        for f, lo, hi in (("R", 0, 1), ("R2", 0, 1), ("Z2", 0, 1), ("Z_re", -1, 1),
+                          ("Z_im", -1, 1), ("u_mean", 0, 1), ("u_std", 0, 0.5)):
+            if f in names:
+                out.append((f"{f} lies outside [{lo}, {hi}] per sample",
+                            (r[f] < lo * per - tol * (1 + per))
+                            | (r[f] > hi * per + tol * (1 + per))))
+    if "psi" in names:
+        out.append(("psi lies outside [0, 1]", (r["psi"] < -tol) | (r["psi"] > 1 + tol)))
+    if {"step_max", "step_min"} <= names:
+        out.append(("a slip ends before it starts", r["step_min"] < r["step_max"]))
+    if "n_slipped" in names:
+        for f in ("n_clusters", "cluster_n"):
+            out.append((f"{f} exceeds n_slipped", r[f] > r["n_slipped"]))
+    for small, big in (("cluster_nx", "cluster_n"), ("cluster_ny", "cluster_n"),
+                       ("n_x", "n_c"), ("n_y", "n_c"), ("slip_mean", "slip_max")):
+        if {small, big} <= names:
+            out.append((f"{small} exceeds {big}", r[small] > r[big] * (1 + tol) + tol))
+    for f in ("potency", "slip_mean", "slip_max", "l_x", "l_y", "cluster_lx", "cluster_ly"):
+        if f in names:
+            out.append((f"{f} is negative", r[f] < 0))
+    if lattice is not None:
+        lx, ly = lattice
+        n = lx * ly
+        for f in ("n_slipped", "n_clusters", "cluster_n", "n_c"):
+            if f in names:
+                out.append((f"{f} exceeds the lattice's {n} particles", r[f] > n))
+        for f, side in (("cluster_nx", lx), ("n_x", lx), ("cluster_ny", ly), ("n_y", ly),
+                        ("cluster_lx", lx), ("l_x", lx), ("cluster_ly", ly), ("l_y", ly)):
+            if f in names:
+                cap = side if f.endswith(("nx", "ny", "n_x", "n_y")) else 2 * side
+                out.append((f"{f} exceeds {cap:g}", r[f] > cap))
+    return out
+
+
+def bounds_problem(records: np.ndarray, lattice: tuple | None = None) -> str | None:
+    """The first bound of ``_bounds`` that rows of ``records`` break, with how many and the
+    first one's value; None when every value holds (NaN counts as holding: ``checked`` says
+    where NaN belongs)."""
+    for what, bad in _bounds(records, lattice):
+        bad = np.asarray(bad)
+        if bad.any():
+            return (f"{what} in {int(bad.sum())} of {len(records)} row(s) (the first: row "
+                    f"{int(np.argmax(bad))})")
+    return None
 
 
 def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,

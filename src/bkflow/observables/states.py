@@ -401,7 +401,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     from bkflow.observables.stationarity import mean_error, stationarity
 
     t, sigma = np.asarray(t, float), np.asarray(sigma, float)
-    ratio = sigma / spec.sigma_n
+    ratio = sigma / spec.stress_unit
     late = t >= t0
     w = None if weights is None else np.asarray(weights, float)[late]
     mean = float(np.average(ratio[late], weights=w)) if late.any() else math.nan
@@ -415,7 +415,7 @@ def window(spec, t, sigma, phase: dict | None, t0: float, n_blocks: int = 10,
     trend = trend_within_fluctuations(trend, window_variance(
         "stress", spec.phi, spec.N, (t1 - t0) / 2) if why is None else borrowed_variance(
         "stress", spec, (t1 - t0) / 2, widen=False))
-    bm = np.asarray(trend.block_means, float) / spec.sigma_n
+    bm = np.asarray(trend.block_means, float) / spec.stress_unit
     err_block = float(bm.std(ddof=1) / math.sqrt(len(bm))) \
         if len(bm) > 1 and np.isfinite(bm).all() else math.nan
     var = None if why is not None else window_variance("stress", spec.phi, spec.N, t1 - t0)
@@ -444,7 +444,7 @@ def _contacts(spec, t, ratio, phase, t0: float, any_late: bool, n_blocks: int, a
     comp = None
     if any_late:
         b = blocks(phase["t"], phase["R"], t, ratio, t0, spec.N)
-        fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.sigma_n
+        fail = None if sigma_fail is None else np.asarray(sigma_fail, float) / spec.stress_unit
         comp = composition(b, t_fail, fail)
     return contacts, comp
 

@@ -133,7 +133,8 @@ def slip_events(t, sigma, threshold: float) -> SlipEvents:
 class MacroscopicFriction:
     """Macroscopic friction of one run (docs/model.md, "Macroscopic friction").
 
-    ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient, ``mu_bar_err`` its
+    ``mu_bar`` = <sigma_fail> / sigma_n over the slips after the transient (sigma_n A, the
+    contact's normal load, where the contact area A is not the paper's l^2), ``mu_bar_err`` its
     standard error over successive (correlated) slips
     (``bkflow.observables.stationarity.mean_error``, ``g`` the statistical inefficiency);
     ``mean_stress_ratio`` = time average of sigma_x / sigma_n after the transient (no
@@ -149,6 +150,29 @@ class MacroscopicFriction:
     g: float
     error_reliable: bool
     events: SlipEvents
+
+
+def physical_bound(mu_s: float, drag: float) -> float:
+    """The most a steady stress ratio can be: each contact holds at most mu_s sigma_n A, and
+    on average the damping adds the drag m gamma V_d of a layer moving with the plate (``drag``
+    in units of sigma_n A); a mean above it is a fault of the model's set-up or its analysis,
+    not a result."""
+    return mu_s + drag
+
+
+#: the slack over ``physical_bound`` a ratio of the run's own numbers may show: an instant's
+#: inertia (a slip's maximum), the sums' rounding
+BOUND_SLACK = 0.05
+
+
+def bound_problem(name: str, value: float, mu_s: float, drag: float) -> str | None:
+    """Why ``value`` (a stress ratio) breaks ``physical_bound`` (with ``BOUND_SLACK``), or
+    None."""
+    bound = physical_bound(mu_s, drag)
+    if math.isfinite(value) and value > bound * (1 + BOUND_SLACK):
+        return (f"{name} = {value:.4g} is above mu_s = {mu_s:g} (plus the damping's drag, "
+                f"{drag:.2g}), which no contact of this model can hold")
+    return None
 
 
 def macroscopic_friction(t, sigma, sigma_n: float, threshold: float,

@@ -59,13 +59,27 @@ class RunAnalysisFiles:
             return f"{SUMMARY} belongs to other parameters"
         return self.table_problem(s)
 
-    def only_analysis_left(self, spec: RunSpec) -> bool:
+    def only_analysis_left(self, spec: RunSpec,
+                           settings: AnalysisSettings | None = None) -> bool:
         """Whether this directory holds the finished, intact run of ``spec`` (as requested)
-        whose analysis is missing or stale: the same command again after its analysis was
-        cut short has only that left to do."""
+        whose analysis under ``settings`` is missing or stale: the same command again after
+        its analysis was cut short has only that left to do."""
         meta = self.meta() if self.is_complete() else None
         return (meta is not None and meta.get("requested") == spec.to_dict()
-                and self.problem() is None and self.analysis_problem() is not None)
+                and self.problem() is None and self.analysis_problem(settings) is not None)
+
+    def kept_settings(self) -> AnalysisSettings:
+        """The settings of the run's last analysis where it was made by this bkflow's
+        analysis (``bkflow analyze DIR --analysis ...``), else the defaults: what a run
+        command that does not name settings analyses the run under again."""
+        s = self.summary()
+        if not s or s.get("analysis_revision") != ANALYSIS_REVISION or \
+                not isinstance(s.get("settings"), dict):
+            return AnalysisSettings()
+        try:
+            return AnalysisSettings.from_dict(s["settings"])
+        except (TypeError, ValueError):
+            return AnalysisSettings()
 
     def write_analysis(self, summary: dict, tables: dict) -> dict:
         """Write the analysis's tables, then summary.json (last: it lists the tables)."""
@@ -169,7 +183,7 @@ class RunAnalysisFiles:
             at = {(int(round(a / spec.dt)), int(round(b / spec.dt))): k
                   for k, (a, b) in enumerate(zip(events["t_max"], events["t_min"]))
                   if a >= summary["t_transient"]}
-            slips, rows = self.read_slip_rows()
+            slips, rows = self.read_slip_rows(spec)
             end = dict(zip(slips["step_max"].tolist(), slips["step_min"].tolist()))
             steps = [(int(s), int(end.get(s, -1))) for s in rows["step_max"].tolist()]
             keep = np.array([s in at for s in steps], bool)

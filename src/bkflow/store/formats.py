@@ -306,6 +306,23 @@ def json_ready(obj):
     return obj
 
 
+#: sha256 of files already hashed in this process, by what identifies their contents on disk
+#: (device, inode, size, modification time in ns): a file written since is hashed again
+_DIGESTS: dict = {}
+
+
+def sha256_of(path) -> str:
+    """The sha256 of a file's bytes (``regular`` first), remembered while the file is not
+    changed: the checks of a run's records cost one pass over them per process."""
+    st = os.stat(regular(path))
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+    if key not in _DIGESTS:
+        if len(_DIGESTS) > 4096:
+            _DIGESTS.clear()
+        _DIGESTS[key] = file_record(path)["sha256"]
+    return _DIGESTS[key]
+
+
 def file_record(path) -> dict:
     """{"bytes", "sha256"} of a file: what a record of a set of files keeps of each, so that a
     member cut, emptied or replaced since is known."""

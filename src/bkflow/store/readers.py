@@ -229,16 +229,17 @@ class RunReaders:
             raise DamagedRunError(f"{self.file(PSI_RECORD)} is damaged ({exc}); run the run "
                                   "again") from None
 
-    def read_slip_rows(self):
+    def read_slip_rows(self, spec: RunSpec | None = None):
         """(slips, clusters): each slip's catalogue row and its clusters as the run computed
         them (fix bk/slips ``catalogue``; structured arrays)."""
         from bkflow.observables.reduced import CLUSTER_FIELDS, SLIP_FIELDS, checked
 
+        lattice = None if spec is None else (spec.Lx, spec.Ly)   # the bounds of its lattice too
         out = []
         for name, fields in ((SLIP_ROWS, SLIP_FIELDS), (CLUSTER_ROWS, CLUSTER_FIELDS)):
             try:
                 out.append(checked(np.load(formats.regular(self.file(name)), allow_pickle=False),
-                                   fields, name))
+                                   fields, name, lattice=lattice))
             except (ValueError, EOFError) as exc:
                 raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
                                       "again") from None

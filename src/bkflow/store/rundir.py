@@ -125,8 +125,9 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
     def problem(self) -> str | None:
         """Why this directory does not hold an intact finished run, or None when it does.
 
-        Finished means meta.json says complete and every file it lists still has the size it
-        had when the run ended; a truncated, emptied or missing output file is named.
+        Finished means meta.json says complete and every file it lists still has the size and
+        the sha256 it had when the run ended; a truncated, emptied, missing, changed or swapped
+        output file is named.
         """
         try:
             meta = formats.read_json(self.file(META))
@@ -155,6 +156,10 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
                 return f"{name} is missing"
             if actual != size:
                 return f"{name} has {actual} bytes, the run wrote {size}"
+        for name, digest in (meta.get("file_sha256") or {}).items():  # runs of bkflow >= 0.6
+            if name not in MAY_CHANGE and formats.sha256_of(self.file(name)) != digest:
+                return (f"{name} is not the file the run wrote (its sha256 differs: changed "
+                        "since, or another run's)")
         return None
 
     def _companion_problem(self, meta: dict) -> str | None:
@@ -209,6 +214,16 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         for name in self.REWRITTEN:
             self._before(name).unlink(missing_ok=True)
         self.file(CONTINUING).unlink(missing_ok=True)
+
+    def damage_advice(self) -> str:
+        """What to do about a run whose files are not as its record says: where a
+        continuation of it (or of its companion) was cut short, the finished run is intact
+        and comes back by itself; else it is damaged and is run again."""
+        if any(d.file(CONTINUING).exists() for d in (self, self.companion())):
+            return ("a continuation of the run was interrupted, and the finished run is intact: "
+                    f"bkflow analyze {formats.shell_word(self.path)}, or the same bkflow run "
+                    "command, restores it")
+        return "the run is damaged; run it again (bkflow run --overwrite, or the sweep redoes it)"
 
     def undo_continuation(self) -> bool:
         """A continuation interrupted before it committed: cut every recorded file back to
@@ -271,6 +286,10 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         # sizes let a later check tell a finished run from one whose files were cut or lost
         meta["file_bytes"] = {f: self.file(f).stat().st_size for f in files if f != META}
         meta["bytes_written"] = sum(meta["file_bytes"].values())
+        # and their digests, whose contents are the run's: a record of another run of the
+        # same size, a value written over in place, another run's restart file
+        meta["file_sha256"] = {f: formats.sha256_of(self.file(f)) for f in files
+                               if f != META and f not in MAY_CHANGE}
         formats.write_json_atomic(self.file(META), meta)
         return meta
 
@@ -288,6 +307,9 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
             shutil.rmtree(comp.path)
         for pattern in (MOVIE_PATTERN, FRONT_MAPS_PATTERN):
             for p in self.path.glob(pattern.format("*")):
+                p.unlink(missing_ok=True)
+        for p in self.path.glob("run.*"):   # bkflow plot's figure of the old run, not a user's
+            if p.is_file() and formats.made_by_bkflow(p):
                 p.unlink(missing_ok=True)
 
     def movie_file(self, slip: int) -> Path:

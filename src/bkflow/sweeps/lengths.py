@@ -32,15 +32,19 @@ def _takes(job, spec: RunSpec) -> bool:
     ``spec``, or already is its run: nothing it has is simulated again (continued in place,
     ``bkflow.lammps.continuation.continuation``, or answered, ``answers``); a job whose run
     never finished, is damaged or was made under an earlier stop rule takes any length (its
-    run is redone anyway). A run another process is writing raises RunBusyError: the sweep
-    says so."""
+    run is redone anyway). A run another process is writing is taken: the sweep runs the
+    others and says that one is busy (its simulate finds it so), as for any busy run."""
     from bkflow.lammps.continuation import finished
+    from bkflow.store.rundir import RunBusyError
 
     rd = RunDir(job.path)
-    with rd.lock():
-        if not rd.is_complete() or rd.problem() is not None or finished(rd) is None:
-            return True   # never finished, damaged, or of an earlier bkflow: redone
-        return answers(rd, spec) or continuation(rd, spec) is not None
+    try:
+        with rd.lock():
+            if not rd.is_complete() or rd.problem() is not None or finished(rd) is None:
+                return True   # never finished, damaged, or of an earlier bkflow: redone
+            return answers(rd, spec) or continuation(rd, spec) is not None
+    except RunBusyError:
+        return True
 
 
 def _steps(job) -> int:

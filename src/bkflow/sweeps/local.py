@@ -136,16 +136,23 @@ def _work(path: str, job_id: str, names: list) -> None:
     project = _WORKER_PROJECT.get(path)
     if project is None:
         project = _WORKER_PROJECT[path] = open_project(path, create=False)
-    from flow.errors import UserOperationError
-
     from bkflow.lammps import plugin
 
-    with flowcompat.quiet_flow_bars(), plugin.interrupts(()):  # no signal is Ctrl-C here
+    with plugin.interrupts(()):  # no signal is Ctrl-C here
+        _flow_run(project, [project.open_job(id=job_id)], names)
+
+
+def _flow_run(project, jobs, names) -> None:
+    """flow's run of ``jobs``' pending operations ``names`` in this process, its bars quiet.
+    The file system's refusal (a directory removed, a full disk) reaches the sweep as itself,
+    not wrapped as flow's UserOperationError: the command says what refused and exits as for
+    any file system error, in one process as in many."""
+    from flow.errors import UserOperationError
+
+    with flowcompat.quiet_flow_bars():
         try:
-            project.run(jobs=[project.open_job(id=job_id)], names=names)
+            project.run(jobs=jobs, names=names)
         except UserOperationError as exc:
-            # the file system's refusal reaches the sweep as itself (the command says what
-            # refused and exits as for any file system error), not wrapped as flow's
             if isinstance(exc.__cause__, OSError):
                 raise exc.__cause__ from None
             raise
@@ -199,8 +206,7 @@ def _run_pending(project, jobs, names, np_: int, cost: dict | None = None) -> No
     ``np_`` is 1, else in ``np_`` worker processes (``_run_in_workers``)."""
     jobs = sorted(jobs, key=lambda j: -cost.get(j.id, 0.0)) if cost else list(jobs)
     if np_ <= 1:
-        with flowcompat.quiet_flow_bars():
-            project.run(jobs=jobs, names=names)
+        _flow_run(project, jobs, names)
         return
     _run_in_workers(project, jobs, names, np_)
 

@@ -413,6 +413,20 @@ class ClusterProject(SweepProject):
         # that every sweep directory uses it without a copy
         set_template_dir(self, TEMPLATE_DIR)
 
+    def _main_submit(self, args):
+        """``submit``, once its arguments are good (a bundle of fewer than one run is a bad
+        value, exit 2), refused where the environment has no batch scheduler, before flow
+        prints anything (its submission lines, then its own error)."""
+        size = getattr(args, "bundle_size", None)
+        if size is not None and size < 1:
+            raise ValueError(f"--bundle {size}: a bundle holds one run or more")
+        from flow.environment import get_environment
+        from flow.errors import NoSchedulerError
+
+        if getattr(get_environment(), "scheduler_type", None) is None:
+            raise NoSchedulerError("no batch scheduler in this environment")
+        return super()._main_submit(args)
+
 
 def permit_above_limits(job, force: bool) -> None:
     """Record in the job's document whether its run may go above the cost limits (``--force``

@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -32,7 +33,9 @@ def project(path=None):
 
     return ClusterProject.get_project(
         os.getcwd() if path is None else str(path),
-        entrypoint={"executable": sys.executable, "path": "-m bkflow.cluster"})
+        # quoted: flow writes it into the job scripts' shell lines as it is, where a space in
+        # the path would split it and a "$(...)" in it would run
+        entrypoint={"executable": shlex.quote(sys.executable), "path": "-m bkflow.cluster"})
 
 
 def main(argv=None) -> None:
@@ -56,7 +59,62 @@ def main(argv=None) -> None:
         sys.exit(2)
     # flow logs a scheduler's failure before raising it: the one line below says it instead
     logging.getLogger("flow").setLevel(logging.CRITICAL)
+    unknown = unknown_operations(p, sys.argv[1:])
+    if unknown:  # flow would select nothing, run nothing, and exit 0
+        print(f"bkflow.cluster: error: no operation {', '.join(unknown)}: the operations are "
+              f"{', '.join(sorted(p.operations))}", file=sys.stderr)
+        sys.exit(2)
     _run(p)
+    if sys.argv[1:2] in (["run"], ["exec"]):
+        _exit_if_failed(p, sys.argv[2:])
+
+
+def _exit_if_failed(p, argv: list[str]) -> None:
+    """After ``run``/``exec``: exit 1 with the first failure when a run of the selected jobs
+    failed (each failure is kept in its job document; flow itself goes on and exits 0), so
+    that a job script, and a user, see it."""
+    from bkflow.sweeps.project import failed
+
+    ids = _job_ids(argv)
+    jobs = [j for j in p if not ids or any(j.id.startswith(i) for i in ids)]
+    bad = [j for j in jobs if failed(j)]
+    if bad:
+        print(f"bkflow.cluster: error: {len(bad)} of {len(jobs)} run(s) failed; the first: "
+              f"{bad[0].document['error']}", file=sys.stderr)
+        sys.exit(1)
+
+
+def _job_ids(argv: list[str]) -> list[str]:
+    """The job ids given to ``-j``/``--job-id`` (run) or after the operation (exec)."""
+    ids, taking = [], False
+    for arg in argv:
+        if arg in ("-j", "--job-id"):
+            taking = True
+        elif arg.startswith("-"):
+            taking = False
+        elif taking:
+            ids.append(arg)
+    if sys.argv[1:2] == ["exec"]:
+        ids += [a for a in argv[1:] if not a.startswith("-")]
+    return ids
+
+
+def unknown_operations(p, argv: list[str]) -> list[str]:
+    """The names given to ``-o``/``--operation`` in ``argv`` that are neither an operation nor
+    a group of the project ``p``."""
+    known = set(p.operations) | set(getattr(p, "_groups", {}))
+    names, taking = [], False
+    for arg in argv:
+        if arg in ("-o", "--operation"):
+            taking = True
+        elif arg.startswith("--operation="):
+            names.append(arg.split("=", 1)[1])
+            taking = False
+        elif arg.startswith("-"):
+            taking = False
+        elif taking:
+            names.append(arg)
+    return [n for n in names if n not in known]
 
 
 def _check_environment() -> None:
@@ -115,12 +173,26 @@ def _run(p) -> None:
         sys.exit(2)  # bad input, as bkflow's own commands
     except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        hint = (" (if this machine has no working scheduler, "
-                "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment runs without one)"
-                if _from_scheduler(exc) else
+        hint = (_scheduler_hint(sys.argv[1:]) if _from_scheduler(exc) else
                 f" ({type(exc).__name__}; bkflow.cluster did not expect it: please report it)")
         print(f"bkflow.cluster: error: {first}{hint}", file=sys.stderr)
         sys.exit(1)
+
+
+def _scheduler_hint(argv: list[str]) -> str:
+    """What to do when the scheduler failed or there is none: a command that works without
+    one. ``submit`` (``--pretend`` too: flow asks the queue first) needs a working scheduler;
+    without one the jobs run here, with ``run``."""
+    standard = os.environ.get("SIGNAC_FLOW_ENVIRONMENT") == "StandardEnvironment"
+    here = "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment python -m bkflow.cluster"
+    if argv and argv[0] == "submit":
+        return (" (submit needs a working batch scheduler (sbatch, squeue), and this machine "
+                f"has {'none' if standard else 'no working one'}: run the jobs here instead, "
+                f"{here} run -p 2)")
+    if standard:  # cannot happen for run/status/exec, which flow runs without a scheduler
+        return " (no batch scheduler in this environment: use run, not submit)"
+    rest = " ".join(shlex.quote(a) for a in argv)
+    return f" (if this machine has no working scheduler, run without one: {here} {rest})"
 
 
 #: the commands of the schedulers signac-flow drives
