@@ -247,7 +247,9 @@ class Run:
                 drops.loglog(d, 1.0 - np.arange(len(d)) / len(d), lw=0.9, color="tab:red")
                 drops.set_title(f"{len(d)} slips after the transient", fontsize=7)
             else:
-                drops.text(0.5, 0.5, "no slips", transform=drops.transAxes, ha="center")
+                drops.text(0.5, 0.5, "no slips after the transient" if s else
+                           f"not analysed:\nbkflow analyze {shell_word(self.path)}",
+                           transform=drops.transAxes, ha="center", fontsize=7)
             from matplotlib.ticker import NullFormatter
 
             drops.xaxis.set_minor_formatter(NullFormatter())

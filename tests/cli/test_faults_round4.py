@@ -142,6 +142,15 @@ def test_the_phase_sampling_is_bounded_and_does_not_change_the_verdict(lammps, t
                "--out", tmp_path / "no")
         assert p.returncode == 2
         one_line(p, f"choose {name} <= 2")
+    # a run made before the bound is still read, with its companion: the bound is a request's
+    from bkflow.model.params import RunSpec
+
+    old = {**RunSpec(phi=10.0, start="random", companion="partial").to_dict(),
+           "phase_every": 5.0}
+    spec = RunSpec.from_dict(old)
+    assert spec.phase_every == 5.0 and spec.companion_spec.phase_every == 5.0
+    with pytest.raises(SpecError, match="choose phase_every <= 2"):
+        spec.replace(phase_every=4.0)
     got = {}
     for every in ("0.5", "2"):
         out = tmp_path / every
@@ -210,6 +219,15 @@ def test_nan_extents_are_allowed_only_where_no_cluster_formed():
     checked(_slip_record(0, np.nan), SLIP_FIELDS, "slips.npy")
     with pytest.raises(ValueError, match="cluster_lx holds NaN"):
         checked(_slip_record(1, np.nan), SLIP_FIELDS, "slips.npy")
+    # a slip that moved no particle past S_x (a threshold small against it) has no slip mean
+    # or largest slip: NaN there, as the plugin writes it, and only there
+    r = _slip_record(0, np.nan)
+    r["n_slipped"][0] = 0
+    r["slip_mean"][0] = r["slip_max"][0] = np.nan
+    checked(r, SLIP_FIELDS, "slips.npy")
+    r["slip_mean"][1] = np.nan
+    with pytest.raises(ValueError, match="slip_mean holds NaN"):
+        checked(r, SLIP_FIELDS, "slips.npy")
 
 
 # ------------------------------------------------ class 11: impossible values in records
@@ -378,6 +396,16 @@ def test_an_interrupted_continuation_is_not_called_damage(lammps, tmp_path):
     command = shlex.split(advice.split("is intact: ", 1)[1].split(", or the same")[0])
     assert command[:2] == ["bkflow", "analyze"]
     assert bk(*command[1:]).returncode == 0
+    assert load_run(out).summary["mu_bar"] == before
+    # killed later, after the decks were written for the longer run and before the commit:
+    # the decks come back too (their digests are recorded)
+    from bkflow.store.rundir import RunDir
+
+    RunDir(out).begin_continuation()
+    deck = (out / "in.bk").read_text()
+    (out / "in.bk").write_text(deck.replace("\nrun ", "\nrun  ", 1) + "# longer\n")
+    assert bk("analyze", out).returncode == 0
+    assert (out / "in.bk").read_text() == deck
     assert load_run(out).summary["mu_bar"] == before
 
 

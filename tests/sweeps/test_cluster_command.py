@@ -60,6 +60,10 @@ def test_an_operation_that_does_not_exist_is_refused(grid, tmp_path):
         assert "no operation" in r.stderr and "analyze, simulate" in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
     assert not any(finished(j) for j in open_project(grid, create=False))  # nothing ran
+    # flow reads -o as a regular expression matched whole: one that matches is no typo
+    for pattern in ("sim.*", "simulate|analyze"):
+        r = _cluster(["status", "-o", pattern], grid, env)
+        assert "no operation" not in r.stderr, (pattern, r.stderr)
 
 
 def test_submit_without_a_scheduler_advises_a_command_that_works(lammps, grid, tmp_path):
@@ -74,8 +78,9 @@ def test_submit_without_a_scheduler_advises_a_command_that_works(lammps, grid, t
     words = shlex.split(advised)
     assigned = dict(w.split("=", 1) for w in words if "=" in w and not w.startswith("-"))
     command = [w for w in words if w not in {f"{k}={v}" for k, v in assigned.items()}]
-    assert command[:3] == ["python", "-m", "bkflow.cluster"]
-    done = subprocess.run([sys.executable, *command[1:]], cwd=grid, env={**env, **assigned},
+    # the python that has bkflow, as the job scripts call it, not whichever "python" is first
+    assert command[:3] == [sys.executable, "-m", "bkflow.cluster"]
+    done = subprocess.run(command, cwd=grid, env={**env, **assigned},
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert all(finished(j) for j in open_project(grid, create=False)), done.stderr[-2000:]
@@ -88,4 +93,6 @@ def test_run_exits_1_when_its_runs_failed(grid, tmp_path):
     env = {**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"}
     r = _cluster(["run"], grid, env)
     assert r.returncode == 1
-    assert "2 of 2 run(s) failed; the first: PluginError" in r.stderr.strip().splitlines()[-1]
+    assert "2 run(s) failed; the first: PluginError" in r.stderr.strip().splitlines()[-1]
+    # only this pass's failures count: --pretend runs nothing, and says nothing failed
+    assert _cluster(["run", "--pretend"], grid, env).returncode == 0

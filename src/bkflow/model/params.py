@@ -12,6 +12,7 @@ hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import math
 import sys
@@ -171,6 +172,11 @@ _TWO_CELLS = (": with 2 cells along an axis the bonds to the neighbours on eithe
               "is undefined")
 
 
+#: set while RunSpec.from_dict reads a record: the bounds added after a run was made
+#: (``MAX_PHASE_EVERY``) do not make it unreadable
+_RECORDED: contextvars.ContextVar = contextvars.ContextVar("bkflow_recorded", default=False)
+
+
 def _normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None:
     """SpecError unless ``value`` is a finite positive number that has not underflowed (a
     subnormal number has lost its digits); ``if_inf``/``if_zero``: what to choose when it
@@ -187,8 +193,10 @@ def _normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None
 def size_from_n(n: int) -> tuple[int, int]:
     """The paper's lattice for N = 100, 400 or 900 particles."""
     if n not in PAPER_SIZES:
-        shapes = sorted(((lx, n // lx) for lx in range(3, n // 3 + 1)
-                         if n % lx == 0 and n // lx >= 3), key=lambda s: abs(s[0] / s[1] - 4))
+        # the factor pairs of n (up to its square root, both ways round), sides of 3 or more
+        pairs = [(a, n // a) for a in range(3, math.isqrt(n) + 1) if n % a == 0 and n // a >= 3]
+        shapes = sorted({s for a, b in pairs for s in ((a, b), (b, a))},
+                        key=lambda s: abs(s[0] / s[1] - 4))
         example = f"--size {shapes[0][0]}x{shapes[0][1]}" if shapes else "--size 20x5"
         raise SpecError(f"--n {n}: the paper's sizes are N = {', '.join(map(str, PAPER_SIZES))}; "
                         f"for any other lattice give --size LXxLY (e.g. {example})")
@@ -330,7 +338,8 @@ class RunSpec:
         if self.stress_every > self.t_end:
             raise SpecError(f"stress_every = {self.stress_every:g} is longer than the run "
                             f"(t_end = {self.t_end:g}): the stress would not be sampled")
-        if max(self.phase_every, self.stress_every) > MAX_PHASE_EVERY * (1 + 1e-9):
+        if max(self.phase_every, self.stress_every) > MAX_PHASE_EVERY * (1 + 1e-9) \
+                and not _RECORDED.get():   # a run made before the bound is still read
             which = ("phase_every" if self.phase_every >= self.stress_every else
                      "stress_every (the phases are sampled with the stress, at the longer of "
                      "the two)")
@@ -546,7 +555,15 @@ class RunSpec:
         return f"phi={self.phi:g}, {self.Lx}x{self.Ly}, seed {self.seed}"
 
     def replace(self, **changes) -> RunSpec:
-        return dataclasses.replace(self, **changes)
+        """This spec with ``changes``; a recorded run's sampling (made before its bound) stays
+        readable in its companion and continuation when the changes leave it as it was."""
+        keeps = not ({"phase_every", "stress_every"} & set(changes))
+        token = _RECORDED.set(True) if keeps else None
+        try:
+            return dataclasses.replace(self, **changes)
+        finally:
+            if token is not None:
+                _RECORDED.reset(token)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -562,4 +579,8 @@ class RunSpec:
         unknown = set(d) - names
         if unknown:
             raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
-        return cls(**d)
+        token = _RECORDED.set(True)   # a record's run is read as it was made
+        try:
+            return cls(**d)
+        finally:
+            _RECORDED.reset(token)

@@ -259,16 +259,18 @@ SERIES_FIELDS = (("step", "sigma"), ("step", "sigma", *LEDGER_COLUMNS),
 COUNT_FIELDS = frozenset(("step", "step_max", "step_min", "n", "n_phase", "n_slipped",
                           "n_clusters", "cluster_n", "cluster_nx", "cluster_ny", "label", "n_c",
                           "n_x", "n_y"))
-#: float fields whose value is NaN where the slip formed no cluster (``n_clusters`` 0)
-NO_CLUSTER_NAN = ("cluster_lx", "cluster_ly")
+#: float fields whose value is NaN where the count they are of is 0: a slip that formed no
+#: cluster has no extents, one that moved no particle past S_x has no mean or largest slip
+NAN_WHERE_NONE = {"cluster_lx": "n_clusters", "cluster_ly": "n_clusters",
+                  "slip_mean": "n_slipped", "slip_max": "n_slipped"}
 
 
 def checked(records: np.ndarray, layouts, what: str, lattice: tuple | None = None
             ) -> np.ndarray:
     """``records`` when they are what the plugin writes: one dimension, the fields of one of
     ``layouts`` (tuples of names), each of its own type (``COUNT_FIELDS`` little-endian int64,
-    the others float64), every float finite (but a slip's cluster extents where it formed no
-    cluster), and every value within the bounds the model gives it (``bounds_problem``;
+    the others float64), every float finite (but where ``NAN_WHERE_NONE`` allows NaN), and
+    every value within the bounds the model gives it (``bounds_problem``;
     ``lattice`` (Lx, Ly) adds those of the lattice); ValueError naming ``what`` otherwise."""
     got = records.dtype.names or ()
     if isinstance(layouts[0], str):
@@ -283,8 +285,8 @@ def checked(records: np.ndarray, layouts, what: str, lattice: tuple | None = Non
             raise ValueError(f"{what}: field {name} is {kind.str}, not {want}")
         if kind.kind == "f":
             values = records[name]
-            if name in NO_CLUSTER_NAN and "n_clusters" in got:
-                values = values[records["n_clusters"] > 0]
+            if name in NAN_WHERE_NONE and NAN_WHERE_NONE[name] in got:
+                values = values[records[NAN_WHERE_NONE[name]] > 0]
             if not np.isfinite(values).all():
                 raise ValueError(f"{what}: field {name} holds NaN or infinity")
     problem = bounds_problem(records, lattice)

@@ -157,7 +157,13 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
             if actual != size:
                 return f"{name} has {actual} bytes, the run wrote {size}"
         for name, digest in (meta.get("file_sha256") or {}).items():  # runs of bkflow >= 0.6
-            if name not in MAY_CHANGE and formats.sha256_of(self.file(name)) != digest:
+            if name in MAY_CHANGE:
+                continue
+            try:
+                actual = formats.sha256_of(self.file(name))
+            except OSError as exc:
+                return f"{name} unreadable ({exc.strerror or exc})"
+            if actual != digest:
                 return (f"{name} is not the file the run wrote (its sha256 differs: changed "
                         "since, or another run's)")
         return None
@@ -187,9 +193,10 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         return sorted(self.path.glob(RESTART.format("*")))
 
     #: the records a continuation rewrites in place (their header and the record under way),
-    #: kept as they were until it commits: cutting them back to their size is not enough
+    #: and the decks it rewrites for the longer run before it commits, kept as they were until
+    #: it commits: cutting them back to their size is not enough (their digests are recorded)
     REWRITTEN = (EXTREMA, BLOCKS, PSI_RECORD, SLIP_ROWS, CLUSTER_ROWS, SERIES_STRESS,
-                 SERIES_PHASE)
+                 SERIES_PHASE, DECK, DATA)
 
     def _before(self, name: str) -> Path:
         return self.file(f".{name}.before-continuing.tmp")

@@ -418,8 +418,9 @@ class ClusterProject(SweepProject):
         value, exit 2), refused where the environment has no batch scheduler, before flow
         prints anything (its submission lines, then its own error)."""
         size = getattr(args, "bundle_size", None)
-        if size is not None and size < 1:
-            raise ValueError(f"--bundle {size}: a bundle holds one run or more")
+        if size is not None and size < 0:   # 0, --bundle alone: every run in one bundle
+            raise ValueError(f"--bundle {size}: a bundle holds one run or more (--bundle "
+                             "alone: all in one)")
         from flow.environment import get_environment
         from flow.errors import NoSchedulerError
 

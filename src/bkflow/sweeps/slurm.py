@@ -64,45 +64,45 @@ def main(argv=None) -> None:
         print(f"bkflow.cluster: error: no operation {', '.join(unknown)}: the operations are "
               f"{', '.join(sorted(p.operations))}", file=sys.stderr)
         sys.exit(2)
+    acting = sys.argv[1:2] in (["run"], ["exec"]) and "--pretend" not in sys.argv
+    before = _errors(p) if acting else {}
     _run(p)
-    if sys.argv[1:2] in (["run"], ["exec"]):
-        _exit_if_failed(p, sys.argv[2:])
+    if acting:
+        _exit_if_failed(p, before)
 
 
-def _exit_if_failed(p, argv: list[str]) -> None:
-    """After ``run``/``exec``: exit 1 with the first failure when a run of the selected jobs
-    failed (each failure is kept in its job document; flow itself goes on and exits 0), so
-    that a job script, and a user, see it."""
+def _errors(p) -> dict:
+    """{job id: the failure its document keeps} of the project ``p``'s jobs."""
     from bkflow.sweeps.project import failed
 
-    ids = _job_ids(argv)
-    jobs = [j for j in p if not ids or any(j.id.startswith(i) for i in ids)]
-    bad = [j for j in jobs if failed(j)]
-    if bad:
-        print(f"bkflow.cluster: error: {len(bad)} of {len(jobs)} run(s) failed; the first: "
-              f"{bad[0].document['error']}", file=sys.stderr)
+    return {j.id: j.document["error"] for j in p if failed(j)}
+
+
+def _exit_if_failed(p, before: dict) -> None:
+    """After ``run``/``exec``: exit 1 with the first failure when a run failed in this pass
+    (a failure recorded or changed since ``before``: each is kept in its job document, and
+    flow itself goes on and exits 0), so that a job script, and a user, see it."""
+    new = {k: v for k, v in _errors(p).items() if before.get(k) != v}
+    if new:
+        print(f"bkflow.cluster: error: {len(new)} run(s) failed; the first: "
+              f"{next(iter(new.values()))}", file=sys.stderr)
         sys.exit(1)
 
 
-def _job_ids(argv: list[str]) -> list[str]:
-    """The job ids given to ``-j``/``--job-id`` (run) or after the operation (exec)."""
-    ids, taking = [], False
-    for arg in argv:
-        if arg in ("-j", "--job-id"):
-            taking = True
-        elif arg.startswith("-"):
-            taking = False
-        elif taking:
-            ids.append(arg)
-    if sys.argv[1:2] == ["exec"]:
-        ids += [a for a in argv[1:] if not a.startswith("-")]
-    return ids
-
-
 def unknown_operations(p, argv: list[str]) -> list[str]:
-    """The names given to ``-o``/``--operation`` in ``argv`` that are neither an operation nor
-    a group of the project ``p``."""
+    """The names given to ``-o``/``--operation`` in ``argv`` that match neither an operation
+    nor a group of the project ``p`` (flow reads each as a regular expression, matched whole:
+    ``-o 'sim.*'``)."""
+    import re
+
     known = set(p.operations) | set(getattr(p, "_groups", {}))
+
+    def matches(name: str) -> bool:
+        try:
+            return any(re.fullmatch(name, k) for k in known)
+        except re.error:
+            return False
+
     names, taking = [], False
     for arg in argv:
         if arg in ("-o", "--operation"):
@@ -114,7 +114,7 @@ def unknown_operations(p, argv: list[str]) -> list[str]:
             taking = False
         elif taking:
             names.append(arg)
-    return [n for n in names if n not in known]
+    return [n for n in names if not matches(n)]
 
 
 def _check_environment() -> None:
@@ -184,7 +184,8 @@ def _scheduler_hint(argv: list[str]) -> str:
     one. ``submit`` (``--pretend`` too: flow asks the queue first) needs a working scheduler;
     without one the jobs run here, with ``run``."""
     standard = os.environ.get("SIGNAC_FLOW_ENVIRONMENT") == "StandardEnvironment"
-    here = "SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment python -m bkflow.cluster"
+    here = ("SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment "
+            f"{shlex.quote(sys.executable)} -m bkflow.cluster")
     if argv and argv[0] == "submit":
         return (" (submit needs a working batch scheduler (sbatch, squeue), and this machine "
                 f"has {'none' if standard else 'no working one'}: run the jobs here instead, "
