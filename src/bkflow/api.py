@@ -185,6 +185,7 @@ class Run:
                     title=self._front_title(slip, f))
         return path
 
+    # complexity: one figure's three panels, each drawn or said to be empty in place
     def figure(self, window: float | None = None):
         """What a physicist looks at first, as a Figure: the stress's block means
         (sigma_x / sigma_n A over blocks of 20 time units, however long the run), the analysed
@@ -329,6 +330,29 @@ class Sweep:
             if job not in set(self.runs.job):
                 raise KeyError(f"{self.path}: no run with job id {job!r} in runs.csv")
         return Run(sweep_run_dir(self.path, job).path)
+
+
+#: the figure ``bkflow plot RUN_DIR`` writes of one run (``Run.figure``)
+RUN_FIGURE = "run"
+
+
+def plot_run(run_dir, out=None, formats=("png", "pdf")) -> list[Path]:
+    """``bkflow plot RUN_DIR``: the run's figure (``Run.figure``) as ``out/run.FMT`` (default:
+    in the run directory), atomically, never over a user's file (PlotError)."""
+    from bkflow.figures.registry import save_figure
+    from bkflow.store.formats import foreign_file
+
+    out = Path(run_dir) if out is None else Path(out)
+    for fmt in formats:
+        why = foreign_file(out / f"{RUN_FIGURE}.{fmt}")
+        if why is not None:
+            raise PlotError(why)
+    try:
+        fig = load_run(run_dir).figure()
+    except (AnalysisError, DamagedRunError) as exc:
+        raise PlotError(str(exc)) from None
+    out.mkdir(parents=True, exist_ok=True)
+    return save_figure(fig, out, RUN_FIGURE, formats)
 
 
 def load_run(path) -> Run:

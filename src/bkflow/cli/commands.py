@@ -276,7 +276,7 @@ def _plot(a) -> int:
 
     if not (Path(a.dir) / RUNS_FILE).exists() and rd.RunDir(a.dir).is_complete():
         # a run directory: its own figure (stress and R per block, the drops' distribution)
-        from bkflow.figures.registry import plot_run
+        from bkflow.api import plot_run
 
         if where:
             guards.say("bkflow: error: --where selects runs of a sweep; a run directory "

@@ -215,36 +215,11 @@ def _plot(data: SweepData, out: Path, formats, where, recorded) -> tuple[list[Pa
             skipped[name] = f"nothing to draw for these runs ({' '.join(str(exc).split())})"
             continue
         with style():
-            written += _save(fig, out, name, formats)
+            written += save_figure(fig, out, name, formats)
     return written, skipped
 
 
-#: the figure ``bkflow plot RUN_DIR`` writes of one run (``bkflow.api.Run.figure``)
-RUN_FIGURE = "run"
-
-
-def plot_run(run_dir, out=None, formats=FORMATS) -> list[Path]:
-    """``bkflow plot RUN_DIR``: the run's figure (``bkflow.api.Run.figure``) as
-    ``out/run.FMT`` (default: in the run directory), atomically, never over a user's file."""
-    from bkflow.api import load_run
-    from bkflow.store.errors import AnalysisError, DamagedRunError
-
-    out = Path(run_dir) if out is None else Path(out)
-    for fmt in formats:
-        why = foreign_file(out / f"{RUN_FIGURE}.{fmt}")
-        if why is not None:
-            raise PlotError(why)
-    try:
-        fig = load_run(run_dir).figure()
-    except (AnalysisError, DamagedRunError) as exc:
-        raise PlotError(str(exc)) from None
-    if not fig.axes:
-        raise PlotError(f"{run_dir}: nothing to draw")
-    out.mkdir(parents=True, exist_ok=True)
-    return _save(fig, out, RUN_FIGURE, formats)
-
-
-def _save(fig, out: Path, name: str, formats) -> list[Path]:
+def save_figure(fig, out: Path, name: str, formats) -> list[Path]:
     """Write ``fig`` as ``out/name.FMT``, atomically and marked (targets checked before)."""
     paths = []
     for fmt in formats:

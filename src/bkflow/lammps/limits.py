@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bkflow.model.params import RunSpec, SpecError
+from bkflow.store.rundir import DECK
 
 #: the rate at which the time of a run is estimated: one core runs the fused path at 6e7 (N =
 #: 230400, out of the caches) to 1.7e8 atom-steps a second (N = 900 to 57600) and 3-4e7 at N =
@@ -273,4 +274,4 @@ def mpi_refusal(env=os.environ) -> str | None:
             "would all write the same run and wait on each other: start it once (a sweep runs "
             "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
             "one lattice on K ranks: bkflow deck ... --out DIR, then cd DIR && mpirun -np K "
-            "lmp -in in.bk (docs/cluster.md)")
+            f"lmp -in {DECK} (docs/cluster.md)")

@@ -12,12 +12,11 @@ hard-codes a model constant. Units are LAMMPS ``lj`` with m = 1, k_d = 1, l = 1.
 
 from __future__ import annotations
 
-import contextvars
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 
+from bkflow.model import validity
 from bkflow.model.checks import (
     SpecError,
     boolean,
@@ -35,6 +34,7 @@ from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the r
     omega_max,
     time_step,
 )
+from bkflow.model.validity import RECORDED
 
 #: The paper's lattice sizes by particle number (Ly = Lx / 4).
 PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
@@ -172,24 +172,6 @@ _TWO_CELLS = (": with 2 cells along an axis the bonds to the neighbours on eithe
               "is undefined")
 
 
-#: set while RunSpec.from_dict reads a record: the bounds added after a run was made
-#: (``MAX_PHASE_EVERY``) do not make it unreadable
-_RECORDED: contextvars.ContextVar = contextvars.ContextVar("bkflow_recorded", default=False)
-
-
-def _normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None:
-    """SpecError unless ``value`` is a finite positive number that has not underflowed (a
-    subnormal number has lost its digits); ``if_inf``/``if_zero``: what to choose when it
-    overflows/underflows."""
-    if math.isfinite(value) and value >= sys.float_info.min:
-        return
-    if value == math.inf:
-        raise SpecError(f"{what} overflows to inf: choose {if_inf}")
-    if math.isfinite(value) and 0 <= value:
-        raise SpecError(f"{what} underflows to {value:.3g}: choose {if_zero}")
-    raise SpecError(f"{what} is {value!r}, not a finite positive number")
-
-
 def size_from_n(n: int) -> tuple[int, int]:
     """The paper's lattice for N = 100, 400 or 900 particles."""
     if n not in PAPER_SIZES:
@@ -278,94 +260,7 @@ class RunSpec:
 
     def __post_init__(self):
         check_fields(self)  # every field's own check (its metadata), then what joins fields
-        self._check_together()
-        self._check_counts()
-
-    def _check_together(self) -> None:
-        if not self.dk_d <= self.k_d or self.dk_d < 0:
-            raise SpecError(
-                f"dk_d must lie in (0, k_d] = (0, {self.k_d}] so that every k_d^i >= 0, "
-                f"got {self.dk_d!r}")
-        if self.dk_d == 0:
-            raise SpecError("dk_d = 0 leaves phi = k_b / dk_d undefined; use a small dk_d")
-        for what, value in (("k_b = phi dk_d", self.phi * self.dk_d),
-                            ("the friction threshold mu_s sigma_n A",
-                             self.mu_s * self.sigma_n * self.area)):
-            _normal_positive(what, value, *(("smaller phi or dk_d", "larger phi or dk_d")
-                                             if what.startswith("k_b") else
-                                             ("smaller mu_s, sigma_n or area",
-                                              "larger mu_s, sigma_n or area")))
-        self._check_time_step()
-        if self.companion is not None and self.companion == self.start:
-            raise SpecError(f"companion {self.companion!r} is the run's own start: a "
-                            "companion runs from another start")
-        if self.dt * self.omega_max > DT_FACTOR_MAX * (1 + 1e-12):
-            raise SpecError(
-                f"dt = {self.dt:.4g} ({self.dt_rule}) is dt omega_max = "
-                f"{self.dt * self.omega_max:.3g} with omega_max = {self.omega_max:.4g} the "
-                f"fastest mode of these parameters, above the stability bound {DT_FACTOR_MAX}; "
-                "use a smaller --dt-factor")
-        if self.V_d * self.dt > MAX_DRIVE_STEP:
-            raise SpecError(
-                f"V_d = {self.V_d:g} moves the plate {self.V_d * self.dt:.3g} lattice units "
-                f"per time step (more than {MAX_DRIVE_STEP:g}): the model's drive is slow "
-                "against the layer's own motion (docs/model.md); choose a smaller V_d or "
-                "--dt-factor")
-
-    def _check_time_step(self) -> None:
-        """The fastest mode and the time step of finite inputs are finite and positive, and the
-        run's length in steps is a finite number (a mass of 1e-320 or a phi of 1e308 gave an
-        infinite omega_max and dt = 0; a dt_factor of 1e-320 an infinite step count)."""
-        stiff = "smaller stiffnesses (phi, k_e, k_d) or a larger mass"
-        soft = "larger stiffnesses (phi, k_e, k_d) or a smaller mass"
-        _normal_positive("the fastest mode omega_max = sqrt(stiffness / mass)", self.omega_max,
-                         stiff, soft)
-        _normal_positive("the contacts' cycle omega_c = sqrt(stiffness / mass)",
-                         self.omega_contact, stiff, soft)
-        _normal_positive(f"the time step dt ({self.dt_rule})", self.dt,
-                         f"a smaller --dt-factor or {soft}",
-                         f"a larger --dt-factor or {stiff}")
-        steps = self.t_end / self.dt
-        if not math.isfinite(steps) or steps > MAX_STEPS:
-            raise SpecError(f"t_end {self.t_end:g} is {steps:.3g} time steps of {self.dt:.3g}, "
-                            f"more than LAMMPS counts exactly ({MAX_STEPS:.3g}); choose a "
-                            "shorter --t-end or a larger time step")
-
-    def _check_counts(self) -> None:
-        """What LAMMPS has to count: steps, samples, atoms."""
-        if self.n_steps < 1:
-            raise SpecError(f"t_end {self.t_end} is shorter than one time step ({self.dt:g})")
-        if self.stress_every > self.t_end:
-            raise SpecError(f"stress_every = {self.stress_every:g} is longer than the run "
-                            f"(t_end = {self.t_end:g}): the stress would not be sampled")
-        if max(self.phase_every, self.stress_every) > MAX_PHASE_EVERY * (1 + 1e-9) \
-                and not _RECORDED.get():   # a run made before the bound is still read
-            which = ("phase_every" if self.phase_every >= self.stress_every else
-                     "stress_every (the phases are sampled with the stress, at the longer of "
-                     "the two)")
-            raise SpecError(
-                f"{which.split()[0]} = {max(self.phase_every, self.stress_every):g} samples "
-                f"the contacts' phases less often than every {MAX_PHASE_EVERY:g} time units: "
-                f"the states are judged on blocks of {BLOCK_EVERY:g}, each of which must hold "
-                f"at least {BLOCK_EVERY / MAX_PHASE_EVERY:g} samples, or the verdict and the "
-                f"mean would depend on the sampling; choose {which.split()[0]} <= "
-                f"{MAX_PHASE_EVERY:g}")
-        if self.writes_snapshots and self.snapshot_every / self.dt > 2**31 - 1:
-            default = (" (the default)" if self.snapshot_every
-                       == type(self).__dataclass_fields__["snapshot_every"].default else "")
-            raise SpecError(f"snapshot_every = {self.snapshot_every:g}{default} is "
-                            f"{self.snapshot_every / self.dt:.3g} time steps of dt = {self.dt:.3g} "
-                            f"({self.dt_rule}), more than LAMMPS counts between two "
-                            "snapshots (2^31 - 1); choose a smaller --set snapshot_every, "
-                            "a scene without snapshots (--scene friction), or a smaller phi")
-        if self.n_steps > MAX_STEPS:
-            raise SpecError(f"t_end {self.t_end:g} is {self.n_steps:.3g} time steps of "
-                            f"{self.dt:.3g}, more than LAMMPS counts exactly ({MAX_STEPS:.3g});"
-                            " choose a shorter --t-end")
-        if self.N > MAX_ATOMS:
-            raise SpecError(f"a {self.Lx}x{self.Ly} lattice has {self.N:.3g} particles, more "
-                            f"than a LAMMPS run of bkflow indexes ({MAX_ATOMS:.3g}); choose a "
-                            "smaller --size")
+        validity.check(self)  # and what joins them (bkflow.model.validity)
 
     # derived quantities -------------------------------------------------------------------
     @property
@@ -558,12 +453,12 @@ class RunSpec:
         """This spec with ``changes``; a recorded run's sampling (made before its bound) stays
         readable in its companion and continuation when the changes leave it as it was."""
         keeps = not ({"phase_every", "stress_every"} & set(changes))
-        token = _RECORDED.set(True) if keeps else None
+        token = RECORDED.set(True) if keeps else None
         try:
             return dataclasses.replace(self, **changes)
         finally:
             if token is not None:
-                _RECORDED.reset(token)
+                RECORDED.reset(token)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -579,8 +474,8 @@ class RunSpec:
         unknown = set(d) - names
         if unknown:
             raise SpecError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
-        token = _RECORDED.set(True)   # a record's run is read as it was made
+        token = RECORDED.set(True)   # a record's run is read as it was made
         try:
             return cls(**d)
         finally:
-            _RECORDED.reset(token)
+            RECORDED.reset(token)

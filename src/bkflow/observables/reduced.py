@@ -295,6 +295,7 @@ def checked(records: np.ndarray, layouts, what: str, lattice: tuple | None = Non
     return records
 
 
+# complexity: one table of the model's bounds, a branch for each family of fields present
 def _bounds(r: np.ndarray, lattice: tuple | None) -> list:
     """(what, which rows break it) for each bound the model gives the fields of ``r``: counts
     never negative; a sample's phase coherence R, R2, |Z|^2 in [0, 1], Z's parts in [-1, 1],
