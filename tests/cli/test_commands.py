@@ -4,6 +4,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -234,6 +235,39 @@ def test_the_progress_bar_shows_steps_and_the_stress(capsys):
     quiet.update(5, 0.1)
     quiet.close()
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("command, shown", [
+    (["run", "--no-analyze"], "phi=10, 20x5, seed 1"),
+    (["sweep", "--seeds", "1", "--jobs", "1"], "sweep: 100%")])
+def test_a_run_on_a_terminal_without_a_width_shows_its_progress(lammps, tmp_path, command,
+                                                                shown):
+    """``bkflow run`` and ``bkflow sweep`` on a pseudo-terminal that reports no size (as
+    ``script`` and some editors' shells give) still draw their progress lines: tqdm alone
+    draws nothing there, and the run looked dead until it ended."""
+    import os
+    import pty
+    import subprocess
+
+    leader, follower = pty.openpty()  # a fresh pty: 0 rows, 0 columns
+    proc = subprocess.Popen([sys.executable, "-m", "bkflow.cli", *command, "--phi", "10",
+                             "--protocol", "paper", "--t-end", "20000", "--out",
+                             str(tmp_path / "r")], stdin=follower, stdout=follower,
+                            stderr=follower, close_fds=True)
+    os.close(follower)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(leader, 4096)
+        except OSError:  # the run ended and closed the terminal
+            break
+        if not chunk:
+            break
+        out += chunk
+    os.close(leader)
+    assert proc.wait(timeout=120) == 0, out.decode(errors="replace")
+    text = out.decode(errors="replace")
+    assert shown in text and "100%" in text, text
 
 
 def test_the_advice_of_a_capped_run_can_be_followed_to_its_end(lammps, tmp_path):

@@ -79,8 +79,8 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
         reproduce, figures, monkeypatch, tmp_path):
     """Each row one y range across N (so that a deeper curve at larger N is seen as such),
     every point inside its axes and none under the key; the paper's minimum, 40% below mu_s,
-    drawn in the mu_bar rows and a right axis in % below mu_s; each state its own marker
-    (no half-filled one) and each curve its own colour and line style."""
+    drawn in the mu_bar rows and a right axis in % below mu_s; each state its fill, as in
+    every bkflow figure, and each curve its own colour and line style."""
     monkeypatch.setattr(reproduce, "curves", lambda out: _curves())
     reproduce.protocols_figure(tmp_path, tmp_path)
     fig = figures["fig2a_protocols.png"]
@@ -112,15 +112,15 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
                 y = sec.transData.transform((0, p))[1]
                 left = parent.transData.inverted().transform((0, y))[1]
                 assert left == pytest.approx(0.2 * (1 - p / 100), rel=1e-6)
-    # the states: distinct (marker, filled) pairs, each keyed
-    styles = {(m, f) for m, f, _ in reproduce.STATE_MARKERS.values()}
-    assert len(styles) == len(reproduce.STATE_MARKERS)
+    # the states: drawn and keyed as in every bkflow figure (one convention, style.py's)
+    from bkflow.figures.style import STATE_FILL, STATE_WORDS
+
     keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     for name in ("steady", "switching", "drifting", "metastable"):
-        assert reproduce.STATE_MARKERS[name][2] in keyed, name
-    for ax in panels:
-        for ln in ax.get_lines():
-            assert ln.get_fillstyle() == "full", "a half-filled marker"
+        assert STATE_WORDS[name] in keyed, name
+    fills = {ln.get_fillstyle() for ax in panels for ln in ax.get_lines()
+             if ln.get_marker() == "o"}
+    assert fills == set(STATE_FILL.values())
     # the curves: no two alike; colours at least 0.25 apart in RGB where the line style is
     # the same (two reds that only differ in shade were the complaint)
     from matplotlib.colors import to_rgb

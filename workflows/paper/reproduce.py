@@ -44,7 +44,8 @@ import pandas as pd
 from bkflow.figures.clusters import cluster_scatter
 from bkflow.figures.data import SweepData, _point_states
 from bkflow.figures.registry import plot
-from bkflow.figures.style import STYLE, _style
+from bkflow.figures.keys import state_handles
+from bkflow.figures.style import STATE_FILL, STYLE, _style
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields
@@ -612,14 +613,6 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
-#: a point's state (bkflow.figures.data._point_states) as its marker in fig2a_protocols: shape and
-#: fill (True: filled in the curve's colour, False: white inside), read at print size and
-#: under an error bar (a half-filled marker is not); metastable a bold cross, which no filled
-#: shape resembles
-STATE_MARKERS = {"steady": ("o", True, "steady (every seed)"),
-                 "switching": ("D", True, "switching between the layer's states (some seed)"),
-                 "drifting": ("o", False, "drifting (some seed)"),
-                 "metastable": ("x", True, "metastable: remembers its start (some seed)")}
 #: the paper's claim 1: the minimum of mu_bar lies about 40% below mu_s
 PAPER_MINIMUM_BELOW_MU_S = 0.4
 
@@ -634,7 +627,8 @@ def _mu_s(tables) -> float | None:
 def protocols_figure(out: Path, figs: Path) -> Path | None:
     """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
     one curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
-    marker is its state (STATE_MARKERS). Each row shares its y range across N, so that a
+    marker's fill is its state, as in every bkflow figure (bkflow.figures.style.STATE_FILL,
+    keyed by bkflow.figures.keys.state_handles). Each row shares its y range across N, so that a
     curve's depth can be compared between sizes; the right axis reads each value as a fraction
     below mu_s (the runs' static friction coefficient), and a grey line marks the paper's
     minimum, 40% below mu_s."""
@@ -660,13 +654,13 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                 ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
                             ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
                 states = _point_states(g)
-                for name, (marker, filled, _) in STATE_MARKERS.items():
+                for name, fill in STATE_FILL.items():
                     k = states == name
                     if k.any():
                         present.add(name)
-                        ax.plot(g.phi[k], g[field][k], marker, ls="none", color=c, ms=5,
-                                mfc=c if filled else "white", mew=1.6 if marker == "x" else 0.9,
-                                zorder=3)
+                        ax.plot(g.phi[k], g[field][k], "o", ls="none", color=c, ms=5,
+                                fillstyle=fill, mfc=c if fill != "none" else "white",
+                                mfcalt="white", zorder=3)
             if mu_s is not None and field.startswith("mu_bar"):  # claim 1 is about mu_bar
                 ax.axhline((1 - PAPER_MINIMUM_BELOW_MU_S) * mu_s, color="0.55", lw=0.8,
                            ls=(0, (6, 3)), zorder=1)
@@ -696,11 +690,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                      rf"{100 * PAPER_MINIMUM_BELOW_MU_S:.0f}% below $\mu_s$"))
     ncol = 4
     keys += [(Line2D([], [], alpha=0), "")] * (-len(keys) % ncol)
-    for name, (marker, filled, words) in STATE_MARKERS.items():
-        if name in present:
-            keys.append((Line2D([], [], marker=marker, ls="none", color="0.3", ms=5,
-                                mfc="0.3" if filled else "white",
-                                mew=1.6 if marker == "x" else 0.9), words))
+    keys += list(zip(*state_handles(present)))
     handles, labels = zip(*_row_major(keys, ncol))
     fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
                fontsize=7, handlelength=2.6)

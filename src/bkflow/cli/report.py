@@ -180,7 +180,8 @@ def summary_lines(s: dict) -> list[str]:
               f"{s.get('n_slips_large')} slips"]
     by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
                    for k, v in s["mu_bar_by_threshold"].items())
-    lines.append(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}")
+    lines.append(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}"
+                 + ("; n/a: no slip dropped by that much" if "n/a" in by else ""))
     if s.get("psi_inf") is not None:
         lines.append(f"  Psi(inf) = {s['psi_inf']:.4f}")
     if s.get("n_clusters") is not None:
@@ -191,7 +192,9 @@ def summary_lines(s: dict) -> list[str]:
                         s["n_cluster_events"] else "") + ", "
                      f"<l_x/Lx> = {_g(s, 'lx_mean_over_Lx', '.3f')}, <l_y/Ly> = "
                      f"{_g(s, 'ly_mean_over_Ly', '.3f')}, <l_x>/<l_y> = "
-                     f"{_g(s, 'lx_over_ly', '.3f')}, regime {s.get('regime') or 'n/a'}")
+                     f"{_g(s, 'lx_over_ly', '.3f')}, regime {s.get('regime') or 'n/a'} "
+                     "(an extent near 1 spans its side; a whole-box slip's can exceed 1, "
+                     "by N/(N-1))")
         lines.append(f"  clusters of large slips: {s.get('n_clusters_large')}, <l_x>/<l_y> = "
                      f"{_g(s, 'lx_over_ly_large', '.3f')}, regime "
                      f"{s.get('regime_large') or 'n/a'}")
@@ -349,7 +352,9 @@ def cell_state(r) -> str:
 
 
 def results_lines(res, axes=()) -> list[str]:
-    """The table a sweep prints: one row per point, every number with its error."""
+    """The table a sweep prints: one row per point, every number with its error. Each column is
+    as wide as its widest cell, and a column no point has a value in (an observable the sweep's
+    scene does not record) is left out."""
     def pm(v, e, fmt):
         if v != v:
             return "n/a"
@@ -358,22 +363,24 @@ def results_lines(res, axes=()) -> list[str]:
     def err(r, f):
         return r.get(f"{f}_err", r.get(f"{f}_sem"))
 
-    extra = "".join(f" {k:>10}" for k in axes)
-    lines = [f"  {'phi':>8} {'size':>6}{extra} {'seeds':>5} {'state':>20}  {'mu_bar':>18}  "
-             f"{'mu_bar (large)':>18}  {'<sigma_x>/sigma_n':>18}  "
-             f"{'Psi(inf)':>16}  {'<l_x>/<l_y>':>14}  regime"]
-    for _, r in res.iterrows():
-        cells = "".join(f" {str(r[k]):>10}" for k in axes)
-        lines.append(
-            f"  {r.phi:>8g} {f'{r.Lx}x{r.Ly}':>6}{cells} {r.n_seeds:>5} "
-            f"{cell_state(r):>20}  "
-            f"{pm(r.mu_bar, err(r, 'mu_bar'), '.4f'):>18}  "
-            f"{pm(r.mu_bar_large, err(r, 'mu_bar_large'), '.4f'):>18}  "
-            f"{pm(r.mean_stress_ratio, err(r, 'mean_stress_ratio'), '.4f'):>18}  "
-            f"{pm(r.psi_inf, r.psi_inf_sem, '.3f'):>16}  "
-            f"{pm(r.lx_over_ly, r.lx_over_ly_sem, '.2f'):>14}  "
-            f"{r.regime if isinstance(r.regime, str) else 'n/a'}")
-    return lines
+    rows = list(res.iterrows())
+    columns = [("phi", [f"{r.phi:g}" for _, r in rows]),
+               ("size", [f"{r.Lx}x{r.Ly}" for _, r in rows])]
+    columns += [(k, [str(r[k]) for _, r in rows]) for k in axes]
+    columns += [("seeds", [str(r.n_seeds) for _, r in rows]),
+                ("state", [cell_state(r) for _, r in rows])]
+    optional = [
+        ("mu_bar", [pm(r.mu_bar, err(r, "mu_bar"), ".4f") for _, r in rows]),
+        ("mu_bar (large)", [pm(r.mu_bar_large, err(r, "mu_bar_large"), ".4f") for _, r in rows]),
+        ("<sigma_x>/sigma_n", [pm(r.mean_stress_ratio, err(r, "mean_stress_ratio"), ".4f")
+                               for _, r in rows]),
+        ("Psi(inf)", [pm(r.psi_inf, r.psi_inf_sem, ".3f") for _, r in rows]),
+        ("<l_x>/<l_y>", [pm(r.lx_over_ly, r.lx_over_ly_sem, ".2f") for _, r in rows]),
+        ("regime", [r.regime if isinstance(r.regime, str) else "n/a" for _, r in rows])]
+    columns += [(h, cells) for h, cells in optional if any(c != "n/a" for c in cells)]
+    widths = [max([len(h)] + [len(c) for c in cells]) for h, cells in columns]
+    return ["  " + "  ".join(f"{cell:>{w}}" for cell, w in zip(line, widths)).rstrip()
+            for line in zip(*[[h] + cells for h, cells in columns])]
 
 
 # ------------------------------------------------------------------------- figures

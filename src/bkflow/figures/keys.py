@@ -9,7 +9,14 @@ from __future__ import annotations
 import pandas as pd
 
 from bkflow.figures.data import SweepData, _errors, _point_states
-from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, REGIME_WORDS, STATE_FILL, _num
+from bkflow.figures.style import (
+    MIN_FONT,
+    REGIME_COLOURS,
+    REGIME_WORDS,
+    STATE_FILL,
+    STATE_WORDS,
+    _num,
+)
 
 
 def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
@@ -33,13 +40,10 @@ def state_handles(present=tuple(STATE_FILL)) -> tuple[list, list[str]]:
     grey markers and their words, in the convention's order."""
     from matplotlib.lines import Line2D
 
-    words = {"steady": "steady (every seed)", "drifting": "drifting (some seed)",
-             "metastable": "metastable (some seed)",
-             "switching": "switching between states (some seed)"}
     shown = [(name, fill) for name, fill in STATE_FILL.items() if name in present]
     return ([Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
                     mfc="grey" if fill != "none" else "white", mfcalt="white")
-             for _, fill in shown], [words[name] for name, _ in shown])
+             for _, fill in shown], [STATE_WORDS[name] for name, _ in shown])
 
 
 def regime_key(regimes) -> tuple[list, list[str]]:

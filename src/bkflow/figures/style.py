@@ -42,6 +42,12 @@ STYLE = {"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5, "xtick.lab
 #: curve through the marker does not hide the split), or bottom half (switching between
 #: states: the error bar covers the switching)
 STATE_FILL = {"steady": "full", "switching": "bottom", "drifting": "none", "metastable": "left"}
+#: the words of each state in a figure's key (every figure that marks states: bkflow plot's
+#: and the reproduction's, workflows/paper)
+STATE_WORDS = {"steady": "steady (every seed)",
+               "switching": "switching between states (some seed)",
+               "drifting": "drifting (some seed)",
+               "metastable": "metastable: remembers its start (some seed)"}
 
 
 def phi_colour(phi: float):

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import shutil
 import sys
 import time
 from dataclasses import dataclass
@@ -100,8 +101,15 @@ class _Progress:
         if enabled:
             from tqdm.auto import tqdm
 
+            # the line fits in 80 columns with a label of 30 (the stress is what one watches);
+            # a terminal that reports no size (a bare pty) gets 80x24: tqdm would draw nothing
+            # in 0 rows, and the run would show no sign of life until it ends
             self.bar = tqdm(total=total, desc=label, unit="step", unit_scale=True,
-                            file=sys.stderr, smoothing=0.1, mininterval=0.5)
+                            file=sys.stderr, smoothing=0.1, mininterval=0.5,
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                                       "[{elapsed}<{remaining}{postfix}]",
+                            ncols=shutil.get_terminal_size().columns,
+                            nrows=shutil.get_terminal_size().lines)
 
     def update(self, step: int, sigma_x: float) -> None:
         if self.bar is not None:

@@ -79,7 +79,8 @@ class _SweepBar:
 
             self.bar = tqdm(total=total, initial=done_before, unit="run", desc="sweep",
                             file=self.stream, smoothing=0.1,
-                            ncols=min(100, shutil.get_terminal_size().columns))
+                            ncols=min(100, shutil.get_terminal_size().columns),
+                            nrows=shutil.get_terminal_size().lines)  # 24 on a bare pty
         self.thread = threading.Thread(target=self._poll, daemon=True)
 
     def _check(self):
