@@ -43,8 +43,8 @@ import pandas as pd
 
 from bkflow.figures.clusters import cluster_scatter
 from bkflow.figures.data import SweepData, _point_states
-from bkflow.figures.registry import plot
 from bkflow.figures.keys import state_handles
+from bkflow.figures.registry import plot
 from bkflow.figures.style import STATE_FILL, STYLE, _style
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
