@@ -50,6 +50,7 @@ from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields
 from bkflow.model.settings import AnalysisSettings
+from bkflow.observables.states import SWITCHING
 from bkflow.store import formats
 from bkflow.store.rundir import sweep_run_dir
 from bkflow.store.tables import SETTINGS_FILE, read_tables, settings_in
@@ -169,22 +170,6 @@ def curves(out: Path) -> dict:
     return found
 
 
-def minimum(g: pd.DataFrame, field: str) -> dict:
-    """Where ``field`` of one curve (one N, sorted by phi) is lowest, and whether that
-    minimum is an interior one below both ends by more than two combined errors."""
-    g = g.sort_values("phi").reset_index(drop=True)
-    y, e = g[field].to_numpy(float), g[f"{field}_sem"].to_numpy(float)
-    e = np.where(np.isfinite(e), e, 0.0)
-    i = int(np.nanargmin(y))
-    below = [(y[k] - y[i]) / math.hypot(e[k], e[i]) if math.hypot(e[k], e[i]) > 0 else math.inf
-             for k in (0, len(y) - 1)]
-    return {"phi": g.phi[i], "min": y[i], "sem": e[i], "lo": y[0], "lo_sem": e[0],
-            "hi": y[-1], "hi_sem": e[-1], "z_lo": below[0], "z_hi": below[1],
-            "interior": 0 < i < len(y) - 1,
-            "non_monotonic": 0 < i < len(y) - 1 and min(below) > 2,
-            "depth": max(y[0], y[-1]) - y[i]}
-
-
 NOTHING = "nothing new to run or analyse"
 
 
@@ -195,19 +180,20 @@ def numbers(out: Path, wall: dict) -> str:
              "Errors are standard errors over seeds. `state` is a point's: steady when every "
              "seed's run was steady over its analysed window, metastable when one was (a flat "
              "stress that still remembers its start, or a pair whose two starts disagree), "
-             "drifting otherwise (docs/model.md \"Steady state\"); the counts are "
-             "steady/drifting/metastable runs.",
+             "drifting otherwise, or the states a switching layer visited (docs/model.md "
+             "\"Steady state\"); the counts are steady/switching/drifting/metastable runs.",
              "This invocation: " + (", ".join(f"{k} {v}" for k, v in wall.items()) + " wall"
                                     if wall else NOTHING)
              + " (runs finished earlier are not redone; REPRODUCTION.md gives each "
              "protocol's time from scratch).", "",
              "## The runs", "",
-             "| curve | runs | steady | drifting | metastable | t_run (min - max) | "
-             "LAMMPS core-seconds |",
-             "|---|---|---|---|---|---|---|"]
+             "| curve | runs | steady | switching between states | drifting | metastable | "
+             "t_run (min - max) | LAMMPS core-seconds |",
+             "|---|---|---|---|---|---|---|---|"]
     for label, (runs, _) in cs.items():
         n = runs.state.value_counts()
         lines.append(f"| {label} | {len(runs)} | {n.get('steady', 0)} | "
+                     f"{sum(n.get(k, 0) for k in SWITCHING)} | "
                      f"{n.get('drifting', 0)} | {n.get('metastable', 0)} | "
                      f"{runs.t_run.min():.0f} - {runs.t_run.max():.0f} | "
                      f"{runs.wall_time_s.sum():.0f} |")
@@ -215,29 +201,34 @@ def numbers(out: Path, wall: dict) -> str:
     for field, title, _ in OBSERVABLES:
         lines += ["", f"## {title}: minimum against the ends", "",
                   "non-monotonic = the lowest point is interior and below both ends by more "
-                  "than 2 combined standard errors (z_lo, z_hi).", "",
+                  "than the critical value, Student's t with the seeds' degrees of freedom, "
+                  "corrected for the interior phi it was picked from (claims.py's test).", "",
                   "| curve | N | phi at min | min | 1 - min/mu_s | lowest phi | highest phi | z_lo "
-                  "| z_hi | non-monotonic |", "|---|---|---|---|---|---|---|---|---|---|"]
+                  "| z_hi | critical | non-monotonic |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
         for label, (_, res) in cs.items():
             for n, g in res.groupby("N"):
                 if field not in g or g[field].isna().all():
                     continue
-                m = minimum(g, field)
+                g = g.sort_values("phi")
+                m = claims.minimum(g.phi, g[field], g[f"{field}_sem"], int(g.n_seeds.min()))
+                e = g[f"{field}_sem"].to_numpy(float)
                 mu_s = float(g.mu_s.iloc[0])
                 lines.append(f"| {label} | {n} | {m['phi']:g} | {_pm(m['min'], m['sem'])} | "
-                             f"{1 - m['min'] / mu_s:.3f} | {_pm(m['lo'], m['lo_sem'])} | "
-                             f"{_pm(m['hi'], m['hi_sem'])} | {m['z_lo']:.1f} | "
-                             f"{m['z_hi']:.1f} | {'yes' if m['non_monotonic'] else 'no'} |")
+                             f"{1 - m['min'] / mu_s:.3f} | {_pm(m['lo'], e[0])} | "
+                             f"{_pm(m['hi'], e[-1])} | {claims._num(m['z_lo'], '.1f')} | "
+                             f"{claims._num(m['z_hi'], '.1f')} | {m['critical']:.2f} | "
+                             f"{'yes' if m['non_monotonic'] else 'no'} |")
 
     lines += ["", "## Per phi: every curve", "",
-              "| curve | N | phi | state (s/d/m) | t_run | mu_bar | mu_bar (large) | "
+              "| curve | N | phi | state (s/w/d/m) | t_run | mu_bar | mu_bar (large) | "
               "<sigma_x>/sigma_n | Psi(inf) | <l_x>/<l_y> | <l_x>/<l_y> (large) | regime | "
               "t_equil |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for label, (_, res) in cs.items():
         for _, r in res.sort_values(["N", "phi"]).iterrows():
             lines.append(
-                f"| {label} | {r.N} | {r.phi:g} | {r.state} ({r.n_steady}/{r.n_drifting}/"
-                f"{r.n_metastable}) | "
+                f"| {label} | {r.N} | {r.phi:g} | {r.state} ({r.n_steady}/"
+                f"{r.get('n_switching', 0)}/{r.n_drifting}/{r.n_metastable}) | "
                 f"{r.t_run:.0f} | {_pm(r.mu_bar, r.mu_bar_sem)} | "
                 f"{_pm(r.mu_bar_large, r.mu_bar_large_sem)} | "
                 f"{_pm(r.mean_stress_ratio, r.mean_stress_ratio_sem)} | "
