@@ -904,7 +904,8 @@ def layout() -> str:
 
 BLOCKS["layout"] = layout
 BLOCKS.update({name: claims_block(name) for name in (
-    "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other")})
+    "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other",
+    "claims-scheme")})
 
 
 def render(text: str) -> str:

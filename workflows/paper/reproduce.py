@@ -67,6 +67,11 @@ PHI = "1e-1:1e3"
 ASPECT_SIZES = [(20, 5), (10, 10), (5, 20), (40, 10), (20, 20), (10, 40)]
 #: the paper's protocol: the synchronized start run for a finite length, at three lengths
 PAPER_LENGTHS = (1000.0, 4000.0, 16000.0)
+#: the paper's literal integrator (docs/model.md "Integration"): the damping with the half-step
+#: velocity and a broken contact re-formed at the step's end, first order in dt; run under the
+#: paper's protocol at its longest length, at the same time step as the other curves, so that
+#: the two schemes differ only in their step's bias
+FIRST_ORDER = {"damping": "half", "contact_rule": "reset/step"}
 #: the steady protocol as the main command runs it (bkflow sweep's default cap: the stiff
 #: layers' pairs that have not agreed by then end metastable, with the bracket of their two
 #: starts); at N = 100 these are the very runs of the README's `bkflow sweep --phi 1e-1:1e3`
@@ -89,6 +94,8 @@ def protocols(seeds: int, dt_factor: float,
     return {
         "paper": [s for t_end in PAPER_LENGTHS for s in
                   sweep_specs(grid, grid_sizes, seeds, **{**paper, "t_end": t_end})],
+        "paper_first_order": sweep_specs(grid, grid_sizes, seeds,
+                                         **{**paper, "t_end": PAPER_LENGTHS[-1], **FIRST_ORDER}),
         "steady": sweep_specs(grid, grid_sizes, seeds, **{**steady, "t_end": STEADY_CAP}),
         "steady_3600": sweep_specs(phi_values(LARGE_PHI), [LARGE_SIZE], min(seeds, 2),
                                    **{**steady, "t_end": LARGE_CAP}),
@@ -137,6 +144,7 @@ CURVES = {
     "paper, t_end = 1000": ("paper", {"t_end": 1000.0}),
     "paper, t_end = 4000": ("paper", {"t_end": 4000.0}),
     "paper, t_end = 16000": ("paper", {"t_end": 16000.0}),
+    "paper, first-order scheme, t_end = 16000": ("paper_first_order", {}),
     "steady protocol": ("steady", {}),
     "steady protocol, N = 3600": ("steady_3600", {}),
     "synchronized start until steady": ("sync_steady", {}),
@@ -597,10 +605,12 @@ def matplotlib_lognorm(lo: float, hi: float):
 #: the curves' colours in fig2a_protocols (Okabe and Ito's colour-blind-safe palette: the
 #: paper's run lengths orange, vermillion, reddish purple; the steady protocol blue and sky
 #: blue; the synchronized start until steady bluish green) and line styles (the paper's run
-#: lengths dotted, dashed, dash-dotted: told apart without colour too)
+#: lengths dotted, dashed, dash-dotted: told apart without colour too; the paper's first-order
+#: scheme black, dash-dot-dotted)
 CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "paper, t_end = 4000": ("#D55E00", "--"),
                "paper, t_end = 16000": ("#CC79A7", "-."),
+               "paper, first-order scheme, t_end = 16000": ("#000000", (0, (3, 1, 1, 1, 1, 1))),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
