@@ -377,8 +377,8 @@ def slip_threshold(lx: int, ly: int) -> float:
 
 def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
     """Every slip cluster after the transient of one curve's runs (RunDir.read_clusters), with
-    the run's phi, Lx, Ly, N and seed, and its shape: `row` (spans x, not y), `transverse`
-    (spans y, not x), `whole` (both) or `patch` (neither)."""
+    the run's phi, Lx, Ly, N and seed, and its shape: claims.py's class (its regime from its
+    extents, as claims 4, 5 and 6 count it; C and W one class, "whole")."""
     name, where = CURVES[label]
     t = _tables(out, name, where)
     if t is None:
@@ -394,9 +394,9 @@ def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
     if not parts:
         return None
     c = pd.concat(parts, ignore_index=True)
-    sx, sy = c.n_x == c.Lx, c.n_y == c.Ly
-    c["shape"] = np.select([sx & ~sy, sy & ~sx, sx & sy], ["row", "transverse", "whole"],
-                           "patch")
+    c["shape"] = ""
+    for (lx, ly), k in c.groupby(["Lx", "Ly"]).groups.items():
+        c.loc[k, "shape"] = claims.shape_class(c.l_x[k], c.l_y[k], int(lx), int(ly))
     return c
 
 
@@ -429,8 +429,7 @@ def energy_argument(out: Path) -> dict:
             for phi, h in g.groupby("phi"):
                 e = h[h.eq2_estimate > 0]
                 per.append({"phi": phi, "clusters": len(h),
-                            **{k: float((h["shape"] == k).mean())
-                               for k in ("row", "transverse", "whole", "patch")},
+                            **{k: float((h["shape"] == k).mean()) for k in claims.SHAPES},
                             "slip_median": float(h.slip.median()),
                             "with_perimeter": len(e),
                             "ratio_median": float((e.bond_change / e.eq2_estimate).median())
@@ -450,7 +449,7 @@ def energy_argument(out: Path) -> dict:
                 (math.nan, math.nan),
                 "negative": float((e.bond_change < 0).mean()) if len(e) else math.nan,
                 "delta_star": slip_threshold(lx, ly),
-                "crossover_observed": _log_crossing(per.phi, per.row, per.transverse),
+                "crossover_observed": _log_crossing(per.phi, per.LC, per.DT),
                 "crossover_argument": _log_crossing(per.phi, slip_threshold(lx, ly),
                                                     per.slip_median),
                 "clusters_table": g}
@@ -463,8 +462,9 @@ def energy_numbers(found: dict) -> list[str]:
              "the bonds touching the cluster at the slip's minimum minus at its maximum, against "
              "Eq. 2 from the cluster's columns n_x, rows n_y and mean slip delta (clusters "
              "spanning both axes have no perimeter: Eq. 2 = 0, left out of the ratio). Shapes: "
-             "row (spans x only), transverse (spans y only), whole, patch. Crossovers: the phi "
-             "(log-interpolated) below which transverse clusters outnumber row clusters "
+             "the clusters' regimes (claims 4 and 6 count them alike): whole (C or W), LC "
+             "(spans x, not y), DP and DT (x not spanned; f_x >= f_y, f_x < f_y). Crossovers: "
+             "the phi (log-interpolated) below which DT clusters outnumber LC clusters "
              "(observed) and below which the clusters' median slip exceeds delta*, where Eq. 2 "
              "makes one transverse column cheaper than one row (the argument).", "",
              "| curve | N | clusters | with a perimeter | bond change / Eq. 2 (median, IQR) | "
@@ -483,18 +483,18 @@ def energy_numbers(found: dict) -> list[str]:
         if n != 100:
             continue
         lines += ["", f"{label}, N = 100: per phi", "",
-                  "| phi | clusters | row | transverse | whole | patch | median slip | "
+                  "| phi | clusters | whole | LC | DP | DT | median slip | "
                   "bond change / Eq. 2 |", "|---|---|---|---|---|---|---|---|"]
         for r in f["per_phi"].itertuples():
-            lines.append(f"| {r.phi:g} | {r.clusters} | {r.row:.2f} | {r.transverse:.2f} | "
-                         f"{r.whole:.2f} | {r.patch:.2f} | {r.slip_median:.3g} | "
+            lines.append(f"| {r.phi:g} | {r.clusters} | {r.whole:.2f} | {r.LC:.2f} | "
+                         f"{r.DP:.2f} | {r.DT:.2f} | {r.slip_median:.3g} | "
                          f"{r.ratio_median:.3g} |")
     return lines
 
 
 #: the energy figure's shapes: colour (Okabe and Ito's palette), marker and words
-SHAPE_STYLE = {"row": ("#0072B2", "o", "row (spans x, not y)"),
-               "transverse": ("#D55E00", "s", "transverse (spans y, not x)")}
+SHAPE_STYLE = {"LC": ("#0072B2", "o", "LC (spans x, not y)"),
+               "DT": ("#D55E00", "s", r"DT (x not spanned, $f_x < f_y$)")}
 #: the energy figure's curves: line style
 ENERGY_LINES = {"steady protocol": "-", "paper, t_end = 16000": ":"}
 
@@ -511,11 +511,11 @@ def _log_limits(*arrays) -> tuple[float, float]:
 def energy_figure(found: dict, figs: Path) -> Path | None:
     """Claim 6: (a) each cluster's bond energy change against Eq. 2, coloured by phi, every
     cluster with a perimeter: those whose bond energy rose above, those whose bond energy fell
-    below (their |change|, on an axis that runs downward), so that none is left off a log
-    axis; what has no place on either (no perimeter: Eq. 2 = 0; no change) is counted in the
-    figure. (b) the share of row and transverse clusters against phi at N = 100 under both
-    protocols; (c) their median slip over delta*, the slip above which Eq. 2 makes a
-    transverse slip cheaper than a row (the argument's crossover at 1)."""
+    below (the size of the fall, on the same log axes), so that none is left off a log axis;
+    what has no place on either (no perimeter: Eq. 2 = 0; no change) is counted in the
+    figure. (b) the share of LC and DT clusters (claims 4 and 6's classes) against phi at
+    N = 100 under both protocols; (c) their median slip over delta*, the slip above which
+    Eq. 2 makes a transverse slip cheaper than a row (the argument's crossover at 1)."""
     if not found:
         return None
     plt = _style()
@@ -540,7 +540,6 @@ def energy_figure(found: dict, figs: Path) -> Path | None:
         ax.set_yscale("log")
         ax.set_xlim(*lim)
         ax.set_ylim(*lim)
-    down.invert_yaxis()   # the energy fell: its size grows downward, away from the rise above
     up.tick_params(labelbottom=False)
     up.set_ylabel(r"bond energy rose by ($k_d l^2$)")
     down.set_ylabel(r"bond energy fell by ($k_d l^2$)")
@@ -548,15 +547,15 @@ def energy_figure(found: dict, figs: Path) -> Path | None:
     per = 100 / max(len(e), 1)
     up.set_title(f"(a) the bond energy rose: {len(rose)} clusters, {per * len(rose):.0f}% of "
                  f"the {len(e)}\nwith a perimeter; dashed: measured = Eq. 2", fontsize=7.5)
-    down.set_title(f"the bond energy fell: {len(fell)} clusters ({per * len(fell):.0f}%); "
-                   "Eq. 2 only adds", fontsize=7.5)
+    down.set_title(f"the bond energy fell: {len(fell)} clusters ({per * len(fell):.0f}%), "
+                   "where Eq. 2 only adds", fontsize=7.5)
     left = len(g) - len(e)
     # inside the axes, below the points: what no log axis can hold, and why
-    down.text(0.02, 0.02, f"not drawn: {left} of all {len(g)} clusters "
+    down.text(0.02, 0.98, f"not drawn: {left} of all {len(g)} clusters "
               f"({100 * left / max(len(g), 1):.0f}%),\nwhich span both axes: no perimeter, "
               "Eq. 2 = 0" + (f"; {n_zero} changed by exactly 0" if n_zero else "")
               + "\n(both protocols' clusters, every N)", transform=down.transAxes,
-              fontsize=6.5, va="bottom", ha="left")
+              fontsize=7, va="top", ha="left")
     cb = fig.colorbar(sc, ax=[up, down], aspect=60, fraction=0.05, pad=0.01)
     cb.set_label(r"$\phi$")
     for (label, n), f in found.items():
@@ -570,14 +569,15 @@ def energy_figure(found: dict, figs: Path) -> Path | None:
                   color="0.25", lw=1.0)
     slip.axhline(1.0, color="0.5", lw=0.8, ls="--")
     slip.text(0.98, 0.95, "above 1, Eq. 2 makes a transverse slip cheaper than a row",
-              transform=slip.transAxes, ha="right", va="top", fontsize=6.5, color="0.3")
+              transform=slip.transAxes, ha="right", va="top", fontsize=7, color="0.3")
     share.set_xscale("log")
     slip.set_yscale("log")
     share.tick_params(labelbottom=False)
     slip.set_xlabel(r"$\phi$")
     share.set_ylabel("share of the clusters")
     slip.set_ylabel(r"median slip / $\delta^*$")
-    share.set_title("(b) N = 100 (20x5): the clusters' shapes", fontsize=7.5)
+    share.set_title("(b) N = 100 (20x5): the clusters' regimes (as claims 4 and 6 count them)",
+                    fontsize=7.5)
     slip.set_title(r"(c) N = 100: the clusters' median slip over $\delta^*$ (Eq. 2's "
                    "crossover)", fontsize=7.5)
     slip.set_ylim(top=max(2.0, slip.get_ylim()[1]))
