@@ -859,78 +859,126 @@ def figures(out: Path, figs: Path) -> list[Path]:
 
 def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
     """The cluster scatter of each lattice of the aspect check (ASPECT_SIZES, N = 100 in the
-    top row, N = 400 below; at phi = 0.1 and 2.15, where DT clusters are most common), and
-    the share of DT clusters against phi (aspect_share_figure)."""
+    top row, N = 400 below; at phi = 0.1 and 2.15, where DT clusters are most common), on
+    one pair of axes for every panel, one key for the figure, each panel's counts and regime
+    shares under its title and the regions' names where the fewest clusters lie; and the share
+    of DT clusters against phi (aspect_share_figure)."""
     plt = _style()
     data = SweepData(aspect_dir)
     rows = (len(ASPECT_SIZES) + 2) // 3   # N = 100 above, N = 400 below
-    fig, axes = plt.subplots(rows, 3, figsize=(9.0, 4.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, 3, figsize=(9.0, 3.5 * rows + 0.9), squeeze=False)
+    handles = None
+    drawn = []
     for ax, (lx, ly) in zip(axes.flat, ASPECT_SIZES):
         if cluster_scatter(data, plt, lx, ly, [2.15443, 0.1],
                            f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})", ax=ax) is None:
             ax.set_title(f"N = {lx * ly}: {lx}x{ly}: no clusters", fontsize=9)
             continue
-        # short axis labels (the suptitle says what l^box is) and the key below each panel
-        # no wider than it, so that six panels keep their width
+        leg = ax.get_legend()
+        texts = [t.get_text() for t in leg.get_texts()]
+        if handles is None:   # the same phi and guides on every panel: one key for all
+            handles = list(leg.legend_handles)
+            labels = [t.split(":")[0] if t.startswith(r"$\phi$") else t for t in texts]
+        leg.remove()
+        shares = [t.replace(" clusters\n(", " clusters: ").replace(" clusters (", ": ")
+                  .rstrip(")") for t in texts if t.startswith(r"$\phi$")]
+        ax.set_title(f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})\n" + "\n".join(shares),
+                     fontsize=7)
         ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$")
         ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$" if ax in axes[:, 0] else "")
-        _narrow_key(ax)
+        drawn.append(ax)
     for ax in axes.flat[len(ASPECT_SIZES):]:
         ax.set_visible(False)
+    _shared_cluster_axes(drawn)
+    if handles is not None:
+        fig.legend(handles, labels, loc="outside lower center", ncol=len(handles),
+                   frameon=False, fontsize=7.5)
     fig.suptitle(r"Aspect-ratio check: every cluster at $\phi$ = 0.1 and 2.15 (the paper's "
-                 "protocol, t_end = 8000)\n"
-                 r"$l_x^{\mathrm{box}}$, $l_y^{\mathrm{box}}$: the extent of a slip of the whole "
-                 "box along x and across (bkflow.observables.clusters.box_fractions)", fontsize=8.5)
+                 "protocol, t_end = 8000), with its regime shares.\n"
+                 r"$l^{\mathrm{box}}$: the extent of a slip of the whole box on that side; a "
+                 "cluster's mean distance between its particles can exceed it, so values pass 1",
+                 fontsize=8)
     return [_write(fig, out / "aspect_clusters.png"), aspect_share_figure(aspect_dir, out)]
 
 
-def _narrow_key(ax) -> None:
-    """The key of a panel, placed below it, with each phi's regime shares on a line of its
-    own ("phi = 0.1: 5363 clusters" over "(W 13%, DP 13%, DT 74%)"): the same entries, half
-    as wide."""
-    leg = ax.get_legend()
-    if leg is None:
+def _shared_cluster_axes(axes) -> None:
+    """One range for every panel of the cluster scatter (every point inside it), and the
+    regions' names (grey text that cluster_scatter placed) moved, each inside its region, to
+    where the fewest of the panel's points lie: a name never sits on the data."""
+    if not axes:
         return
-    labels = [t.get_text() for t in leg.get_texts()]
-    labels = [lab.replace(" (", "\n(", 1) if lab.startswith(r"$\phi$") else lab
-              for lab in labels]
-    ax.legend(leg.legend_handles, labels, frameon=False, fontsize=6.5, loc="upper center",
-              bbox_to_anchor=(0.5, -0.2), ncol=1, title=leg.get_title().get_text(),
-              title_fontsize=6.5)
+    pts = {ax: np.concatenate([np.asarray(ln.get_xydata(), float) for ln in ax.get_lines()
+                               if ln.get_marker() == "o" and len(ln.get_xdata()) > 0]
+                              or [np.empty((0, 2))]) for ax in axes}
+    top = max([1.1] + [float(np.nanmax(p)) * 1.03 for p in pts.values() if len(p)])
+    span = 0.9
+    regions = {"C / W": ((span, top), (span, top)), "LC": ((span, top), (0, span)),
+               "DP": ((0, span), (0, span), "below"), "DT": ((0, span), (0, span), "above")}
+    for ax in axes:
+        ax.set_xlim(-0.03, top)
+        ax.set_ylim(-0.03, top)
+        for ln in ax.get_lines():   # the DP / DT bound (the diagonal) across the whole range
+            if ln.get_linestyle() == "--" and len(ln.get_xdata()) == 2:
+                ln.set_data([0, top], [0, top])
+        p = pts[ax]
+        p = p[np.all(np.isfinite(p), axis=1)]
+        for t in list(ax.texts):
+            name = t.get_text()
+            if name not in regions:
+                continue
+            (x0, x1), (y0, y1), *side = regions[name]
+            gx, gy = np.meshgrid(np.linspace(x0 + 0.06 * top, x1 - 0.06 * top, 12),
+                                 np.linspace(y0 + 0.04 * top, y1 - 0.04 * top, 12))
+            cand = np.column_stack([gx.ravel(), gy.ravel()])
+            if side:   # DP below the diagonal, DT above it (with a margin for the letters)
+                keep = cand[:, 1] < cand[:, 0] - 0.08 * top if side[0] == "below" \
+                    else cand[:, 1] > cand[:, 0] + 0.08 * top
+                cand = cand[keep]
+            if not len(cand):
+                continue
+            d = np.hypot(p[None, :, 0] - cand[:, None, 0], p[None, :, 1] - cand[:, None, 1]) \
+                if len(p) else np.full((len(cand), 1), np.inf)
+            best = cand[int(np.argmin((d < 0.07 * top).sum(axis=1)))]
+            t.set_position(tuple(best))
 
 
-#: the aspect ratios' colours (Okabe and Ito's palette) and markers, one per Lx/Ly
-ASPECT_STYLE = {4.0: ("#0072B2", "o"), 1.0: ("#E69F00", "s"), 0.25: ("#009E73", "D")}
+#: the aspect ratios' colours (Okabe and Ito's palette), one per Lx/Ly
+ASPECT_COLOURS = {4.0: "#0072B2", 1.0: "#E69F00", 0.25: "#009E73"}
+#: the sizes' line styles and markers (all filled: an open marker means a drifting point in
+#: bkflow's other figures)
+SIZE_STYLE = {100: ("-", "o"), 400: ("--", "^")}
 
 
 def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
-    """The share of DT clusters against phi on each lattice of the aspect check: the colour
-    and the marker are the aspect ratio Lx/Ly, the line and the fill the size (N = 100
-    solid and filled, N = 400 dashed and open)."""
+    """The share of DT clusters against phi on each lattice of the aspect check, with its
+    standard error over seeds (each seed's share of its clusters): the colour is the aspect
+    ratio Lx/Ly, the line style and the marker the size (N = 100 solid circles, N = 400
+    dashed triangles)."""
     plt = _style()
     a, _ = read_tables(aspect_dir)
-    fig, ax = plt.subplots(figsize=(4.2, 3.6))
-    sizes = sorted({lx * ly for lx, ly in ASPECT_SIZES})
+    fig, ax = plt.subplots(figsize=(4.2, 3.8))
     for lx, ly in ASPECT_SIZES:
         s = a[(a.Lx == lx) & (a.Ly == ly)]
-        rows = [(phi, cluster_share(g, "DT")) for phi, g in s.groupby("phi")]
+        rows = []
+        for phi, g in s.groupby("phi"):
+            per_seed = [cluster_share(h, "DT") for _, h in g.groupby("seed")]
+            rows.append((phi, cluster_share(g, "DT"), claims._sem(per_seed)))
         if not rows:
             continue
-        x, y = zip(*rows)
-        c, m = ASPECT_STYLE.get(lx / ly, ("0.4", "^"))
-        first = lx * ly == sizes[0]
-        ax.plot(x, y, marker=m, lw=1.0, color=c, ls="-" if first else "--",
-                mfc=c if first else "white", ms=4.5, mew=1.0,
-                label=f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})")
+        x, y, e = (np.asarray(v, float) for v in zip(*rows))
+        ls, m = SIZE_STYLE.get(lx * ly, (":", "s"))
+        c = ASPECT_COLOURS.get(lx / ly, "0.4")
+        ax.errorbar(x, y, yerr=np.nan_to_num(e), marker=m, lw=1.0, color=c, ls=ls, ms=4.5,
+                    capsize=2, label=f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})")
     ax.set_xscale("log")
     ax.set_ylim(bottom=-0.02)
     ax.set_xlabel(r"$\phi$")
     ax.set_ylabel("share of DT clusters")
     ax.set_title("Aspect-ratio check: DT clusters (parity-free rule),\nthe paper's "
-                 "protocol, t_end = 8000", fontsize=8)
+                 "protocol, t_end = 8000; error bars: standard error over seeds", fontsize=8)
     # below the axes, N = 100 in the first column, N = 400 in the second: it covers no point
     fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=2,
-               frameon=False, fontsize=6.5)
+               frameon=False, fontsize=7)
     return _write(fig, out / "aspect_dt_share.png")
 
 
