@@ -25,7 +25,7 @@ from bkflow.figures.data import SweepData
 from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
 from bkflow.figures.registry import FIGURES, figure
 from bkflow.figures.style import Figures, PlotError, _num, style
-from bkflow.model.params import RunSpec
+from bkflow.model.params import RunSpec, transient_step
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.formats import shell_word
@@ -139,10 +139,20 @@ class Run:
 
     @functools.cached_property
     def fronts(self):
-        """The rupture fronts the run recorded (scenes fronts, full): a list of
-        ``bkflow.store.formats.Front``, one per slip, in the order of the slips (read once: the
-        file of a long run holds hundreds of megabytes)."""
-        return self._rd.read_fronts()
+        """The rupture fronts the run recorded (scenes fronts, full) of the slips after the
+        run's transient: a list of ``bkflow.store.formats.Front``, one per slip, in the order
+        of the slips (read once: the file of a long run holds hundreds of megabytes). An
+        adaptive run records from the transient of its shortest length (its end is not known
+        in advance); the slips before the transient of the length it ran are left out, so
+        that slip 0 is the first after the transient for every run."""
+        try:  # the analysis' transient (its settings may move it) where it is current
+            s = self.summary
+        except DamagedRunError:
+            s = None
+        t0 = s.get("t_transient") if s else None
+        if t0 is None:
+            t0 = transient_step(self.spec.transient, self.spec.n_steps) * self.spec.dt
+        return [f for f in self._rd.read_fronts() if f.step_max * self.spec.dt >= t0]
 
     def _front(self, slip: int):
         fronts = self.fronts

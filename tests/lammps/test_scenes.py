@@ -258,6 +258,30 @@ def test_fronts_are_the_slip_rate_of_every_particle_through_each_slip(lammps, tm
             np.testing.assert_array_equal(f.vx[k], vel[int(step)].astype(np.float32))
 
 
+def test_an_adaptive_runs_fronts_start_after_the_transient_of_the_length_it_ran(lammps,
+                                                                               tmp_path):
+    """An adaptive run records fronts from the transient of its shortest length (its end is
+    not known in advance); Run.fronts, and so bkflow movie's --slip 0, start after the
+    transient of the length it ran, as its help says."""
+    import bkflow
+    from bkflow.model.protocols import protocol_fields
+
+    spec = RunSpec(phi=30.0, Lx=12, Ly=4, scene="fronts", seed=2,
+                   **{**protocol_fields("steady", t_end=3000.0), "target_error": 1e-7})
+    from bkflow.analysis.summary import analyze
+
+    run(spec, tmp_path / "r", progress=False)
+    analyze(tmp_path / "r")
+    r = bkflow.load_run(tmp_path / "r")
+    t0 = r.summary["t_transient"]
+    raw = RunDir(tmp_path / "r").read_fronts()
+    assert t0 > spec.slips_start_step * spec.dt
+    early = [f for f in raw if f.step_max * spec.dt < t0]
+    assert early and len(r.fronts) == len(raw) - len(early) > 0
+    assert all(f.step_max * spec.dt >= t0 for f in r.fronts)
+    assert r.fronts[0].step_max == raw[len(early)].step_max
+
+
 def deck_line(spec):
     from bkflow.lammps.deck import deck_text
 
@@ -280,7 +304,7 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
     gif = tmp_path / "r" / "movie_slip2.gif"
     with Image.open(gif) as im:
         assert im.n_frames == len(fronts[2].steps) > 3
-        cell = max(2, min(24, -(-480 // spec.Lx)))  # pixels per particle: ~480 px across
+        cell = max(2, min(24, -(-840 // spec.Lx)))  # pixels per particle: ~840 px across
         # the layer inside a frame with axes, colour bar and title around it
         assert im.size[0] > cell * spec.Lx and im.size[1] > cell * spec.Ly + 100
     # both pictures say which run this is: its start and protocol under the slip's times

@@ -82,8 +82,9 @@ def _rate_scale(front) -> float:
 
 
 def _cell(lx: int) -> int:
-    """Pixels per particle in the movie: at least ~480 pixels across, at most 24 per particle."""
-    return max(2, min(24, -(-480 // lx)))
+    """Pixels per particle in the movie: at least ~840 pixels across (a frame read at a
+    page's width), at most 24 per particle."""
+    return max(2, min(24, -(-840 // lx)))
 
 
 #: the frame's margins around the layer, in pixels (at 100 dpi): the title's lines and the
