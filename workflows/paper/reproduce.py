@@ -982,22 +982,25 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     return _write(fig, out / "aspect_dt_share.png")
 
 
-def claim_record(out: Path) -> dict:
-    """The claims' record (claims.py) of the sweeps under ``out``."""
+def claim_record(out: Path, prov: dict | None = None) -> dict:
+    """The claims' record (claims.py) of the sweeps under ``out``; ``prov``: the provenance
+    taken before this script wrote anything (its own figures and records would make the tree
+    dirty), else now."""
     from bkflow.store.provenance import record as provenance
 
     cs = curves(out)
     aspect = _tables(out, "aspect")
     return claims.record(cs, {label: out / CURVES[label][0] for label in cs},
                          (aspect[0], out / "aspect") if aspect is not None else None,
-                         ASPECT_SIZES, provenance())
+                         ASPECT_SIZES, prov if prov is not None else provenance())
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--out", default="runs/paper", help="where the runs go (default runs/paper)")
     p.add_argument("--jobs", type=int, default=available_cores())
-    p.add_argument("--seeds", type=int, default=3)
+    p.add_argument("--seeds", type=int, default=10,
+                   help="seeds per point (default 10, the seeds the claims are decided on)")
     p.add_argument("--dt-factor", type=float, default=RunSpec.dt_factor)
     p.add_argument("--sizes", default="100,400,900",
                    help="the N of the paper's grid to run, of 100, 400, 900 (default: all)")
@@ -1010,6 +1013,9 @@ def main(argv=None) -> int:
                    help="the record of the claims' tests, which REPRODUCTION.md's generated "
                         "blocks show (default: beside it)")
     a = p.parse_args(argv)
+    from bkflow.store.provenance import record as provenance
+
+    prov = provenance()   # the tree as it was asked to run: before this writes its outputs
     out, figs = Path(a.out), Path(a.figures)
     figs.mkdir(parents=True, exist_ok=True)
     try:
@@ -1036,7 +1042,7 @@ def main(argv=None) -> int:
     for pth in written:
         print(f"wrote {pth}")
     # the record as the documents read it back (JSON's order and types), rendered from that
-    rec = json.loads(json.dumps(claim_record(out)))
+    rec = json.loads(json.dumps(claim_record(out, prov)))
     with formats.atomic_file(Path(a.claims)) as f:
         f.write(json.dumps(rec, indent=1) + "\n")
     print(f"wrote {a.claims}")
