@@ -905,7 +905,33 @@ def layout() -> str:
 BLOCKS["layout"] = layout
 BLOCKS.update({name: claims_block(name) for name in (
     "claims-verdicts", "claims-1", "claims-4", "claims-5", "claims-6", "claims-other",
-    "claims-scheme")})
+    "claims-scheme", "claims-sizes")})
+
+#: the largest lattice of the size trend, out of this machine's reach: its grid
+LARGEST = {"phi": (10.0, 100.0, 1000.0), "size": (240, 60), "seeds": 2}
+
+
+def largest_grid() -> str:
+    """The grid of the largest lattice (N = 14400 at phi = 10, 100, 1000) under the steady
+    protocol, and what it costs at most (bkflow.lammps.limits.cost of its runs: every run to
+    its cap), in core-hours at the rate the estimate assumes."""
+    from bkflow.lammps.limits import ATOM_STEPS_PER_SECOND, Cost, cost, fmt_bytes
+    from bkflow.model.protocols import protocol_fields
+    from bkflow.sweeps.grid import sweep_specs
+
+    lx, ly = LARGEST["size"]
+    specs = sweep_specs(list(LARGEST["phi"]), [LARGEST["size"]], LARGEST["seeds"],
+                        **protocol_fields("steady"))
+    total = sum((cost(s) for s in specs), Cost(0, 0, 0))
+    phis = ",".join(f"{p:g}" for p in LARGEST["phi"])
+    return (f"`bkflow sweep --phi {phis} --sizes {lx}x{ly} --seeds {LARGEST['seeds']} --init "
+            f"--out runs/n{lx * ly}`: {len(specs)} runs, at most {total.atom_steps:.2g} "
+            f"atom-steps, {total.atom_steps / ATOM_STEPS_PER_SECOND / 3600:.1f} core-hours at "
+            f"{ATOM_STEPS_PER_SECOND:.0e} atom-steps/s (every run to its cap t_end = "
+            f"{specs[0].t_end:g}), {fmt_bytes(total.disk_bytes)} on disk.\n")
+
+
+BLOCKS["largest-grid"] = largest_grid
 
 
 def render(text: str) -> str:

@@ -56,3 +56,16 @@ def test_a_summary_says_what_its_n_a_and_its_extents_above_one_mean(lammps, tmp_
     assert "0.1: n/a" in by and "n/a: no slip dropped by that much" in by
     clusters = next(line for line in lines if line.startswith("  clusters: "))
     assert s["lx_mean_over_Lx"] > 1 and "whole-box slip's can exceed 1" in clusters
+
+
+def test_sweep_init_says_what_its_jobs_cost_in_all(tmp_path, capsys):
+    """bkflow sweep --init creates the jobs for a cluster without running them, and says their
+    cost on one core (the cluster divides it by its cores), as a sweep does before it runs."""
+    from bkflow.cli.commands import main
+
+    assert main(["sweep", "--phi", "10,1000", "--sizes", "240x60", "--seeds", "2", "--init",
+                 "--out", str(tmp_path / "g")]) == 0
+    out = capsys.readouterr().out
+    cost = next(line for line in out.splitlines() if line.startswith("cost:"))
+    assert "atom-steps" in cost and "on 1 core(s)" in cost and "on disk" in cost
+    assert "4 jobs (0 finished)" in out

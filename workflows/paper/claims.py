@@ -379,6 +379,49 @@ def scheme_bias(second: pd.DataFrame, first: pd.DataFrame) -> dict:
     return out
 
 
+#: the steady curves the size trend is read on: the paper's sizes and the larger lattice
+SIZE_CURVES = ("steady protocol", "steady protocol, N = 3600")
+
+
+def size_trend(runs: pd.DataFrame, field: str = "mu_bar") -> dict:
+    """How ``field`` of the steady state moves with N at each phi every size was run at: per
+    N its mean over seeds and standard error, and the slope of the mean against log10 N
+    (weighted least squares, the weights 1/sem^2, its error from those weights) with the
+    slope's z against the critical value corrected for the phi tested; and per phi the
+    quiet share of the runs' analysed windows (``quiet_share``) where recorded."""
+    t = _per_seed(runs, field)
+    common = sorted(set.intersection(*[set(g.phi) for _, g in t.groupby("N")]))
+    out = {"phi": {}, "sizes": sorted(int(n) for n in t.N.unique())}
+    looks = len(common)
+    for phi in common:
+        g = t[np.isclose(t.phi, phi)].sort_values("N")
+        x, y, e = np.log10(g.N.to_numpy(float)), g["mean"].to_numpy(), g["sem"].to_numpy()
+        # the slope from the sizes with at least 3 seeds (an error over 2 seeds is one
+        # difference: a t with one degree of freedom would decide nothing); the others shown
+        ok = np.isfinite(e) & (e > 0) & (g.seeds.to_numpy() >= 3)
+        slope = err = z = None
+        if ok.sum() >= 2:
+            w = 1 / e[ok] ** 2
+            xm = np.sum(w * x[ok]) / np.sum(w)
+            sxx = np.sum(w * (x[ok] - xm) ** 2)
+            slope = float(np.sum(w * (x[ok] - xm) * y[ok]) / sxx)
+            err = float(1 / math.sqrt(sxx))
+            z = slope / err
+        seeds = int(g.seeds[ok].min()) if ok.any() else 0
+        out["phi"][f"{phi:g}"] = {
+            "fitted": [int(n) for n in g.N[ok]],
+            "N": [int(n) for n in g.N], "mean": [_f(v) for v in y], "sem": [_f(v) for v in e],
+            "seeds": [int(v) for v in g.seeds], "slope_per_decade": _f(slope) if slope is not None
+            else None, "slope_err": _f(err) if err is not None else None,
+            "z": _f(z) if z is not None else None,
+            "critical": _f(critical(seeds, looks)),
+            "falls": bool(z is not None and -z > critical(seeds, looks)),
+            "rises": bool(z is not None and z > critical(seeds, looks)),
+            "found80": _f((critical(seeds, looks) + power_quantile(seeds)) * err)
+            if err is not None else None}
+    return out
+
+
 def clusters_of(sweep_dir: Path, runs: pd.DataFrame) -> pd.DataFrame | None:
     """Every slip cluster of ``runs`` (Run.read_clusters), with its run's phi, Lx, Ly, N, seed."""
     from bkflow.store.rundir import sweep_run_dir
@@ -411,6 +454,9 @@ def record(curves: dict, dirs: dict, aspect=None, aspect_sizes=(), provenance=No
         rec["curves"][label] = c
     if aspect is not None:
         rec["claim5"] = claim5(aspect[0], aspect_sizes)
+    steady = [curves[k][0] for k in SIZE_CURVES if k in curves]
+    if steady:
+        rec["sizes"] = size_trend(pd.concat(steady, ignore_index=True))
     if SECOND_ORDER in curves and FIRST_ORDER in curves:
         rec["scheme"] = scheme_bias(curves[SECOND_ORDER][0], curves[FIRST_ORDER][0])
     return rec
@@ -712,9 +758,37 @@ def render_scheme(rec: dict) -> str:
     return "\n".join(rows) + "\n"
 
 
+def render_sizes(rec: dict) -> str:
+    """The steady curve as the lattice grows: mu_bar per N at every phi all sizes share, and
+    its trend against log10 N."""
+    k = rec.get("sizes")
+    if not k:
+        return "(not run yet: python workflows/paper/reproduce.py)\n"
+    ns = k["sizes"]
+    rows = ["| phi | " + " | ".join(f"N = {n}" for n in ns) + " | slope per decade of N | "
+            "z (critical) | found with 80% power |", "|---" * (len(ns) + 4) + "|"]
+    for phi, v in k["phi"].items():
+        cells = {n: f"{_num(m)} +- {_num(e)} ({s})" for n, m, e, s in
+                 zip(v["N"], v["mean"], v["sem"], v["seeds"])}
+        rows.append(f"| {phi} | " + " | ".join(cells.get(n, "") for n in ns)
+                    + f" | {_num(v['slope_per_decade'], '+.5f')} +- {_num(v['slope_err'], '.5f')}"
+                    f" | {_num(v['z'], '+.1f')} ({_num(v['critical'], '.2f')}) | "
+                    f"{_num(v['found80'], '.5f')} |")
+    falls = [p for p, v in k["phi"].items() if v["falls"]]
+    rises = [p for p, v in k["phi"].items() if v["rises"]]
+    fitted = sorted({n for v in k["phi"].values() for n in v["fitted"]})
+    rows += ["", f"- mu_bar of the steady state falls with N beyond the critical value at phi = "
+             f"{', '.join(falls) or 'none'}; rises at phi = {', '.join(rises) or 'none'} (mean "
+             "+- standard error over the seeds, their count in brackets; the slope fitted on N "
+             f"= {', '.join(map(str, fitted))}, the sizes with at least 3 seeds, its z against "
+             "Student's t corrected for the phi tested)."]
+    return "\n".join(rows) + "\n"
+
+
 RENDER = {"claims-verdicts": render_verdicts, "claims-1": render_claim1,
           "claims-4": render_claim4, "claims-5": render_claim5, "claims-6": render_claim6,
-          "claims-other": render_other, "claims-scheme": render_scheme}
+          "claims-other": render_other, "claims-scheme": render_scheme,
+          "claims-sizes": render_sizes}
 
 
 def render_all(rec: dict) -> str:

@@ -837,6 +837,47 @@ def _lengths(ends: set, fixed: bool) -> str:
     return text + (f" ({'; '.join(others)})" if others else "")
 
 
+def sizes_figure(out: Path, figs: Path) -> Path | None:
+    """The steady curve as the lattice grows: mu_bar against N (log) at every phi all sizes
+    were run at, with its error over seeds, and the line fitted on the sizes with at least 3
+    seeds (claims.size_trend); the sizes of fewer seeds drawn as diamonds (an open marker
+    means a drifting point in bkflow's figures)."""
+    cs = curves(out)
+    steady = [cs[k][0] for k in claims.SIZE_CURVES if k in cs]
+    if not steady:
+        return None
+    trend = claims.size_trend(pd.concat(steady, ignore_index=True))
+    if not trend["phi"]:
+        return None
+    plt = _style()
+    fig, ax = plt.subplots(figsize=(4.6, 3.8))
+    from bkflow.figures.style import phi_colour
+
+    for phi, v in trend["phi"].items():
+        c = phi_colour(float(phi))
+        n, m, e = (np.asarray(v[k], float) for k in ("N", "mean", "sem"))
+        fit = np.isin(n, v["fitted"])
+        ax.errorbar(n[fit], m[fit], yerr=e[fit], color=c, marker="o", ls="none", ms=4,
+                    capsize=2, label=rf"$\phi$ = {phi}")
+        ax.errorbar(n[~fit], m[~fit], yerr=np.nan_to_num(e[~fit]), color=c, marker="D",
+                    ls="none", ms=4, capsize=2)
+        if v["slope_per_decade"] is not None:
+            x = np.log10(n)
+            k = fit
+            xm = np.average(x[k], weights=1 / e[k] ** 2)
+            ym = np.average(m[k], weights=1 / e[k] ** 2)
+            xs = np.linspace(x.min(), x.max(), 20)
+            ax.plot(10 ** xs, ym + v["slope_per_decade"] * (xs - xm), color=c, lw=0.8)
+    ax.set_xscale("log")
+    ax.set_xlabel("N (particles)")
+    ax.set_ylabel(r"$\overline{\mu}$ (steady protocol)")
+    ax.set_title("The steady state as the lattice grows: circles, fitted (10 seeds);\n"
+                 "diamonds, 2 seeds (not fitted); lines: the fit against log N", fontsize=7.5)
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=5,
+               frameon=False, fontsize=7)
+    return _write(fig, figs / "sizes.png")
+
+
 def figures(out: Path, figs: Path) -> list[Path]:
     written = []
     for label, (name, where) in CURVES.items():
@@ -845,7 +886,7 @@ def figures(out: Path, figs: Path) -> list[Path]:
         sub = figs / label.split(" (")[0].replace(", ", "_").replace(" = ", "").replace(" ", "_")
         paths, _ = plot(out / name, sub, formats=("png",), where=where)
         written += paths
-    for make in (protocols_figure, relaxation_figure):
+    for make in (protocols_figure, relaxation_figure, sizes_figure):
         path = make(out, figs)
         if path is not None:
             written.append(path)

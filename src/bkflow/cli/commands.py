@@ -184,7 +184,8 @@ def _sweep(a) -> int:
     check_sweep_dir(a.out)
     check_lengths(a.out, specs)
     total = check_sweep(specs, a.out, jobs, available_cores(), a.force)
-    if a.init:
+    if a.init:  # what the jobs cost in all, on one core (a cluster divides it by its cores)
+        print(report.cost_line(total, 1, any(s.adaptive for s in specs)), flush=True)
         return _init_jobs(a, specs, settings)
     cost = report.cost_line(total, jobs, any(s.adaptive for s in specs))
     for line in report.sweep_plan_lines(phis, len(sizes), axes, a.seeds, len(specs), a.out,
