@@ -66,6 +66,25 @@ def test_the_readmes_measured_numbers_are_the_record():
     assert record["tests"]["passed"]
 
 
+def test_the_records_test_counts_are_todays():
+    """The suite's counts the README states (the record of readme_numbers.py --tests, all and
+    "not slow") are the suite's today: a test added or removed since the measurement fails
+    here, until the suite is measured again."""
+    import sys
+
+    record = _numbers().load()["tests"]
+
+    def count(*marks: str) -> int:
+        p = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q",
+                            "-p", "no:cacheprovider", *marks], cwd=ROOT, capture_output=True,
+                           text=True)
+        return sum("::" in ln for ln in p.stdout.splitlines())
+
+    assert (record["all"], record["fast"]) == (count(), count("-m", "not slow")), \
+        "the README's test counts are stale: python benchmarks/readme_numbers.py --tests " \
+        "--write-readme"
+
+
 def test_the_readme_gives_the_main_commands_time_once_and_only_from_the_record():
     """The main command's wall time and disk use are in the README only where
     benchmarks/readme_numbers.py writes them from its record, and its time is one number: the
