@@ -748,8 +748,12 @@ def render_scheme(rec: dict) -> str:
         big = [_phi(p) for p, z in zip(v["phi"], v["z"]) if z is not None
                and abs(z) > v["critical"]]
         d2, d1 = v["dip_second"], v["dip_first"]
+        rel = [f / sec - 1 for f, sec in zip(v["first"], v["second"])
+               if f is not None and sec is not None]
         rows.append(
-            f"- N = {n}: the schemes differ beyond {v['critical']:.2f} errors (t, corrected "
+            f"- N = {n}: the first-order mu_bar lies {100 * min(rel):+.1f}% to "
+            f"{100 * max(rel):+.1f}% from the second-order one; the schemes differ beyond "
+            f"{v['critical']:.2f} errors (t, corrected "
             f"for {len(v['phi'])} phi) at " + (", ".join(f"phi = {p}" for p in big) or "no phi")
             + f"; the second-order curve is lowest at phi = {_phi(d2.get('phi'))} "
             f"({'non-monotonic' if d2.get('non_monotonic') else 'no significant dip'}), the "
