@@ -225,21 +225,19 @@ def states_curve() -> str:
     end's rise above the rest of the curve, at its 97.5% upper bound, is smaller than the rise
     the paper's protocol shows at that N (an equivalence test: a "no rise" that excludes the
     paper's effect)."""
+    from stiff_states import curve_table
+
     claims = _claims_module()
     sr, runs, means = _states()
-    df = pd_frame(means)
+    table = curve_table(means)
     out = ["| N | phi | seeds | <sigma_x>/sigma_n | mu_bar |", "|---|---|---|---|---|"]
     verdicts = []
-    for n, g in df.groupby("N"):
+    for n, g in table.groupby("N"):
         rows = []
-        for phi, h in g.groupby("phi"):
-            k = len(h)
-            r = {"phi": phi, "k": k}
-            for obs in ("stress", "mu_bar"):
-                r[obs] = float(h[obs].mean())
-                r[obs + "_se"] = float(h[obs].std(ddof=1) / math.sqrt(k)) if k > 1 else math.nan
+        for r in g.sort_values("phi").to_dict("records"):
+            r["k"] = r["seeds"]
             rows.append(r)
-            out.append(f"| {int(n)} | {phi:g} | {k} | {r['stress']:.4f} +- "
+            out.append(f"| {int(n)} | {r['phi']:g} | {r['k']} | {r['stress']:.4f} +- "
                        f"{_g(r['stress_se'], '.4f')} | {r['mu_bar']:.4f} +- "
                        f"{_g(r['mu_bar_se'], '.4f')} |")
         seeds = min(r["k"] for r in rows)

@@ -36,6 +36,9 @@ from longrun import RECORDS, LongRun, case_name  # noqa: E402
 from bkflow.model.params import STARTS, RunSpec, size_from_n  # noqa: E402
 
 OUT = RECORDS / "stiff_states"
+#: the long-run curve: per (N, phi) the seeds' mean of each layer's long-run mean, written by
+#: ``report`` from the records (workflows/paper/reproduce.py draws it in fig2a_protocols)
+CURVE = RECORDS / "long_run_curve.csv"
 PHI = (30.0, 100.0, 215.0, 464.0, 1000.0)
 
 
@@ -53,6 +56,24 @@ def cases(n: int, phis, starts, seeds):
             for start in starts:
                 spec = RunSpec(phi=phi, Lx=Lx, Ly=Ly, seed=seed, start=start)
                 yield spec.replace(dt_factor=dt_factor(spec))
+
+
+def curve_table(means: dict):
+    """The long-run curve from ``states_report.layer_means``: per (N, phi) the number of seeds,
+    the mean over the seeds of each layer's long-run <sigma_x>/sigma_n and mu_bar, and their
+    standard errors over the seeds (NaN with one seed)."""
+    import pandas as pd
+
+    df = pd.DataFrame([{"N": k[0], "phi": k[1], "seed": k[2], **v} for k, v in means.items()])
+    rows = []
+    for (n, phi), h in df.groupby(["N", "phi"]):
+        k = len(h)
+        row = {"N": int(n), "phi": float(phi), "seeds": k}
+        for obs in ("stress", "mu_bar"):
+            row[obs] = float(h[obs].mean())
+            row[obs + "_se"] = float(h[obs].std(ddof=1) / math.sqrt(k)) if k > 1 else math.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def _floats(text):
@@ -85,9 +106,11 @@ def main(argv=None):
             LongRun(spec, out / f"{case_name(spec)}.parquet", 1000.0, a.chunk).advance_to(
                 a.t_end, log=lambda m: print(m, flush=True))
     else:
-        from states_report import report
+        from states_report import layer_means, load, report
 
         report(OUT)
+        curve_table(layer_means(load(OUT))).to_csv(CURVE, index=False, float_format="%.10g")
+        print(f"wrote {CURVE}")
 
 
 if __name__ == "__main__":

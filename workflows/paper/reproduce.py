@@ -614,6 +614,12 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
+#: the long-run curve (benchmarks/stiff_states.py report writes it from the long runs: each
+#: layer's mean over 10^6 time units from four starts, the seeds' mean), drawn in fig2a as the
+#: truth the protocols are read against; its columns per figure row
+LONG_RUN_CURVE = HERE.parent.parent / "benchmarks" / "records" / "long_run_curve.csv"
+LONG_RUN_FIELDS = {"mu_bar": "mu_bar", "mean_stress_ratio": "stress"}
+LONG_RUN_LABEL = r"long runs ($10^6$ time units, four starts)"
 #: the paper's claim 1: the minimum of mu_bar lies about 40% below mu_s
 PAPER_MINIMUM_BELOW_MU_S = 0.4
 
@@ -639,6 +645,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     if not cs:
         return None
     plt = _style()
+    long_run = pd.read_csv(LONG_RUN_CURVE) if LONG_RUN_CURVE.exists() else None
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
     fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns) + 0.6, 7.6),
                              squeeze=False, sharex=True, sharey="row")
@@ -659,9 +666,15 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                     k = states == name
                     if k.any():
                         present.add(name)
-                        ax.plot(g.phi[k], g[field][k], "o", ls="none", color=c, ms=5,
-                                fillstyle=fill, mfc=c if fill != "none" else "white",
+                        ax.plot(g.phi[k], g[field][k], "o", ls="none", color=c, ms=6,
+                                mew=1.1, fillstyle=fill, mfc=c if fill != "none" else "white",
                                 mfcalt="white", zorder=3)
+            lr = long_run[long_run.N == n].sort_values("phi") if long_run is not None else []
+            if len(lr) and LONG_RUN_FIELDS.get(field) in lr:
+                key = LONG_RUN_FIELDS[field]
+                ax.errorbar(lr.phi, lr[key], yerr=lr[key + "_se"].fillna(0), color="0.55",
+                            lw=2.2, alpha=0.8, capsize=1.5, marker="none", zorder=1,
+                            label=LONG_RUN_LABEL)
             if mu_s is not None and field.startswith("mu_bar"):  # claim 1 is about mu_bar
                 ax.axhline((1 - PAPER_MINIMUM_BELOW_MU_S) * mu_s, color="0.55", lw=0.8,
                            ls=(0, (6, 3)), zorder=1)
@@ -684,7 +697,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     for ax in axes.flat:  # a curve drawn at some N only (N = 3600) is keyed too
         for h, lab in zip(*ax.get_legend_handles_labels()):
             found.setdefault(lab, h)
-    keys = [(found[lab], lab) for lab in CURVE_STYLE if lab in found]
+    keys = [(found[lab], lab) for lab in (*CURVE_STYLE, LONG_RUN_LABEL) if lab in found]
     if mu_s is not None:
         keys.append((Line2D([], [], color="0.55", lw=0.8, ls=(0, (6, 3))),
                      rf"the paper's minimum of $\overline{{\mu}}$: "
