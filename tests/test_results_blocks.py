@@ -68,3 +68,16 @@ def test_the_installed_switching_calibration_is_the_records(blocks):
     installed = json.loads(CALIBRATION.read_text())
     assert _close(made, installed), ("src/bkflow/observables/switching.json differs from the "
                                      "records: run python benchmarks/stiff_states.py report")
+
+
+def test_the_long_run_curve_record_is_the_records(blocks):
+    """benchmarks/records/long_run_curve.csv (which fig2a_protocols draws) is what the long
+    runs' records give (benchmarks/stiff_states.py report writes it)."""
+    import pandas as pd
+    import stiff_states
+
+    sr, runs, means = blocks._states()
+    made = stiff_states.curve_table(means)
+    recorded = pd.read_csv(stiff_states.CURVE)
+    pd.testing.assert_frame_equal(made.reset_index(drop=True), recorded, check_dtype=False,
+                                  rtol=1e-8)
