@@ -175,6 +175,45 @@ def states_longest() -> str:
     return "\n".join(out) + "\n"
 
 
+#: the disorder seeds at the stiff end of N = 100 from the random start: seeds 1-6 of the
+#: calibration's long runs (10^6 time units) and seeds 7-18 (5 x 10^5, their own folder, so
+#: that the calibration stays what it was)
+SEEDS_RECORDS = HERE / "records" / "stiff_seeds"
+
+
+def stiff_seeds() -> str:
+    """Per phi at the stiff end of N = 100: how the quiet share (the blocks with R below
+    r_independent(N)), the mean stress and mu_bar of a layer spread over 15-20 disorder seeds
+    (one run each, the random start, after its transient)."""
+    import numpy as np
+
+    sr, runs, _ = _states()
+    extra = sr.load(SEEDS_RECORDS) if SEEDS_RECORDS.exists() else runs.iloc[:0]
+    import pandas as pd
+
+    both = pd.concat([runs, extra], ignore_index=True)
+    both = both[(both.N == 100) & (both.start == "random") & (both.phi >= 215)]
+    out = ["| phi | seeds | time per seed (10^5) | quiet share: mean, seeds' spread (min - max) | "
+           "seeds never quiet | <sigma_x>/sigma_n: mean +- error, spread | mu_bar: mean +- "
+           "error, spread |", "|---|---|---|---|---|---|---|"]
+    for phi, g in both.groupby("phi"):
+        q, st, mu, t = [], [], [], []
+        for b in g.blocks:
+            w = (b.t1 - b.t0).to_numpy()
+            q.append(float(np.average(b.R < sr.r_independent(100), weights=w)))
+            st.append(float(np.average(b.s, weights=w)))
+            mu.append(float(sr.mu_bar(b)))
+            t.append(float(w.sum()))
+        k = len(q)
+        se = [float(np.std(v, ddof=1) / math.sqrt(k)) for v in (st, mu)]
+        out.append(f"| {phi:g} | {k} | {min(t) / 1e5:.0f} - {max(t) / 1e5:.0f} | "
+                   f"{np.mean(q):.3f} ({min(q):.3f} - {max(q):.3f}) | "
+                   f"{sum(v == 0 for v in q)} | {np.mean(st):.4f} +- {se[0]:.4f} "
+                   f"({min(st):.4f} - {max(st):.4f}) | {np.mean(mu):.4f} +- {se[1]:.4f} "
+                   f"({min(mu):.4f} - {max(mu):.4f}) |")
+    return "\n".join(out) + "\n"
+
+
 def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
@@ -803,6 +842,7 @@ def work_precision() -> str:
 
 BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
+          "stiff-seeds": stiff_seeds,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
           "states-longest": states_longest,
