@@ -259,3 +259,33 @@ def test_the_ranges_below_mu_s_are_numbers_mds_points():
         lo, hi = (1 - max(vals) / mu_s) * 100, (1 - min(vals) / mu_s) * 100
         assert abs(int(m.group(1)) - lo) <= 1 and abs(int(m.group(2)) - hi) <= 1, (
             label, field, lo, hi, line)
+
+
+def test_the_size_trend_finds_a_known_slope_and_only_fits_sizes_of_three_seeds():
+    """mu_bar = 0.12 - 0.002 log10 N plus noise over 10 seeds at N = 100, 400, 900, and one
+    more size with 2 seeds: the slope comes back within its error, the 2-seed size is shown
+    but not fitted, and a flat curve is not called falling."""
+    rng = np.random.default_rng(5)
+    rows = []
+    for n, seeds in ((100, 10), (400, 10), (900, 10), (3600, 2)):
+        for seed in range(seeds):
+            for phi in (1.0, 1000.0):
+                slope = -0.002 if phi == 1000.0 else 0.0
+                rows.append({"N": n, "phi": phi, "seed": seed,
+                             "mu_bar": 0.12 + slope * math.log10(n) + rng.normal(0, 2e-4)})
+    t = claims.size_trend(pd.DataFrame(rows))
+    stiff, soft = t["phi"]["1000"], t["phi"]["1"]
+    assert stiff["fitted"] == [100, 400, 900] and stiff["N"] == [100, 400, 900, 3600]
+    assert abs(stiff["slope_per_decade"] + 0.002) < 3 * stiff["slope_err"]
+    assert stiff["falls"] and not stiff["rises"]
+    assert not soft["falls"] and not soft["rises"]
+
+
+def test_two_identical_schemes_do_not_differ():
+    rows = [{"N": 100, "phi": phi, "seed": s, "mu_bar": 0.12 - 0.001 * s + 0.0001 * phi}
+            for phi in (0.1, 1.0, 10.0) for s in range(5)]
+    runs = pd.DataFrame(rows)
+    k = claims.scheme_bias(runs, runs)["100"]
+    assert k["z"] == [0.0, 0.0, 0.0] and k["first"] == k["second"]
+    text = claims.render_scheme({"scheme": {"100": k}})
+    assert "+0.0% to +0.0%" in text and "at no phi" in text
