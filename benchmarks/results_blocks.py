@@ -214,6 +214,30 @@ def stiff_seeds() -> str:
     return "\n".join(out) + "\n"
 
 
+#: longer runs at N = 400's stiff end than the calibration's 10^6 (their own folder)
+LONG_RECORDS = HERE / "records" / "stiff_long"
+
+
+def stiff_long() -> str:
+    """Whether a quiet state appears at N = 400 in runs longer than the calibration's: per run,
+    its length, the share of its 1000-time-unit blocks with R below r_independent(N) (and
+    below half and twice that threshold), and the lowest block R."""
+    import numpy as np
+
+    sr, _, _ = _states()
+    if not LONG_RECORDS.exists():
+        return "(not measured yet)\n"
+    runs = sr.load(LONG_RECORDS)
+    out = ["| N | phi | start | seed | time (10^6) | blocks | quiet share at r_ind / 2, "
+           "r_ind, 2 r_ind | lowest block R (r_ind) |", "|---|---|---|---|---|---|---|---|"]
+    for r in runs.sort_values(["N", "phi", "seed"]).itertuples():
+        b, thr = r.blocks, sr.r_independent(int(r.N))
+        shares = " / ".join(f"{float(np.mean(b.R < f * thr)):.3f}" for f in (0.5, 1, 2))
+        out.append(f"| {r.N} | {r.phi:g} | {r.start} | {r.seed} | {r.t / 1e6:.1f} | {len(b)} | "
+                   f"{shares} | {b.R.min():.3f} ({thr:.3f}) |")
+    return "\n".join(out) + "\n"
+
+
 def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
@@ -842,7 +866,7 @@ def work_precision() -> str:
 
 BLOCKS = {"scene-bytes": scene_bytes, "scene-goals": scene_goals,
           "states-occupancy": states_occupancy, "states-longrun": states_longrun,
-          "stiff-seeds": stiff_seeds,
+          "stiff-seeds": stiff_seeds, "stiff-long": stiff_long,
           "states-coverage": states_coverage, "states-verdict": states_verdict,
           "states-ergodicity": states_ergodicity, "states-needed": states_needed,
           "states-longest": states_longest,
