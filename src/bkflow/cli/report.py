@@ -161,6 +161,14 @@ def estimate_lines(s: dict, state: str) -> list[str]:
     return lines
 
 
+def threshold_line(s: dict) -> str:
+    """mu_bar at each report threshold, and what its "n/a" means where it has one."""
+    by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
+                   for k, v in s["mu_bar_by_threshold"].items())
+    return (f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}"
+            + ("; n/a: no slip dropped by that much" if "n/a" in by else ""))
+
+
 def summary_lines(s: dict) -> list[str]:
     """The report of a run's summary (``bkflow run``, ``bkflow analyze``)."""
     state = s.get("state") or "drifting"
@@ -178,10 +186,7 @@ def summary_lines(s: dict) -> list[str]:
     lines += [f"  mu_bar over large drops (> {_g(s, 'large_drop_threshold', '.3g')}) = "
               f"{_g(s, 'mu_bar_large', '.4f')} +- {_g(s, 'mu_bar_large_err', '.4f')} over "
               f"{s.get('n_slips_large')} slips"]
-    by = ", ".join(f"{k}: {'n/a' if v is None else format(v, '.4f')}"
-                   for k, v in s["mu_bar_by_threshold"].items())
-    lines.append(f"  mu_bar by threshold (fraction of mu_s sigma_n): {by}"
-                 + ("; n/a: no slip dropped by that much" if "n/a" in by else ""))
+    lines.append(threshold_line(s))
     if s.get("psi_inf") is not None:
         lines.append(f"  Psi(inf) = {s['psi_inf']:.4f}")
     if s.get("n_clusters") is not None:
@@ -351,33 +356,48 @@ def cell_state(r) -> str:
     return f"{state} {int(r.get(key, 0))}/{int(r.n_seeds)}"
 
 
+def _pm(v, e, fmt) -> str:
+    """A value with its error to 2 digits (n/a for NaN)."""
+    if v != v:
+        return "n/a"
+    return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")
+
+
+def _err(r, f):
+    return r.get(f"{f}_err", r.get(f"{f}_sem"))
+
+
+#: the sweep table's columns after the state: header, and the cell of a results row
+RESULT_COLUMNS = (
+    ("mu_bar", lambda r: _pm(r.mu_bar, _err(r, "mu_bar"), ".4f")),
+    ("mu_bar (large)", lambda r: _pm(r.mu_bar_large, _err(r, "mu_bar_large"), ".4f")),
+    ("<sigma_x>/sigma_n", lambda r: _pm(r.mean_stress_ratio, _err(r, "mean_stress_ratio"),
+                                        ".4f")),
+    ("Psi(inf)", lambda r: _pm(r.psi_inf, r.psi_inf_sem, ".3f")),
+    ("<l_x>/<l_y>", lambda r: _pm(r.lx_over_ly, r.lx_over_ly_sem, ".2f")),
+    ("regime", lambda r: r.regime if isinstance(r.regime, str) else "n/a"))
+
+
+def _table_columns(rows, axes) -> list[tuple[str, list[str]]]:
+    """The sweep table's columns (header, cells): the point's, then RESULT_COLUMNS but those
+    no point has a value in."""
+    columns = [("phi", [f"{r.phi:g}" for r in rows]),
+               ("size", [f"{r.Lx}x{r.Ly}" for r in rows]),
+               *[(k, [str(r[k]) for r in rows]) for k in axes],
+               ("seeds", [str(r.n_seeds) for r in rows]),
+               ("state", [cell_state(r) for r in rows])]
+    for head, cell in RESULT_COLUMNS:
+        cells = [cell(r) for r in rows]
+        if any(c != "n/a" for c in cells):
+            columns.append((head, cells))
+    return columns
+
+
 def results_lines(res, axes=()) -> list[str]:
     """The table a sweep prints: one row per point, every number with its error. Each column is
     as wide as its widest cell, and a column no point has a value in (an observable the sweep's
     scene does not record) is left out."""
-    def pm(v, e, fmt):
-        if v != v:
-            return "n/a"
-        return f"{v:{fmt}}" + (f" +- {e:.2g}" if e == e else "")  # the error to 2 digits
-
-    def err(r, f):
-        return r.get(f"{f}_err", r.get(f"{f}_sem"))
-
-    rows = list(res.iterrows())
-    columns = [("phi", [f"{r.phi:g}" for _, r in rows]),
-               ("size", [f"{r.Lx}x{r.Ly}" for _, r in rows])]
-    columns += [(k, [str(r[k]) for _, r in rows]) for k in axes]
-    columns += [("seeds", [str(r.n_seeds) for _, r in rows]),
-                ("state", [cell_state(r) for _, r in rows])]
-    optional = [
-        ("mu_bar", [pm(r.mu_bar, err(r, "mu_bar"), ".4f") for _, r in rows]),
-        ("mu_bar (large)", [pm(r.mu_bar_large, err(r, "mu_bar_large"), ".4f") for _, r in rows]),
-        ("<sigma_x>/sigma_n", [pm(r.mean_stress_ratio, err(r, "mean_stress_ratio"), ".4f")
-                               for _, r in rows]),
-        ("Psi(inf)", [pm(r.psi_inf, r.psi_inf_sem, ".3f") for _, r in rows]),
-        ("<l_x>/<l_y>", [pm(r.lx_over_ly, r.lx_over_ly_sem, ".2f") for _, r in rows]),
-        ("regime", [r.regime if isinstance(r.regime, str) else "n/a" for _, r in rows])]
-    columns += [(h, cells) for h, cells in optional if any(c != "n/a" for c in cells)]
+    columns = _table_columns([r for _, r in res.iterrows()], axes)
     widths = [max([len(h)] + [len(c) for c in cells]) for h, cells in columns]
     return ["  " + "  ".join(f"{cell:>{w}}" for cell, w in zip(line, widths)).rstrip()
             for line in zip(*[[h] + cells for h, cells in columns])]
