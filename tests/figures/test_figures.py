@@ -5,7 +5,8 @@ axes and off the keys, no text under ``MIN_FONT`` points, units on the axes, a k
 colour, letter and shading that encodes something, one y range where panels are compared;
 and what a referee found wrong, figure by figure (the protocol named as run, the text of
 fig_drops following its data, fig_contacts' phi and smoothing, fig4a's fixed phi and
-markers, fig1b's range, fig3's Psi samples, the potency's unit)."""
+markers, fig1b's range, fig3's Psi samples, the potency's unit). test_print_size.py draws them
+from a made-up sweep, without LAMMPS, for what the referee found hard to read at print size."""
 
 from __future__ import annotations
 
@@ -137,6 +138,44 @@ def _outside_or_hidden(fig) -> list[str]:
     return bad
 
 
+def _marked(lines) -> list:
+    """The lines of ``lines`` that draw markers, an error bar's caps left out."""
+    return [ln for ln in lines if str(ln.get_marker()) not in ("", "None", "none", " ", "_")]
+
+
+def _marker_styles(lines) -> set:
+    """(marker, fill) of each line of ``lines`` that draws markers (not an error bar's caps)."""
+    return {(str(ln.get_marker()), ln.get_fillstyle()) for ln in _marked(lines)}
+
+
+def _drawn_styles_keyed(fig) -> list:
+    """The marker styles (shape, fill) drawn on a panel of ``fig`` (markers of 4 pt or more:
+    not a scatter's dots) that no key of the figure shows, with their panel's title."""
+    from matplotlib.lines import Line2D
+
+    keyed = _marker_styles(h for leg in _legends(fig) for h in leg.findobj(Line2D))
+    bad = []
+    for ax in _all_axes(fig):
+        drawn = _marker_styles(ln for ln in _data_lines(ax) if ln.get_transform() is ax.transData
+                               and ln.get_markersize() >= 4)
+        bad += [(ax.get_title(), style_) for style_ in drawn - keyed]
+    return bad
+
+
+def _laws_and_title(fig) -> tuple[int, int, list[str]]:
+    """A density figure's (fig_drops, fig_potency) laws: how many (a) draws, how many its title
+    says are drawn (checked against the number of phi it names), and its key's words
+    (checked: as many give an exponent as laws are drawn)."""
+    ax = fig.axes[0]
+    m = re.search(r"(\d+) of (\d+) phi", ax.get_title())
+    assert m, ax.get_title()
+    laws = [ln for ln in _data_lines(ax) if str(ln.get_marker()) in ("None", "none", "")]
+    keys = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert int(m.group(1)) == len(laws) == sum(r"$\alpha$" in k for k in keys), keys
+    assert int(m.group(2)) == sum(k.startswith(r"$\phi$") for k in keys)
+    return len(laws), int(m.group(2)), keys
+
+
 # --------------------------------------------------------------------------- every figure
 @pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
@@ -153,6 +192,23 @@ def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
 def test_every_point_lies_inside_its_axes_and_off_the_keys(drawn, name):
     _, figs = drawn
     assert _outside_or_hidden(figs[name]) == [], name
+
+
+@pytest.mark.parametrize("name", list(registry.FIGURES))
+def test_every_marker_style_drawn_is_keyed(drawn, name):
+    """Each marker shape and fill on a panel (a point's state, a phi, a population) is shown
+    by a key of the figure."""
+    _, figs = drawn
+    assert _drawn_styles_keyed(figs[name]) == [], name
+
+
+@pytest.mark.parametrize("name", ["fig_drops", "fig_potency"])
+def test_the_density_titles_and_keys_say_the_same(drawn, name):
+    """The title's count of the phi with a law drawn, the laws drawn and the key's exponents
+    agree; no p is printed as 0.00 (below the bootstrap's resolution: p < 0.001)."""
+    _, figs = drawn
+    _, _, keys = _laws_and_title(figs[name])
+    assert not any(re.search(r"p <= 0\.00?\b", k) for k in keys), keys
 
 
 @pytest.mark.parametrize("name", list(registry.FIGURES))
@@ -338,32 +394,30 @@ def test_fig_contacts_shows_each_phi_smoothed_over_one_stated_window(drawn):
     assert len(fig.get_suptitle()) <= 80   # the detail is in the key and the docstring
 
 
-def test_fig1b_fits_its_range_to_the_traces_and_names_the_friction_line(drawn):
-    """One y range for both panels, fitted to the traces (they fill at least 80% of it, as
-    they did not when it reached up to mu_s sigma_n); mu_s sigma_n drawn where it lies in the
-    range, else named with its value by an annotation."""
-    from matplotlib.text import Annotation
-
+def test_fig1b_fits_its_range_to_the_traces_and_draws_the_friction_line_in_it(drawn):
+    """One y range for both panels, the traces filling at least 70% of each panel's height
+    (they did not when a plain axis reached up to mu_s sigma_n), and mu_s sigma_n inside the
+    range: where it lies far from the traces, beyond a break of the axis, its value a tick."""
     data, figs = drawn
     top = float(data.runs.mu_s.iloc[0] * data.runs.sigma_n.iloc[0])
     axes = figs["fig1b_stress"].axes
     ys = np.concatenate([ln.get_ydata() for ax in axes for ln in _data_lines(ax)
                          if ln.get_transform() is ax.transData])
+    r = figs["fig1b_stress"].canvas.get_renderer()
     for ax in axes:
         lo, hi = ax.get_ylim()
-        assert np.ptp(ys) >= 0.8 * (hi - lo), (np.ptp(ys), lo, hi)
+        assert lo <= top <= hi
+        shown = ax.transData.transform(np.column_stack([np.zeros_like(ys), ys]))[:, 1]
+        assert np.ptp(shown) >= 0.7 * ax.get_window_extent(r).height
         lines = [ln for ln in ax.get_lines() if ln.get_transform() is not ax.transData]
-        notes = [c for c in ax.get_children() if isinstance(c, Annotation)
-                 and "mu_s" in c.get_text()]
-        if lo <= top <= hi:
-            assert any(np.allclose(ln.get_ydata(), top) for ln in lines)
-        else:
-            assert len(notes) == 1 and f"{top:.3g}" in notes[0].get_text()
+        assert any(np.allclose(np.asarray(ln.get_ydata(), float), top) for ln in lines)
+        if ax.get_yscale() != "linear":   # a broken axis: the line's value is a tick
+            assert top in ax.get_yticks()
 
 
 def test_fig3_shows_psi_sample_by_sample_with_its_interval(drawn):
     data, figs = drawn
-    panel = next(ax for ax in figs["fig3_order"].axes if "1 -" in ax.get_ylabel())
+    panel = next(ax for ax in figs["fig3_order"].axes if ax.get_ylabel() == r"$1 - \Psi(t)$")
     assert panel.get_xscale() == "linear"
     every = float(re.search(r"every (\S+) time units", panel.get_title()).group(1))
     lines = _data_lines(panel)

@@ -113,14 +113,19 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
                 left = parent.transData.inverted().transform((0, y))[1]
                 assert left == pytest.approx(0.2 * (1 - p / 100), rel=1e-6)
     # the states: drawn and keyed as in every bkflow figure (one convention, style.py's)
-    from bkflow.figures.style import STATE_FILL, STATE_WORDS
+    from bkflow.figures.style import STATE_FILL, STATE_MARKER, STATE_WORDS
 
     keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     for name in ("steady", "switching", "drifting", "metastable"):
         assert STATE_WORDS[name] in keyed, name
-    fills = {ln.get_fillstyle() for ax in panels for ln in ax.get_lines()
-             if ln.get_marker() == "o"}
-    assert fills == set(STATE_FILL.values())
+    shown = {(ln.get_marker(), ln.get_fillstyle()) for ax in panels for ln in ax.get_lines()
+             if ln.get_marker() in STATE_MARKER.values()}
+    assert shown == {(STATE_MARKER[n], STATE_FILL[n]) for n in STATE_FILL}
+    from matplotlib.lines import Line2D
+
+    handles = {(h.get_marker(), h.get_fillstyle()) for leg in fig.legends
+               for h in leg.findobj(Line2D) if h.get_marker() in STATE_MARKER.values()}
+    assert shown <= handles
     # the curves: no two alike; colours at least 0.25 apart in RGB where the line style is
     # the same (two reds that only differ in shade were the complaint)
     from matplotlib.colors import to_rgb

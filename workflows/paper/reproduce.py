@@ -45,7 +45,7 @@ from bkflow.figures.clusters import cluster_scatter
 from bkflow.figures.data import SweepData, _point_states
 from bkflow.figures.keys import state_handles
 from bkflow.figures.registry import plot
-from bkflow.figures.style import STATE_FILL, STYLE, _style
+from bkflow.figures.style import STATE_FILL, STYLE, _style, state_marker
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields
@@ -634,11 +634,11 @@ def _mu_s(tables) -> float | None:
 def protocols_figure(out: Path, figs: Path) -> Path | None:
     """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
     one curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
-    marker's fill is its state, as in every bkflow figure (bkflow.figures.style.STATE_FILL,
-    keyed by bkflow.figures.keys.state_handles). Each row shares its y range across N, so that a
-    curve's depth can be compared between sizes; the right axis reads each value as a fraction
-    below mu_s (the runs' static friction coefficient), and a grey line marks the paper's
-    minimum, 40% below mu_s."""
+    marker's shape and fill are its state, as in every bkflow figure
+    (bkflow.figures.style.state_marker, keyed by bkflow.figures.keys.state_handles). Each row
+    shares its y range across N, so that a curve's depth can be compared between sizes; the
+    right axis reads each value as a fraction below mu_s (the runs' static friction
+    coefficient), and a grey line marks the paper's minimum, 40% below mu_s."""
     from matplotlib.lines import Line2D
 
     cs = curves(out)
@@ -662,13 +662,12 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
                 ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
                             ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
                 states = _point_states(g)
-                for name, fill in STATE_FILL.items():
+                for name in STATE_FILL:
                     k = states == name
                     if k.any():
                         present.add(name)
-                        ax.plot(g.phi[k], g[field][k], "o", ls="none", color=c, ms=6,
-                                mew=1.1, fillstyle=fill, mfc=c if fill != "none" else "white",
-                                mfcalt="white", zorder=3)
+                        ax.plot(g.phi[k], g[field][k], ls="none", zorder=3,
+                                **state_marker(name, c, 6.0))
             lr = long_run[long_run.N == n].sort_values("phi") if long_run is not None else []
             if len(lr) and LONG_RUN_FIELDS.get(field) in lr:
                 key = LONG_RUN_FIELDS[field]

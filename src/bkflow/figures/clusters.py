@@ -16,6 +16,15 @@ from bkflow.figures.keys import protocol_label
 from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, _num, _size_label, phi_colour
 from bkflow.model.lattice import box_fractions
 
+#: the axes of a cluster scatter: each extent over a whole-box slip's on its side
+#: (``box_fractions``), the f_x and f_y of the regimes' words (``style.REGIME_WORDS``)
+FX_LABEL = r"$f_x = l_x\,/\,l_x^{\mathrm{whole\ box}}$ (along x)"
+FY_LABEL = r"$f_y = l_y\,/\,l_y^{\mathrm{whole\ box}}$ (across x)"
+#: what a cluster figure says of its axes: 1 is a whole-box slip, and a cluster can go past it
+ABOVE_ONE = ("f: a cluster's extent (from the mean distance of its particles along that side) "
+             "over a whole-box slip's; a whole-box slip sits at (1, 1). A cluster whose "
+             "particles lie farther apart on average than the whole box's has f above 1: {}.")
+
 #: the phi of the cluster scatter (fig4a), fig_drops and fig_potency: the swept values
 #: nearest these targets, log-evenly spaced over the default range 0.1 .. 1000 (4/3 of a
 #: decade apart, so that on the default grid of 3 per decade each is a grid point). Fixed, so
@@ -59,15 +68,15 @@ def fig4a_clusters(data: SweepData, plt):
         _cluster_panel(ax, [one], (lx, ly), span, top)
         phi, c, shares = one
         ax.set_title(rf"$\phi$ = {_num(phi)}: {len(c)} clusters" + "\n"
-                     + _shares_words(shares), fontsize=8)
+                     + _shares_words(shares, len(c)), fontsize=8)
     for ax in axes.flat[n:]:
         ax.set_axis_off()
     for k, ax in enumerate(axes.flat[:n]):
         if k + ncols >= n:    # no panel below: its x axis is labelled
-            ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$ (whole box's extent along x)")
+            ax.set_xlabel(FX_LABEL)
             ax.xaxis.set_tick_params(labelbottom=True)
     for ax in axes[:, 0]:
-        ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$ (whole box's extent across)")
+        ax.set_ylabel(FY_LABEL)
     # the key (the colours of phi, as in fig_drops and fig_potency, and the bounds) in a spare
     # panel where there is one, else below the panels
     from matplotlib.lines import Line2D
@@ -75,13 +84,27 @@ def fig4a_clusters(data: SweepData, plt):
     key = [Line2D([], [], ls="none", marker="o", ms=5, mew=0, color=phi_colour(phi),
                   label=rf"$\phi$ = {_num(phi)}") for phi, *_ in sets] + _cluster_guides(span)
     if n < axes.size:
-        axes.flat[-1].legend(handles=key, loc="center", frameon=False, fontsize=MIN_FONT)
+        axes.flat[-1].legend(handles=key, loc="center", frameon=False, fontsize=MIN_FONT,
+                             title=_above_one(sets, (lx, ly), 52), title_fontsize=MIN_FONT)
     else:
         fig.legend(handles=key, loc="outside lower center", ncol=3, frameon=False,
-                   fontsize=MIN_FONT)
+                   fontsize=MIN_FONT, title=_above_one(sets, (lx, ly), 95),
+                   title_fontsize=MIN_FONT)
     fig.suptitle(f"Fig. 4a: slip clusters, {_size_label(lx, ly)} ({protocol_label(data)})",
                  fontsize=9)
     return fig
+
+
+def _above_one(sets, box, width: int) -> str:
+    """``ABOVE_ONE`` with the largest f of the clusters of ``sets``, in lines of ``width``
+    characters."""
+    import textwrap
+
+    most = max(float(max(f.max() for f in box_fractions(c.l_x, c.l_y, box)))
+               for _, c, _ in sets)
+    # (a whole-box slip's f is 1 up to rounding)
+    return textwrap.fill(ABOVE_ONE.format(f"here up to {most:.3g}" if most > 1.0005 else
+                                          "none here"), width)
 
 
 def cluster_sets(data: SweepData, lx, ly, phis) -> list[tuple]:
@@ -100,9 +123,12 @@ def cluster_sets(data: SweepData, lx, ly, phis) -> list[tuple]:
     return sets
 
 
-def _shares_words(shares: dict) -> str:
-    """"C 98%, LC 2%": the regimes' shares of a set of clusters, those of 0.5% or more."""
-    return ", ".join(f"{reg} {share:.0%}" for reg, share in shares.items() if share >= 0.005)
+def _shares_words(shares: dict, total: int) -> str:
+    """"C 98% (490), LC 2% (10)": the regimes' shares of a set of ``total`` clusters, those
+    of 0.5% or more, each with its count of clusters (a share of a few clusters reads as
+    what it is)."""
+    return ", ".join(f"{reg} {share:.0%} ({round(share * total)})"
+                     for reg, share in shares.items() if share >= 0.005)
 
 
 def _span(data: SweepData) -> float:
@@ -141,7 +167,7 @@ def _cluster_panel(ax, sets, box, span: float, top: float) -> dict:
         alpha = float(np.clip(20.0 / math.sqrt(len(c)), 0.15, 0.8))
         ax.plot(fx, fy, "o", color=colour, ms=2.0, mew=0, alpha=alpha, zorder=2 + z,
                 label="_nolegend_")
-        words = _shares_words(shares)
+        words = _shares_words(shares, len(c))
         # an empty line added to the axes, so that a caller's ax.legend() finds it too
         keys[phi], = ax.plot([], [], "o", color=colour, ms=5, mew=0,
                              label=rf"$\phi$ = {_num(phi)}: {len(c)} clusters"
@@ -198,8 +224,8 @@ def cluster_scatter(data: SweepData, plt, lx, ly, phis, title, ax=None):
     keys = _cluster_panel(ax, sets, (lx, ly), span, _cluster_top(sets, (lx, ly)))
     # each extent against the whole box's own on its side: a whole-box slip sits at (1, 1)
     # on odd and even sides alike (bkflow.model.lattice.box_fractions)
-    ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$ (whole box's extent along x)")
-    ax.set_ylabel(r"$l_y / l_y^{\mathrm{box}}$ (whole box's extent across)")
+    ax.set_xlabel(FX_LABEL)
+    ax.set_ylabel(FY_LABEL)
     ax.set_title(title, fontsize=9)
     ax.legend(handles=[keys[phi] for phi, *_ in sets] + _cluster_guides(span), frameon=False,
               fontsize=MIN_FONT, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1,

@@ -1,6 +1,8 @@
 """The memory of the start, run by run (``fig_contacts``): the shear stress and the contacts'
 phase coherence R(t) over the whole run of a soft, an intermediate and a stiff phi, smoothed
-alike in every panel, the analysed window shaded by the run's state.
+alike in every panel, the analysed window shaded by the run's state: steady (green), switching
+between the layer's steady states (green, hatched: a coherent or quiet window is one of them) or
+neither (orange).
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from bkflow.figures.data import SweepData, _nearest
+from bkflow.figures.data import SweepData, _nearest, _point_states
 from bkflow.figures.keys import protocol_label
 from bkflow.figures.style import MIN_FONT, _num, _size_label
 
@@ -59,9 +61,10 @@ def fig_contacts(data: SweepData, plt):
     first). The dark curves are means over one window of time (``_window``, the same in every
     panel and said in the key: a window of a fixed share of each run would make runs of
     different lengths look alike when they are not smoothed alike); the light curve is R's
-    block means as recorded. The analysed window (from the end of the transient) is shaded,
-    green where the run is steady and orange where it is not (its state in the panel's title),
-    keyed below."""
+    block means as recorded. The analysed window (from the end of the transient) is shaded by
+    the run's state (``SHADES``: steady; switching between the layer's steady states, quiet and
+    coherent, each a steady state of its own; or neither, drifting or metastable), its state
+    in the panel's title, keyed below."""
     lx, ly = data.sizes[0]
     chosen = _contact_phis(data.runs_of(lx, ly).phi)
     fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 4.1),
@@ -71,12 +74,12 @@ def fig_contacts(data: SweepData, plt):
         return None
     block = max(b for *_, b in panels)   # the records' block, in time units
     width = _window(min(t[-1] - t[0] for _, _, _, t, _, _, _ in panels), block)
-    steady = [_contact_panel(axes[0, j], axes[1, j], (lx, ly), panel, width)
-              for j, *panel in panels]
+    shown = {_contact_panel(axes[0, j], axes[1, j], (lx, ly), panel, width)
+             for j, *panel in panels}
     for top, bottom in axes.T:  # every panel: the stresses' ranges differ
         top.set_ylabel(r"$\sigma_x/\sigma_n$")
         bottom.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
-    _contact_key(fig, data, width, block, any(steady), not all(steady))
+    _contact_key(fig, data, width, block, shown)
     fig.suptitle("The start's memory: the stress and the contacts' phase coherence",
                  fontsize=9)
     return fig
@@ -103,10 +106,34 @@ def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
     return panels
 
 
-def _contact_panel(top, bottom, size, panel, width: float) -> bool:
+#: the shading of fig_contacts' analysed window by the run's state (``_point_states``): its
+#: colour, hatch and words in the key. A switching run's window (quiet, coherent or both) is in
+#: the layer's steady states, one or both of them: shaded as steady, hatched, keyed apart
+SHADES = {"steady": ("tab:green", None, "analysed window (after the transient): steady"),
+          "switching": ("tab:green", "//", "analysed window: switching between the layer's "
+                        "steady states (quiet, coherent)"),
+          "other": ("tab:orange", None, "analysed window: not steady (drifting or "
+                    "metastable)")}
+
+
+def _shading(colour, hatch, alpha: float) -> dict:
+    """The colours of a shaded window: filled light (``alpha``), its hatch (if any) darker."""
+    from matplotlib.colors import to_rgba
+
+    return {"facecolor": to_rgba(colour, alpha), "hatch": hatch,
+            "edgecolor": to_rgba(colour, 0.45) if hatch else "none"}
+
+
+def _shade(state) -> str:
+    """The ``SHADES`` name of a run's state."""
+    name = str(_point_states(pd.DataFrame({"state": [state]}))[0])
+    return name if name in SHADES else "other"
+
+
+def _contact_panel(top, bottom, size, panel, width: float) -> str:
     """One run's column of fig_contacts (``panel``: phi, runs.csv row, t, sigma_x, phase
     series, block): sigma_x/sigma_n above, R below, each smoothed over ``width`` time units,
-    the analysed window shaded; whether the run is steady."""
+    the analysed window shaded by its state (``SHADES``); the shade's name."""
     phi, row, t, sigma, phase, _ = panel
     ts, ss = _smooth(t, sigma / (row.sigma_n * getattr(row, "area", 1.0)), width)
     top.plot(ts, ss, color="black", lw=0.8)
@@ -115,21 +142,21 @@ def _contact_panel(top, bottom, size, panel, width: float) -> bool:
     bottom.plot(tr, rr, color="indigo", lw=1.2)
     t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
         else t[0]
-    steady = row.get("state") == "steady"
+    shade = _shade(row.get("state"))
+    colour, hatch, _ = SHADES[shade]
     for ax in (top, bottom):
-        ax.axvspan(t0, t[-1], color="tab:green" if steady else "tab:orange", alpha=0.1,
-                   lw=0)
+        ax.axvspan(t0, t[-1], lw=0, **_shading(colour, hatch, 0.12))
     top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(*size)}, seed {int(row.seed)}: "
                   f"{row.get('state', 'n/a')}", fontsize=MIN_FONT + 0.5)
     bottom.set_ylim(0, 1.02)
     bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
-    return steady
+    return shade
 
 
-def _contact_key(fig, data: SweepData, width: float, block: float, steady_seen: bool,
-                 other_seen: bool) -> None:
+def _contact_key(fig, data: SweepData, width: float, block: float, shown) -> None:
     """fig_contacts' key, below its panels: the curves, with the smoothing window and the
-    records' block, and the shading of the analysed window of the states shown."""
+    records' block, and the shading of the analysed window of the states ``shown`` (names
+    of ``SHADES``)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -138,12 +165,10 @@ def _contact_key(fig, data: SweepData, width: float, block: float, steady_seen: 
     labels = [rf"$\sigma_x/\sigma_n$, mean over {width:g} time units",
               f"R, mean over {width:g} time units",
               f"R, block means ({block:.3g} time units)"]
-    if steady_seen:
-        handles.append(Patch(color="tab:green", alpha=0.25, lw=0))
-        labels.append("analysed window (after the transient), steady run")
-    if other_seen:
-        handles.append(Patch(color="tab:orange", alpha=0.25, lw=0))
-        labels.append("analysed window, run not steady (state in the title)")
+    for name, (colour, hatch, words) in SHADES.items():
+        if name in shown:
+            handles.append(Patch(lw=0, **_shading(colour, hatch, 0.25)))
+            labels.append(words)
     fig.legend(handles, labels, loc="outside lower center", ncol=3, frameon=False,
                fontsize=MIN_FONT, handlelength=1.8, columnspacing=1.2,
                title=protocol_label(data), title_fontsize=MIN_FONT)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from bkflow.analysis.registry import keys
 from bkflow.figures.data import SweepData
 from bkflow.figures.keys import _series, state_key
-from bkflow.figures.style import MARKERS, _size_label
+from bkflow.figures.style import _size_label
 
 #: the axis label of a declared unit
 UNIT_LABELS = {"sigma_n": r"$/\sigma_n$", "stress": "(stress units)", "time": "(time units)",
@@ -20,10 +20,10 @@ def fig_declared(data: SweepData, plt, key: str):
     declared = keys()[key]
     fig, ax = plt.subplots(figsize=(4.6, 3.3))
     drawn = False
-    for (lx, ly), m in zip(data.sizes, MARKERS):
+    for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
         if key in g and g[key].notna().any():
-            _series(ax, g, key, m, _size_label(lx, ly))
+            _series(ax, g, key, k, _size_label(lx, ly))
             drawn = True
     if not drawn:
         return None

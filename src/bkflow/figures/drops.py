@@ -1,11 +1,15 @@
 """The sizes of the slips: the stress drops' density for the phi of the cluster figure, with a
-power law drawn only where the analysis found it plausible in every seed, and the two
+power law drawn only where the analysis found it plausible in every seed it fitted, and the two
 populations of the stiffest (system-wide slips and the rest) (``fig_drops``); the slips'
 potencies, their density and against their stress drops (``fig_potency``). The verdicts on a
-power law are the analysis's (runs.csv), never fitted here.
+power law are the analysis's (runs.csv), never fitted here, and rest on the runs whose state is
+steady or switching between steady states (``FITTED_STATES``): one verdict per phi
+(``power_law_verdict``) gives both a figure's key and its title.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -14,7 +18,20 @@ from bkflow.analysis.registry import power_law_names
 from bkflow.figures.clusters import _cluster_size, cluster_phis
 from bkflow.figures.data import SweepData, _point_states
 from bkflow.figures.keys import state_key
-from bkflow.figures.style import MARKERS, MIN_FONT, STATE_FILL, _num, _size_label, phi_colour
+from bkflow.figures.style import (
+    MIN_FONT,
+    _num,
+    _size_label,
+    phi_colour,
+    plain_log_ticks,
+    state_marker,
+)
+from bkflow.observables.stress import N_BOOT
+
+#: the states (``_point_states``) of the runs whose power-law fits a figure states and draws:
+#: a steady window, or one switching between the layer's steady states (docs/model.md "Steady
+#: state"); a drifting or metastable run's slips are in the densities, not in the verdict
+FITTED_STATES = ("steady", "switching")
 
 
 def _log_density(d, bins: int, part=None) -> tuple[np.ndarray, np.ndarray]:
@@ -57,62 +74,102 @@ def _column(runs: pd.DataFrame, name: str) -> pd.Series:
         else pd.Series(np.nan, index=runs.index)
 
 
-def _drop_verdict(runs: pd.DataFrame, key: str = "drop") -> tuple[bool, str]:
-    """Whether the seeds' stress drops (``key`` "drop"; "potency": the slips' potencies)
-    follow a power law, from their analyses (runs.csv: ``drop_power_law``, ``drop_fit_p``,
-    ``drop_vs_lognormal[_p]``, named by ``bkflow.analysis.registry.power_law_names``):
-    plausible only when it is in every seed and no seed's lognormal is significantly better
-    (R < 0, p < 0.1); and the key's words."""
+@dataclass(frozen=True)
+class Verdict:
+    """What a figure says of one phi's power law (``power_law_verdict``): ``kind`` "drawn"
+    (plausible in every fitted seed, a lognormal significantly better in none: the law is
+    drawn), "lognormal" (plausible in every fitted seed, a lognormal significantly better in
+    some), "rejected" (in some fitted seed), "no fit" or "not fitted" (no seed in
+    ``FITTED_STATES``); ``words``, the key's; ``runs``, the seeds fitted."""
+
+    kind: str
+    words: str
+    runs: pd.DataFrame
+
+    @property
+    def drawn(self) -> bool:
+        return self.kind == "drawn"
+
+
+def power_law_verdict(runs: pd.DataFrame, key: str = "drop") -> Verdict:
+    """The verdict on a power law of one phi's seeds ``runs`` (``key`` "drop": the stress
+    drops; "potency": the slips' potencies), from the analyses of those whose state is in
+    ``FITTED_STATES`` (runs.csv ``drop_power_law``, ``drop_fit_p``, ``drop_vs_lognormal[_p]``,
+    named by ``bkflow.analysis.registry.power_law_names``); the key says how many seeds it
+    rests on where it leaves some out."""
+    fitted = runs[np.isin(_point_states(runs), FITTED_STATES)]
+    n, k = len(runs), len(fitted)
+    if not k:
+        return Verdict("not fitted", "not fitted: no seed steady or switching", fitted)
+    kind, words = _judge(fitted, key)
+    if k < n:
+        words += f"; {k} of {n} seeds fitted (steady or switching)"
+    return Verdict(kind, words, fitted)
+
+
+def _judge(runs: pd.DataFrame, key: str) -> tuple[str, str]:
+    """(kind, words) of ``Verdict`` for the fitted seeds ``runs``: plausible only when it is
+    in every seed and no seed's lognormal is significantly better (R < 0, p < 0.1)."""
     verdict, fit_p, vs_lognormal, vs_lognormal_p = power_law_names(key)
     verdicts = runs[verdict].astype(str).tolist() if verdict in runs \
         else ["no fit"] * len(runs)
     p = _column(runs, fit_p)
     R, Rp = _column(runs, vs_lognormal), _column(runs, vs_lognormal_p)
     favoured = int(((R < 0) & (Rp < 0.1)).sum())  # seeds whose lognormal is significantly better
-    if verdicts and all(v == "plausible" for v in verdicts):
-        return _plausible(runs, key, p, favoured)
-    return False, _rejected(runs, key, verdicts, p, favoured)
-
-
-def _plausible(runs: pd.DataFrame, key: str, p: pd.Series, favoured: int) -> tuple[bool, str]:
-    """The verdict where the power law is plausible in every seed (``_drop_verdict``): drawn
-    with the seeds' mean exponent, unless a lognormal is significantly better in ``favoured``
-    seeds."""
     n = len(runs)
-    if favoured:
-        return False, (f"a lognormal favoured in {favoured} of {n} seeds" if n > 1 else
-                       "a lognormal favoured") + f" (power law p >= {p.min():.2f})"
-    alpha = _column(runs, f"{key}_exponent").mean()
-    err = _column(runs, f"{key}_exponent_err").mean()
-    return True, (rf"$\alpha$ = {alpha:.2f} $\pm$ {err:.2f} (p >= {p.min():.2f}"
-                  + (f" in all {n} seeds)" if n > 1 else ")"))
+    if verdicts and all(v == "plausible" for v in verdicts):
+        if favoured:
+            return "lognormal", (f"power law {_p_words('>=', p.min())}, but a lognormal "
+                                 "favoured" + (f" in {favoured} of {n} seeds" if n > 1 else ""))
+        alpha = _column(runs, f"{key}_exponent").mean()
+        err = _column(runs, f"{key}_exponent_err").mean()
+        return "drawn", (rf"$\alpha$ = {alpha:.2f} $\pm$ {err:.2f} ({_p_words('>=', p.min())}"
+                         + (f" in all {n} seeds)" if n > 1 else ")"))
+    rejected = [v == "rejected" for v in verdicts]
+    if not any(rejected):
+        return "no fit", "no fit"
+    worst = p[np.asarray(rejected)].max()
+    return "rejected", ("power law rejected"
+                        + (f" in {sum(rejected)} of {n} seeds" if n > 1 else "")
+                        + f" ({_p_words('<=', worst)}"
+                        + (", lognormal favoured)" if favoured == sum(rejected) else ")"))
 
 
-def _rejected(runs: pd.DataFrame, key: str, verdicts, p: pd.Series, favoured: int) -> str:
-    """The key's words where the power law is not plausible in every seed (``_drop_verdict``):
-    in how many seeds it was rejected, at what p, and whether a lognormal was favoured in each
-    of them; "no fit" where no seed rejected it."""
-    n = len(verdicts)
-    rejected = sum(v == "rejected" for v in verdicts)
-    if not rejected:
-        return "no fit"
-    lognormal = favoured == rejected
-    worst = p[runs[power_law_names(key)[0]].astype(str) == "rejected"].max()
-    shown = "p < 0.001" if worst < 0.001 else f"p <= {worst:.2f}"
-    return ("power law rejected" + (f" in {rejected} of {n} seeds" if n > 1 else "")
-            + f" ({shown}" + (", lognormal favoured)" if lognormal else ")"))
+def _p_words(op: str, p: float) -> str:
+    """A bootstrap p for a key: "p >= 0.18", "p <= 0.003"; "p < 0.001" below the bootstrap's
+    resolution (1 / N_BOOT: none of its samples fitted worse), never "p <= 0.00"."""
+    if not np.isfinite(p):
+        return "p n/a"
+    if p < 1.0 / N_BOOT:
+        return f"p < {1.0 / N_BOOT:g}"
+    return f"p {op} {p:.2g}"
 
 
-def _point_fill(points: pd.DataFrame, phi: float) -> str:
-    """How the markers of ``phi`` are filled: by its point's state (``STATE_FILL``; a phi
-    without a point of the tables as a drifting one)."""
+def _law_title(verdicts) -> str:
+    """The line of a density's title that says where a power law is drawn, from the same
+    verdicts as the key (``power_law_verdict``): the rule, and at how many of the phi drawn
+    it holds."""
+    drawn = sum(v.drawn for v in verdicts)
+    return ("lines: power law passes Clauset et al.'s test (p >= 0.1)\n"
+            f"in every fitted seed, no lognormal favoured: {drawn} of {len(verdicts)} phi")
+
+
+def _phi_label(phi: float, state: str, verdict: Verdict) -> str:
+    """A phi's entry in a density's key: its value, its point's state (its marker's) and the
+    verdict's words."""
+    return rf"$\phi$ = {_num(phi)} ({state}): {verdict.words}"
+
+
+def _point_state(points: pd.DataFrame, phi: float) -> str:
+    """The state of the point of ``phi`` (``_point_states``; a phi without a point of the
+    tables as a drifting one), whose marker its densities are drawn with."""
     state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
-    return STATE_FILL.get(state[0] if len(state) else "drifting", "none")
+    return str(state[0]) if len(state) else "drifting"
 
 
 def _fitted_law(ax, runs: pd.DataFrame, key: str, values: np.ndarray, colour) -> None:
-    """The fitted density of ``values`` over the tail (the seeds' mean exponent of ``key``
-    above their x_min), scaled by the tail's share of all ``values``."""
+    """The fitted density of ``values`` over the tail (the fitted seeds' mean exponent of
+    ``key`` above their x_min), scaled by the tail's share of all ``values``."""
     alpha = pd.to_numeric(runs[f"{key}_exponent"], errors="coerce").mean()
     x_min = pd.to_numeric(runs[f"{key}_x_min"], errors="coerce").mean()
     xs = np.geomspace(x_min, values.max(), 50)
@@ -120,78 +177,90 @@ def _fitted_law(ax, runs: pd.DataFrame, key: str, values: np.ndarray, colour) ->
     ax.plot(xs, share * (alpha - 1) / x_min * (xs / x_min) ** -alpha, color=colour, lw=0.8)
 
 
+def _density_key(fig, data: SweepData) -> None:
+    """A density figure's key, below its panels across the figure's width: one row per phi
+    (its colour, its state's marker, the verdict), titled with the runs' protocol."""
+    state_key(fig, data, ax=fig.axes[0], states=(), ncol=1)
+
+
+def _log_axes(*axes) -> None:
+    """Both axes of each of ``axes`` on log scales, with ticks that never overlap
+    (``plain_log_ticks``)."""
+    for a in axes:
+        a.set_xscale("log")
+        a.set_yscale("log")
+        for axis, (lo, hi) in ((a.xaxis, a.get_xlim()), (a.yaxis, a.get_ylim())):
+            plain_log_ticks(axis, lo, hi)
+
+
 def fig_drops(data: SweepData, plt):
     """(a) Density of stress-drop sizes after the transient (events.parquet, the seeds pooled)
     for the phi of the cluster figure (``cluster_phis``; those with two drops or more are
     drawn), with the maximum-likelihood power law drawn only where the analysis found it
-    plausible in every seed (Clauset et al.'s bootstrap, p >= 0.1; runs.csv
-    ``drop_power_law``), else the rejection written in the key.
+    plausible in every fitted seed (``power_law_verdict``: Clauset et al.'s bootstrap,
+    p >= 0.1, runs.csv ``drop_power_law``, and no lognormal favoured), else why not in the
+    key; the title says at how many phi it is drawn, from the same verdicts.
     (b) The stiffest phi drawn in (a) whose runs recorded clusters, split into its two
     populations: slips that move every particle of the layer (system-wide) and the rest,
     each density weighted by its share so that the two add up to (a)'s; its title says which
     of (a)'s phi it is, counted from the data. Markers by the point's state
-    (``STATE_FILL``), colours by phi (``phi_colour``)."""
+    (``state_marker``), colours by phi (``phi_colour``)."""
     lx, ly = _cluster_size(data)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.6))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
-    drawn, stiff, lines = [], None, 0
-    for phi, m in zip(cluster_phis(data.runs_of(lx, ly).phi), MARKERS):
+    drawn, stiff, verdicts = [], None, []
+    for phi in cluster_phis(data.runs_of(lx, ly).phi):
         colour = phi_colour(phi)
         runs = data.runs_of(lx, ly, phi)
         d, whole = _late_drops(data, runs)
         if len(d) < 2:
             continue
         drawn.append(phi)
-        plausible, words = _drop_verdict(runs)
-        fill = _point_fill(points, phi)
+        verdict = power_law_verdict(runs)
+        verdicts.append(verdict)
+        state = _point_state(points, phi)
         x, dens = _log_density(d, 15)
         nz = dens > 0
-        ax.plot(x[nz], dens[nz], m, color=colour, fillstyle=fill,
-                mfc=colour if fill != "none" else "white", mfcalt="white",
-                label=rf"$\phi$ = {_num(phi)}: {words}")
-        if plausible:
-            _fitted_law(ax, runs, "drop", d, colour)
-            lines += 1
+        ax.plot(x[nz], dens[nz], ls="none", label=_phi_label(phi, state, verdict),
+                **state_marker(state, colour, 5.5))
+        if verdict.drawn:
+            _fitted_law(ax, verdict.runs, "drop", d, colour)
         if whole is not None and (stiff is None or phi > stiff[0]):
-            stiff = (phi, d, whole, colour, fill)
+            stiff = (phi, d, whole, colour, state)
     if not drawn:  # no run had two stress drops after its transient
         return None
     for a in (ax, bx):
-        a.set_xscale("log")
-        a.set_yscale("log")
         a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     ax.set_ylabel("probability density")
     bx.set_ylabel("probability density (of all drops)")
-    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}\n" + (
-        "lines: power laws that pass Clauset et al.'s test (p >= 0.1)" if lines else
-        "no power law passes Clauset et al.'s test (p >= 0.1)"), fontsize=8)
-    state_key(fig, data)
-    # below the axes: a rejection's words never cover a point
-    ax.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}\n" + _law_title(verdicts),
+                 fontsize=MIN_FONT + 0.5)
+    _density_key(fig, data)
     if stiff is None:
         bx.text(0.5, 0.5, "no cluster data\n(scene without slip frames)",
                 transform=bx.transAxes, ha="center", va="center", fontsize=MIN_FONT)
-        return fig
-    _populations(bx, stiff, drawn)
+    else:
+        _populations(bx, stiff, drawn)
+    _log_axes(ax, *([bx] if stiff is not None else []))
     return fig
 
 
 def _populations(bx, stiff: tuple, drawn) -> None:
     """fig_drops' (b): the drops of the stiffest phi with slip clusters (``stiff``: phi, its
-    drops, whether each moved every particle, its colour and fill) as two densities in (a)'s
-    bins, system-wide and partial, each weighted by its share."""
-    phi, d, whole, colour, fill = stiff
-    for part, label, m, ls in ((whole, "system-wide (every particle slips)", "^", "-"),
-                               (~whole, "partial", "v", "--")):
+    drops, whether each moved every particle, its colour and state) as two densities in (a)'s
+    bins, system-wide and partial, each weighted by its share, told apart by their lines."""
+    phi, d, whole, colour, state = stiff
+    for part, label, ls in ((whole, "system-wide (every particle slips)", "-"),
+                            (~whole, "partial", (0, (4, 2)))):
         x, dens = _log_density(d, 15, part)  # (a)'s bins: the two add up to (a)'s density
         nz = dens > 0
         if nz.any():
-            bx.plot(x[nz], dens[nz], marker=m, ls=ls, color=colour, lw=0.8, fillstyle=fill,
-                    mfc=colour if fill != "none" else "white", mfcalt="white",
-                    label=f"{label}: {np.mean(part):.0%} of {len(d)}")
+            bx.plot(x[nz], dens[nz], ls=ls, lw=0.9, label=f"{label}: {np.mean(part):.0%} "
+                    f"of {len(d)}", **state_marker(state, colour, 5.0))
     bx.set_title(rf"two populations at $\phi$ = {_num(phi)}" + "\n(" + _which(phi, drawn)
-                 + ")", fontsize=8)
-    bx.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2))
+                 + ")", fontsize=MIN_FONT + 0.5)
+    bx.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2),
+              handlelength=2.6)
 
 
 def _which(phi: float, drawn) -> str:
@@ -229,57 +298,45 @@ def fig_potency(data: SweepData, plt):
     """The magnitude-frequency view, beside fig_drops: (a) the density of the slips'
     potencies after the transient for the phi of the cluster figure (``cluster_phis``), the
     seeds pooled, with the analysis's verdict on a power law in the key (runs.csv
-    ``potency_power_law``; the fitted law drawn where it is plausible in every seed); (b) each
-    slip's potency against its stress drop, the largest set drawn lowest.
+    ``potency_power_law`` of the seeds steady or switching, ``power_law_verdict``; the
+    fitted law drawn where it is plausible in every one of them, the title saying at how many
+    phi); (b) each slip's potency against its stress drop, the largest set drawn lowest.
 
     The potency is events.parquet's ``potency`` (bkflow.observables.catalogue): the sum over the
     slipping particles of their slips in x, sum_i dx_i, a length in lattice units l. (Seismic
     potency, slip times area, is this times the area l^2 each particle stands for: l^3; the axes
     show the sum as computed, so their unit is l.)"""
     lx, ly = _cluster_size(data)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.6))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
-    drawn = 0
-    for phi, m in zip(cluster_phis(data.runs_of(lx, ly).phi), MARKERS):
+    verdicts = []
+    for phi in cluster_phis(data.runs_of(lx, ly).phi):
         colour = phi_colour(phi)
         runs = data.runs_of(lx, ly, phi)
         pot, drops = _late_potencies(data, runs)
         if len(pot) < 2:
             continue
-        drawn += 1
-        plausible, words = _drop_verdict(runs, "potency")
-        fill = _point_fill(points, phi)
-        style_ = dict(color=colour, fillstyle=fill, mfcalt="white",
-                      mfc=colour if fill != "none" else "white")
+        verdict = power_law_verdict(runs, "potency")
+        verdicts.append(verdict)
+        state = _point_state(points, phi)
         x, dens = _log_density(pot, 15)
         nz = dens > 0
-        ax.plot(x[nz], dens[nz], m, label=rf"$\phi$ = {_num(phi)}: {words}", **style_)
-        if plausible:
-            _fitted_law(ax, runs, "potency", pot, colour)
+        ax.plot(x[nz], dens[nz], ls="none", label=_phi_label(phi, state, verdict),
+                **state_marker(state, colour, 5.5))
+        if verdict.drawn:
+            _fitted_law(ax, verdict.runs, "potency", pot, colour)
         # the largest set lowest: a sparse one is drawn over it, not under it
-        bx.plot(drops, pot, m, ms=2.5, alpha=0.6, ls="none", zorder=2 + 1 / len(pot),
-                **style_)
-    if not drawn:  # no run recorded slip frames
+        bx.plot(drops, pot, ls="none", alpha=0.6, zorder=2 + 1 / len(pot),
+                **state_marker(state, colour, 2.5))
+    if not verdicts:  # no run recorded slip frames
         return None
-    for a in (ax, bx):
-        a.set_xscale("log")
-        a.set_yscale("log")
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    for axis in (ax.xaxis, bx.yaxis):  # potencies span a decade or two: 1-2-5 ticks, plain
-        axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-        axis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(r"potency $\sum_i \Delta x_i$ of the slipping particles ($l$)")
     ax.set_ylabel("probability density")
-    ax.set_title(f"potencies, {_size_label(lx, ly)}: a law drawn only where\nClauset et al.'s "
-                 "test passes (p >= 0.1) and a lognormal is not favoured", fontsize=8)
+    ax.set_title(f"potencies, {_size_label(lx, ly)}\n" + _law_title(verdicts),
+                 fontsize=MIN_FONT + 0.5)
     bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     bx.set_ylabel(r"potency $\sum_i \Delta x_i$ ($l$)")
-    bx.set_title("each slip's potency against its stress drop", fontsize=8)
-    state_key(fig, data)
-    # below the axis label (two lines tall with its sum)
-    ax.legend(frameon=False, fontsize=MIN_FONT, loc="upper left",
-              bbox_to_anchor=(-0.02, -0.27))
+    bx.set_title("each slip's potency against its stress drop", fontsize=MIN_FONT + 0.5)
+    _density_key(fig, data)
+    _log_axes(ax, bx)
     return fig
-

@@ -6,71 +6,51 @@ and the slip clusters' asymmetry <l_x>/<l_y> against phi (Fig. 2b).
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
-from bkflow.figures.data import SweepData, _nearest
+from bkflow.figures.data import SweepData, _nearest, _point_states
 from bkflow.figures.keys import _series, protocol_label, regime_key, state_key
-from bkflow.figures.style import MARKERS, MIN_FONT, REGIME_COLOURS, STATE_FILL, _num, _size_label
+from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, _num, _size_label, state_marker
 from bkflow.model.lattice import box_extent
 
 
 def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     """sigma_x(t) over the last ``window`` time units of two runs (phi nearest 1e3 and 1),
-    slips' sigma_fail marked. Both panels on one y range, fitted to the traces so that a
-    reader compares their stick-slip by eye; the Amontons-Coulomb line mu_s sigma_n, far
-    above the traces in a layer whose contacts break one by one, is drawn where it lies in
-    that range and otherwise named in the right margin, its arrow pointing up (or down) to
-    it (a range stretched to it would leave the traces a sliver of each panel)."""
+    slips' sigma_fail marked by the run's state (``state_marker``). Both panels on one y
+    range, fitted to the traces so that a reader compares their stick-slip by eye, and the
+    Amontons-Coulomb line mu_s sigma_n inside it: where the line lies far from the traces
+    (a layer whose contacts break one by one stays well below it) the y axis is broken
+    (``_broken_axis``): the traces' range, a short gap marked on both spines, and a narrow
+    band around the line at the same scale, its value a tick of the axis."""
     lx, ly = data.sizes[0]
     phis = sorted(set(data.runs_of(lx, ly).phi))
     chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
-    fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 2.1 * len(chosen) + 0.5),
+    traces = [_stress_trace(data, data.runs_of(lx, ly, phi).iloc[0], window) for phi in chosen]
+    fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 2.3 * len(chosen) + 0.5),
                              squeeze=False)
-    lows, highs, tops = [], [], []
-    outline = False
-    for ax, phi, colour, marker in zip(axes[:, 0], chosen, ("black", "tab:red"), ("s", "o")):
-        row = data.runs_of(lx, ly, phi).iloc[0]
-        rd = data.run_dir(row)
-        t, sigma = rd.stress_outline(rd.spec())   # the turning points, or the raw series
-        ev = rd.read_events()
-        t0 = t[-1] - window
-        keep = t >= t0
-        # the raw series where the run kept it, else the line through its turning points
-        outline = outline or not rd.keeps_raw_stress()
-        ax.plot(t[keep], sigma[keep], color=colour, lw=0.8,
-                label=rf"$\phi$ = {_num(phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
-        k = ev.t_max >= t0
-        fill = STATE_FILL.get(str(row.get("state", "drifting")), "none")
-        ax.plot(ev.t_max[k], ev.sigma_fail[k], marker, color=colour, fillstyle=fill,
-                mfc=colour if fill != "none" else "white", mfcalt="white", ls="none",
-                label=r"$\sigma_{\rm fail}$ (slip maxima; " + str(row.get("state", "n/a"))
-                + ")")
-        ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
-        ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")  # each panel: the two runs' times differ
-        lows.append(float(np.min(sigma[keep])))
-        highs.append(float(max(np.max(sigma[keep]),
-                               np.max(ev.sigma_fail[k].to_numpy(float), initial=-np.inf))))
-        tops.append(float(row.mu_s * row.sigma_n * getattr(row, "area", 1.0)))
     # one y range for both panels, fitted to the traces, so that their stresses compare by eye
-    lo, hi = min(lows), max(highs)
+    lo, hi = min(tr["low"] for tr in traces), max(tr["high"] for tr in traces)
     pad = 0.06 * (hi - lo) if hi > lo else 0.05 * abs(hi) or 0.05
     lo, hi = lo - pad, hi + pad
-    for ax, top in zip(axes[:, 0], tops):
-        ax.set_ylim(lo, hi)
-        words = rf"Amontons-Coulomb $\mu_s\sigma_n$ = {top:.3g}"
-        if lo <= top <= hi:
-            ax.axhline(top, color="tab:blue", ls="-.", lw=1, label=words)
-        else:  # outside the range: named in the right margin, the arrow pointing to it
-            up = top > hi
-            ax.annotate("Amontons-Coulomb\n" + rf"$\mu_s\sigma_n$ = {top:.3g}",
-                        xy=(1.012, 1.0 if up else 0.0),
-                        xycoords="axes fraction", xytext=(1.012, 0.5),
-                        textcoords="axes fraction", rotation=90, ha="left", va="center",
-                        fontsize=MIN_FONT, color="tab:blue", annotation_clip=False,
-                        arrowprops={"arrowstyle": "->", "color": "tab:blue", "lw": 0.8,
-                                    "shrinkA": 2, "shrinkB": 0})
+    for ax, tr, colour in zip(axes[:, 0], traces, ("black", "tab:red")):
+        row, state = tr["row"], str(tr["row"].get("state", "n/a"))
+        ax.plot(tr["t"], tr["sigma"], color=colour, lw=0.8,
+                label=rf"$\phi$ = {_num(row.phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
+        ax.plot(tr["t_max"], tr["fail"], ls="none",
+                label=r"$\sigma_{\rm fail}$ (slip maxima; " + state + ")",
+                **state_marker(str(_point_states(pd.DataFrame([row]))[0]), colour, 5.5))
+        ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
+        ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")  # each panel: the two runs' times differ
+        ax.axhline(tr["top"], color="tab:blue", ls="-.", lw=1,
+                   label=rf"Amontons-Coulomb $\mu_s\sigma_n$ = {tr['top']:.3g}")
+        if lo <= tr["top"] <= hi:
+            ax.set_ylim(lo, hi)
+        else:
+            _broken_axis(ax, lo, hi, tr["top"])
         # the key above the panel: inside, it would sit on the trace
         ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, frameon=False,
                   fontsize=MIN_FONT, borderaxespad=0.1, handlelength=1.5, columnspacing=1.0)
+    outline = any(tr["outline"] for tr in traces)
     fig.suptitle(r"Fig. 1b: stick-slip of the shear stress $\sigma_x(t)$ ("
                  + protocol_label(data) + ")"
                  + ("\nthe lines join its turning points (the drops above 0.1% of "
@@ -79,17 +59,81 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     return fig
 
 
+def _stress_trace(data: SweepData, row, window: float) -> dict:
+    """The last ``window`` time units of a run's sigma_x (the raw series where the run kept
+    it, else the line through its turning points: ``outline``), its slips' maxima in them,
+    their lowest and highest stress and mu_s sigma_n (``top``)."""
+    rd = data.run_dir(row)
+    t, sigma = rd.stress_outline(rd.spec())   # the turning points, or the raw series
+    ev = rd.read_events()
+    keep = t >= t[-1] - window
+    k = (ev.t_max >= t[-1] - window).to_numpy()
+    fail = ev.sigma_fail[k].to_numpy(float)
+    return {"row": row, "t": t[keep], "sigma": sigma[keep], "t_max": ev.t_max[k].to_numpy(),
+            "fail": fail, "outline": not rd.keeps_raw_stress(),
+            "low": float(np.min(sigma[keep])),
+            "high": float(max(np.max(sigma[keep]), np.max(fail, initial=-np.inf))),
+            "top": float(row.mu_s * row.sigma_n * getattr(row, "area", 1.0))}
+
+
+def _piecewise(xp, fp):
+    """The piecewise-linear map through (xp, fp), xp and fp increasing, continued with slope
+    1 beyond them (a ``FuncScale``'s forward or, swapped, inverse)."""
+    xp, fp = np.asarray(xp, float), np.asarray(fp, float)
+
+    def f(v):
+        v = np.asarray(v, float)
+        out = np.interp(v, xp, fp)
+        out = np.where(v < xp[0], fp[0] + (v - xp[0]), out)
+        return np.where(v > xp[-1], fp[-1] + (v - xp[-1]), out)
+
+    return f
+
+
+def _broken_axis(ax, lo: float, hi: float, top: float) -> None:
+    """A y axis of ``ax`` that shows lo..hi and, beyond a short gap, a narrow band around
+    ``top`` at the same scale (a ``FuncScale`` that squeezes the stresses between them into
+    the gap): every tick a value of the axis (lo..hi's round values and ``top``), the gap
+    marked by two slanted strokes on each spine."""
+    from matplotlib.path import Path as MPath
+    from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator, NullLocator
+
+    span = hi - lo
+    half, gap = 0.06 * span, 0.1 * span   # the band's half height; the gap's height
+    if top > hi:
+        xp, fp = [lo, hi, top - half, top + half], [lo, hi, hi + gap, hi + gap + 2 * half]
+        ylim, at = (lo, top + half), hi + gap / 2
+    else:
+        xp, fp = [top - half, top + half, lo, hi], [lo - gap - 2 * half, lo - gap, lo, hi]
+        ylim, at = (top - half, hi), lo - gap / 2
+    ax.set_yscale("function", functions=(_piecewise(xp, fp), _piecewise(fp, xp)))
+    ax.set_ylim(*ylim)
+    ticks = [v for v in MaxNLocator(nbins=5).tick_values(lo, hi) if lo <= v <= hi]
+    ax.yaxis.set_major_locator(FixedLocator(ticks + [top]))
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.3g}"))
+    # where the axis skips: the gap's middle, as a fraction of the axes' height
+    frac = (at - fp[0]) / (fp[-1] - fp[0])
+    strokes = MPath([(-1, -1.4), (1, -0.4), (-1, 0.4), (1, 1.4)],
+                    [MPath.MOVETO, MPath.LINETO, MPath.MOVETO, MPath.LINETO])
+    # the spines cut between the strokes (a white bar over each), the strokes over the cut
+    ax.plot([0, 1], [frac, frac], transform=ax.transAxes, ls="none", marker="|", ms=5, mew=3,
+            color="white", clip_on=False, zorder=3, label="_nolegend_")
+    ax.plot([0, 1], [frac, frac], transform=ax.transAxes, ls="none", marker=strokes, ms=9,
+            mew=0.9, color="black", clip_on=False, zorder=3.1, label="_nolegend_")
+
+
 def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
-    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``STATE_FILL``);
+    <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``state_marker``);
     the majority regime of the smallest size written above each phi in the paper's colours,
     keyed below (``regime_key``)."""
     fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 3.1))
-    for (lx, ly), m in zip(data.sizes, MARKERS):
+    for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
         for ax, f in ((a, "mu_bar"), (c, "mu_bar_large"), (b, "mean_stress_ratio")):
             if f in g:
-                _series(ax, g, f, m, _size_label(lx, ly))
+                _series(ax, g, f, k, _size_label(lx, ly))
     shown = _regime_labels(a, data)
     a.set_ylabel(r"$\overline{\mu} = \langle\sigma_{\rm fail}\rangle/\sigma_n$")
     c.set_ylabel(r"$\overline{\mu}$ over large drops")
@@ -129,9 +173,9 @@ def fig2b_asymmetry(data: SweepData, plt):
     from matplotlib.lines import Line2D
 
     fig, ax = plt.subplots(figsize=(4.6, 2.9))
-    for (lx, ly), m in zip(data.sizes, MARKERS):
+    for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
-        _series(ax, g, "lx_over_ly", m, _size_label(lx, ly))
+        _series(ax, g, "lx_over_ly", k, _size_label(lx, ly))
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)

@@ -1,7 +1,7 @@
-"""How the figures mark and key what they show, alike in every figure: a curve against phi whose
-markers say each point's state (``STATE_FILL``), the key of those markers and of the regime
-letters, laid out below a figure's panels, and the words naming the runs' protocol, the title of
-every key.
+"""How the figures mark and key what they show, alike in every figure: a curve against phi (one
+per size, told apart by colour and line) whose markers say each point's state (``state_marker``:
+shape and fill), the key of those markers and of the regime letters, laid out below a figure's
+panels, and the words naming the runs' protocol, the title of every key.
 """
 
 from __future__ import annotations
@@ -12,50 +12,57 @@ from bkflow.figures.data import SweepData, _errors, _point_states
 from bkflow.figures.style import (
     MIN_FONT,
     REGIME_COLOURS,
+    REGIME_NOTE,
     REGIME_WORDS,
+    SIZE_LINES,
     STATE_FILL,
     STATE_WORDS,
     _num,
+    state_marker,
 )
 
 
-def _series(ax, g: pd.DataFrame, field: str, marker: str, label: str):
-    """One curve against phi with error bars, each point's marker drawn by its state
-    (``STATE_FILL``)."""
+def _series(ax, g: pd.DataFrame, field: str, k: int, label: str):
+    """The curve of the ``k``-th size against phi, in its colour and line (``SIZE_LINES``),
+    with error bars, each point's marker drawn by its state (``state_marker``) over the
+    curve and its bar."""
     line = ax.errorbar(g.phi, g[field], yerr=_errors(g, field), marker="none", capsize=2,
-                       lw=0.8, label=label)
+                       lw=0.9, ls=SIZE_LINES[k % len(SIZE_LINES)], label=label, zorder=2)
     colour = line[0].get_color()
     states = _point_states(g)
-    for name, fill in STATE_FILL.items():
-        k = states == name
-        if k.any():
-            ax.plot(g.phi[k], g[field][k], marker, color=colour, ls="none", ms=5,
-                    fillstyle=fill, mfc=colour if fill != "none" else "white",
-                    mfcalt="white")
+    for name in STATE_FILL:
+        keep = states == name
+        if keep.any():
+            ax.plot(g.phi[keep], g[field][keep], ls="none", zorder=3,
+                    **state_marker(name, colour))
     return line
 
 
-def state_handles(present=tuple(STATE_FILL)) -> tuple[list, list[str]]:
-    """The key of the marker convention (``STATE_FILL``) for the states ``present``:
-    grey markers and their words, in the convention's order."""
+def state_handles(present=tuple(STATE_FILL), colour="dimgrey") -> tuple[list, list[str]]:
+    """The key of the marker convention (``state_marker``) for the states ``present``:
+    the markers in ``colour`` and their words, in the convention's order."""
     from matplotlib.lines import Line2D
 
-    shown = [(name, fill) for name, fill in STATE_FILL.items() if name in present]
-    return ([Line2D([], [], marker="o", ls="none", color="grey", fillstyle=fill,
-                    mfc="grey" if fill != "none" else "white", mfcalt="white")
-             for _, fill in shown], [STATE_WORDS[name] for name, _ in shown])
+    shown = [name for name in STATE_FILL if name in present]
+    return ([Line2D([], [], ls="none", **state_marker(name, colour)) for name in shown],
+            [STATE_WORDS[name] for name in shown])
 
 
 def regime_key(regimes) -> tuple[list, list[str]]:
     """The key of the regime letters (``REGIME_COLOURS``, ``REGIME_WORDS``) for the regimes
-    given: each letter as its marker, in its colour."""
+    given: each letter as its marker, in its colour; where DP or DT is among them, what their
+    f_x and f_y are (``REGIME_NOTE``) after them."""
     from matplotlib.lines import Line2D
 
     order = [r for r in REGIME_COLOURS if r in set(regimes)]
     handles = [Line2D([], [], ls="none", marker=rf"$\mathrm{{{r}}}$",
                       ms=7 if len(r) == 1 else 10, color=REGIME_COLOURS[r], mew=0)
                for r in order]
-    return handles, [REGIME_WORDS[r] for r in order]
+    words = [REGIME_WORDS[r] for r in order]
+    if {"DP", "DT"} & set(order):
+        handles.append(Line2D([], [], ls="none"))
+        words.append(REGIME_NOTE)
+    return handles, words
 
 
 def protocol_label(data: SweepData) -> str:
@@ -94,19 +101,22 @@ def protocol_label(data: SweepData) -> str:
     return "mixed protocols"
 
 
-def state_key(fig, data: SweepData, ax=None, extra=((), ())) -> None:
+def state_key(fig, data: SweepData, ax=None, extra=((), ()), states=None,
+              ncol: int | None = None) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
-    labelled handles, e.g. one per size) and the marker convention (``STATE_FILL``) for
-    the states present in the figure's points (grey markers); ``extra`` (handles, labels),
-    e.g. fig2a's regime letters, on rows of their own below."""
+    labelled handles, e.g. one per size), on rows of their own the marker convention
+    (``state_marker``) for the ``states`` shown (default: those of the sweep's points), and
+    ``extra`` (handles, labels), e.g. fig2a's regime letters, on rows of their own below;
+    in ``ncol`` columns (default: as many as the figure's width holds)."""
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
-    more, words = state_handles(set(_point_states(data.results)))
-    groups = [(handles + more, labels + words), (list(extra[0]), list(extra[1]))]
-    groups = [g for g in groups if g[0]]
+    shown = set(_point_states(data.results)) if states is None else set(states)
+    groups = [(handles, labels), state_handles(shown), (list(extra[0]), list(extra[1]))]
+    groups = [(list(h), list(w)) for h, w in groups if len(h)]
     if not groups:
         return
     # as many columns as the figure's width holds (a key wider than the figure squeezes it)
-    ncol = min(max(len(h) for h, _ in groups), 6, max(2, int(fig.get_figwidth() // 1.6)))
+    ncol = ncol or min(max(len(h) for h, _ in groups), 6,
+                       max(2, int(fig.get_figwidth() // 1.6)))
     handles, labels = _in_rows(groups, ncol)
     fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
                fontsize=MIN_FONT, handletextpad=0.3, columnspacing=1.2,

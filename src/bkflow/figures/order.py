@@ -1,5 +1,6 @@
-"""The bond-orientational order of the paper's Fig. 3: Psi(inf) against phi per size, and beside
-it 1 - Psi(t) from the start, sample by sample, as the run recorded it (the paper's inset).
+"""The bond-orientational order of the paper's Fig. 3: Psi(inf) against phi per size, below it
+1 - Psi(inf) on a log axis (where the sizes part at the stiff end), and beside them 1 - Psi(t)
+from the start, sample by sample, as the run recorded it (the paper's inset).
 """
 
 from __future__ import annotations
@@ -8,10 +9,15 @@ import numpy as np
 
 from bkflow.figures.data import SweepData, _nearest
 from bkflow.figures.keys import _series, state_key
-from bkflow.figures.style import MARKERS, MIN_FONT, _num, _size_label, phi_colour
+from bkflow.figures.style import MIN_FONT, _num, _size_label, phi_colour, plain_log_ticks
 
 #: phi of the Psi(t) panel (the paper's Fig. 3 inset)
 INSET_PHI = (1e3, 1e2, 10.0, 1.0)
+
+#: fig3's (b) shows 1 - Psi(inf) of the points whose Psi(inf) is at least this (all points
+#: where none is): the stiff layers, where (a)'s curves flatten near 1 and the sizes' Psi(inf)
+#: differ by little in value and by many standard errors
+PSI_ZOOM = 0.9
 
 #: samples of Psi(t) (one every ``snapshot_every`` time units) that fig3's Psi(t) panel shows
 #: from the start: on a linear time axis, each sample marked, so that the reader sees how few
@@ -20,24 +26,22 @@ PSI_SAMPLES = 40
 
 
 def fig3_order(data: SweepData, plt):
-    """(a) Psi(inf)(phi) per size; (b) the paper's inset, 1 - Psi(t) from the start of one
-    seed for phi in INSET_PHI (N = 400 where swept), on a log axis (the stiff layers' Psi
-    all lie within 2% of 1). Psi is recorded every ``snapshot_every`` time units (psi.npy;
-    20 by default), and its fall from Psi(0) = 1 is over within two or three samples: a log
-    time axis from the first sample would make those samples look like a resolved fall. (b) shows
-    the first ``PSI_SAMPLES`` samples on a linear time axis, each one marked, and says the
-    sampling interval: the fall is drawn as what the record holds, a step the sampling does
-    not resolve, followed by the plateau."""
-    fig, (ax, ins) = plt.subplots(1, 2, figsize=(7.6, 3.1), width_ratios=(1.25, 1))
-    for (lx, ly), m in zip(data.sizes, MARKERS):
-        g = data.results_of(lx, ly)
-        _series(ax, g, "psi_inf", m, _size_label(lx, ly))
-    ax.set_xscale("log")
-    ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-    ax.set_ylabel(r"$\Psi(\infty)$")
-    ax.set_ylim(0.4, 1.05)
+    """(a) Psi(inf)(phi) per size; below it, on the same phi, (b) 1 - Psi(inf) on a log axis:
+    the stiff layers' Psi(inf) all lie within 1% of 1, where (a)'s curves meet although the
+    sizes differ by many standard errors; (c) the paper's inset, 1 - Psi(t) from the start of
+    one seed for phi in INSET_PHI (N = 400 where swept), on a log axis. Psi is recorded every
+    ``snapshot_every`` time units (psi.npy; 20 by default), and its fall from Psi(0) = 1 is
+    over within two or three samples: a log time axis from the first sample would make those
+    samples look like a resolved fall. (c) shows the first ``PSI_SAMPLES`` samples on a
+    linear time axis, each one marked, and says the sampling interval: the fall is drawn as
+    what the record holds, a step the sampling does not resolve, followed by the plateau."""
+    fig = plt.figure(figsize=(7.6, 4.6))
+    panels = fig.subplot_mosaic([["a", "c"], ["b", "c"]], width_ratios=(1.25, 1),
+                                height_ratios=(1.1, 1))
+    ax, low, ins = panels["a"], panels["b"], panels["c"]
+    low.sharex(ax)
+    _order_panels(ax, low, data)
     state_key(fig, data, ax=ax)
-    ax.set_title(r"Fig. 3: bond-orientational order $\Psi$", fontsize=9)
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
     runs = data.runs_of(*inset_size)
     phis = sorted(set(runs.phi))
@@ -62,16 +66,52 @@ def fig3_order(data: SweepData, plt):
     if not steps:
         fig.delaxes(ins)
         return fig
+    _inset_axes(ins, steps, inset_size)
+    return fig
+
+
+def _order_panels(ax, low, data: SweepData) -> None:
+    """fig3's (a), Psi(inf) against phi per size, and (b), 1 - Psi(inf) on a log axis of the
+    points with Psi(inf) >= ``PSI_ZOOM`` (of all where none is)."""
+    lowest = 1.0
+    zoom = PSI_ZOOM if (data.results.psi_inf >= PSI_ZOOM).any() else -np.inf
+    for k, (lx, ly) in enumerate(data.sizes):
+        g = data.results_of(lx, ly)
+        _series(ax, g, "psi_inf", k, _size_label(lx, ly))
+        lowest = min(lowest, float(g.psi_inf.min()))
+        # the seeds' error of 1 - Psi is Psi's: the same column under the new name
+        disorder = g.assign(disorder=1.0 - g.psi_inf,
+                            **{f"disorder{tail}": g[f"psi_inf{tail}"] for tail in
+                               ("_err", "_sem", "_err_within_run") if f"psi_inf{tail}" in g})
+        disorder = disorder[(disorder.disorder > 0) & (disorder.psi_inf >= zoom)]
+        if len(disorder):
+            _series(low, disorder, "disorder", k, "_nolegend_")
+    ax.set_xscale("log")
+    ax.set_ylabel(r"$\Psi(\infty)$")
+    ax.set_ylim(min(0.4, lowest - 0.03), 1.05)
+    ax.tick_params(labelbottom=False)
+    ax.set_title(r"Fig. 3: (a) bond-orientational order $\Psi(\infty)$", fontsize=9)
+    low.set_yscale("log")
+    low.set_xlabel(r"$\phi = k_b/\Delta k_d$")
+    low.set_ylabel(r"$1 - \Psi(\infty)$")
+    low.set_title(r"(b) $1 - \Psi(\infty)$ on a log axis"
+                  + (rf" where $\Psi(\infty) \geq$ {PSI_ZOOM:g}" if zoom > 0 else "")
+                  + ":\nthe sizes apart where (a)'s curves meet", fontsize=MIN_FONT)
+    plain_log_ticks(low.yaxis, *low.get_ylim())
+
+
+def _inset_axes(ins, steps, inset_size) -> None:
+    """The axes, title and key of fig3's (c), the Psi(t) samples of ``inset_size`` drawn at
+    intervals ``steps``."""
     ins.set_yscale("log")
     ins.set_xlim(left=0)
     ins.set_xlabel(r"t ($\sqrt{m/k_d}$)")
     ins.set_ylabel(r"$1 - \Psi(t)$")
     lo, hi = f"{min(steps):.3g}", f"{max(steps):.3g}"   # (the runs' time steps differ)
     every = lo if lo == hi else f"{lo} to {hi}"
-    ins.set_title(f"the paper's inset: from the start, N = {inset_size[0] * inset_size[1]}, "
+    ins.set_title(f"(c) the paper's inset: from the start, N = {inset_size[0] * inset_size[1]}, "
                   "one seed;\n"
                   rf"$\Psi$ sampled every {every} time units (dots), $\Psi(0) = 1$",
                   fontsize=MIN_FONT)
     ins.legend(fontsize=MIN_FONT, frameon=False, loc="upper center",
-               bbox_to_anchor=(0.5, -0.24), ncol=4, handlelength=1.5, columnspacing=0.8)
-    return fig
+               bbox_to_anchor=(0.5, -0.14), ncol=4, handlelength=1.5, columnspacing=0.8)

@@ -1,7 +1,7 @@
 """What every figure of bkflow shares in how it looks: the style (``STYLE``, applied only while
-bkflow builds and saves a figure), figures made without pyplot (``Figures``), the markers and
-colours (of the sizes, the regimes, the phi and the points' states), the smallest text, and the
-words of a parameter value in a key.
+bkflow builds and saves a figure), figures made without pyplot (``Figures``), the lines of the
+sizes, the colours of the regimes and the phi, the markers of the points' states, the ticks of a
+short log axis, the smallest text, and the words of a parameter value in a key.
 """
 
 from __future__ import annotations
@@ -9,8 +9,11 @@ from __future__ import annotations
 import functools
 import math
 
-#: the markers of the sizes (or of the phi) of a figure, in order
-MARKERS = ("o", "s", "D", "^", "v", "P")
+#: the lines of the sizes of a figure, in order, each with its colour (matplotlib's cycle):
+#: solid, dashed, dotted, dash-dotted, ...; a curve's markers say its points' states
+#: (``state_marker``), so that the sizes are told apart by colour and line, never by marker
+SIZE_LINES = ("-", (0, (5, 2)), (0, (1.2, 1.4)), (0, (6, 1.6, 1.2, 1.6)), (0, (10, 2.5)),
+              (0, (2.5, 2.5)))
 
 #: the regimes' colours of the letters in fig2a (the paper's code: black, red, green, blue;
 #: W, which the paper has not, grey), always with their key
@@ -21,8 +24,10 @@ REGIME_COLOURS = {"C": "black", "W": "tab:grey", "LC": "tab:red", "DP": "tab:gre
 REGIME_WORDS = {"C": "crystalline, the whole box slips",
                 "W": "the whole box slips, not crystalline",
                 "LC": "laminar crystalline: whole rows",
-                "DP": "disordered, longer along x",
-                "DT": "disordered, longer across x"}
+                "DP": "disordered: x not spanned, f_x >= f_y",
+                "DT": "disordered: x not spanned, f_x < f_y"}
+#: what f_x, f_y of ``REGIME_WORDS`` are (docs/model.md "Slip clusters"), keyed beside DP or DT
+REGIME_NOTE = "f_x, f_y: a cluster's extents over a whole-box slip's"
 
 #: the range of phi over which ``phi_colour`` runs: one colour per phi in every figure
 PHI_RANGE = (0.1, 1000.0)
@@ -36,18 +41,37 @@ STYLE = {"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5, "xtick.lab
          "ytick.labelsize": 8, "lines.markersize": 4, "figure.dpi": 100, "savefig.dpi": 200,
          "savefig.bbox": "tight"}
 
-#: how a point's state (results.csv ``state``, docs/model.md "Steady state") is drawn: its
-#: marker filled (every seed's run steady), open (some drifting), half-filled, left half (some
-#: metastable: a flat stress that still remembers its start; split vertically, so that the
-#: curve through the marker does not hide the split), or bottom half (switching between
-#: states: the error bar covers the switching)
+#: how a point's state (results.csv ``state``, docs/model.md "Steady state") is drawn: by its
+#: marker's shape (``STATE_MARKER``) and fill (``STATE_FILL``), told apart by the shape alone
+#: at print size: a filled circle (every seed's run steady), an open circle (some drifting), a
+#: square filled below (switching between states: the error bar covers the switching) or a
+#: diamond filled on the left (some metastable: a flat stress that still remembers its start;
+#: split vertically, so that the curve through the marker does not hide the split). One
+#: convention for every figure that marks states (bkflow plot's and the reproduction's,
+#: workflows/paper), drawn by ``state_marker`` and keyed by ``keys.state_handles``
 STATE_FILL = {"steady": "full", "switching": "bottom", "drifting": "none", "metastable": "left"}
+STATE_MARKER = {"steady": "o", "switching": "s", "drifting": "o", "metastable": "D"}
 #: the words of each state in a figure's key (every figure that marks states: bkflow plot's
 #: and the reproduction's, workflows/paper)
 STATE_WORDS = {"steady": "steady (every seed)",
                "switching": "switching between states (some seed)",
                "drifting": "drifting (some seed)",
                "metastable": "metastable: remembers its start (some seed)"}
+#: a state marker's size (points, a circle's; squares and diamonds a little smaller, so that
+#: the shapes look alike in size) and edge width (points) on a curve against phi
+STATE_SIZE, STATE_EDGE = 6.5, 1.0
+_SHAPE_SCALE = {"o": 1.0, "s": 0.85, "D": 0.78}
+
+
+def state_marker(state: str, colour, size: float = STATE_SIZE) -> dict:
+    """The keywords of ``Axes.plot`` (or of a ``Line2D``) that draw a point of ``state`` (a
+    ``STATE_FILL`` name; any other as drifting) in ``colour``: its shape, fill, size and edge;
+    the edge width scales with ``size``."""
+    state = state if state in STATE_FILL else "drifting"
+    fill, shape = STATE_FILL[state], STATE_MARKER[state]
+    return {"marker": shape, "ms": size * _SHAPE_SCALE.get(shape, 1.0),
+            "mew": STATE_EDGE * min(1.0, size / STATE_SIZE), "color": colour, "mec": colour,
+            "fillstyle": fill, "mfc": colour if fill != "none" else "white", "mfcalt": "white"}
 
 
 def phi_colour(phi: float):
@@ -62,6 +86,24 @@ def phi_colour(phi: float):
     lo, hi = (math.log10(v) for v in PHI_RANGE)
     frac = min(1.0, max(0.0, (math.log10(phi) - lo) / (hi - lo)))
     return colormaps["plasma"](0.85 * (1.0 - frac))
+
+
+def plain_log_ticks(axis, lo: float, hi: float) -> None:
+    """Ticks a reader can read on a log ``axis`` (``ax.xaxis``) spanning ``lo`` to ``hi``,
+    never overlapping labels such as ``1.2 x 10^-2`` side by side: over a decade or less a few
+    evenly spaced round values, over two decades or less 1, 2 and 5 times the powers of ten,
+    both labelled as plain numbers (0.0125, 20), minor ticks unlabelled; over more, matplotlib's
+    powers of ten, as they are."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    lo, hi = sorted((float(lo), float(hi)))
+    span = math.log10(hi / lo) if lo > 0 and hi > lo else 0.0
+    if span > 2.0:
+        return
+    axis.set_major_locator(MaxNLocator(nbins=4, steps=[1, 2, 2.5, 5, 10]) if span <= 1.0
+                           else LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.6g}"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 class PlotError(ValueError):
