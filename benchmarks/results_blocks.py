@@ -839,6 +839,49 @@ def large_drops() -> str:
     return "\n".join(out) + "\n"
 
 
+# ------------------------------------------------------------------- two states or one
+def _layers(rows) -> str:
+    """(N, phi) pairs as "N = 100: phi = 464, 1000; N = 900: phi = 1000" (none: "none")."""
+    by_n = {}
+    for r in rows:
+        by_n.setdefault(r["N"], []).append(f"{r['phi']:g}")
+    return "; ".join(f"N = {n}: phi = {', '.join(p)}" for n, p in by_n.items()) or "none"
+
+
+def bimodality() -> str:
+    """Whether the blocks of a layer fall into two groups: Sarle's coefficient of R and of the
+    stress, and the quiet share under other block lengths and thresholds
+    (benchmarks/bimodality.py's record)."""
+    rec = _record("bimodality")
+    if rec is None:
+        return "(not measured yet: python benchmarks/bimodality.py)\n"
+    lengths, cut = [str(v) for v in rec["block_lengths"]], rec["sarle_bimodal"]
+    fs = " / ".join(f"{f:g}x" for f in rec["factors"])
+    out = ["| N | phi | blocks | b of R (blocks of " + " / ".join(lengths) + ") | b of R, "
+           "seed by seed | b of the stress | b without the synchronized start (R / stress) | "
+           + " | ".join(f"quiet share, blocks of {v} ({fs})" for v in lengths) + " |",
+           "|---|---|---|---|---|---|---|" + "---|" * len(lengths)]
+    for r in rec["layers"]:
+        quiet = [" / ".join(f"{v:.3f}" for v in r["quiet"][v].values()) for v in lengths]
+        out.append(f"| {r['N']} | {r['phi']:g} | {r['blocks']} | "
+                   + " / ".join(f"{r['sarle_R'][v]:.2f}" for v in lengths)
+                   + f" | {r['sarle_R_seeds'][0]:.2f} - {r['sarle_R_seeds'][1]:.2f} | "
+                   f"{r['sarle_stress'][lengths[0]]:.2f} | "
+                   f"{r['sarle_without_synchronized']['R']:.2f} / "
+                   f"{r['sarle_without_synchronized']['stress']:.2f} | " + " | ".join(quiet) + " |")
+    ls = rec["layers"]
+    first = lengths[0]
+    out += ["", f"Reading: b above {cut:.3f} (two modes suggested), every seed pooled, blocks of "
+            f"{first}: R at {_layers([r for r in ls if r['sarle_R'][first] > cut])}; the stress "
+            f"at {_layers([r for r in ls if r['sarle_stress'][first] > cut])}; R of at least "
+            f"one seed at {_layers([r for r in ls if r['sarle_R_seeds'][1] > cut])}. Quiet "
+            f"blocks at the threshold: {_layers([r for r in ls if r['quiet'][first]['1'] > 0])}; "
+            "at twice it, also "
+            + _layers([r for r in ls if r["quiet"][first]["1"] == 0 < r["quiet"][first]["2"]])
+            + "."]
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------- the paper's claims
 CLAIMS = ROOT / "workflows" / "paper" / "claims.json"
 
@@ -860,6 +903,7 @@ def claims_block(name: str):
 
 
 BLOCKS["large-drops"] = large_drops
+BLOCKS["bimodality"] = bimodality
 
 
 def summary_keys() -> str:

@@ -137,15 +137,19 @@ def _outside_or_hidden(fig) -> list[str]:
     return bad
 
 
+def _small_text(fig, least: float = style.MIN_FONT) -> list:
+    """The visible text of ``fig`` under ``least`` points (at its saved size): (text, size)."""
+    from matplotlib.text import Text
+
+    return [(t.get_text(), t.get_fontsize()) for t in fig.findobj(Text)
+            if t.get_visible() and t.get_text().strip() and t.get_fontsize() < least - 1e-9]
+
+
 # --------------------------------------------------------------------------- every figure
 @pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
-    from matplotlib.text import Text
-
     _, figs = drawn
-    small = [(t.get_text(), t.get_fontsize()) for t in figs[name].findobj(Text)
-             if t.get_visible() and t.get_text().strip()
-             and t.get_fontsize() < style.MIN_FONT - 1e-9]
+    small = _small_text(figs[name])
     assert small == [], f"{name}: text under {style.MIN_FONT} pt: {small[:5]}"
 
 
