@@ -208,3 +208,37 @@ def test_the_bimodality_block_renders_its_record(bimodal, monkeypatch):
     assert "N = 400" not in reading.split("; the stress")[0]           # and N = 400's one
     monkeypatch.setattr(rb, "_record", lambda name: None)
     assert rb.bimodality().startswith("(not measured yet")
+
+
+# --------------------------------------------------------------------------- stationarity
+def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_path):
+    """A t_equil of 0 cannot sit on the log axis: it is drawn on the axis' lower edge with a
+    marker of its own, named in the key; the time axes say their unit; the record redraws it."""
+    import matplotlib.pyplot as plt
+
+    st = bench["stationarity"]
+    rows = [{"N": n, "phi": phi, "seed": s, "tau": 500.0 * (1 + s), "amplitude": 0.01,
+             "t_equil": 0.0 if phi == 10.0 else 80.0, "late_mean": 0.11}
+            for n in (100, 400) for phi in (0.1, 10.0, 1000.0) for s in (1, 2, 3)]
+    df = pd.DataFrame(rows)
+    tc = np.linspace(200, 15800, 40)
+    curves = {(n, phi): [(tc, 0.11 + 0.001 * np.exp(-tc / 2000))] * 3
+              for n in (100, 400) for phi in (0.1, 10.0, 1000.0)}
+    st.write_relaxation_record(df, curves, tmp_path / "rec.json")
+    df2, curves2 = st.read_relaxation_record(tmp_path / "rec.json")
+    fig = _draw(st._relaxation_figure(df2, curves2, tmp_path / "relax.png"))
+    try:
+        a, b = fig.axes
+        assert a.get_xlabel() == "t (time units)" and "(time units" in b.get_ylabel()
+        zero = [ln for ln in b.get_lines() if ln.get_label().startswith("t_equil = 0")]
+        assert len(zero) == 2
+        for ln in zero:
+            assert list(ln.get_xdata()) == [10.0]
+            assert ln.get_ydata()[0] == pytest.approx(b.get_ylim()[0])
+        labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+        assert any("t_equil = 0" in t and "lower edge" in t for t in labels)
+        assert _small_text(fig) == []
+        assert _outside_or_hidden(fig) == []
+    finally:
+        plt.close(fig)
+    assert (tmp_path / "relax.png").stat().st_size > 10000
