@@ -187,16 +187,14 @@ def _joint(ax, runs, rec, n, phi, x_max, norm) -> None:
 
 
 def _sensitivity(ax, rec, phi) -> None:
-    for layer_rec in rec["layers"]:
-        if layer_rec["phi"] != phi:
-            continue
-        n = layer_rec["N"]
+    """The quiet share against the threshold factor at phi: a line per N and block length."""
+    layers = [r for r in rec["layers"] if r["phi"] == phi]
+    for layer_rec in layers:
         for length, (mk, ls, ms) in LENGTH_MARKERS.items():
             q = layer_rec["quiet"][str(length)]
             ax.plot([f * DODGE[length] for f in FACTORS], [q[f"{f:g}"] for f in FACTORS],
-                    marker=mk, ls=ls, ms=ms,
-                    color=SIZE_COLOURS.get(n, "0.3"), mfc="none" if length > 1000 else None,
-                    lw=0.8)
+                    marker=mk, ls=ls, ms=ms, color=SIZE_COLOURS.get(layer_rec["N"], "0.3"),
+                    mfc="none" if length > 1000 else None, lw=0.8)
     ax.set_xscale("log", base=2)
     ax.set_xticks(FACTORS, [f"{f:g}x" for f in FACTORS])
     ax.minorticks_off()
@@ -204,8 +202,7 @@ def _sensitivity(ax, rec, phi) -> None:
     ax.set_ylim(-0.04, 1.04)
     ax.set_xlabel(r"threshold / $\sqrt{\pi/4N}$")
     ax.set_ylabel("quiet share of the blocks")
-    none = all(v == 0 for r in rec["layers"] if r["phi"] == phi
-               for q in r["quiet"].values() for v in q.values())
+    none = not any(v for r in layers for q in r["quiet"].values() for v in q.values())
     ax.set_title(f"$\\phi$ = {phi:g}: quiet share" + (" (none quiet)" if none else ""))
 
 

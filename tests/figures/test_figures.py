@@ -404,8 +404,8 @@ def test_fig2a_keys_its_regime_letters(drawn):
 
 
 def test_the_checks_find_what_they_look_for():
-    """The helpers above report a point outside its axes, a marker under a key, and an
-    unkeyed colour, and pass a figure without them."""
+    """The helpers above report a point outside its axes, a marker under a key, an unkeyed
+    colour and text under the least size, and pass a figure without them."""
     fig, (a, b) = style.Figures().subplots(1, 2)
     a.plot([0, 1, 2], [0, 1, 2], "o", color="tab:red")
     a.set_ylim(0, 1.5)                                     # (2, 2) lies above the axes
@@ -417,6 +417,9 @@ def test_the_checks_find_what_they_look_for():
     assert sum("outside its axes" in f for f in found) == 1
     assert sum("under a key" in f for f in found) == 1
     assert _rgb("tab:blue") in _key_colours(fig) and _rgb("tab:green") not in _key_colours(fig)
+    a.set_title("small", fontsize=style.MIN_FONT - 1)
+    assert _small_text(fig) == [("small", style.MIN_FONT - 1)]
     fine, ax = style.Figures().subplots()
     ax.plot([0, 1], [0, 1], "o")
     assert _outside_or_hidden(_draw(fine)) == []
+    assert _small_text(fine) == []

@@ -211,20 +211,23 @@ def test_the_bimodality_block_renders_its_record(bimodal, monkeypatch):
 
 
 # --------------------------------------------------------------------------- stationarity
+def _relaxation_made_up():
+    """stationarity.relaxation's rows and curves: t_equil = 0 at phi = 10 at both sizes."""
+    grid = [(n, phi) for n in (100, 400) for phi in (0.1, 10.0, 1000.0)]
+    df = pd.DataFrame([{"N": n, "phi": phi, "seed": s, "tau": 500.0 * (1 + s),
+                        "amplitude": 0.01, "t_equil": 0.0 if phi == 10.0 else 80.0,
+                        "late_mean": 0.11} for n, phi in grid for s in (1, 2, 3)])
+    tc = np.linspace(200, 15800, 40)
+    return df, {key: [(tc, 0.11 + 0.001 * np.exp(-tc / 2000))] * 3 for key in grid}
+
+
 def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_path):
     """A t_equil of 0 cannot sit on the log axis: it is drawn on the axis' lower edge with a
     marker of its own, named in the key; the time axes say their unit; the record redraws it."""
     import matplotlib.pyplot as plt
 
     st = bench["stationarity"]
-    rows = [{"N": n, "phi": phi, "seed": s, "tau": 500.0 * (1 + s), "amplitude": 0.01,
-             "t_equil": 0.0 if phi == 10.0 else 80.0, "late_mean": 0.11}
-            for n in (100, 400) for phi in (0.1, 10.0, 1000.0) for s in (1, 2, 3)]
-    df = pd.DataFrame(rows)
-    tc = np.linspace(200, 15800, 40)
-    curves = {(n, phi): [(tc, 0.11 + 0.001 * np.exp(-tc / 2000))] * 3
-              for n in (100, 400) for phi in (0.1, 10.0, 1000.0)}
-    st.write_relaxation_record(df, curves, tmp_path / "rec.json")
+    st.write_relaxation_record(*_relaxation_made_up(), tmp_path / "rec.json")
     df2, curves2 = st.read_relaxation_record(tmp_path / "rec.json")
     fig = _draw(st._relaxation_figure(df2, curves2, tmp_path / "relax.png"))
     try:
