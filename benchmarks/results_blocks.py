@@ -901,6 +901,56 @@ def large_drops() -> str:
     return "\n".join(out) + "\n"
 
 
+# ------------------------------------------------------------------- two states or one
+def _layers(rows) -> str:
+    """(N, phi) pairs as "N = 100: phi = 464, 1000; N = 900: phi = 1000" (none: "none")."""
+    by_n = {}
+    for r in rows:
+        by_n.setdefault(r["N"], []).append(f"{r['phi']:g}")
+    return "; ".join(f"N = {n}: phi = {', '.join(p)}" for n, p in by_n.items()) or "none"
+
+
+def bimodality() -> str:
+    """Whether the blocks of a layer fall into two groups: Sarle's coefficient of R and of the
+    stress, and the quiet share under other block lengths and thresholds
+    (benchmarks/bimodality.py's record)."""
+    rec = _record("bimodality")
+    if rec is None:
+        return "(not measured yet: python benchmarks/bimodality.py)\n"
+    lengths = [str(v) for v in rec["block_lengths"]]
+    fs = " / ".join(f"{f:g}x" for f in rec["factors"])
+    out = ["| N | phi | blocks | b of R (blocks of " + " / ".join(lengths) + ") | b of R, "
+           "seed by seed | b of the stress | b without the synchronized start (R / stress) | "
+           + " | ".join(f"quiet share, blocks of {v} ({fs})" for v in lengths) + " |",
+           "|---|---|---|---|---|---|---|" + "---|" * len(lengths)]
+    out += [_bimodality_row(r, lengths) for r in rec["layers"]]
+    return "\n".join(out + ["", _bimodality_reading(rec, lengths[0])]) + "\n"
+
+
+def _bimodality_row(r: dict, lengths: list) -> str:
+    quiet = [" / ".join(f"{v:.3f}" for v in r["quiet"][k].values()) for k in lengths]
+    return (f"| {r['N']} | {r['phi']:g} | {r['blocks']} | "
+            + " / ".join(f"{r['sarle_R'][k]:.2f}" for k in lengths)
+            + f" | {r['sarle_R_seeds'][0]:.2f} - {r['sarle_R_seeds'][1]:.2f} | "
+            f"{r['sarle_stress'][lengths[0]]:.2f} | "
+            f"{r['sarle_without_synchronized']['R']:.2f} / "
+            f"{r['sarle_without_synchronized']['stress']:.2f} | " + " | ".join(quiet) + " |")
+
+
+def _bimodality_reading(rec: dict, first: str) -> str:
+    """The record in a sentence: where b suggests two modes, where blocks are quiet."""
+    ls, cut = rec["layers"], rec["sarle_bimodal"]
+
+    def where(test):
+        return _layers([r for r in ls if test(r)])
+    return (f"Reading: b above {cut:.3f} (two modes suggested), every seed pooled, blocks of "
+            f"{first}: R at {where(lambda r: r['sarle_R'][first] > cut)}; the stress at "
+            f"{where(lambda r: r['sarle_stress'][first] > cut)}; R of at least one seed at "
+            f"{where(lambda r: r['sarle_R_seeds'][1] > cut)}. Quiet blocks at the threshold: "
+            f"{where(lambda r: r['quiet'][first]['1'] > 0)}; at twice it, also "
+            f"{where(lambda r: r['quiet'][first]['1'] == 0 < r['quiet'][first]['2'])}.")
+
+
 # ---------------------------------------------------------------- the paper's claims
 CLAIMS = ROOT / "workflows" / "paper" / "claims.json"
 
@@ -922,6 +972,7 @@ def claims_block(name: str):
 
 
 BLOCKS["large-drops"] = large_drops
+BLOCKS["bimodality"] = bimodality
 
 
 def summary_keys() -> str:

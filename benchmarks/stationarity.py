@@ -2,6 +2,7 @@
 start, what a stationary result costs from each start, and whether the error bars are honest.
 
     python benchmarks/stationarity.py relaxation [--out runs/paper/paper] [--sizes 20x5,40x10]
+    python benchmarks/stationarity.py relaxation --from-record
     python benchmarks/stationarity.py cost [--steady DIR] [--sync DIR] [--phi 10,100,1000]
     python benchmarks/stationarity.py calibration [--steady runs/paper/steady]
     python benchmarks/stationarity.py all
@@ -13,7 +14,9 @@ relaxation
     s_inf + A exp(-t / tau) (scipy.optimize.curve_fit, weighted equally), and ``t_equil``,
     Chodera's equilibration detection (bkflow.observables.stationarity.equilibration_time). The same
     specs as reproduce.py's "paper" protocol: pointed at its directory, nothing is run again.
-    Writes benchmarks/relaxation.png.
+    Writes benchmarks/stationarity_relaxation.png and its record,
+    benchmarks/records/stationarity_relaxation.json (``relaxation --from-record`` redraws the
+    figure from it alone; the figure of 2026-11-22 was drawn before it was kept).
 cost
     Until stationary (bkflow run --until-stationary) from each start, N = 100, 3 seeds: the
     length each run needed and its LAMMPS wall time, mean over seeds (the random start capped
@@ -45,6 +48,9 @@ from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import open_project
 
 HERE = Path(__file__).resolve().parent
+#: the relaxation's figure (benchmarks/RESULTS.md, "Time to steady") and its record
+RELAXATION_FIGURE = HERE / "stationarity_relaxation.png"
+RELAXATION_RECORD = HERE / "records" / "stationarity_relaxation.json"
 
 
 # --------------------------------------------------------------------------- relaxation
@@ -84,39 +90,81 @@ def relaxation(out: str, sizes: str, seeds: int, jobs: int) -> pd.DataFrame:
                      "late_mean": float(m[-10:].mean())})
         curves.setdefault((spec.N, spec.phi), []).append((tc, m))
     df = pd.DataFrame(rows)
+    write_relaxation_record(df, curves)
     _relaxation_figure(df, curves)
     return df
 
 
-def _relaxation_figure(df: pd.DataFrame, curves: dict) -> None:
+def write_relaxation_record(df: pd.DataFrame, curves: dict, path: Path = RELAXATION_RECORD):
+    """What the figure draws: the rows (per run) and each (N, phi)'s block means per seed."""
+    import json
+
+    rec = {"rows": json.loads(df.to_json(orient="records")),
+           "curves": [{"N": int(n), "phi": float(phi), "t": [float(v) for v in cs[0][0]],
+                       "means": [[float(v) for v in m] for _, m in cs]}
+                      for (n, phi), cs in sorted(curves.items())]}
+    path.write_text(json.dumps(rec) + "\n")
+
+
+def read_relaxation_record(path: Path = RELAXATION_RECORD) -> tuple[pd.DataFrame, dict]:
+    import json
+
+    rec = json.loads(Path(path).read_text())
+    curves = {(c["N"], c["phi"]): [(np.array(c["t"]), np.array(m)) for m in c["means"]]
+              for c in rec["curves"]}
+    return pd.DataFrame(rec["rows"]), curves
+
+
+def _relaxation_figure(df: pd.DataFrame, curves: dict, out: Path = RELAXATION_FIGURE):
+    """Left: the block means of the stress from the synchronized start at the smallest N (mean
+    over seeds). Right: per N, the medians over seeds of tau and t_equil against phi; a t_equil
+    of 0 (no transient detected) cannot sit on the log axis and is drawn on its lower edge."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, b) = plt.subplots(1, 2, figsize=(8.5, 3.2))
+    with plt.rc_context({"font.size": 8}):
+        fig, (a, b) = plt.subplots(1, 2, figsize=(8.5, 3.6), layout="constrained")
+        _relaxation_curves(a, df, curves)
+        _relaxation_times(b, df)
+        fig.legend(*b.get_legend_handles_labels(), loc="outside right center", frameon=False,
+                   fontsize=7)
+        fig.savefig(out, dpi=150)
+    return fig
+
+
+def _relaxation_curves(ax, df: pd.DataFrame, curves: dict) -> None:
+    n0 = df.N.min()
     for (n, phi), cs in sorted(curves.items()):
-        if n != df.N.min() or phi not in (0.1, 10.0, 100.0, 1000.0):
+        if n != n0 or phi not in (0.1, 10.0, 100.0, 1000.0):
             continue
-        tc = cs[0][0]
-        a.plot(tc, np.mean([m for _, m in cs], axis=0), lw=0.9, label=f"phi = {phi:g}")
-    a.set_xlabel("t")
-    a.set_ylabel(r"block mean of $\sigma_x/\sigma_n$ (3 seeds)")
-    a.set_title(f"synchronized start, N = {df.N.min()}", fontsize=9)
-    a.legend(frameon=False, fontsize=7)
-    for (n, g), m in zip(df.groupby("N"), "os^"):
-        med = g.groupby("phi")[["tau", "t_equil"]].median()
-        b.plot(med.index, med.tau, m + "-", lw=0.8, label=f"tau, N = {n}")
-        b.plot(med.index, med.t_equil, m + ":", mfc="none", lw=0.8, label=f"t_equil, N = {n}")
-    b.set_xscale("log")
-    b.set_yscale("log")
-    b.set_xlabel(r"$\phi$")
-    b.set_ylabel("time (median over seeds)")
-    b.set_title("relaxation of the stress from the synchronized start", fontsize=9)
-    b.legend(frameon=False, fontsize=6.5)
-    fig.tight_layout()
-    fig.savefig(HERE / "relaxation.png", dpi=150)
-    plt.close(fig)
+        ax.plot(cs[0][0], np.mean([m for _, m in cs], axis=0), lw=0.9, label=f"phi = {phi:g}")
+    ax.set_xlabel("t (time units)")
+    ax.set_ylabel(rf"block mean of $\sigma_x/\sigma_n$ ({df.seed.nunique()} seeds)")
+    ax.set_title(f"synchronized start, N = {n0}", fontsize=9)
+    ax.legend(frameon=False, fontsize=7, loc="lower right")
+
+
+def _relaxation_times(ax, df: pd.DataFrame) -> None:
+    meds = {n: g.groupby("phi")[["tau", "t_equil"]].median() for n, g in df.groupby("N")}
+    positive = [v for m in meds.values() for c in ("tau", "t_equil")
+                for v in m[c].to_numpy() if np.isfinite(v) and v > 0]
+    lo = 10 ** np.floor(np.log10(min(positive) / 2)) if positive else 1.0
+    for (n, med), mk in zip(meds.items(), "os^D"):
+        ax.plot(med.index, med.tau, mk + "-", lw=0.8, label=f"tau, N = {n}")
+        te = med.t_equil.where(med.t_equil > 0)
+        line, = ax.plot(med.index, te, mk + ":", mfc="none", lw=0.8, label=f"t_equil, N = {n}")
+        zero = med.index[med.t_equil == 0]
+        if len(zero):
+            ax.plot(zero, np.full(len(zero), lo), "v", color=line.get_color(), ms=6, ls="",
+                    clip_on=False, label=f"t_equil = 0, N = {n} (drawn on the lower edge)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(lo, None)
+    ax.set_xlabel(r"$\phi$")
+    ax.set_ylabel("relaxation time (time units; median over seeds)")
+    ax.set_title("relaxation of the stress from the synchronized start", fontsize=9)
 
 
 # --------------------------------------------------------------------------- cost
@@ -217,8 +265,15 @@ def main(argv=None) -> None:
                     help="the random-start sweep until stationary (reproduce.py's 'steady')")
     ap.add_argument("--sync", default="runs/paper/sync_steady",
                     help="the synchronized-start sweep until stationary ('sync_steady')")
+    ap.add_argument("--from-record", action="store_true",
+                    help="relaxation: redraw the figure from its record, running nothing")
     a = ap.parse_args(argv)
     pd.set_option("display.width", 160)
+    if a.what == "relaxation" and a.from_record:
+        df, curves = read_relaxation_record()
+        _relaxation_figure(df, curves)
+        print(f"wrote {RELAXATION_FIGURE}")
+        return
     if a.what in ("relaxation", "all"):
         df = relaxation(a.out or "runs/paper/paper", a.sizes, a.seeds, a.jobs)
         print("## Relaxation from the synchronized start (median over seeds)\n")

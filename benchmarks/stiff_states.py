@@ -4,6 +4,7 @@ each, and what its long-run mean is (docs/model.md, "Steady state" and the stiff
     python benchmarks/stiff_states.py run [--n 100] [--t-end 1e6] [--phi 30,100,215,464,1000]
                                           [--starts all] [--seeds 1,2,3] [--shard I/K]
     python benchmarks/stiff_states.py report      # tables and the figure from the records
+    python benchmarks/stiff_states.py figure      # only the figure (benchmarks/states_figure.py)
 
 run
     One ``longrun.LongRun`` per (phi, start, seed) at the lattice of N particles: blocks of
@@ -95,6 +96,7 @@ def main(argv=None):
                    "benchmarks/records/stiff_states, the calibration's; the long runs that "
                    "only give a layer's truth go to benchmarks/records/truth)")
     sub.add_parser("report")
+    sub.add_parser("figure", help="only the figure benchmarks/stiff_states.png")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         starts = STARTS if a.starts == "all" else a.starts.split(",")
@@ -105,6 +107,10 @@ def main(argv=None):
         for spec in todo:
             LongRun(spec, out / f"{case_name(spec)}.parquet", 1000.0, a.chunk).advance_to(
                 a.t_end, log=lambda m: print(m, flush=True))
+    elif a.cmd == "figure":
+        from states_figure import figure
+
+        print(f"wrote {figure(OUT)}")
     else:
         from states_report import layer_means, load, report
 

@@ -34,13 +34,17 @@ sys.path.insert(0, str(HERE))
 RECORD = HERE / "records" / "work_precision.csv"
 PLOT = HERE / "work_precision.png"
 OBSERVABLES = (("stress", "<sigma_x>/sigma_n"), ("mu_bar", "mu_bar"))
-#: the presets' markers on each phi's line, and the colours of their targets' lines
+#: the presets' markers on each size's line, in the colours of their targets' lines
 MARKERS = {"fast": "^", "default": "o", "precise": "s"}
-TARGET_COLOURS = {"fast": "tab:red", "default": "tab:blue", "precise": "0.2"}
+PRESET_COLOURS = {"fast": "tab:red", "default": "tab:blue", "precise": "tab:purple"}
+#: each size's line: colour and style
+SIZE_STYLES = {100: ("0.1", "-"), 400: ("tab:orange", "--")}
 #: the reference: the steps extrapolated to dt -> 0 (the smallest this many C of each phi)
 RICHARDSON_POINTS = 3
-#: a bias below this (relative) is drawn at it (the y axis is symmetric-logarithmic)
-LINEAR_BELOW = 1e-3
+#: the y axis (the size of the bias, %): a smaller one is drawn at its lower edge
+FLOOR, CEILING = 1e-3, 60.0
+#: the smallest text, in points at the saved size
+MIN_FONT = 7.0
 
 
 def richardson(c, x) -> float:
@@ -101,64 +105,83 @@ def preset_points(t: pd.DataFrame) -> pd.DataFrame:
 
 
 def plot(t: pd.DataFrame, path: Path):
-    """The figure: a column per size, a row per observable; per phi a line of the bias
-    against the cost (symmetric-logarithmic in the bias), its standard error as a band, each
-    preset's step marked on it, and each preset's target as dashed lines at +-target."""
+    """The figure: a row per phi, a column per observable; in each panel the size of the bias
+    against the cost (log-log), a line per size with its standard error as a band, a point
+    within two standard errors of no bias drawn hollow; each preset's step marked on each
+    line, and each preset's target a horizontal line in the preset's colour (a preset meets
+    its target where its marker lies below its line)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    phis = sorted(t.phi.unique())
+    pts = preset_points(t)
+    with plt.rc_context({"font.size": MIN_FONT, "axes.titlesize": MIN_FONT + 0.5}):
+        fig, axes = plt.subplots(len(phis), len(OBSERVABLES), sharex=True, sharey=True,
+                                 figsize=(7.2, 1.45 * len(phis) + 1.3), squeeze=False,
+                                 layout="constrained")
+        for i, phi in enumerate(phis):
+            for j, (o, label) in enumerate(OBSERVABLES):
+                _panel(axes[i][j], t[t.phi == phi], pts[pts.phi == phi], o)
+                axes[i][j].set_title(f"phi = {phi:g}: bias of {label}")
+        for ax in axes[:, 0]:
+            ax.set_ylabel("|bias| against dt -> 0 (%)")
+        for ax in axes[-1]:
+            ax.set_xlabel("cost: steps per time unit")
+        _legend(fig, sorted(t.N.unique()))
+        fig.savefig(path, dpi=200)
+    return fig
+
+
+def _panel(ax, t: pd.DataFrame, pts: pd.DataFrame, o: str) -> None:
+    """One phi, one observable: a line per size, the presets' steps and targets."""
+    from bkflow.model.params import ACCURACY
+
+    for name, p in ACCURACY.items():
+        ax.axhline(100 * p.dt_error, color=PRESET_COLOURS[name], lw=0.9, ls="--", zorder=1)
+    for n, (colour, ls) in SIZE_STYLES.items():
+        g = t[t.N == n].sort_values("steps_per_t")
+        if g.empty:
+            continue
+        x = g.steps_per_t.to_numpy()
+        y = 100 * np.abs(g[f"{o}_bias"].to_numpy())
+        se = 100 * np.nan_to_num(g[f"{o}_se"].to_numpy())
+        ax.fill_between(x, np.clip(y - se, FLOOR, None), np.clip(y + se, FLOOR, None),
+                        color=colour, alpha=0.15, lw=0)
+        ax.plot(x, np.clip(y, FLOOR, None), ls, color=colour, lw=1.0)
+        noise = y < 2 * se
+        ax.plot(x[~noise], np.clip(y[~noise], FLOOR, None), "o", color=colour, ms=2.5)
+        ax.plot(x[noise], np.clip(y[noise], FLOOR, None), "o", color=colour, mfc="white",
+                ms=2.5, mew=0.7)
+        for name, mk in MARKERS.items():
+            q = pts[(pts.N == n) & (pts.preset == name)]
+            ax.plot(q.steps_per_t, np.clip(100 * np.abs(q[f"{o}_bias"]), FLOOR, None), mk,
+                    color=PRESET_COLOURS[name], mec=colour, mew=1.0, ms=6, zorder=5,
+                    label=f"{name} preset, N = {n}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(FLOOR, CEILING)
+
+
+def _legend(fig, sizes) -> None:
     from matplotlib.lines import Line2D
 
     from bkflow.model.params import ACCURACY
 
-    sizes = sorted(t.N.unique())
-    phis = sorted(t.phi.unique())
-    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(phis)))
-    pts = preset_points(t)
-    fig, axes = plt.subplots(len(OBSERVABLES), len(sizes), figsize=(4.2 * len(sizes), 6.8),
-                             sharex=True, sharey=True, squeeze=False)
-    for j, n in enumerate(sizes):
-        for i, (o, label) in enumerate(OBSERVABLES):
-            ax = axes[i][j]
-            for name, p in ACCURACY.items():
-                for sign in (1, -1):
-                    ax.axhline(100 * sign * p.dt_error, color=TARGET_COLOURS[name], lw=0.8,
-                               ls="--", alpha=0.8)
-            for k, phi in enumerate(phis):
-                g = t[(t.N == n) & (t.phi == phi)].sort_values("steps_per_t")
-                if g.empty:
-                    continue
-                x, y = g.steps_per_t.to_numpy(), 100 * g[f"{o}_bias"].to_numpy()
-                se = 100 * np.nan_to_num(g[f"{o}_se"].to_numpy())
-                ax.fill_between(x, y - se, y + se, color=colours[k], alpha=0.15, lw=0)
-                ax.plot(x, y, "-", color=colours[k], lw=1.3)
-                for name, mk in MARKERS.items():
-                    q = pts[(pts.N == n) & (pts.phi == phi) & (pts.preset == name)]
-                    if len(q):
-                        ax.plot(q.steps_per_t, 100 * q[f"{o}_bias"], mk, color=colours[k],
-                                ms=6, mec="k", mew=0.6)
-            ax.set_xscale("log")
-            ax.set_yscale("symlog", linthresh=100 * LINEAR_BELOW, linscale=0.6)
-            ax.axhline(0, color="k", lw=0.5)
-            ax.set_title(f"N = {n}: {label}", fontsize=9)
-            if j == 0:
-                ax.set_ylabel("bias against dt -> 0 (%)")
-            if i == len(OBSERVABLES) - 1:
-                ax.set_xlabel("cost: steps per time unit")
-            ax.tick_params(labelsize=8)
-    handles = [Line2D([], [], color=colours[k], lw=1.5, label=f"phi = {phi:g}")
-               for k, phi in enumerate(phis)]
-    handles += [Line2D([], [], ls="", marker=mk, color="0.5", mec="k", label=f"{name} preset")
-                for name, mk in MARKERS.items()]
-    handles += [Line2D([], [], color=TARGET_COLOURS[name], lw=0.8, ls="--",
+    handles = [Line2D([], [], color=SIZE_STYLES[n][0], ls=SIZE_STYLES[n][1], lw=1.0,
+                      marker="o", ms=2.5, label=f"N = {n}") for n in sizes]
+    handles += [Line2D([], [], color="0.4", ls="", marker="o", ms=2.5, mfc="white",
+                       label="within 2 standard errors of 0")]
+    handles += [Line2D([], [], ls="", marker=mk, color=PRESET_COLOURS[name], mec="k", ms=6,
+                       label=f"{name} preset") for name, mk in MARKERS.items()]
+    handles += [Line2D([], [], color=PRESET_COLOURS[name], lw=0.9, ls="--",
                        label=f"{name}'s target: +-{100 * p.dt_error:g}%")
                 for name, p in ACCURACY.items()]
-    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False,
-               title="band: standard error over the seeds", title_fontsize=8)
-    fig.tight_layout(rect=(0, 0.14, 1, 1))
-    fig.savefig(path, dpi=150)
-    return fig
+    fig.legend(handles=handles, loc="outside upper center", ncol=4, frameon=False,
+               title=f"band: standard error over the seeds; a bias below {FLOOR:g}% is drawn "
+                     "at the axis' lower edge; a preset's marker is edged in its size's colour",
+               title_fontsize=MIN_FONT)
 
 
 def write_record(t: pd.DataFrame, path: Path = RECORD) -> None:

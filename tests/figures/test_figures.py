@@ -175,16 +175,19 @@ def _laws_and_title(fig) -> tuple[int, int, list[str]]:
     assert int(m.group(2)) == sum(k.startswith(r"$\phi$") for k in keys)
     return len(laws), int(m.group(2)), keys
 
+def _small_text(fig, least: float = style.MIN_FONT) -> list:
+    """The visible text of ``fig`` under ``least`` points (at its saved size): (text, size)."""
+    from matplotlib.text import Text
+
+    return [(t.get_text(), t.get_fontsize()) for t in fig.findobj(Text)
+            if t.get_visible() and t.get_text().strip() and t.get_fontsize() < least - 1e-9]
+
 
 # --------------------------------------------------------------------------- every figure
 @pytest.mark.parametrize("name", list(registry.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
-    from matplotlib.text import Text
-
     _, figs = drawn
-    small = [(t.get_text(), t.get_fontsize()) for t in figs[name].findobj(Text)
-             if t.get_visible() and t.get_text().strip()
-             and t.get_fontsize() < style.MIN_FONT - 1e-9]
+    small = _small_text(figs[name])
     assert small == [], f"{name}: text under {style.MIN_FONT} pt: {small[:5]}"
 
 
@@ -454,8 +457,8 @@ def test_fig2a_keys_its_regime_letters(drawn):
 
 
 def test_the_checks_find_what_they_look_for():
-    """The helpers above report a point outside its axes, a marker under a key, and an
-    unkeyed colour, and pass a figure without them."""
+    """The helpers above report a point outside its axes, a marker under a key, an unkeyed
+    colour and text under the least size, and pass a figure without them."""
     fig, (a, b) = style.Figures().subplots(1, 2)
     a.plot([0, 1, 2], [0, 1, 2], "o", color="tab:red")
     a.set_ylim(0, 1.5)                                     # (2, 2) lies above the axes
@@ -467,6 +470,9 @@ def test_the_checks_find_what_they_look_for():
     assert sum("outside its axes" in f for f in found) == 1
     assert sum("under a key" in f for f in found) == 1
     assert _rgb("tab:blue") in _key_colours(fig) and _rgb("tab:green") not in _key_colours(fig)
+    a.set_title("small", fontsize=style.MIN_FONT - 1)
+    assert _small_text(fig) == [("small", style.MIN_FONT - 1)]
     fine, ax = style.Figures().subplots()
     ax.plot([0, 1], [0, 1], "o")
     assert _outside_or_hidden(_draw(fine)) == []
+    assert _small_text(fine) == []

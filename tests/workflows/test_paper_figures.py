@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.figures.test_figures import _small_text
 from tests.support import ROOT
 from tests.sweeps.test_local import _hidden_points
 
@@ -278,9 +279,10 @@ def _wp_runs(seed=0):
 def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_record(
         work_precision, tmp_path):
     """The bias is against the dt -> 0 extrapolation of the three smallest steps (a bias
-    falling as C^2 comes back as such); the plot draws a line per phi, every preset's step on
-    it, every target, data inside the axes and none under the key; --from-record redraws it
-    from the record alone."""
+    falling as C^2 comes back as such); the plot draws a panel per phi and observable (each
+    titled with both), a line per size in it, every preset's step on each line, every target,
+    data inside the axes and none under the key, the key outside the panels, no text under
+    7 pt; --from-record redraws it from the record alone."""
     import matplotlib.pyplot as plt
 
     from bkflow.model.params import ACCURACY
@@ -296,14 +298,25 @@ def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_recor
         assert (tmp_path / "wp.png").stat().st_size > 10000
         assert _hidden_points(fig) == []
         texts = [x.get_text() for leg in fig.legends for x in leg.get_texts()]
-        assert {"phi = 0.1", "phi = 1000"} <= set(texts)
+        assert {"N = 100", "N = 400"} <= set(texts)
         for name, p in ACCURACY.items():
             assert f"{name} preset" in texts
             assert f"{name}'s target: +-{100 * p.dt_error:g}%" in texts
-        marked = [ln for ln in fig.axes[0].get_lines() if ln.get_marker() in wp.MARKERS.values()]
-        assert len(marked) == 2 * len(ACCURACY)   # every phi, every preset
+        assert len(fig.axes) == 2 * len(wp.OBSERVABLES)       # two phi, each observable
+        assert {ax.get_title() for ax in fig.axes} == {
+            f"phi = {phi:g}: bias of {label}" for phi in (0.1, 1000) for _, label in wp.OBSERVABLES}
+        r = fig.canvas.get_renderer()
+        key = fig.legends[0].get_window_extent(r)
         for ax in fig.axes:
             assert ax.get_xlabel() in ("", "cost: steps per time unit")
+            assert not key.overlaps(ax.get_window_extent(r)), "the key lies on a panel"
+            marked = {ln.get_label() for ln in ax.get_lines() if len(ln.get_xydata())
+                      and ln.get_marker() in wp.MARKERS.values()}
+            assert {f"{name} preset, N = {n}" for name in ACCURACY for n in (100, 400)} <= marked
+            targets = {round(ln.get_ydata()[0], 9) for ln in ax.get_lines()
+                       if ln.get_linestyle() == "--" and ln.get_xydata()[0][0] == 0}
+            assert targets == {round(100 * p.dt_error, 9) for p in ACCURACY.values()}
+        assert _small_text(fig) == []
     finally:
         plt.close(fig)
     record = tmp_path / "record.csv"
