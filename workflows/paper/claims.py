@@ -513,10 +513,10 @@ def verdict1(c: dict) -> str:
     # what a reader who fixed the minimum's phi beforehand would find (no correction)
     uncorrected = [n for n, r in m.items() if r["interior"]
                    and min(r["z_lo"], r["z_hi"]) > r["critical_one"]]
-    zs = ", ".join(f"{min(r['z_lo'], r['z_hi']):.1f} > {r['critical']:.1f}?" if r["interior"]
-                   else "end" for r in m.values())
+    zs = ", ".join(f"{min(r['z_lo'], r['z_hi']):.1f} against {r['critical']:.1f}"
+                   if r["interior"] else "at an end" for r in m.values())
     return (f"**{word}**: non-monotonic at N = {', '.join(yes) or 'none'} of {', '.join(m)} "
-            f"(the dip's z against its corrected critical value: {zs}"
+            f"(the dip's z, N by N, against its corrected critical value: {zs}"
             + (f"; uncorrected, at N = {', '.join(uncorrected)}" if uncorrected != yes else "")
             + ")"
             + (f"; size-scaled threshold: at {', '.join(scaled) or 'none'}" if s else "")
