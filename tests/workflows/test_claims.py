@@ -231,8 +231,10 @@ def test_every_verdict_applies_the_test_its_row_states():
 
 
 def test_the_ranges_below_mu_s_are_numbers_mds_points():
-    """The claims-1 sentence "every point lies X% to Y% below mu_s" read against numbers.md's
-    table of every point (curve, N, phi), for each reading it names."""
+    """The generated range sentences read against their tables: claims-1's "every point lies
+    X% to Y% below mu_s" against numbers.md's table of every point (curve, N, phi), for each
+    reading it names; the first-order scheme's "lies X% to Y% from the second-order one"
+    against the rows of its own table."""
     import re
 
     record = PAPER / "claims.json"
@@ -259,6 +261,16 @@ def test_the_ranges_below_mu_s_are_numbers_mds_points():
         lo, hi = (1 - max(vals) / mu_s) * 100, (1 - min(vals) / mu_s) * 100
         assert abs(int(m.group(1)) - lo) <= 1 and abs(int(m.group(2)) - hi) <= 1, (
             label, field, lo, hi, line)
+    # the first-order scheme's range sentence, read against the rows of its own table
+    scheme = claims.render_scheme(rec)
+    for n in rec.get("scheme", {}):
+        rows = [ln.split("|") for ln in scheme.splitlines() if ln.startswith(f"| {n} |")]
+        rel = [float(r[4].split("+-")[0]) / float(r[3].split("+-")[0]) - 1 for r in rows]
+        line = next(t for t in scheme.splitlines() if t.startswith(f"- N = {n}:"))
+        m = re.search(r"lies ([+-][\d.]+)% to ([+-][\d.]+)%", line)
+        assert m, line
+        assert abs(float(m.group(1)) - 100 * min(rel)) < 0.15, (line, min(rel))
+        assert abs(float(m.group(2)) - 100 * max(rel)) < 0.15, (line, max(rel))
 
 
 def test_the_size_trend_finds_a_known_slope_and_only_fits_sizes_of_three_seeds():
