@@ -323,8 +323,9 @@ def states_curve() -> str:
                 end, rest = rows[-1], rows[:-1]
                 low = min(rest, key=lambda r: r[obs])
                 rise = end[obs] - low[obs]
-                upper = rise + claims.critical(seeds) * math.hypot(end[obs + "_se"],
-                                                                   low[obs + "_se"])
+                pair = min(end["k"], low["k"])   # the two points' own seeds, not the curve's
+                upper = rise + claims.critical(pair) * math.hypot(end[obs + "_se"],
+                                                                  low[obs + "_se"])
                 line += (f"; the stiff end lies {rise:+.4f} from the rest's lowest point "
                          f"(97.5% upper bound {upper:+.4f}), the paper protocol's rise at this "
                          f"N is {paper:.4f}: " + ("a rise as large is excluded" if upper < paper

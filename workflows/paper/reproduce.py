@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -576,7 +577,7 @@ def energy_figure(found: dict, figs: Path) -> Path | None:
     slip.set_xlabel(r"$\phi$")
     share.set_ylabel("share of the clusters")
     slip.set_ylabel(r"median slip / $\delta^*$")
-    share.set_title("(b) N = 100 (20x5): the clusters' regimes (as claims 4 and 6 count them)",
+    share.set_title("(b) N = 100 (20x5): the share of every cluster in a regime (claim 4's)",
                     fontsize=7.5)
     slip.set_title(r"(c) N = 100: the clusters' median slip over $\delta^*$ (Eq. 2's "
                    "crossover)", fontsize=7.5)
@@ -619,7 +620,7 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
 #: truth the protocols are read against; its columns per figure row
 LONG_RUN_CURVE = HERE.parent.parent / "benchmarks" / "records" / "long_run_curve.csv"
 LONG_RUN_FIELDS = {"mu_bar": "mu_bar", "mean_stress_ratio": "stress"}
-LONG_RUN_LABEL = r"long runs ($10^6$ time units, four starts)"
+LONG_RUN_LABEL = "long runs (each layer's long-run mean; benchmarks/RESULTS.md)"
 #: the paper's claim 1: the minimum of mu_bar lies about 40% below mu_s
 PAPER_MINIMUM_BELOW_MU_S = 0.4
 
@@ -933,8 +934,11 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
             handles = list(leg.legend_handles)
             labels = [t.split(":")[0] if t.startswith(r"$\phi$") else t for t in texts]
         leg.remove()
-        shares = [t.replace(" clusters\n(", " clusters: ").replace(" clusters (", ": ")
-                  .rstrip(")") for t in texts if t.startswith(r"$\phi$")]
+        # each phi's count and regime shares on a line under the title (the shares' own
+        # counts, which the key carries, left out: the line fits the panel's width)
+        shares = [re.sub(r" \(\d+\)", "", t).replace(" clusters\n(", " clusters: ")
+                  .replace(" clusters (", ": ").rstrip(")") for t in texts
+                  if t.startswith(r"$\phi$")]
         ax.set_title(f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})\n" + "\n".join(shares),
                      fontsize=7)
         ax.set_xlabel(r"$l_x / l_x^{\mathrm{box}}$")
