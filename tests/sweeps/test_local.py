@@ -610,7 +610,7 @@ def _hidden_points(fig) -> list[str]:
     for i, ax in enumerate(fig.axes):
         box = ax.get_window_extent(r).expanded(1.02, 1.02)
         over = keys + [inset.get_window_extent(r) for inset in ax.child_axes]
-        sets = [(line.get_label(), ax.transData.transform(line.get_xydata()))
+        sets = [(line.get_label(), line.get_transform().transform(line.get_xydata()))
                 for line in ax.get_lines() if line.get_marker() not in (None, "", "None", "none")]
         sets += [(c.get_label(), c.get_offset_transform().transform(c.get_offsets()))
                  for c in ax.collections if isinstance(c, PathCollection)]
@@ -644,8 +644,11 @@ def test_every_figure_shows_every_point_with_a_key_and_units(tiny_sweep):
                 assert label, f"{name}: an axis without a label"
                 assert "(" in label or any(w in label for w in pure), f"{name}: {label!r}"
         texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
-        if name in ("fig2a_friction", "fig2b_asymmetry", "fig3_order", "fig_drops"):
+        if name in ("fig2a_friction", "fig2b_asymmetry", "fig3_order"):
             assert any(t.startswith(("steady", "drifting", "metastable")) for t in texts), name
+        if name == "fig_drops":   # each phi's key entry names its point's state
+            states = ("(steady", "(drifting", "(metastable", "(switching", "(coherent", "(quiet")
+            assert any(w in t for t in texts for w in states), (name, texts)
 
 
 def test_a_point_with_one_seed_has_the_runs_own_error_bar_in_every_panel(tiny_sweep):
@@ -700,9 +703,11 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
     left, right = fig.axes
     fits = [ln for ln in left.get_lines() if ln.get_marker() in ("None", "", None)]
     assert len(fits) == 1
-    keys = [t.get_text() for t in left.get_legend().get_texts()]
-    assert r"$\phi$ = 1: $\alpha$ = 1.80 $\pm$ 0.05 (p >= 0.43)" in keys, keys
-    assert r"$\phi$ = 1000: power law rejected (p < 0.001, lognormal favoured)" in keys, keys
+    # one key below both panels: each phi with its point's state
+    keys = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert r"$\phi$ = 1 (steady): $\alpha$ = 1.80 $\pm$ 0.05 (p >= 0.43)" in keys, keys
+    assert (r"$\phi$ = 1000 (switching): power law rejected (p < 0.001, lognormal favoured)"
+            in keys), keys
     parts = [t.get_text() for t in right.get_legend().get_texts()]
     assert parts[0].startswith("system-wide") and parts[0].endswith("of 2000")
     shares = [float(re.search(r"(\d+)% of", t).group(1)) for t in parts]
