@@ -191,7 +191,7 @@ def test_every_verdict_applies_the_test_its_row_states():
         w = k["stiff_size_spread"]
         ok = lo < 0.7 and hi > 0.95 and w["diff"] < 0.01
         assert _word(rows[2][col]) == ("reproduced" if ok else "partly"), label
-        assert ("statistically different" in rows[2][col]) != (w["z"] <= w["critical"])
+        assert ("not statistically different" in rows[2][col]) == (w["z"] <= w["critical"])
         # 3: the peak's phi is the interior minimum's at every N
         same = all(v["lx_over_ly_max"] == v["mu_bar_min"] and v["interior"]
                    for v in c["claim3"].values())

@@ -486,7 +486,7 @@ TESTS = {
        "more than t(seeds - 1) combined errors",
     2: f"the ends of each curve below 0.7 and above 0.95, the sizes at phi >= 100 within "
        f"{PSI_SAME:g} (the paper's resolution): reproduced, else partly; and whether they "
-       "differ statistically (t, corrected for the stiff phi compared)",
+       "differ statistically (t, corrected for every pair of sizes at every stiff phi)",
     3: "the phi of <l_x>/<l_y>'s peak equals the phi of mu_bar's interior minimum at every N: "
        "reproduced, else not reproduced",
     4: f"a regime appears at >= {APPEARS:.0%} of the clusters at some phi; reproduced: "
