@@ -25,11 +25,15 @@ from tests.support import tool
 
 SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",
          "--jobs", "2", "--quiet"]
-#: labels of quantities without units (pure numbers)
-PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "probability", "R =", "1 -")
+#: labels of quantities without units (pure numbers); a probability density is not one: its
+#: unit is the inverse of its quantity's (``DENSITY_UNITS``)
+PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "R =", "1 -")
 #: what an axis label must say when it names the quantity: its unit
 UNITS = {"t (": r"($\sqrt{m/k_d}$)", r"$\sigma_x$ (": "($k_d/l$)", "stress drop": "($k_d/l$)",
          "potency": "($l$)"}
+#: the unit a probability density's axis must say, by the quantity its panel's x axis names:
+#: the inverse of that quantity's unit (a density of stress drops in k_d/l is per k_d/l)
+DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)"}
 
 
 @pytest.fixture(scope="module")
@@ -214,21 +218,45 @@ def test_the_density_titles_and_keys_say_the_same(drawn, name):
     assert not any(re.search(r"p <= 0\.00?\b", k) for k in keys), keys
 
 
-@pytest.mark.parametrize("name", list(registry.FIGURES))
-def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
-    _, figs = drawn
-    for ax in _all_axes(figs[name]):
+def _unit_problems(fig) -> list[str]:
+    """Every axis of ``fig`` that draws data and does not say what it shows in its unit: no
+    label, a label with neither a unit nor a pure number's name (``PURE``), a quantity
+    without its unit (``UNITS``), or a probability density without the inverse of its
+    quantity's unit (``DENSITY_UNITS``, the quantity named by its panel's x axis)."""
+    bad = []
+    for ax in _all_axes(fig):
         if not ax.get_visible() or not ax.axison or not _data_lines(ax):
             continue
         # a panel stacked on another with the same axis shares that axis' label
         xs = [a.get_xlabel() for a in ax.get_shared_x_axes().get_siblings(ax)]
         ys = [a.get_ylabel() for a in ax.get_shared_y_axes().get_siblings(ax)]
-        for label in (max(xs, key=len), max(ys, key=len)):
-            assert label, f"{name}: an axis without a label"
-            assert "(" in label or any(w in label for w in PURE), f"{name}: {label!r}"
-            for quantity, unit in UNITS.items():
-                if quantity in label and "/\\sigma_n" not in label:
-                    assert unit in label, f"{name}: {label!r} lacks its unit {unit}"
+        x, y = max(xs, key=len), max(ys, key=len)
+        for label in (x, y):
+            if not label:
+                bad.append("an axis without a label")
+            elif "density" in label:
+                bad += _density_problems(label, x)
+            elif not ("(" in label or any(w in label for w in PURE)):
+                bad.append(f"{label!r}: no unit")
+            else:
+                bad += [f"{label!r} lacks its unit {unit}" for quantity, unit in UNITS.items()
+                        if quantity in label and "/\\sigma_n" not in label and unit not in label]
+    return bad
+
+
+def _density_problems(label: str, x: str) -> list[str]:
+    """Why a probability density's axis ``label`` (of a panel whose x axis says ``x``) does
+    not give its unit, the inverse of its quantity's (none: it does)."""
+    units = [unit for quantity, unit in DENSITY_UNITS.items() if quantity in x]
+    if not units:
+        return [f"{label!r}: a density of {x!r}, whose unit no check knows"]
+    return [] if units[0] in label else [f"{label!r}: a density without its unit {units[0]}"]
+
+
+@pytest.mark.parametrize("name", list(registry.FIGURES))
+def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
+    _, figs = drawn
+    assert _unit_problems(figs[name]) == [], name
 
 
 @pytest.mark.parametrize("name", list(registry.FIGURES))
@@ -476,3 +504,20 @@ def test_the_checks_find_what_they_look_for():
     ax.plot([0, 1], [0, 1], "o")
     assert _outside_or_hidden(_draw(fine)) == []
     assert _small_text(fine) == []
+
+
+def test_the_unit_check_finds_a_density_without_its_unit():
+    """A probability density is no pure number: its axis says the inverse of its quantity's
+    unit, or the check reports it."""
+    fig, (a, b) = style.Figures().subplots(1, 2)
+    for ax in (a, b):
+        ax.plot([1, 2], [1, 2], "o")
+        ax.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
+    a.set_ylabel("probability density")
+    b.set_ylabel("probability density (of all drops)")
+    assert len(_unit_problems(fig)) == 2
+    a.set_ylabel(r"probability density of $\Delta\sigma_x$ ($l/k_d$)")
+    b.set_ylabel(r"probability density of $\Delta\sigma_x$, all drops ($k_d/l$)")
+    assert _unit_problems(fig) == [f"{b.get_ylabel()!r}: a density without its unit ($l/k_d$)"]
+    b.set_ylabel(a.get_ylabel())
+    assert _unit_problems(fig) == []

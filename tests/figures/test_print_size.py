@@ -29,6 +29,7 @@ from tests.figures.test_figures import (
     _marker_styles,
     _outside_or_hidden,
     _rgb,
+    _unit_problems,
 )
 
 SIZES = ((20, 5), (40, 10))
@@ -187,6 +188,13 @@ def test_every_marker_style_drawn_is_keyed(made_up, name):
     assert _drawn_styles_keyed(made_up[1][name]) == [], name
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_every_axis_says_its_unit_a_density_the_inverse_of_its_quantitys(made_up, name):
+    """No unit-less axis: a probability density (fig_drops, fig_potency) is per unit of its
+    quantity, and says so (test_figures.DENSITY_UNITS)."""
+    assert _unit_problems(made_up[1][name]) == [], name
+
+
 # --------------------------------------------------------------------------- item by item
 def test_the_states_are_told_apart_by_shape_or_by_full_against_open():
     """At print size a half fill is hard to read: two states differ in their marker's shape,
@@ -326,3 +334,4 @@ def test_fig_contacts_shades_a_switching_run_as_steady_and_keys_it(made_up):
             if ax.get_title().endswith("coherent"):
                 assert np.allclose(p.get_facecolor()[:3], to_rgb("tab:green"))
                 assert p.get_hatch()
+

@@ -32,6 +32,12 @@ from bkflow.observables.stress import N_BOOT
 #: a steady window, or one switching between the layer's steady states (docs/model.md "Steady
 #: state"); a drifting or metastable run's slips are in the densities, not in the verdict
 FITTED_STATES = ("steady", "switching")
+#: the densities' axes: a probability density of x is per unit of x, its unit 1/[x] (the
+#: stress drop in k_d/l, the potency in l); on two lines, to fit beside a short panel.
+#: fig_drops' (b): each population's share of the density of every drop
+DROP_DENSITY = "probability density\nof $\\Delta\\sigma_x$ ($l/k_d$)"
+DROP_DENSITY_ALL = "probability density of\n$\\Delta\\sigma_x$, all drops ($l/k_d$)"
+POTENCY_DENSITY = "probability density\nof the potency ($l^{-1}$)"
 
 
 def _log_density(d, bins: int, part=None) -> tuple[np.ndarray, np.ndarray]:
@@ -231,8 +237,8 @@ def fig_drops(data: SweepData, plt):
         return None
     for a in (ax, bx):
         a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
-    ax.set_ylabel("probability density")
-    bx.set_ylabel("probability density (of all drops)")
+    ax.set_ylabel(DROP_DENSITY)
+    bx.set_ylabel(DROP_DENSITY_ALL)
     ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}\n" + _law_title(verdicts),
                  fontsize=MIN_FONT + 0.5)
     _density_key(fig, data)
@@ -331,7 +337,7 @@ def fig_potency(data: SweepData, plt):
     if not verdicts:  # no run recorded slip frames
         return None
     ax.set_xlabel(r"potency $\sum_i \Delta x_i$ of the slipping particles ($l$)")
-    ax.set_ylabel("probability density")
+    ax.set_ylabel(POTENCY_DENSITY)
     ax.set_title(f"potencies, {_size_label(lx, ly)}\n" + _law_title(verdicts),
                  fontsize=MIN_FONT + 0.5)
     bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
