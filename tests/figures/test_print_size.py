@@ -335,3 +335,42 @@ def test_fig_contacts_shades_a_switching_run_as_steady_and_keys_it(made_up):
                 assert np.allclose(p.get_facecolor()[:3], to_rgb("tab:green"))
                 assert p.get_hatch()
 
+
+def _contacts_of_a_switching_run(stationary, drift: float, companion=None):
+    """fig_contacts of the made-up sweep whose run shown at phi = 10 (seed 1) visited both
+    states with its trend test as given (runs.csv ``stationary``, ``drift``, ``drift_err``;
+    ``companion_start``: the run's companion, whose pair's mean stress the test reads), and
+    that panel's title and shaded spans."""
+    data = _Sweep()
+    data.runs["companion_start"] = companion
+    shown = (data.runs.phi == 10.0) & (data.runs.seed == 1)
+    data.runs["state"] = data.runs["state"].where(~shown, "quiet+coherent")
+    data.runs["stationary"], data.runs["drift"], data.runs["drift_err"] = True, 0.001, 0.004
+    data.runs.loc[shown, ["stationary", "drift", "drift_err"]] = [stationary, drift, 0.004]
+    fig = _draw(registry.figure(data, "fig_contacts"))
+    panels = [ax for ax in fig.axes if ax.get_title().startswith(r"$\phi$ = 10,")]
+    column = [ax for ax in fig.axes
+              if ax.get_position().x0 == pytest.approx(panels[0].get_position().x0)]
+    return fig, panels[0].get_title(), [p for ax in column for p in ax.patches]
+
+
+def test_fig_contacts_shades_a_switching_run_whose_stress_still_drifts_as_not_steady():
+    """A run that names its states (quiet+coherent) but whose trend test says its stress
+    still drifts (runs.csv ``stationary`` False: the test the verdict reads, its error
+    covering the switching) is shaded as not steady (orange, no hatch), never as one of
+    the layer's steady states; its title gives its state as the tables do and the trend
+    test's words. Trend-free, the same run is hatched green, and says so."""
+    from matplotlib.colors import to_rgb
+
+    fig, title, spans = _contacts_of_a_switching_run(False, -0.03)
+    assert title.splitlines()[0].endswith(": quiet+coherent"), title
+    assert title.splitlines()[1] == r"drift -3.00% $\pm$ 0.40%: the stress still drifts"
+    assert spans and all(np.allclose(p.get_facecolor()[:3], to_rgb("tab:orange"))
+                         and not p.get_hatch() for p in spans)
+    keys = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert any(k.startswith("analysed window: not steady") and "still drifts" in k
+               for k in keys), keys
+    fig, title, spans = _contacts_of_a_switching_run(True, -0.003, "partial")
+    assert r"pair's drift -0.30% $\pm$ 0.40%: trend-free" in title, title
+    assert spans and all(np.allclose(p.get_facecolor()[:3], to_rgb("tab:green"))
+                         and p.get_hatch() for p in spans)

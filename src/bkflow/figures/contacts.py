@@ -1,8 +1,10 @@
 """The memory of the start, run by run (``fig_contacts``): the shear stress and the contacts'
 phase coherence R(t) over the whole run of a soft, an intermediate and a stiff phi, smoothed
 alike in every panel, the analysed window shaded by the run's state: steady (green), switching
-between the layer's steady states (green, hatched: a coherent or quiet window is one of them) or
-neither (orange).
+between the layer's steady states (green, hatched: a coherent or quiet window is one of them,
+its stress trend-free) or neither (orange: drifting, metastable, or states named while the
+stress still drifts), each panel's title giving the state and the trend test as the run's
+summary does.
 """
 
 from __future__ import annotations
@@ -62,9 +64,10 @@ def fig_contacts(data: SweepData, plt):
     panel and said in the key: a window of a fixed share of each run would make runs of
     different lengths look alike when they are not smoothed alike); the light curve is R's
     block means as recorded. The analysed window (from the end of the transient) is shaded by
-    the run's state (``SHADES``: steady; switching between the layer's steady states, quiet and
-    coherent, each a steady state of its own; or neither, drifting or metastable), its state
-    in the panel's title, keyed below."""
+    the run's state (``SHADES``, ``_shade``: steady; switching between the layer's steady
+    states, quiet and coherent, each a steady state of its own; or neither, drifting or
+    metastable, or a switching run whose stress still drifts), its state and trend test in
+    the panel's title (``_trend_words``), keyed below."""
     lx, ly = data.sizes[0]
     chosen = _contact_phis(data.runs_of(lx, ly).phi)
     fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 4.1),
@@ -106,14 +109,15 @@ def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
     return panels
 
 
-#: the shading of fig_contacts' analysed window by the run's state (``_point_states``): its
-#: colour, hatch and words in the key. A switching run's window (quiet, coherent or both) is in
-#: the layer's steady states, one or both of them: shaded as steady, hatched, keyed apart
+#: the shading of fig_contacts' analysed window by the run's state (``_shade``): its colour,
+#: hatch and words in the key. A switching run's window (quiet, coherent or both) whose stress
+#: is trend-free is in the layer's steady states, one or both of them: shaded as steady,
+#: hatched, keyed apart; one whose stress still drifts is not steady
 SHADES = {"steady": ("tab:green", None, "analysed window (after the transient): steady"),
           "switching": ("tab:green", "//", "analysed window: switching between the layer's "
-                        "steady states (quiet, coherent)"),
-          "other": ("tab:orange", None, "analysed window: not steady (drifting or "
-                    "metastable)")}
+                        "steady states (quiet, coherent), trend-free"),
+          "other": ("tab:orange", None, "analysed window: not steady (drifting, metastable, "
+                    "or states named while the stress still drifts)")}
 
 
 def _shading(colour, hatch, alpha: float) -> dict:
@@ -124,10 +128,39 @@ def _shading(colour, hatch, alpha: float) -> dict:
             "edgecolor": to_rgba(colour, 0.45) if hatch else "none"}
 
 
-def _shade(state) -> str:
-    """The ``SHADES`` name of a run's state."""
+def _shade(state, stationary=None) -> str:
+    """The ``SHADES`` name of a run's state (runs.csv ``state``) and trend test
+    (``stationary``: the summary's "the stress is trend-free over the window", the test its
+    verdict reads, with an error that covers the switching; None where not recorded). The
+    verdict names the states a window visited ahead of its trend (docs/model.md "Steady
+    state"): such a window whose stress the same test finds still drifting is shaded as not
+    steady, never as one of the layer's steady states."""
     name = str(_point_states(pd.DataFrame({"state": [state]}))[0])
+    if name == "switching" and _flag(stationary) is False:
+        return "other"
     return name if name in SHADES else "other"
+
+
+def _flag(value) -> bool | None:
+    """A runs.csv boolean (True, False, "True", "False"), None where missing."""
+    if isinstance(value, str):
+        return {"true": True, "false": False}.get(value.strip().lower())
+    return None if value is None or pd.isna(value) else bool(value)
+
+
+def _trend_words(row) -> str:
+    """The trend test of a run as its summary gives it (runs.csv ``drift``, ``drift_err``,
+    ``stationary``: of the pair's mean stress where the run has a companion, as its verdict
+    reads it), for its panel's title: "drift -0.86% ± 4.68%: trend-free" ("pair's drift ..."),
+    or "...: the stress still drifts"; "" where the run recorded none."""
+    drift, err = (pd.to_numeric(row.get(k), errors="coerce") for k in ("drift", "drift_err"))
+    flag = _flag(row.get("stationary"))
+    if flag is None or not (np.isfinite(drift) and np.isfinite(err)):
+        return ""
+    pair = isinstance(row.get("companion_start"), str) and row.get("companion_start")
+    return (("pair's drift" if pair else "drift")
+            + rf" {100 * drift:+.2f}% $\pm$ {100 * err:.2f}%: "
+            + ("trend-free" if flag else "the stress still drifts"))
 
 
 def _contact_panel(top, bottom, size, panel, width: float) -> str:
@@ -142,12 +175,14 @@ def _contact_panel(top, bottom, size, panel, width: float) -> str:
     bottom.plot(tr, rr, color="indigo", lw=1.2)
     t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
         else t[0]
-    shade = _shade(row.get("state"))
+    shade = _shade(row.get("state"), row.get("stationary"))
     colour, hatch, _ = SHADES[shade]
     for ax in (top, bottom):
         ax.axvspan(t0, t[-1], lw=0, **_shading(colour, hatch, 0.12))
+    trend = _trend_words(row)
     top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(*size)}, seed {int(row.seed)}: "
-                  f"{row.get('state', 'n/a')}", fontsize=MIN_FONT + 0.5)
+                  f"{row.get('state', 'n/a')}" + (f"\n{trend}" if trend else ""),
+                  fontsize=MIN_FONT + 0.5)
     bottom.set_ylim(0, 1.02)
     bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
     return shade
