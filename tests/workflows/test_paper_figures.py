@@ -139,6 +139,42 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
             assert far, (c1, c2)
 
 
+def test_fig2a_protocols_fits_a_7_inch_column_with_no_text_under_7_pt(
+        reproduce, monkeypatch, tmp_path):
+    """The reproduction's four sizes (N = 100, 400, 900 and 3600, the largest only in the
+    steady protocol) in panels two sizes wide: the PNG as saved (trimmed, at bkflow's
+    resolution) at most 7 in wide, so that it prints in a 6.5-7 in column at its own size or
+    larger, and no text of it under 7 pt at that size; each observable's panels one y range
+    across the sizes, every point inside its axes and none under the key."""
+    from matplotlib.image import imread
+
+    curves = _curves()
+    big = _results(3600, 0.01, ["steady"] * 5)
+    wide = {label: (None, pd.concat([res, res.assign(N=900, mu_bar=res.mu_bar - 0.002)]))
+            for label, (_, res) in curves.items()}
+    wide["steady protocol, N = 3600"] = (None, big)
+    monkeypatch.setattr(reproduce, "curves", lambda out: wide)
+    kept = {}
+    write = reproduce._write
+    monkeypatch.setattr(reproduce, "_write",
+                        lambda fig, path: kept.setdefault("fig", fig) and write(fig, path))
+    path = reproduce.protocols_figure(tmp_path, tmp_path)
+    height, width = imread(path).shape[:2]
+    dpi = reproduce.STYLE["savefig.dpi"]
+    assert width / dpi <= 7.0, f"{width / dpi:.2f} in wide"
+    fig = kept["fig"]
+    assert _small_text(fig) == []
+    assert _hidden_points(fig) == []
+    panels = [ax for ax in fig.axes if ax.get_lines()]
+    assert len(panels) == 4 * len(reproduce.OBSERVABLES)
+    ranges = {}
+    for ax in panels:
+        ranges.setdefault(ax.get_ylim(), []).append(ax)
+    assert sorted(len(r) for r in ranges.values()) == [4] * len(reproduce.OBSERVABLES)
+    titles = {ax.get_title() for ax in panels} - {""}
+    assert titles == {f"N = {n}" for n in (100, 400, 900, 3600)}
+
+
 def _runs(n, t_end, start="synchronized"):
     rows = []
     for phi in PHI:

@@ -152,9 +152,9 @@ CURVES = {
 }
 #: (field, its name in numbers.md, its axis label in the figures)
 OBSERVABLES = (("mu_bar", "mu_bar (slips above 1% of mu_s sigma_n)",
-                r"$\overline{\mu}$ (slips above 1% of $\mu_s\sigma_n$)"),
+                "$\\overline{\\mu}$, slips above\n1% of $\\mu_s\\sigma_n$"),
                ("mu_bar_large", "mu_bar (large drops: drop > mean drop)",
-                r"$\overline{\mu}$ (large drops: drop > mean drop)"),
+                "$\\overline{\\mu}$, large drops:\ndrop > mean drop"),
                ("mean_stress_ratio", "<sigma_x>/sigma_n", r"$\langle\sigma_x\rangle/\sigma_n$"))
 
 
@@ -632,69 +632,121 @@ def _mu_s(tables) -> float | None:
     return values.pop() if len(values) == 1 else None
 
 
-def protocols_figure(out: Path, figs: Path) -> Path | None:
-    """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column per N,
-    one curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
-    marker's shape and fill are its state, as in every bkflow figure
-    (bkflow.figures.style.state_marker, keyed by bkflow.figures.keys.state_handles). Each row
-    shares its y range across N, so that a curve's depth can be compared between sizes; the
-    right axis reads each value as a fraction below mu_s (the runs' static friction
-    coefficient), and a grey line marks the paper's minimum, 40% below mu_s."""
-    from matplotlib.lines import Line2D
+#: fig2a_protocols' layout: two sizes side by side, each a column of the three observables
+#: (OBSERVABLES), the next two sizes below: 6.8 in wide, so that, trimmed as saved, it prints
+#: at its own size (no text under 7 pt) in a 7 in column; its height (in) per row of sizes,
+#: and the key's
+PROTOCOL_COLUMNS, PROTOCOL_WIDTH, PROTOCOL_HEIGHT, PROTOCOL_KEY_HEIGHT = 2, 6.8, 3.75, 1.15
 
+
+def protocols_figure(out: Path, figs: Path) -> Path | None:
+    """mu_bar, mu_bar over large drops and <sigma_x>/sigma_n against phi, one column of
+    panels per N, two N side by side (PROTOCOL_COLUMNS: the figure fits a 7 in column), one
+    curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
+    marker's shape and fill are its state, as in every bkflow figure
+    (bkflow.figures.style.state_marker, keyed by bkflow.figures.keys.state_handles). Each
+    observable's panels share one y range across N, so that a curve's depth can be compared
+    between sizes; the right axis reads each value as a fraction below mu_s (the runs' static
+    friction coefficient), and a grey line marks the paper's minimum, 40% below mu_s."""
     cs = curves(out)
     if not cs:
         return None
-    plt = _style()
     long_run = pd.read_csv(LONG_RUN_CURVE) if LONG_RUN_CURVE.exists() else None
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
-    fig, axes = plt.subplots(len(OBSERVABLES), len(ns), figsize=(3.0 * len(ns) + 0.6, 7.6),
-                             squeeze=False, sharex=True, sharey="row")
+    fig, panels = _protocol_axes(_style(), ns)
     mu_s = _mu_s([res for _, res in cs.values()])
     present = set()
-    for col, n in enumerate(ns):
-        for row, (field, _, title) in enumerate(OBSERVABLES):
-            ax = axes[row, col]
-            for label, (_, res) in cs.items():
-                g = res[res.N == n].sort_values("phi")
-                if not len(g) or field not in g:
-                    continue
-                c, ls = CURVE_STYLE[label]
-                ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
-                            ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
-                states = _point_states(g)
-                for name in STATE_FILL:
-                    k = states == name
-                    if k.any():
-                        present.add(name)
-                        ax.plot(g.phi[k], g[field][k], ls="none", zorder=3,
-                                **state_marker(name, c, 6.0))
-            lr = long_run[long_run.N == n].sort_values("phi") if long_run is not None else []
-            if len(lr) and LONG_RUN_FIELDS.get(field) in lr:
-                key = LONG_RUN_FIELDS[field]
-                ax.errorbar(lr.phi, lr[key], yerr=lr[key + "_se"].fillna(0), color="0.55",
-                            lw=2.2, alpha=0.8, capsize=1.5, marker="none", zorder=1,
-                            label=LONG_RUN_LABEL)
-            if mu_s is not None and field.startswith("mu_bar"):  # claim 1 is about mu_bar
-                ax.axhline((1 - PAPER_MINIMUM_BELOW_MU_S) * mu_s, color="0.55", lw=0.8,
-                           ls=(0, (6, 3)), zorder=1)
-            ax.set_xscale("log")
-            if col == 0:
-                ax.set_ylabel(title, fontsize=7.5)
-            if row == 0:
-                ax.set_title(f"N = {n}", fontsize=9)
-            if row == len(OBSERVABLES) - 1:
-                ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
-    if mu_s is not None:  # the right axis: how far below mu_s, the paper's measure
-        for ax in axes[:, -1]:
-            right = ax.secondary_yaxis("right", functions=(
-                lambda y: 100 * (1 - np.asarray(y) / mu_s),
-                lambda p: mu_s * (1 - np.asarray(p) / 100)))
-            right.set_ylabel(rf"below $\mu_s$ = {mu_s:g} (%)", fontsize=7.5)
-    # one key below the panels: the curves in its first rows, the paper's minimum beside
-    # them, the marker convention in its last row
+    for n, column in panels.items():
+        for ax, (field, _, _) in zip(column, OBSERVABLES):
+            present |= _protocol_panel(ax, cs, n, field, long_run, mu_s)
+    _label_protocol_panels(fig, panels, mu_s)
+    _protocol_key(fig, present, mu_s)
+    return _write(fig, figs / "fig2a_protocols.png")
+
+
+def _protocol_axes(plt, ns: list) -> tuple:
+    """fig2a_protocols' figure and its panels, {N: [one axes per observable, top to bottom]}:
+    PROTOCOL_COLUMNS sizes to a row of sizes, each observable's panels sharing one y range
+    (its tick labels on the left column only), phi shared by every panel; the cells no size
+    fills are hidden."""
+    ncol = min(PROTOCOL_COLUMNS, len(ns))
+    blocks = -(-len(ns) // ncol)
+    k = len(OBSERVABLES)
+    fig, axes = plt.subplots(k * blocks, ncol, squeeze=False, sharex=True, figsize=(
+        PROTOCOL_WIDTH, PROTOCOL_HEIGHT * blocks + PROTOCOL_KEY_HEIGHT))
+    fig.get_layout_engine().set(wspace=0.06)   # one column's 10^3 clear of the next's 10^-1
+    panels = {n: [axes[(i // ncol) * k + row, i % ncol] for row in range(k)]
+              for i, n in enumerate(ns)}
+    for row in range(k):
+        for n in ns[1:]:
+            panels[n][row].sharey(panels[ns[0]][row])
+    used = {id(ax) for column in panels.values() for ax in column}
+    for ax in axes.flat:
+        ax.set_visible(id(ax) in used)
+    return fig, panels
+
+
+def _protocol_panel(ax, cs: dict, n: int, field: str, long_run, mu_s) -> set:
+    """One panel of fig2a_protocols: ``field`` against phi at N = ``n``, every curve of
+    ``cs`` with its points' states, the long-run curve, and (a mu_bar) the paper's minimum;
+    the states drawn."""
+    present = set()
+    for label, (_, res) in cs.items():
+        g = res[res.N == n].sort_values("phi")
+        if not len(g) or field not in g:
+            continue
+        c, ls = CURVE_STYLE[label]
+        ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
+                    ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
+        states = _point_states(g)
+        for name in STATE_FILL:
+            k = states == name
+            if k.any():
+                present.add(name)
+                ax.plot(g.phi[k], g[field][k], ls="none", zorder=3,
+                        **state_marker(name, c, 6.0))
+    lr = long_run[long_run.N == n].sort_values("phi") if long_run is not None else []
+    if len(lr) and LONG_RUN_FIELDS.get(field) in lr:
+        key = LONG_RUN_FIELDS[field]
+        ax.errorbar(lr.phi, lr[key], yerr=lr[key + "_se"].fillna(0), color="0.55", lw=2.2,
+                    alpha=0.8, capsize=1.5, marker="none", zorder=1, label=LONG_RUN_LABEL)
+    if mu_s is not None and field.startswith("mu_bar"):  # claim 1 is about mu_bar
+        ax.axhline((1 - PAPER_MINIMUM_BELOW_MU_S) * mu_s, color="0.55", lw=0.8,
+                   ls=(0, (6, 3)), zorder=1)
+    ax.set_xscale("log")
+    return present
+
+
+def _label_protocol_panels(fig, panels: dict, mu_s) -> None:
+    """fig2a_protocols' labels: N over each column, the observable left of the left column,
+    phi under each row of sizes (its ticks there too), and right of the right column the
+    value as a fraction below mu_s, the paper's measure."""
+    ns = list(panels)
+    ncol = min(PROTOCOL_COLUMNS, len(ns))
+    for i, (n, column) in enumerate(panels.items()):
+        column[0].set_title(f"N = {n}", fontsize=8)
+        column[-1].set_xlabel(r"$\phi = k_b/\Delta k_d$", fontsize=8)
+        column[-1].tick_params(labelbottom=True)
+        last = i % ncol == ncol - 1 or n == ns[-1]
+        for ax, (_, _, label) in zip(column, OBSERVABLES):
+            if i % ncol == 0:
+                ax.set_ylabel(label, fontsize=7.5)
+            else:
+                ax.tick_params(labelleft=False)
+            if last and mu_s is not None:
+                right = ax.secondary_yaxis("right", functions=(
+                    lambda y: 100 * (1 - np.asarray(y) / mu_s),
+                    lambda p: mu_s * (1 - np.asarray(p) / 100)))
+                right.set_ylabel(rf"below $\mu_s$ = {mu_s:g} (%)", fontsize=7.5)
+
+
+def _protocol_key(fig, present: set, mu_s) -> None:
+    """fig2a_protocols' key below its panels: the curves in its first rows, the paper's
+    minimum beside them, the marker convention of the states ``present`` in its last rows."""
+    from matplotlib.lines import Line2D
+
     found = {}
-    for ax in axes.flat:  # a curve drawn at some N only (N = 3600) is keyed too
+    for ax in fig.axes:  # a curve drawn at some N only (N = 3600) is keyed too
         for h, lab in zip(*ax.get_legend_handles_labels()):
             found.setdefault(lab, h)
     keys = [(found[lab], lab) for lab in (*CURVE_STYLE, LONG_RUN_LABEL) if lab in found]
@@ -702,13 +754,12 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
         keys.append((Line2D([], [], color="0.55", lw=0.8, ls=(0, (6, 3))),
                      rf"the paper's minimum of $\overline{{\mu}}$: "
                      rf"{100 * PAPER_MINIMUM_BELOW_MU_S:.0f}% below $\mu_s$"))
-    ncol = 4
+    ncol = 2
     keys += [(Line2D([], [], alpha=0), "")] * (-len(keys) % ncol)
     keys += list(zip(*state_handles(present)))
     handles, labels = zip(*_row_major(keys, ncol))
     fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
                fontsize=7, handlelength=2.6)
-    return _write(fig, figs / "fig2a_protocols.png")
 
 
 def _row_major(keys: list, ncol: int) -> list:
