@@ -238,6 +238,27 @@ def stiff_long() -> str:
     return "\n".join(out) + "\n"
 
 
+def relaxation() -> str:
+    """The synchronized start's relaxation (stationarity.py relaxation, its record): per
+    (N, phi), the median over seeds of tau and A / s_inf where a relaxation was fitted (and in
+    how many seeds), of t_equil and of the late mean."""
+    import numpy as np
+    from stationarity import RELAXATION_RECORD, read_relaxation_record
+
+    if not RELAXATION_RECORD.exists():
+        return "(not measured yet: python benchmarks/stationarity.py relaxation)\n"
+    df, _ = read_relaxation_record()
+    out = ["| N | phi | seeds fitted | tau | A / s_inf | t_equil | late mean |",
+           "|---|---|---|---|---|---|---|"]
+    for (n, phi), g in df.groupby(["N", "phi"]):
+        fit = g[np.isfinite(g.tau)]
+        tau, amp = ((f"{fit.tau.median():.3g}", f"{fit.amplitude.median():+.2g}")
+                    if len(fit) else ("-", "-"))
+        out.append(f"| {n} | {phi:.4g} | {len(fit)} of {len(g)} | {tau} | {amp} | "
+                   f"{g.t_equil.median():.3g} | {g.late_mean.median():.4f} |")
+    return "\n".join(out) + "\n"
+
+
 def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
@@ -974,6 +995,7 @@ def claims_block(name: str):
 
 BLOCKS["large-drops"] = large_drops
 BLOCKS["bimodality"] = bimodality
+BLOCKS["relaxation"] = relaxation
 
 
 def summary_keys() -> str:

@@ -2,7 +2,7 @@
 
 1. dt scan: for phi from 1e-1 to 1e4, runs of t_end time units (default 2000, scene
    friction, N = 100, seed 1) at increasing C until the engine stops the run (NaN, lost
-   atoms, a bond past 10 l). The guard of bkflow.model.params (DT_FACTOR_MAX) is lifted for the
+   atoms, a bond past 10 l). The guard of bkflow.model.timestep (DT_FACTOR_MAX) is lifted for the
    scan only. Beside each stable run: its <sigma_x>/sigma_n relative to C = 0.1, so that
    "stable" and "accurate" are not confused.
 2. Long run (``--long``): phi = 1e3, N = 100, C = 0.1, t_end = 16000 (1.01e7 steps), scene
@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from bkflow.lammps.engine import RunError, run
-from bkflow.model import params
+from bkflow.model import timestep
 from bkflow.model.params import RunSpec
 from bkflow.observables.stress import macroscopic_friction
 from bkflow.store.rundir import LOG, RunDir
@@ -38,7 +38,7 @@ def mean_stress(spec: RunSpec, out) -> float:
 
 
 def scan(phis, cs, t_end, seed=1):
-    params.DT_FACTOR_MAX = max(cs) + 1  # the scan looks past the guard on purpose
+    timestep.DT_FACTOR_MAX = max(cs) + 1  # the scan looks past the guard on purpose
     rows = []
     for phi in phis:
         base = None

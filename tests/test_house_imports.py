@@ -1,0 +1,82 @@
+"""The house's import graph: no module imports one that (through others) imports it back,
+lazy imports and ``__main__`` blocks included (graphlib finds the circles)."""
+
+from __future__ import annotations
+
+import ast
+import graphlib
+from collections import defaultdict
+from pathlib import Path
+
+import bkflow
+
+SRC = Path(bkflow.__file__).parent
+
+
+def _modules() -> dict[str, Path]:
+    """bkflow's modules by dotted name (a package by its own name)."""
+    out = {}
+    for p in SRC.rglob("*.py"):
+        parts = p.relative_to(SRC.parent).with_suffix("").parts
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    return out
+
+
+def _target(name: str, modules) -> str | None:
+    """The module an imported dotted name lives in (``a.b.c`` a name of ``a.b``)."""
+    while name and name not in modules:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def import_graph(modules) -> dict[str, set[str]]:
+    """Every bkflow module's imports of other bkflow modules, anywhere in it; a package's
+    import of its own parent (``from bkflow import __version__``) is not a circle."""
+    graph = defaultdict(set)
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
+            for imported in names:
+                to = _target(imported, modules) if imported.startswith("bkflow") else None
+                if to and to != name and not name.startswith(to + "."):
+                    graph[name].add(to)
+    return graph
+
+
+def circles(graph) -> list[list[str]]:
+    """The import circles of ``graph``: one found by graphlib, its last edge taken out, and
+    again, until none is left."""
+    graph = {k: set(v) for k, v in graph.items()}
+    found = []
+    while True:
+        try:
+            graphlib.TopologicalSorter(graph).prepare()
+            return found
+        except graphlib.CycleError as exc:
+            cycle = exc.args[1]   # [a, b, ..., a]: each in the graph of the one after it
+            found.append(cycle)
+            graph[cycle[1]].discard(cycle[0])
+
+
+def test_no_import_circle_anywhere():
+    found = circles(import_graph(_modules()))
+    assert found == [], "import circles: " + "; ".join(" -> ".join(c) for c in found)
+
+
+def test_the_circle_check_finds_a_circle(tmp_path):
+    """A made-up package whose module imports, in a function and under ``__main__``, the one
+    that imports it."""
+    mods = {"bkflow.a": tmp_path / "a.py", "bkflow.b": tmp_path / "b.py",
+            "bkflow.c": tmp_path / "c.py"}
+    mods["bkflow.a"].write_text("from bkflow.b import f\n")
+    mods["bkflow.b"].write_text("def f():\n    from bkflow.c import g\n")
+    mods["bkflow.c"].write_text("if __name__ == '__main__':\n    import bkflow.a\n")
+    found = circles(import_graph(mods))
+    assert len(found) == 1 and set(found[0]) == set(mods)
+    mods["bkflow.c"].write_text("from bkflow import __version__\n")
+    assert circles(import_graph(mods)) == []
