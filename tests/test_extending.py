@@ -44,12 +44,75 @@ def _hunks_by_file(diff: str) -> dict[str, int]:
     return files
 
 
+def _outside_tests_and_docs(hunks: dict[str, int]) -> dict[str, int]:
+    """The files of ``hunks`` that are neither tests nor documentation (docs/, any .md)."""
+    return {f: n for f, n in hunks.items()
+            if not f.startswith(("tests/", "docs/")) and not f.endswith(".md")}
+
+
 def test_a_new_contact_rule_touches_at_most_four_places():
     hunks = _hunks_by_file(_rule_diff())
-    outside = {f: n for f, n in hunks.items() if not f.startswith(("tests/", "docs/"))}
+    outside = _outside_tests_and_docs(hunks)
     assert set(outside) == {"plugins/bk_model.h", "src/bkflow/model/params.py"}
     assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
     assert "tests/reference.py" in hunks  # the independent check learns the rule too
+    assert "plugins/README.md" in hunks   # and the fix's documented syntax
+
+
+#: the sections of docs/develop.md that hold a recipe's diff
+RECIPES = [part.split("\n", 1)[0] for part in
+           (ROOT / "docs" / "develop.md").read_text().split("\n## ")[1:] if "```diff\n" in part]
+HUNK = re.compile(r"@@ -(\d+)(?:,(\d+))? \+(\d+)(?:,(\d+))? @@")
+
+
+def _misplaced_hunks(diff: str) -> list[str]:
+    """The hunks of ``diff`` that do not apply to the repository's files exactly where their
+    headers say: the old lines not at the stated line (git apply and patch would look
+    elsewhere, at an offset or with fuzz), a count that is not the hunk's, or a new-file start
+    that does not follow from the hunks above it."""
+    bad: list[str] = []
+    lines = diff.splitlines()
+    name, text, shift = "", [], 0
+    for k, line in enumerate(lines):
+        if line.startswith("+++ b/"):
+            name, shift = line[len("+++ b/"):], 0
+            text = (ROOT / name).read_text().splitlines() if (ROOT / name).is_file() else []
+        m = HUNK.match(line)
+        if not m:
+            continue
+        body = []
+        for ln in lines[k + 1:]:
+            if ln.startswith(("@@", "diff ", "--- a/", "--- /dev/null", "+++ b/")):
+                break
+            if not ln.startswith("\\"):          # "\ No newline at end of file"
+                body.append(ln or " ")            # an empty context line, its space trimmed
+        old = [ln[1:] for ln in body if ln[0] in " -"]
+        new = [ln[1:] for ln in body if ln[0] in " +"]
+        a, c = int(m[1]), int(m[3])
+        b, d = int(m[2] or 1), int(m[4] or 1)
+        where = f"{name} {m[0]}"
+        if (b, d) != (len(old), len(new)):
+            bad.append(f"{where}: the hunk has {len(old)} old and {len(new)} new lines")
+        elif old and text[a - 1:a - 1 + b] != old:
+            found = [i + 1 for i in range(len(text)) if text[i:i + b] == old]
+            bad.append(f"{where}: its lines are at {found or 'no line'} of {name}")
+        elif old and new and c != a + shift:
+            bad.append(f"{where}: the new file's hunk starts at {a + shift}")
+        shift += d - b
+    return bad
+
+
+@pytest.mark.parametrize("section", RECIPES)
+def test_every_hunk_of_a_recipe_applies_at_exactly_its_lines(section):
+    """git apply and patch take a hunk found a few lines off (an offset), so a diff of
+    docs/develop.md can go stale and still apply: each hunk must match its file at exactly
+    the lines its header states."""
+    bad = _misplaced_hunks(_diff(section))
+    assert not bad, f"docs/develop.md's diff is stale (rewrite it with git diff): {bad}"
+
+
+def test_every_recipe_is_checked_line_by_line():
+    assert {"Adding a contact rule", "Adding an observable"} <= set(RECIPES), RECIPES
 
 
 def _scratch_package(tmp_path, diff: str, *more: str):
@@ -102,7 +165,7 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
 
 def test_a_new_observable_touches_at_most_four_places():
     hunks = _hunks_by_file(_diff("Adding an observable"))
-    outside = {f: n for f, n in hunks.items() if not f.startswith(("tests/", "docs/"))}
+    outside = _outside_tests_and_docs(hunks)
     assert "src/bkflow/analysis/registry.py" in outside
     assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
 
