@@ -1,7 +1,8 @@
-"""Adding to the model and to the analysis: the diffs of docs/develop.md add a contact rule in at
-most four places outside the tests and docs, and the scratch copy it makes passes its own
-reference tests on the new rule, on both integration paths; and an observable in at most four,
-which the scratch copy then reports in the summary, the tables, the command line and a figure."""
+"""Adding to the model and to the analysis: the diffs of docs/develop.md, each hunk at exactly
+the lines it states, add a contact rule in at most four places outside the tests and docs, and
+the scratch copy it makes passes its own reference and ledger tests on the new rule, on both
+integration paths; and an observable in at most four, which the scratch copy then reports in
+the summary, the tables, the command line and a figure."""
 
 from __future__ import annotations
 
@@ -137,8 +138,9 @@ def _scratch_package(tmp_path, diff: str, *more: str):
 
 @pytest.mark.slow
 def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammps, tmp_path):
-    """The documented diff, applied to a scratch copy (git apply --check first: the diff is
-    current), built and tested by the copy's own tests, selected by the new rule's name."""
+    """The documented diff, applied to a scratch copy (git apply --check first: the diff
+    applies), built and tested by the copy's own tests (the reference on both paths, the
+    energy ledger, the starts), selected by the new rule's name."""
     scratch = _scratch_package(tmp_path, _rule_diff(), "plugins")
     build = tmp_path / "build"
     for cmd in (["cmake", "-S", str(scratch / "plugins"), "-B", str(build), "-G", "Ninja",
@@ -156,7 +158,7 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
     proc = subprocess.run(
         [sys.executable, "-c", boot, "-q", "-p", "no:cacheprovider", "-k", "halve",
          "tests/plugins/test_reference.py", "tests/plugins/test_fused.py",
-         "tests/model/test_start.py"],
+         "tests/plugins/test_ledger.py", "tests/model/test_start.py"],
         cwd=scratch, env=env, capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     ran = re.search(r"(\d+) passed", proc.stdout)
