@@ -160,15 +160,18 @@ static inline void bk_contact_break(int rule, double *drx, double *dry, double w
 
 /* The energy a break takes out of its contact (docs/model.md "Energy"), from its displacement
    before (bx, by) and after (ax, ay) bk_contact_break: BK_RESET, the contact's energy where it
-   broke, at dr_old + th w = before - after (f_max^2 / 2 k_e unless th was clamped);
-   BK_RESET_STEP, its whole end-of-step energy (after = 0, the same formula); BK_COULOMB, the
-   energy above the threshold that the rescaling removes (the sliding work). */
+   broke, at dr_old + th w = before - after (f_max^2 / 2 k_e unless th was clamped); any other
+   rule, the contact's energy before less after: BK_RESET_STEP, its whole end-of-step energy
+   (after = 0); BK_COULOMB, the energy above the threshold that the rescaling removes (the
+   sliding work). */
 static inline double bk_break_loss(int rule, double bx, double by, double ax, double ay,
                                    double ke)
 {
-  if (rule == BK_COULOMB) return 0.5 * ke * ((bx * bx + by * by) - (ax * ax + ay * ay));
-  const double dx = bx - ax, dy = by - ay;
-  return 0.5 * ke * (dx * dx + dy * dy);
+  if (rule == BK_RESET) {
+    const double dx = bx - ax, dy = by - ay;
+    return 0.5 * ke * (dx * dx + dy * dy);
+  }
+  return 0.5 * ke * ((bx * bx + by * by) - (ax * ax + ay * ay));
 }
 
 /* ----------------------------------------------------------------------- damping */

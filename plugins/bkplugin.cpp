@@ -85,35 +85,32 @@ static Fix *bk_substrate_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixBKSubstrate(lmp, argc, argv);
 }
 
-static Fix *bk_slips_creator(LAMMPS *lmp, int argc, char **argv)
+// every other style's creator: a new fix of class T
+template <class T> static Fix *bk_creator(LAMMPS *lmp, int argc, char **argv)
 {
-  return new FixBKSlips(lmp, argc, argv);
+  return new T(lmp, argc, argv);
 }
 
-static Fix *bk_fronts_creator(LAMMPS *lmp, int argc, char **argv)
-{
-  return new FixBKFronts(lmp, argc, argv);
-}
-
-static Fix *bk_phase_creator(LAMMPS *lmp, int argc, char **argv)
-{
-  return new FixBKPhase(lmp, argc, argv);
-}
-
-static Fix *bk_stress_creator(LAMMPS *lmp, int argc, char **argv)
-{
-  return new FixBKStress(lmp, argc, argv);
-}
-
-static Fix *bk_reduce_creator(LAMMPS *lmp, int argc, char **argv)
-{
-  return new FixBKReduce(lmp, argc, argv);
-}
-
-static Fix *bk_psi_creator(LAMMPS *lmp, int argc, char **argv)
-{
-  return new FixBKPsi(lmp, argc, argv);
-}
+// the fix styles the plugin registers, in this order: name, info, creator
+static const struct {
+  const char *name;
+  const char *info;
+  Fix *(*creator)(LAMMPS *, int, char **);
+} BK_STYLES[] = {
+    {"bk/substrate", "bkflow Burridge-Knopoff substrate: bonds, drive, friction, damping",
+     &bk_substrate_creator},
+    {"bk/slips", "bkflow: positions at the maximum and minimum of every slip event",
+     &bk_creator<FixBKSlips>},
+    {"bk/fronts", "bkflow: the slip rate of every particle through every slip event",
+     &bk_creator<FixBKFronts>},
+    {"bk/phase", "bkflow: the contacts' load-phase statistics (Kuramoto R), buffered",
+     &bk_creator<FixBKPhase>},
+    {"bk/stress", "bkflow: the shear stress series t,sigma_x, buffered",
+     &bk_creator<FixBKStress>},
+    {"bk/reduce", "bkflow: sigma_x's zigzag extrema and block sums (with the phases), in the run",
+     &bk_creator<FixBKReduce>},
+    {"bk/psi", "bkflow: the lattice order Psi(t), computed in the run", &bk_creator<FixBKPsi>},
+};
 
 extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
 {
@@ -131,40 +128,12 @@ extern "C" void lammpsplugin_init(void *ptr, void *handle, void *regfunc)
   // the running version, so that LAMMPS's own (warning-only) check stays quiet: ours is above
   plugin.version = lmp->version;
   plugin.style = "fix";
-  plugin.name = "bk/substrate";
-  plugin.info = "bkflow Burridge-Knopoff substrate: bonds, drive, friction, damping";
   plugin.author = "bkflow developers";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_substrate_creator);
   plugin.handle = handle;
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/slips";
-  plugin.info = "bkflow: positions at the maximum and minimum of every slip event";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_slips_creator);
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/fronts";
-  plugin.info = "bkflow: the slip rate of every particle through every slip event";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_fronts_creator);
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/phase";
-  plugin.info = "bkflow: the contacts' load-phase statistics (Kuramoto R), buffered";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_phase_creator);
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/stress";
-  plugin.info = "bkflow: the shear stress series t,sigma_x, buffered";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_stress_creator);
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/reduce";
-  plugin.info = "bkflow: sigma_x's zigzag extrema and block sums (with the phases), in the run";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_reduce_creator);
-  (*register_plugin)(&plugin, lmp);
-
-  plugin.name = "bk/psi";
-  plugin.info = "bkflow: the lattice order Psi(t), computed in the run";
-  plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(&bk_psi_creator);
-  (*register_plugin)(&plugin, lmp);
+  for (const auto &style : BK_STYLES) {
+    plugin.name = style.name;
+    plugin.info = style.info;
+    plugin.creator.v2 = reinterpret_cast<lammpsplugin_factory2 *>(style.creator);
+    (*register_plugin)(&plugin, lmp);
+  }
 }

@@ -32,10 +32,12 @@ std::string names_of(const char *const *names, int n, bool bar = false)
   return out;
 }
 
-const char *USAGE =
-    "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] "
-    "[friction k_e mu_s sigma_n A reset|reset/step|coulomb] [damp gamma [implicit|half]] "
-    "[start dr_property] [energy] [integrate|fused]";
+// the fix's syntax, the names of the contact rules and damping schemes from bk_model.h's tables
+const std::string USAGE =
+    "fix ID group bk/substrate [bonds k_b r0] [drive V_d kd_property] [friction k_e mu_s "
+    "sigma_n A " + names_of(BK_CONTACT_NAMES, BK_NCONTACT, true) + "] [damp gamma [" +
+    names_of(BK_DAMPING_NAMES, BK_NDAMPING, true) + "]] [start dr_property] [energy] "
+    "[integrate|fused]";
 
 double positive(const char *file, int line, const char *what, const char *str, LAMMPS *lmp)
 {

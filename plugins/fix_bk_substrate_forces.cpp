@@ -6,6 +6,7 @@
 #include "fix_bk_substrate.h"
 
 #include "atom.h"
+#include "bk_dispatch.h"
 #include "bk_model.h"
 #include "update.h"
 
@@ -172,22 +173,16 @@ void FixBKSubstrate::eval()
 }
 
 namespace LAMMPS_NS {
-// eval() specialisations indexed by drive (0, 1), contact rule, damping, advance (0, 1) and
-// ledger (0, 1)
+// eval()'s specialisations for a step (ADVANCE 1) or for setup (ADVANCE 0), indexed by
+// bk_dispatch (bk_dispatch.h)
 struct BKSubstrateTable {
   using Eval = void (FixBKSubstrate::*)();
-  static constexpr int NC = BK_NCONTACT, ND = BK_NDAMPING;
-  static constexpr std::size_t SIZE = 2 * NC * ND * 2 * 2;
 
-  static constexpr int index(int drive, int contact, int damping, int advance, int ledger)
+  template <int ADVANCE, int... I>
+  static constexpr std::array<Eval, sizeof...(I)> make(std::integer_sequence<int, I...>)
   {
-    return drive + 2 * (contact + NC * (damping + ND * (advance + 2 * ledger)));
-  }
-  template <std::size_t... I>
-  static constexpr std::array<Eval, sizeof...(I)> make(std::index_sequence<I...>)
-  {
-    return {{&FixBKSubstrate::eval<I % 2, I / 2 % NC, I / (2 * NC) % ND,
-                                   I / (2 * NC * ND) % 2, I / (4 * NC * ND)>...}};
+    return {{&FixBKSubstrate::eval<bk_dispatch_drive(I), bk_dispatch_contact(I),
+                                   bk_dispatch_damping(I), ADVANCE, bk_dispatch_ledger(I)>...}};
   }
 };
 }    // namespace LAMMPS_NS
@@ -199,11 +194,11 @@ struct BKSubstrateTable {
 
 void FixBKSubstrate::apply_forces(int advance)
 {
-  static const auto table =
-      BKSubstrateTable::make(std::make_index_sequence<BKSubstrateTable::SIZE>{});
+  constexpr auto all = std::make_integer_sequence<int, BK_NDISPATCH>{};
+  static const std::array<std::array<BKSubstrateTable::Eval, BK_NDISPATCH>, 2> table = {
+      {BKSubstrateTable::make<0>(all), BKSubstrateTable::make<1>(all)}};
   const double r2max = bonds_on ? bond_forces() : 0.0;
-  (this->*table[BKSubstrateTable::index(drive_on, contact, damping, advance ? 1 : 0,
-                                        ledger_on)])();
+  (this->*table[advance ? 1 : 0][bk_dispatch(drive_on, contact, damping, ledger_on)])();
   energy_step = -1;
   rmax_local = sqrt(r2max);
   reduced = 0;

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -9,6 +10,7 @@ import sys
 import pytest
 
 from bkflow.lammps.plugin import PLUGIN_FILE, PluginError, build_info, check_plugin, open_lammps
+from bkflow.model.params import CONTACT_RULES, DAMPING_MODES
 from tests.support import ROOT, tool
 
 
@@ -80,6 +82,8 @@ def test_plugin_itself_refuses_another_lammps(lammps, mismatched_plugin, tmp_pat
     ("friction -1 0.2 5 1 reset", "k_e must be > 0"),
     ("damp -0.5", "gamma must be >= 0"),
     ("wobble 3", "Unknown fix bk/substrate keyword wobble"),
+    ("wobble 3", re.escape(f"[friction k_e mu_s sigma_n A {'|'.join(CONTACT_RULES)}] "
+                           f"[damp gamma [{'|'.join(DAMPING_MODES)}]] [start dr_property]")),
     ("bonds 1.0", "bonds needs: bonds k_b r0"),
 ])
 def test_bad_fix_arguments_are_clear_lammps_errors(lammps, args, needle):
