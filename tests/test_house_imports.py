@@ -1,9 +1,11 @@
 """The house's import graph: no module imports one that (through others) imports it back,
-lazy imports and ``__main__`` blocks included (graphlib finds the circles)."""
+lazy imports and ``__main__`` blocks included (graphlib finds the circles); and no module
+takes another's private (underscore) name: what modules share has a public name."""
 
 from __future__ import annotations
 
 import ast
+import functools
 import graphlib
 from collections import defaultdict
 from pathlib import Path
@@ -11,6 +13,9 @@ from pathlib import Path
 import bkflow
 
 SRC = Path(bkflow.__file__).parent
+ROOT = Path(__file__).resolve().parents[1]
+#: the code held to the house's rules: the package, the benchmarks and the workflows
+CODE = (SRC, ROOT / "benchmarks", ROOT / "workflows")
 
 
 def _modules() -> dict[str, Path]:
@@ -80,3 +85,52 @@ def test_the_circle_check_finds_a_circle(tmp_path):
     assert len(found) == 1 and set(found[0]) == set(mods)
     mods["bkflow.c"].write_text("from bkflow import __version__\n")
     assert circles(import_graph(mods)) == []
+
+
+@functools.cache
+def _scripts() -> frozenset[str]:
+    return frozenset(p.stem for d in CODE[1:] for p in d.rglob("*.py"))
+
+
+def _ours(module: str) -> bool:
+    """A module of this repository: bkflow's, or a script of benchmarks/ or workflows/ (which
+    import each other by their file names)."""
+    return module.split(".")[0] in {"bkflow"} | _scripts()
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def private_imports(path: Path) -> list[str]:
+    """Where ``path`` takes a private name of another module of ours: ``from m import _x``,
+    or ``m._x`` of a module ``m`` it imported."""
+    tree = ast.parse(path.read_text())
+    found, modules = [], set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and _ours(node.module):
+            found += [f"{path.name}:{node.lineno}: {node.module}.{a.name}"
+                      for a in node.names if _private(a.name)]
+            modules |= {a.asname or a.name for a in node.names if not _private(a.name)}
+        elif isinstance(node, ast.Import):
+            modules |= {a.asname or a.name.split(".")[0] for a in node.names if _ours(a.name)}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr) and \
+                isinstance(node.value, ast.Name) and node.value.id in modules:
+            found.append(f"{path.name}:{node.lineno}: {node.value.id}.{node.attr}")
+    return found
+
+
+def test_no_private_name_is_taken_across_modules():
+    found = [f for d in CODE for p in sorted(d.rglob("*.py")) for f in private_imports(p)]
+    assert found == [], "private names taken across modules: " + "; ".join(found)
+
+
+def test_the_private_name_check_finds_what_it_looks_for(tmp_path):
+    p = tmp_path / "user.py"
+    p.write_text("from bkflow.figures import style\nfrom bkflow.figures.data import _x, y\n"
+                 "import claims\n\ndef f():\n    return style._num(1), claims._sem, y._z\n")
+    assert sorted(f.split(": ")[1] for f in private_imports(p)) == [
+        "bkflow.figures.data._x", "claims._sem", "style._num", "y._z"]
+    p.write_text("from bkflow import __version__\nimport os\nos._exit\n")
+    assert private_imports(p) == []

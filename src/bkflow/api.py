@@ -24,7 +24,7 @@ import pandas as pd
 from bkflow.figures.data import SweepData
 from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
 from bkflow.figures.registry import FIGURES, figure
-from bkflow.figures.style import Figures, PlotError, _num, style
+from bkflow.figures.style import Figures, PlotError, style, value_label
 from bkflow.model.params import RunSpec, transient_step
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
@@ -168,7 +168,7 @@ class Run:
         """The title of a slip's pictures: the layer, the slip and its times, and on a second
         line the run's start and protocol (``bkflow.figures.fronts.run_description``)."""
         s = self.spec
-        return (rf"$\phi$ = {_num(s.phi)}, {s.Lx}x{s.Ly}, slip {slip} (t = "
+        return (rf"$\phi$ = {value_label(s.phi)}, {s.Lx}x{s.Ly}, slip {slip} (t = "
                 f"{f.step_max * s.dt:.1f} to {f.step_min * s.dt:.1f})"
                 + (", its first samples dropped" if f.truncated else "")
                 + "\n" + run_description(s))
@@ -233,7 +233,7 @@ class Run:
                             zorder=0, label="analysed window")
             top.set_ylabel(r"$\sigma_x/\sigma_n A$")
             top.tick_params(labelbottom=False)
-            fig.suptitle(rf"$\phi$ = {_num(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
+            fig.suptitle(rf"$\phi$ = {value_label(self.spec.phi)}, {self.spec.Lx}x{self.spec.Ly}, "
                          f"seed {self.spec.seed}" + (f": {s['state']}" if s.get("state")
                                                      else ""), x=0.01, ha="left", fontsize=8)
             top.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize=6,

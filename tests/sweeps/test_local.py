@@ -856,7 +856,7 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
 
     matplotlib.use("Agg")
     from bkflow.figures.clusters import cluster_scatter
-    from bkflow.figures.style import _style
+    from bkflow.figures.style import new_figures
 
     clusters = {0.1: pd.DataFrame({"l_x": [4.0] * 500 + [2.0], "l_y": [6.1] * 500 + [1.0]}),
                 2.15443: pd.DataFrame({"l_x": [20.0, 10.0], "l_y": [5.0, 2.0]})}
@@ -868,16 +868,16 @@ def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():
         def run_dir(self, row):
             return type("R", (), {"read_clusters": lambda _: clusters[row["phi"]]})()
 
-    plt = _style()
+    plt = new_figures()
     fig = cluster_scatter(Stub(), plt, 20, 5, [2.15443, 0.1], "t")
     ax = fig.axes[0]
     assert ax.get_ylim()[1] >= 6.1 / 5 and ax.get_xlim()[0] < 0 < ax.get_ylim()[1]
     labels = [t.get_text() for t in ax.get_legend().get_texts()][:2]  # then the guides' key
     assert labels == [r"$\phi$ = 2.15: 2 clusters", r"$\phi$ = 0.1: 501 clusters"]
-    from bkflow.figures.style import _num
+    from bkflow.figures.style import value_label
 
-    assert [_num(v) for v in (1000.0, 215.443, 0.215443, 2.15443)] == ["1000", "215", "0.215",
-                                                                     "2.15"]
+    assert [value_label(v) for v in (1000.0, 215.443, 0.215443, 2.15443)] == [
+        "1000", "215", "0.215", "2.15"]
     from bkflow.figures.style import phi_colour
 
     drawn = {tuple(ln.get_color()): ln.get_zorder() for ln in ax.get_lines()

@@ -79,7 +79,7 @@ def _f(v) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def _sem(x) -> float:
+def standard_error(x) -> float:
     x = np.asarray(x, float)
     x = x[np.isfinite(x)]
     return float(np.std(x, ddof=1) / math.sqrt(len(x))) if len(x) > 1 else math.nan
@@ -114,7 +114,8 @@ def minimum(phi, y, e, seeds: int) -> dict:
 def _per_seed(runs: pd.DataFrame, field: str) -> pd.DataFrame:
     """Per (N, phi): the mean of ``field`` over seeds, its standard error and the seeds."""
     g = runs.groupby(["N", "phi"])[field]
-    return pd.DataFrame({"mean": g.mean(), "sem": g.apply(_sem), "seeds": g.count()}).reset_index()
+    return pd.DataFrame({"mean": g.mean(), "sem": g.apply(standard_error),
+                         "seeds": g.count()}).reset_index()
 
 
 def claim1(runs: pd.DataFrame, mu_s: float) -> dict:
@@ -238,11 +239,11 @@ def claim5(runs: pd.DataFrame, sizes) -> dict:
         share = cluster_share(s, "DT")
         crit = critical(len(per_seed))
         out[f"{lx}x{ly}"] = {"N": lx * ly, "clusters": int(s.n_clusters.sum()),
-                             "DT": _f(share), "DT_sem": _f(_sem(per_seed)),
+                             "DT": _f(share), "DT_sem": _f(standard_error(per_seed)),
                              "seeds": len(per_seed),
                              "W": _f(cluster_share(s, "W")),
                              "critical": _f(crit),
-                             "upper": _f(share + crit * _sem(per_seed))}
+                             "upper": _f(share + crit * standard_error(per_seed))}
     return out
 
 
@@ -465,7 +466,7 @@ def record(curves: dict, dirs: dict, aspect=None, aspect_sizes=(), provenance=No
 
 
 # ---------------------------------------------------------------------------- rendering
-def _num(v, fmt=".4f") -> str:
+def num_text(v, fmt=".4f") -> str:
     return "n/a" if v is None else format(v, fmt)
 
 
@@ -533,12 +534,12 @@ def verdict2(c: dict) -> str:
     w = k["stiff_size_spread"]
     within = w["diff"] is not None and w["diff"] < PSI_SAME
     word = "reproduced" if lo < 0.7 and hi > 0.95 and within else "partly"
-    differ = (f"statistically different ({_num(w['z'], '.1f')} errors > "
-              f"{_num(w['critical'], '.1f')})" if w.get("significant") else
-              f"not statistically different ({_num(w['z'], '.1f')} errors <= "
-              f"{_num(w['critical'], '.1f')})")
+    differ = (f"statistically different ({num_text(w['z'], '.1f')} errors > "
+              f"{num_text(w['critical'], '.1f')})" if w.get("significant") else
+              f"not statistically different ({num_text(w['z'], '.1f')} errors <= "
+              f"{num_text(w['critical'], '.1f')})")
     return (f"**{word}**: {lo:.2f} to {hi:.3f}; the sizes at phi >= 100 "
-            f"{'within' if within else 'not within'} {PSI_SAME:g} ({_num(w['diff'])}), and "
+            f"{'within' if within else 'not within'} {PSI_SAME:g} ({num_text(w['diff'])}), and "
             f"{differ}")
 
 
@@ -591,7 +592,7 @@ def verdict6(c: dict) -> str:
     word = ("reproduced" if ks and min(ks) >= KAPPA_SUBSTANTIAL and not never else
             "not reproduced" if not ks or min(ks) <= KAPPA_FAIR or never else "partly")
     return (f"**{word}**: the observed shape is Eq. 2's cheapest for "
-            + ", ".join(f"{v['cheapest']:.0%} (kappa {_num(v['kappa'], '.2f')}, N = {n})"
+            + ", ".join(f"{v['cheapest']:.0%} (kappa {num_text(v['kappa'], '.2f')}, N = {n})"
                         for n, v in k.items())
             + (f"; Eq. 2 never predicts a {' or '.join(never)}, which the clusters take"
                if never else ""))
@@ -642,16 +643,16 @@ def render_claim1(rec: dict) -> str:
                 continue
             for n, m in per.items():
                 rows.append(f"| {label} | {names[field]} | {n} | {m['seeds']} | "
-                            f"{_phi(m['phi'])} | {_num(m['min'])} | "
-                            f"{_num(m['below_mu_s'], '.3f')} | {_num(m['z_lo'], '.1f')} | "
-                            f"{_num(m['z_hi'], '.1f')} | {_num(m['critical'], '.2f')} "
-                            f"({m['looks']}; {_num(m['critical_one'], '.2f')}) | "
+                            f"{_phi(m['phi'])} | {num_text(m['min'])} | "
+                            f"{num_text(m['below_mu_s'], '.3f')} | {num_text(m['z_lo'], '.1f')} | "
+                            f"{num_text(m['z_hi'], '.1f')} | {num_text(m['critical'], '.2f')} "
+                            f"({m['looks']}; {num_text(m['critical_one'], '.2f')}) | "
                             f"{'**yes**' if m['non_monotonic'] else 'no'} | "
-                            f"{_num(m['dip80'], '.4f')} |")
+                            f"{num_text(m['dip80'], '.4f')} |")
     rows.append("")
     for label, c in rec["curves"].items():
         k = c["claim1"]
-        ranges = "; ".join(f"{names[f]} {_num(lo, '.0%')} to {_num(hi, '.0%')}"
+        ranges = "; ".join(f"{names[f]} {num_text(lo, '.0%')} to {num_text(hi, '.0%')}"
                            for f, (lo, hi) in k["below_mu_s_range"].items())
         states = ", ".join(f"{v} {s}" for s, v in sorted(k["stiff_states"].items()))
         deeper = {True: "the dips do", False: "the dips do not",
@@ -669,8 +670,8 @@ def render_claim4(rec: dict) -> str:
         for phi, s in c["claim4"]["shares"].items():
             cells = [s[k] for k in REGIMES]
             nx = None if cells[3] is None else cells[3] + (cells[4] or 0)
-            rows.append(f"| {label} | {phi} | " + " | ".join(_num(v, ".2f") for v in cells)
-                        + f" | {_num(nx, '.2f')} | {s['clusters']} |")
+            rows.append(f"| {label} | {phi} | " + " | ".join(num_text(v, ".2f") for v in cells)
+                        + f" | {num_text(nx, '.2f')} | {s['clusters']} |")
     rows.append("")
     for label, c in rec["curves"].items():
         k = c["claim4"]
@@ -685,9 +686,9 @@ def render_claim5(rec: dict) -> str:
             "|---|---|---|---|---|---|---|---|"]
     for k, v in (rec.get("claim5") or {}).items():
         lx, ly = (int(s) for s in k.split("x"))
-        rows.append(f"| {k} | {v['N']} | {lx / ly:g} | {v['clusters']} | {_num(v['DT'], '.3f')} "
-                    f"| {_num(v['DT_sem'], '.3f')} ({v['seeds']}) | {_num(v['upper'], '.3f')} "
-                    f"| {_num(v['W'], '.3f')} |")
+        rows.append(f"| {k} | {v['N']} | {lx / ly:g} | {v['clusters']} | "
+                    f"{num_text(v['DT'], '.3f')} | {num_text(v['DT_sem'], '.3f')} ({v['seeds']}) "
+                    f"| {num_text(v['upper'], '.3f')} | {num_text(v['W'], '.3f')} |")
     return "\n".join(rows) + "\n"
 
 
@@ -698,10 +699,10 @@ def render_claim6(rec: dict) -> str:
     for label, c in rec["curves"].items():
         for n, k in (c.get("claim6") or {}).items():
             for phi, v in k["per_phi"].items():
-                seen = " / ".join(_num(v[f"seen_{s}"], ".2f") for s in SHAPES)
-                best = " / ".join(_num(v[f"predicted_{s}"], ".2f") for s in SHAPES)
+                seen = " / ".join(num_text(v[f"seen_{s}"], ".2f") for s in SHAPES)
+                best = " / ".join(num_text(v[f"predicted_{s}"], ".2f") for s in SHAPES)
                 rows.append(f"| {label} | {n} | {phi} | {v['clusters']} | "
-                            f"{_num(v['cheapest'], '.2f')} | {seen} | {best} |")
+                            f"{num_text(v['cheapest'], '.2f')} | {seen} | {best} |")
     return "\n".join(rows) + "\n"
 
 
@@ -710,19 +711,19 @@ def render_other(rec: dict) -> str:
     out = []
     for label, c in rec["curves"].items():
         k2 = c["claim2"]
-        ends = "; ".join(f"N = {n}: {_num(a, '.3f')} to {_num(b, '.3f')}"
+        ends = "; ".join(f"N = {n}: {num_text(a, '.3f')} to {num_text(b, '.3f')}"
                          for n, (a, b) in k2["ends"].items())
         w = k2["stiff_size_spread"]
         lower, of = k2["soft_smaller_at_larger_N"]
         out.append(f"- {label}, Psi(inf): {ends}. At phi >= 100 the sizes differ by at most "
-                   f"{_num(w['diff'])} (at phi = {_phi(w['phi'])}; the most significant "
-                   f"difference {_num(w['z'], '.1f')} combined errors, at phi = "
+                   f"{num_text(w['diff'])} (at phi = {_phi(w['phi'])}; the most significant "
+                   f"difference {num_text(w['z'], '.1f')} combined errors, at phi = "
                    f"{_phi(w.get('z_at'))}); below phi = 100 the smallest N lies above the "
                    f"largest at {lower} of {of} phi.")
         k3 = c["claim3"]
         out.append(f"- {label}, <l_x>/<l_y>: " + "; ".join(
             f"N = {n}: peaks at phi = {_phi(v['lx_over_ly_max'])} "
-            f"({_num(v['lx_over_ly_peak'], '.2f')}), "
+            f"({num_text(v['lx_over_ly_peak'], '.2f')}), "
             f"mu_bar lowest at {_phi(v['mu_bar_min'])}, mu_bar (large drops) highest at "
             f"{_phi(v['mu_bar_large_max'])}" for n, v in k3.items()) + ".")
         k7 = c["claim7"]
@@ -730,7 +731,7 @@ def render_other(rec: dict) -> str:
         out.append(f"- {label}, stress drops: a power law rejected in {k7['rejected']} of "
                    f"{k7['runs']} runs, plausible in {k7['plausible']} (no fit: "
                    f"{k7['no fit']}); a lognormal favoured in {k7['lognormal_favoured']}; "
-                   f"maximum-likelihood exponents {_num(lo, '.2f')} to {_num(hi, '.2f')}.")
+                   f"maximum-likelihood exponents {num_text(lo, '.2f')} to {num_text(hi, '.2f')}.")
     return "\n".join(out) + "\n"
 
 
@@ -744,9 +745,9 @@ def render_scheme(rec: dict) -> str:
             "error |", "|---|---|---|---|---|"]
     for n, v in k.items():
         for i, phi in enumerate(v["phi"]):
-            rows.append(f"| {n} | {_phi(phi)} | {_num(v['second'][i])} +- "
-                        f"{_num(v['second_sem'][i])} | {_num(v['first'][i])} +- "
-                        f"{_num(v['first_sem'][i])} | {_num(v['z'][i], '+.1f')} |")
+            rows.append(f"| {n} | {_phi(phi)} | {num_text(v['second'][i])} +- "
+                        f"{num_text(v['second_sem'][i])} | {num_text(v['first'][i])} +- "
+                        f"{num_text(v['first_sem'][i])} | {num_text(v['z'][i], '+.1f')} |")
     rows.append("")
     for n, v in k.items():
         big = [_phi(p) for p, z in zip(v["phi"], v["z"]) if z is not None
@@ -776,12 +777,13 @@ def render_sizes(rec: dict) -> str:
     rows = ["| phi | " + " | ".join(f"N = {n}" for n in ns) + " | slope per decade of N | "
             "z (critical) | found with 80% power |", "|---" * (len(ns) + 4) + "|"]
     for phi, v in k["phi"].items():
-        cells = {n: f"{_num(m)} +- {_num(e)} ({s})" for n, m, e, s in
+        cells = {n: f"{num_text(m)} +- {num_text(e)} ({s})" for n, m, e, s in
                  zip(v["N"], v["mean"], v["sem"], v["seeds"])}
         rows.append(f"| {phi} | " + " | ".join(cells.get(n, "") for n in ns)
-                    + f" | {_num(v['slope_per_decade'], '+.5f')} +- {_num(v['slope_err'], '.5f')}"
-                    f" | {_num(v['z'], '+.1f')} ({_num(v['critical'], '.2f')}) | "
-                    f"{_num(v['found80'], '.5f')} |")
+                    + f" | {num_text(v['slope_per_decade'], '+.5f')} +- "
+                    f"{num_text(v['slope_err'], '.5f')}"
+                    f" | {num_text(v['z'], '+.1f')} ({num_text(v['critical'], '.2f')}) | "
+                    f"{num_text(v['found80'], '.5f')} |")
     falls = [p for p, v in k["phi"].items() if v["falls"]]
     rises = [p for p, v in k["phi"].items() if v["rises"]]
     fitted = sorted({n for v in k["phi"].values() for n in v["fitted"]})

@@ -43,10 +43,10 @@ import numpy as np
 import pandas as pd
 
 from bkflow.figures.clusters import cluster_scatter
-from bkflow.figures.data import SweepData, _point_states
+from bkflow.figures.data import SweepData, point_states
 from bkflow.figures.keys import state_handles
 from bkflow.figures.registry import plot
-from bkflow.figures.style import STATE_FILL, STYLE, _style, state_marker
+from bkflow.figures.style import STATE_FILL, STYLE, new_figures, state_marker
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields
@@ -225,8 +225,8 @@ def numbers(out: Path, wall: dict) -> str:
                 mu_s = float(g.mu_s.iloc[0])
                 lines.append(f"| {label} | {n} | {m['phi']:g} | {_pm(m['min'], m['sem'])} | "
                              f"{1 - m['min'] / mu_s:.3f} | {_pm(m['lo'], e[0])} | "
-                             f"{_pm(m['hi'], e[-1])} | {claims._num(m['z_lo'], '.1f')} | "
-                             f"{claims._num(m['z_hi'], '.1f')} | {m['critical']:.2f} | "
+                             f"{_pm(m['hi'], e[-1])} | {claims.num_text(m['z_lo'], '.1f')} | "
+                             f"{claims.num_text(m['z_hi'], '.1f')} | {m['critical']:.2f} | "
                              f"{'yes' if m['non_monotonic'] else 'no'} |")
 
     lines += ["", "## Per phi: every curve", "",
@@ -519,7 +519,7 @@ def energy_figure(found: dict, figs: Path) -> Path | None:
     Eq. 2 makes a transverse slip cheaper than a row (the argument's crossover at 1)."""
     if not found:
         return None
-    plt = _style()
+    plt = new_figures()
     fig = plt.figure(figsize=(8.6, 6.0))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.15, 1))
     up = fig.add_subplot(grid[0, 0])
@@ -653,7 +653,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
         return None
     long_run = pd.read_csv(LONG_RUN_CURVE) if LONG_RUN_CURVE.exists() else None
     ns = sorted({int(n) for _, res in cs.values() for n in res.N})
-    fig, panels = _protocol_axes(_style(), ns)
+    fig, panels = _protocol_axes(new_figures(), ns)
     mu_s = _mu_s([res for _, res in cs.values()])
     present = set()
     for n, column in panels.items():
@@ -698,7 +698,7 @@ def _protocol_panel(ax, cs: dict, n: int, field: str, long_run, mu_s) -> set:
         c, ls = CURVE_STYLE[label]
         ax.errorbar(g.phi, g[field], yerr=g[f"{field}_sem"].fillna(0), color=c, lw=0.9,
                     ls=ls, capsize=1.5, marker="none", label=label, zorder=2)
-        states = _point_states(g)
+        states = point_states(g)
         for name in STATE_FILL:
             k = states == name
             if k.any():
@@ -824,7 +824,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     if not sets:
         return None
     ns = sorted({int(n) for *_, runs in sets for n in runs.N})
-    plt = _style()
+    plt = new_figures()
     ncols = min(len(ns), 2)
     nrows = -(-len(ns) // ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(3.4 * ncols + 0.4, 2.7 * nrows + 1.3),
@@ -913,7 +913,7 @@ def sizes_figure(out: Path, figs: Path) -> Path | None:
     trend = claims.size_trend(pd.concat(steady, ignore_index=True))
     if not trend["phi"]:
         return None
-    plt = _style()
+    plt = new_figures()
     fig, ax = plt.subplots(figsize=(4.6, 3.8))
     from bkflow.figures.style import phi_colour
 
@@ -968,7 +968,7 @@ def aspect_figures(aspect_dir: Path, out: Path) -> list[Path]:
     one pair of axes for every panel, one key for the figure, each panel's counts and regime
     shares under its title and the regions' names where the fewest clusters lie; and the share
     of DT clusters against phi (aspect_share_figure)."""
-    plt = _style()
+    plt = new_figures()
     data = SweepData(aspect_dir)
     rows = (len(ASPECT_SIZES) + 2) // 3   # N = 100 above, N = 400 below
     fig, axes = plt.subplots(rows, 3, figsize=(9.0, 3.5 * rows + 0.9), squeeze=False)
@@ -1062,7 +1062,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
     standard error over seeds (each seed's share of its clusters): the colour is the aspect
     ratio Lx/Ly, the line style and the marker the size (N = 100 solid circles, N = 400
     dashed triangles)."""
-    plt = _style()
+    plt = new_figures()
     a, _ = read_tables(aspect_dir)
     fig, ax = plt.subplots(figsize=(4.2, 3.8))
     for lx, ly in ASPECT_SIZES:
@@ -1070,7 +1070,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
         rows = []
         for phi, g in s.groupby("phi"):
             per_seed = [cluster_share(h, "DT") for _, h in g.groupby("seed")]
-            rows.append((phi, cluster_share(g, "DT"), claims._sem(per_seed)))
+            rows.append((phi, cluster_share(g, "DT"), claims.standard_error(per_seed)))
         if not rows:
             continue
         x, y, e = (np.asarray(v, float) for v in zip(*rows))

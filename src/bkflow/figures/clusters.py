@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pandas as pd
 
-from bkflow.figures.data import SweepData, _nearest
+from bkflow.figures.data import SweepData, nearest_log
 from bkflow.figures.keys import protocol_label
-from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, _num, _size_label, phi_colour
+from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, phi_colour, size_label, value_label
 from bkflow.model.lattice import box_fractions
 
 #: the axes of a cluster scatter: each extent over a whole-box slip's on its side
@@ -38,10 +38,10 @@ def cluster_phis(phis) -> list[float]:
     each target of ``CLUSTER_PHI`` the nearest (on a log scale), each once, stiffest first.
     The same targets in every sweep, so that two sweeps' figures show the same layers where
     both swept them."""
-    return sorted({_nearest(phis, target) for target in CLUSTER_PHI}, reverse=True)
+    return sorted({nearest_log(phis, target) for target in CLUSTER_PHI}, reverse=True)
 
 
-def _cluster_size(data: SweepData) -> tuple[int, int]:
+def cluster_size(data: SweepData) -> tuple[int, int]:
     """The size of the cluster figures: the paper's 20x5 where swept, else the smallest."""
     return (20, 5) if (20, 5) in data.sizes else data.sizes[0]
 
@@ -53,7 +53,7 @@ def fig4a_clusters(data: SweepData, plt):
     of a soft layer would cover the rest, and the stiff layers' clusters all sit on one spot
     of the C / W corner); each panel's title gives its count and the shares of its clusters in
     the regimes (``cluster_sets``)."""
-    lx, ly = _cluster_size(data)
+    lx, ly = cluster_size(data)
     sets = cluster_sets(data, lx, ly, cluster_phis(data.runs_of(lx, ly).phi))
     if not sets:
         return None
@@ -67,7 +67,7 @@ def fig4a_clusters(data: SweepData, plt):
     for ax, one in zip(axes.flat, sets):
         _cluster_panel(ax, [one], (lx, ly), span, top)
         phi, c, shares = one
-        ax.set_title(rf"$\phi$ = {_num(phi)}: {len(c)} clusters" + "\n"
+        ax.set_title(rf"$\phi$ = {value_label(phi)}: {len(c)} clusters" + "\n"
                      + _shares_words(shares, len(c)), fontsize=8)
     for ax in axes.flat[n:]:
         ax.set_axis_off()
@@ -82,7 +82,8 @@ def fig4a_clusters(data: SweepData, plt):
     from matplotlib.lines import Line2D
 
     key = [Line2D([], [], ls="none", marker="o", ms=5, mew=0, color=phi_colour(phi),
-                  label=rf"$\phi$ = {_num(phi)}") for phi, *_ in sets] + _cluster_guides(span)
+                  label=rf"$\phi$ = {value_label(phi)}") for phi, *_ in sets] \
+        + _cluster_guides(span)
     if n < axes.size:
         axes.flat[-1].legend(handles=key, loc="center", frameon=False, fontsize=MIN_FONT,
                              title=_above_one(sets, (lx, ly), 52), title_fontsize=MIN_FONT)
@@ -90,7 +91,7 @@ def fig4a_clusters(data: SweepData, plt):
         fig.legend(handles=key, loc="outside lower center", ncol=3, frameon=False,
                    fontsize=MIN_FONT, title=_above_one(sets, (lx, ly), 95),
                    title_fontsize=MIN_FONT)
-    fig.suptitle(f"Fig. 4a: slip clusters, {_size_label(lx, ly)} ({protocol_label(data)})",
+    fig.suptitle(f"Fig. 4a: slip clusters, {size_label(lx, ly)} ({protocol_label(data)})",
                  fontsize=9)
     return fig
 
@@ -170,7 +171,7 @@ def _cluster_panel(ax, sets, box, span: float, top: float) -> dict:
         words = _shares_words(shares, len(c))
         # an empty line added to the axes, so that a caller's ax.legend() finds it too
         keys[phi], = ax.plot([], [], "o", color=colour, ms=5, mew=0,
-                             label=rf"$\phi$ = {_num(phi)}: {len(c)} clusters"
+                             label=rf"$\phi$ = {value_label(phi)}: {len(c)} clusters"
                              + (f" ({words})" if words else ""))
     ax.plot([0, top], [0, top], color="grey", lw=0.6, ls="--")
     ax.axvline(span, color="grey", lw=0.6, ls=":")

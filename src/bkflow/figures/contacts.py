@@ -14,9 +14,9 @@ import math
 import numpy as np
 import pandas as pd
 
-from bkflow.figures.data import SweepData, _nearest, _point_states
+from bkflow.figures.data import SweepData, nearest_log, point_states
 from bkflow.figures.keys import protocol_label
-from bkflow.figures.style import MIN_FONT, _num, _size_label
+from bkflow.figures.style import MIN_FONT, size_label, value_label
 
 
 def _smooth(t, x, width: float):
@@ -38,7 +38,7 @@ def _contact_phis(phis) -> list[float]:
     of a sweep of three phi, such as 10, 100, 1000, where fixed targets would leave its middle
     one out), each once."""
     phis = sorted(set(float(p) for p in phis))
-    middle = _nearest(phis, math.sqrt(phis[0] * phis[-1]))
+    middle = nearest_log(phis, math.sqrt(phis[0] * phis[-1]))
     return list(dict.fromkeys([phis[0], middle, phis[-1]]))
 
 
@@ -135,7 +135,7 @@ def _shade(state, stationary=None) -> str:
     verdict names the states a window visited ahead of its trend (docs/model.md "Steady
     state"): such a window whose stress the same test finds still drifting is shaded as not
     steady, never as one of the layer's steady states."""
-    name = str(_point_states(pd.DataFrame({"state": [state]}))[0])
+    name = str(point_states(pd.DataFrame({"state": [state]}))[0])
     if name == "switching" and _flag(stationary) is False:
         return "other"
     return name if name in SHADES else "other"
@@ -180,7 +180,7 @@ def _contact_panel(top, bottom, size, panel, width: float) -> str:
     for ax in (top, bottom):
         ax.axvspan(t0, t[-1], lw=0, **_shading(colour, hatch, 0.12))
     trend = _trend_words(row)
-    top.set_title(rf"$\phi$ = {_num(phi)}, {_size_label(*size)}, seed {int(row.seed)}: "
+    top.set_title(rf"$\phi$ = {value_label(phi)}, {size_label(*size)}, seed {int(row.seed)}: "
                   f"{row.get('state', 'n/a')}" + (f"\n{trend}" if trend else ""),
                   fontsize=MIN_FONT + 0.5)
     bottom.set_ylim(0, 1.02)

@@ -28,13 +28,13 @@ from bkflow.store.tables import (
 )
 
 
-def _nearest(values, target) -> float:
+def nearest_log(values, target) -> float:
     """The one of ``values`` nearest ``target`` on a log scale."""
     values = np.asarray(sorted(set(values)), dtype=float)
     return float(values[np.argmin(np.abs(np.log10(values) - math.log10(target)))])
 
 
-def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
+def point_errors(g: pd.DataFrame, field: str) -> np.ndarray:
     """The point's error: for the fields whose runs carry their own error
     (bkflow.analysis.results.WITHIN_RUN_ERRORS) the larger of the seeds' standard error and the
     runs' errors combined (``<field>_err``, covering the switching between states); for the others
@@ -47,7 +47,7 @@ def _errors(g: pd.DataFrame, field: str) -> np.ndarray:
     return np.where(np.isfinite(sem), sem, 0.0)
 
 
-def _where_of(combo: dict) -> dict:
+def where_of(combo: dict) -> dict:
     """A combination of the tables' varied parameters, {column: its cells' text}, as a
     ``where``: none, nan or nothing (a parameter left unset) as None, a number as a float,
     true/false as a boolean, a word as itself: the values ``bkflow plot --where`` gives."""
@@ -169,7 +169,7 @@ class SweepData:
         return self.results[(self.results.Lx == lx) & (self.results.Ly == ly)].sort_values("phi")
 
 
-def _point_states(g: pd.DataFrame) -> np.ndarray:
+def point_states(g: pd.DataFrame) -> np.ndarray:
     """The points' states as STATE_FILL names them (the states visited: ``switching``)."""
     from bkflow.observables.states import SWITCHING
 

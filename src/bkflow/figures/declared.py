@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from bkflow.analysis.registry import keys
 from bkflow.figures.data import SweepData
-from bkflow.figures.keys import _series, state_key
-from bkflow.figures.style import _size_label
+from bkflow.figures.keys import draw_series, state_key
+from bkflow.figures.style import size_label
 
 #: the axis label of a declared unit
 UNIT_LABELS = {"sigma_n": r"$/\sigma_n$", "stress": "(stress units)", "time": "(time units)",
@@ -23,7 +23,7 @@ def fig_declared(data: SweepData, plt, key: str):
     for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
         if key in g and g[key].notna().any():
-            _series(ax, g, key, k, _size_label(lx, ly))
+            draw_series(ax, g, key, k, size_label(lx, ly))
             drawn = True
     if not drawn:
         return None

@@ -15,20 +15,20 @@ import numpy as np
 import pandas as pd
 
 from bkflow.analysis.registry import power_law_names
-from bkflow.figures.clusters import _cluster_size, cluster_phis
-from bkflow.figures.data import SweepData, _point_states
+from bkflow.figures.clusters import cluster_phis, cluster_size
+from bkflow.figures.data import SweepData, point_states
 from bkflow.figures.keys import state_key
 from bkflow.figures.style import (
     MIN_FONT,
-    _num,
-    _size_label,
     phi_colour,
     plain_log_ticks,
+    size_label,
     state_marker,
+    value_label,
 )
 from bkflow.observables.stress import N_BOOT
 
-#: the states (``_point_states``) of the runs whose power-law fits a figure states and draws:
+#: the states (``point_states``) of the runs whose power-law fits a figure states and draws:
 #: a steady window, or one switching between the layer's steady states (docs/model.md "Steady
 #: state"); a drifting or metastable run's slips are in the densities, not in the verdict
 FITTED_STATES = ("steady", "switching")
@@ -103,7 +103,7 @@ def power_law_verdict(runs: pd.DataFrame, key: str = "drop") -> Verdict:
     ``FITTED_STATES`` (runs.csv ``drop_power_law``, ``drop_fit_p``, ``drop_vs_lognormal[_p]``,
     named by ``bkflow.analysis.registry.power_law_names``); the key says how many seeds it
     rests on where it leaves some out."""
-    fitted = runs[np.isin(_point_states(runs), FITTED_STATES)]
+    fitted = runs[np.isin(point_states(runs), FITTED_STATES)]
     n, k = len(runs), len(fitted)
     if not k:
         return Verdict("not fitted", "not fitted: no seed steady or switching", fitted)
@@ -163,13 +163,13 @@ def _law_title(verdicts) -> str:
 def _phi_label(phi: float, state: str, verdict: Verdict) -> str:
     """A phi's entry in a density's key: its value, its point's state (its marker's) and the
     verdict's words."""
-    return rf"$\phi$ = {_num(phi)} ({state}): {verdict.words}"
+    return rf"$\phi$ = {value_label(phi)} ({state}): {verdict.words}"
 
 
 def _point_state(points: pd.DataFrame, phi: float) -> str:
-    """The state of the point of ``phi`` (``_point_states``; a phi without a point of the
+    """The state of the point of ``phi`` (``point_states``; a phi without a point of the
     tables as a drifting one), whose marker its densities are drawn with."""
-    state = _point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
+    state = point_states(points[np.isclose(points.phi, phi, rtol=1e-9, atol=0)])
     return str(state[0]) if len(state) else "drifting"
 
 
@@ -211,7 +211,7 @@ def fig_drops(data: SweepData, plt):
     each density weighted by its share so that the two add up to (a)'s; its title says which
     of (a)'s phi it is, counted from the data. Markers by the point's state
     (``state_marker``), colours by phi (``phi_colour``)."""
-    lx, ly = _cluster_size(data)
+    lx, ly = cluster_size(data)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
     drawn, stiff, verdicts = [], None, []
@@ -239,7 +239,7 @@ def fig_drops(data: SweepData, plt):
         a.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     ax.set_ylabel(DROP_DENSITY)
     bx.set_ylabel(DROP_DENSITY_ALL)
-    ax.set_title(f"stress-drop sizes, {_size_label(lx, ly)}\n" + _law_title(verdicts),
+    ax.set_title(f"stress-drop sizes, {size_label(lx, ly)}\n" + _law_title(verdicts),
                  fontsize=MIN_FONT + 0.5)
     _density_key(fig, data)
     if stiff is None:
@@ -263,7 +263,7 @@ def _populations(bx, stiff: tuple, drawn) -> None:
         if nz.any():
             bx.plot(x[nz], dens[nz], ls=ls, lw=0.9, label=f"{label}: {np.mean(part):.0%} "
                     f"of {len(d)}", **state_marker(state, colour, 5.0))
-    bx.set_title(rf"two populations at $\phi$ = {_num(phi)}" + "\n(" + _which(phi, drawn)
+    bx.set_title(rf"two populations at $\phi$ = {value_label(phi)}" + "\n(" + _which(phi, drawn)
                  + ")", fontsize=MIN_FONT + 0.5)
     bx.legend(frameon=False, fontsize=MIN_FONT, loc="upper left", bbox_to_anchor=(-0.02, -0.2),
               handlelength=2.6)
@@ -312,7 +312,7 @@ def fig_potency(data: SweepData, plt):
     slipping particles of their slips in x, sum_i dx_i, a length in lattice units l. (Seismic
     potency, slip times area, is this times the area l^2 each particle stands for: l^3; the axes
     show the sum as computed, so their unit is l.)"""
-    lx, ly = _cluster_size(data)
+    lx, ly = cluster_size(data)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
     points = data.results_of(lx, ly)
     verdicts = []
@@ -338,7 +338,7 @@ def fig_potency(data: SweepData, plt):
         return None
     ax.set_xlabel(r"potency $\sum_i \Delta x_i$ of the slipping particles ($l$)")
     ax.set_ylabel(POTENCY_DENSITY)
-    ax.set_title(f"potencies, {_size_label(lx, ly)}\n" + _law_title(verdicts),
+    ax.set_title(f"potencies, {size_label(lx, ly)}\n" + _law_title(verdicts),
                  fontsize=MIN_FONT + 0.5)
     bx.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     bx.set_ylabel(r"potency $\sum_i \Delta x_i$ ($l$)")

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from bkflow.figures.data import SweepData, _nearest, _point_states
-from bkflow.figures.keys import _series, protocol_label, regime_key, state_key
-from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, _num, _size_label, state_marker
+from bkflow.figures.data import SweepData, nearest_log, point_states
+from bkflow.figures.keys import draw_series, protocol_label, regime_key, state_key
+from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, size_label, state_marker, value_label
 from bkflow.model.lattice import box_extent
 
 
@@ -24,7 +24,7 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     band around the line at the same scale, its value a tick of the axis."""
     lx, ly = data.sizes[0]
     phis = sorted(set(data.runs_of(lx, ly).phi))
-    chosen = list(dict.fromkeys([_nearest(phis, 1e3), _nearest(phis, 1.0)]))
+    chosen = list(dict.fromkeys([nearest_log(phis, 1e3), nearest_log(phis, 1.0)]))
     traces = [_stress_trace(data, data.runs_of(lx, ly, phi).iloc[0], window) for phi in chosen]
     fig, axes = plt.subplots(len(chosen), 1, figsize=(6.0, 2.3 * len(chosen) + 0.5),
                              squeeze=False)
@@ -35,10 +35,11 @@ def fig1b_stress(data: SweepData, plt, window: float = 150.0):
     for ax, tr, colour in zip(axes[:, 0], traces, ("black", "tab:red")):
         row, state = tr["row"], str(tr["row"].get("state", "n/a"))
         ax.plot(tr["t"], tr["sigma"], color=colour, lw=0.8,
-                label=rf"$\phi$ = {_num(row.phi)}, {_size_label(lx, ly)}, seed {int(row.seed)}")
+                label=rf"$\phi$ = {value_label(row.phi)}, {size_label(lx, ly)}, "
+                      f"seed {int(row.seed)}")
         ax.plot(tr["t_max"], tr["fail"], ls="none",
                 label=r"$\sigma_{\rm fail}$ (slip maxima; " + state + ")",
-                **state_marker(str(_point_states(pd.DataFrame([row]))[0]), colour, 5.5))
+                **state_marker(str(point_states(pd.DataFrame([row]))[0]), colour, 5.5))
         ax.set_ylabel(r"$\sigma_x$ ($k_d/l$)")
         ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")  # each panel: the two runs' times differ
         ax.axhline(tr["top"], color="tab:blue", ls="-.", lw=1,
@@ -133,7 +134,7 @@ def fig2a_friction(data: SweepData, plt):
         g = data.results_of(lx, ly)
         for ax, f in ((a, "mu_bar"), (c, "mu_bar_large"), (b, "mean_stress_ratio")):
             if f in g:
-                _series(ax, g, f, k, _size_label(lx, ly))
+                draw_series(ax, g, f, k, size_label(lx, ly))
     shown = _regime_labels(a, data)
     a.set_ylabel(r"$\overline{\mu} = \langle\sigma_{\rm fail}\rangle/\sigma_n$")
     c.set_ylabel(r"$\overline{\mu}$ over large drops")
@@ -175,7 +176,7 @@ def fig2b_asymmetry(data: SweepData, plt):
     fig, ax = plt.subplots(figsize=(4.6, 2.9))
     for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
-        _series(ax, g, "lx_over_ly", k, _size_label(lx, ly))
+        draw_series(ax, g, "lx_over_ly", k, size_label(lx, ly))
     aspects = sorted({lx / ly for lx, ly in data.sizes})
     for r in aspects:
         ax.axhline(r, color="grey", ls=":", lw=0.8)

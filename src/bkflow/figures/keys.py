@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from bkflow.figures.data import SweepData, _errors, _point_states
+from bkflow.figures.data import SweepData, point_errors, point_states
 from bkflow.figures.style import (
     MIN_FONT,
     REGIME_COLOURS,
@@ -17,19 +17,19 @@ from bkflow.figures.style import (
     SIZE_LINES,
     STATE_FILL,
     STATE_WORDS,
-    _num,
     state_marker,
+    value_label,
 )
 
 
-def _series(ax, g: pd.DataFrame, field: str, k: int, label: str):
+def draw_series(ax, g: pd.DataFrame, field: str, k: int, label: str):
     """The curve of the ``k``-th size against phi, in its colour and line (``SIZE_LINES``),
     with error bars, each point's marker drawn by its state (``state_marker``) over the
     curve and its bar."""
-    line = ax.errorbar(g.phi, g[field], yerr=_errors(g, field), marker="none", capsize=2,
+    line = ax.errorbar(g.phi, g[field], yerr=point_errors(g, field), marker="none", capsize=2,
                        lw=0.9, ls=SIZE_LINES[k % len(SIZE_LINES)], label=label, zorder=2)
     colour = line[0].get_color()
-    states = _point_states(g)
+    states = point_states(g)
     for name in STATE_FILL:
         keep = states == name
         if keep.any():
@@ -97,7 +97,7 @@ def protocol_label(data: SweepData) -> str:
         ends = sorted(set(pd.to_numeric(r["t_end"], errors="coerce").dropna()))
         who = "paper's protocol" if starts == {"synchronized"} and not companions else \
             "fixed length, " + start_words + companion_words
-        return who + ", t_end = " + ", ".join(_num(e) for e in ends)
+        return who + ", t_end = " + ", ".join(value_label(e) for e in ends)
     return "mixed protocols"
 
 
@@ -109,7 +109,7 @@ def state_key(fig, data: SweepData, ax=None, extra=((), ()), states=None,
     ``extra`` (handles, labels), e.g. fig2a's regime letters, on rows of their own below;
     in ``ncol`` columns (default: as many as the figure's width holds)."""
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
-    shown = set(_point_states(data.results)) if states is None else set(states)
+    shown = set(point_states(data.results)) if states is None else set(states)
     groups = [(handles, labels), state_handles(shown), (list(extra[0]), list(extra[1]))]
     groups = [(list(h), list(w)) for h, w in groups if len(h)]
     if not groups:

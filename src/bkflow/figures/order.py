@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from bkflow.figures.data import SweepData, _nearest
-from bkflow.figures.keys import _series, state_key
-from bkflow.figures.style import MIN_FONT, _num, _size_label, phi_colour, plain_log_ticks
+from bkflow.figures.data import SweepData, nearest_log
+from bkflow.figures.keys import draw_series, state_key
+from bkflow.figures.style import MIN_FONT, phi_colour, plain_log_ticks, size_label, value_label
 
 #: phi of the Psi(t) panel (the paper's Fig. 3 inset)
 INSET_PHI = (1e3, 1e2, 10.0, 1.0)
@@ -47,7 +47,7 @@ def fig3_order(data: SweepData, plt):
     phis = sorted(set(runs.phi))
     shown, steps = [], []
     for target in INSET_PHI:
-        phi = _nearest(phis, target)
+        phi = nearest_log(phis, target)
         if phi in shown:
             continue
         shown.append(phi)
@@ -62,7 +62,7 @@ def fig3_order(data: SweepData, plt):
         t, dis = t[k], 1.0 - psi[k]
         k = dis > 0
         ins.plot(t[k], dis[k], "o-", color=phi_colour(phi), lw=0.6, ms=2.2,
-                 label=rf"$\phi$ = {_num(phi)}")
+                 label=rf"$\phi$ = {value_label(phi)}")
     if not steps:
         fig.delaxes(ins)
         return fig
@@ -77,7 +77,7 @@ def _order_panels(ax, low, data: SweepData) -> None:
     zoom = PSI_ZOOM if (data.results.psi_inf >= PSI_ZOOM).any() else -np.inf
     for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
-        _series(ax, g, "psi_inf", k, _size_label(lx, ly))
+        draw_series(ax, g, "psi_inf", k, size_label(lx, ly))
         lowest = min(lowest, float(g.psi_inf.min()))
         # the seeds' error of 1 - Psi is Psi's: the same column under the new name
         disorder = g.assign(disorder=1.0 - g.psi_inf,
@@ -85,7 +85,7 @@ def _order_panels(ax, low, data: SweepData) -> None:
                                ("_err", "_sem", "_err_within_run") if f"psi_inf{tail}" in g})
         disorder = disorder[(disorder.disorder > 0) & (disorder.psi_inf >= zoom)]
         if len(disorder):
-            _series(low, disorder, "disorder", k, "_nolegend_")
+            draw_series(low, disorder, "disorder", k, "_nolegend_")
     ax.set_xscale("log")
     ax.set_ylabel(r"$\Psi(\infty)$")
     ax.set_ylim(min(0.4, lowest - 0.03), 1.05)

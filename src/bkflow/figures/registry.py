@@ -20,12 +20,12 @@ import pandas as pd
 from bkflow.analysis import registry as observables
 from bkflow.figures.clusters import fig4a_clusters
 from bkflow.figures.contacts import fig_contacts
-from bkflow.figures.data import SweepData, _where_of
+from bkflow.figures.data import SweepData, where_of
 from bkflow.figures.declared import fig_declared
 from bkflow.figures.drops import fig_drops, fig_potency
 from bkflow.figures.friction import fig1b_stress, fig2a_friction, fig2b_asymmetry
 from bkflow.figures.order import fig3_order
-from bkflow.figures.style import STYLE, Figures, PlotError, _style, style
+from bkflow.figures.style import STYLE, Figures, PlotError, new_figures, style
 from bkflow.store.formats import MARK, atomic_file, foreign_file, inside, read_text, within
 from bkflow.store.rundir import RunBusyError, RunDir
 from bkflow.store.tables import (
@@ -166,7 +166,7 @@ def _last_record(out: Path, digest: str, where) -> tuple[set, bool]:
 
 def _check_formats(formats) -> None:
     """Refuse a format that matplotlib does not write, naming those it does."""
-    plt = _style()
+    plt = new_figures()
     supported = plt.figure().canvas.get_supported_filetypes()
     bad = [f for f in formats if f not in supported]
     if bad:
@@ -196,7 +196,7 @@ def _plot(data: SweepData, out: Path, formats, where, recorded) -> tuple[list[Pa
         for combo in combos:
             # one directory per combination (a '/' in a value, reset/step, would nest one)
             name = ",".join(f"{k}={v}" for k, v in combo.items()).replace("/", "-")
-            sub = {**(where or {}), **_where_of(combo)}
+            sub = {**(where or {}), **where_of(combo)}
             inner = {f[len(name) + 1:] for f in recorded if f.startswith(name + "/")}
             _check_targets(out / name, formats, inner)
             w, s = _plot(SweepData(data.root, sub), out / name, formats, sub, inner)

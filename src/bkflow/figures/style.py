@@ -155,18 +155,18 @@ def style():
     return matplotlib.rc_context(STYLE)
 
 
-def _style() -> Figures:
+def new_figures() -> Figures:
     """What a figure function takes as its ``plt``: figures made without pyplot."""
     return Figures()
 
 
-def _num(v: float) -> str:
+def value_label(v: float) -> str:
     """A parameter value for a key: three significant digits, never an exponent
     (2.15443 -> 2.15, 1000 -> 1000)."""
     text = f"{v:.3g}"
     return f"{v:.0f}" if "e+" in text else text
 
 
-def _size_label(lx, ly) -> str:
+def size_label(lx, ly) -> str:
     """A size for a key: "N = 100 (20x5)"."""
     return f"N = {int(lx) * int(ly)} ({int(lx)}x{int(ly)})"
