@@ -418,7 +418,8 @@ def test_every_scenes_disk_estimate_is_within_2x_of_what_it_writes(lammps, tmp_p
     import json
 
     from bkflow.lammps.limits import cost
-    from bkflow.model.params import SCENES, RunSpec
+    from bkflow.model.params import RunSpec
+    from bkflow.model.scenes import SCENES
 
     for scene, phi in [(scene, 10.0) for scene in SCENES] + [("fronts", 1000.0)]:
         out = tmp_path / f"{scene}{phi:g}"

@@ -291,7 +291,7 @@ def deck_line(spec):
 def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_path, capsys):
     from PIL import Image
 
-    from bkflow.model.params import FRONTS_IN_FULL
+    from bkflow.model.scenes import FRONTS_IN_FULL
     from bkflow.store.rundir import DamagedRunError
 
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=1500, scene="full", seed=2)

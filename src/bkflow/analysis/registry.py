@@ -26,6 +26,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from bkflow.model.scenes import RECORDS
+
 NAN = math.nan
 
 
@@ -61,7 +63,8 @@ class Context:
 @dataclass(frozen=True)
 class Observable:
     """An observable and its summary keys. ``needs``: the record without which its keys hold
-    their ``missing`` values ("snapshots", "slips", "ledger"; None: every run has it).
+    their ``missing`` values (a name of ``bkflow.model.scenes.RECORDS``: the scenes that keep
+    it say where it is measured; None: every run has it).
     ``compute``: for an added observable, Context -> {key: value}. ``line``: the line
     ``bkflow run`` and ``bkflow analyze`` print, a format string of its keys. ``figure``: the
     key ``bkflow plot`` draws against phi, one series per size (figure ``fig_<key>``)."""
@@ -72,6 +75,11 @@ class Observable:
     compute: Callable | None = field(default=None, compare=False)
     line: str | None = None
     figure: str | None = None
+
+    def __post_init__(self):
+        if self.needs is not None and self.needs not in RECORDS:
+            raise ValueError(f"observable {self.name!r} needs {self.needs!r}, not a record a "
+                             f"scene keeps ({', '.join(RECORDS)})")
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -190,7 +198,7 @@ OBSERVABLES: list[Observable] = [
                needs="slips"),
     Observable("energy", (Key("energy_residual", "", "(plate work - change of energy - "
                               "dissipation) / plate work over the analysed run"),),
-               needs="ledger"),
+               needs="energy"),
     Observable("friction", (
         Key("mu_bar", "sigma_n", "<sigma_fail>/sigma_n over the slips after the transient",
             averaged=1),

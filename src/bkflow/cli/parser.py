@@ -20,7 +20,6 @@ from bkflow.model.params import (
     PAPER_SIZES,
     PATHS,
     PROTOCOLS,
-    SCENES,
     STARTS,
     STEADY_AGREEMENT,
     STEADY_COMPANION,
@@ -31,6 +30,7 @@ from bkflow.model.params import (
     size_from_n,
 )
 from bkflow.model.protocols import protocol_fields
+from bkflow.model.scenes import SCENES
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import rundir as rd
 from bkflow.sweeps.grid import ASPECT, POINTS_PER_DECADE, SEEDS

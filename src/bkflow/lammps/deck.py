@@ -261,39 +261,40 @@ def _dynamics(spec: RunSpec, drive: bool, contact: bool, damp: bool, path: str =
 
 def _outputs(spec: RunSpec, files: DeckOptions, thermo_every: int | None,
              contact: bool = True) -> list[str]:
-    """The outputs of the run's scene, and nothing else.
+    """The outputs of the run's scene, and nothing else: the records its scene keeps
+    (``bkflow.model.scenes.SCENE_RECORDS``), each written by
 
-    friction: ``fix bk/reduce``: sigma_x sampled every stress_nevery steps and the contacts'
-              phase statistics every phase_nevery steps, reduced in the run to what the
-              analysis reads (``extrema.npy``: sigma_x's turning points at the smallest
-              threshold any analysis asks for; ``blocks.npy``: sums over blocks of
-              block_nevery steps; bkflow.observables.reduced), no per-atom output at all; every
-              scene writes these two, which the steady-state verdict reads.
-    series:   + the raw series, binary: sigma_x every stress_nevery steps (``stress.npy``) and
-              the phase statistics every phase_nevery steps (``phase.npy``).
-    order:    + ``fix bk/psi``: Psi(t) computed in the run every snapshot_nevery steps
-              (``psi.npy``), for its late-time plateau.
-    clusters: + ``fix bk/slips`` (``slips.lammpstrj``): it follows sigma_x on the very samples
-              of the records, keeps in memory a copy of the positions at the running maximum
-              and minimum, and writes the two frames of each slip (maximum, following minimum)
-              once the slip is confirmed, so the file holds two frames per slip after the
-              transient rather than every step. The same zigzag rule finds the events again in
-              the records (bkflow.observables.reduced), which is how each pair is matched to its
-              event.
-    events:   the clusters scene, with the energy ledger (fix bk/substrate ``energy``; the
-              records get the breaks and the ledger at every extremum and block end) and each
-              contact's first break in every slip (fix bk/slips ``breaks``): what the event
-              catalogue needs (``events.parquet``; bkflow.observables.catalogue).
-    fronts:   sigma_x + ``fix bk/fronts`` (``fronts.bin``): the same events, and the x velocity
-              of every particle at every sample from each slip's maximum to its minimum
-              (float32, binary), to follow rupture fronts; only one event is held in memory.
-    figures:  order, and the slips as in clusters but reduced in the run: ``fix bk/slips
-              catalogue`` computes each slip's row of the catalogue and its clusters from the
-              two frames (``slips.npy``, ``clusters.npy``) and writes no frames: what the
-              sweep's table and bkflow plot's figures show (the default).
-    full:     all of the above (the fronts of the first FRONTS_IN_FULL slips only), the raw
-              series with the ledger included, and whole position frames every
-              snapshot_nevery steps (``snapshots.lammpstrj``, for OVITO and the like).
+    (every scene) ``fix bk/reduce``: sigma_x sampled every stress_nevery steps and the
+                 contacts' phase statistics every phase_nevery steps, reduced in the run to
+                 what the analysis reads (``extrema.npy``: sigma_x's turning points at the
+                 smallest threshold any analysis asks for; ``blocks.npy``: sums over blocks of
+                 block_nevery steps; bkflow.observables.reduced), no per-atom output at all;
+                 the steady-state verdict reads these two.
+    series:      the raw series, binary: sigma_x every stress_nevery steps (``stress.npy``)
+                 and the phase statistics every phase_nevery steps (``phase.npy``), with the
+                 ledger where the scene keeps energy.
+    snapshots:   ``fix bk/psi``: Psi(t) computed in the run every snapshot_nevery steps
+                 (``psi.npy``), for its late-time plateau.
+    slips:       ``fix bk/slips``: it follows sigma_x on the very samples of the records and
+                 keeps in memory a copy of the positions at the running maximum and minimum.
+                 Without slip_frames it computes each slip's row of the catalogue and its
+                 clusters from the two frames in the run (``catalogue``: ``slips.npy``,
+                 ``clusters.npy``) and writes no frames.
+    slip_frames: the two frames of each slip (maximum, following minimum) written once the
+                 slip is confirmed (``slips.lammpstrj``), two frames per slip after the
+                 transient rather than every step. The same zigzag rule finds the events again
+                 in the records (bkflow.observables.reduced), which is how each pair is matched
+                 to its event.
+    energy:      the energy ledger (fix bk/substrate ``energy``; the records get the breaks
+                 and the ledger at every extremum and block end) and each contact's first
+                 break in every slip (fix bk/slips ``breaks``): what the event catalogue
+                 needs (``events.parquet``; bkflow.observables.catalogue).
+    fronts:      ``fix bk/fronts`` (``fronts.bin``): the x velocity of every particle at every
+                 sample from each slip's maximum to its minimum (float32, binary), to follow
+                 rupture fronts; only one event is held in memory (the full scene: the first
+                 FRONTS_IN_FULL slips only).
+    frames:      whole position frames every snapshot_nevery steps (``snapshots.lammpstrj``,
+                 for OVITO and the like).
     """
     more = " append" if files.append_from is not None else ""
     parts = (_reduce_fix(spec, files, contact, more), _stress_fix(spec, files, more),

@@ -27,6 +27,7 @@ from bkflow.model.checks import (
     integer,
     number,
 )
+from bkflow.model.scenes import DEFAULT_SCENE, FRONTS_IN_FULL, SCENES, records
 from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the run's)
     ACCURACY,
     DT_FACTOR_MAX,
@@ -102,18 +103,6 @@ STEADY_DRIFT_BOUND = 0.01
 #: ADAPTIVE_CHUNK_T
 STEADY_T_MIN = ADAPTIVE_T_MIN
 
-#: what a run records (docs/model.md "Observables"; docs in bkflow.lammps.deck): each scene writes
-#: only what its observables need
-SCENES = ("friction", "series", "order", "clusters", "figures", "events", "fronts", "full")
-#: the default scene: what bkflow sweep's table and bkflow plot's figures show (the stress and
-#: phase series, Psi(t)'s snapshots, the slips' frames), nothing more
-DEFAULT_SCENE = "figures"
-
-#: rupture fronts recorded by the full scene (the first slips after the transient; the fronts
-#: scene records them all): the slip rate of every particle at every stress sample through a
-#: slip costs ~4 bytes x N x samples, ~56 MB for all the slips of an N = 900 run of 8000
-#: time units, so the full scene keeps a sample of them for the figures and the movie
-FRONTS_IN_FULL = 20
 
 #: slip threshold as a fraction of mu_s sigma_n (docs/model.md "Shear stress and slip events": 1%)
 SLIP_THRESHOLD = 0.01
@@ -353,7 +342,7 @@ class RunSpec:
     def writes_series(self) -> bool:
         """Whether the run writes its raw stress and phase series (scenes series, full)
         beside the reduced records every run keeps (bkflow.observables.reduced)."""
-        return self.scene in ("series", "full")
+        return records(self.scene, "series")
 
     @property
     def block_nevery(self) -> int:
@@ -375,18 +364,18 @@ class RunSpec:
     def writes_snapshots(self) -> bool:
         """Whether the run records Psi(t) (fix bk/psi, in the run: scenes order, figures,
         full)."""
-        return self.scene in ("order", "figures", "full")
+        return records(self.scene, "snapshots")
 
     @property
     def writes_frames(self) -> bool:
         """Whether the run also writes whole position frames every snapshot_every (scene
         full: snapshots.lammpstrj, for OVITO and the like)."""
-        return self.scene == "full"
+        return records(self.scene, "frames")
 
     @property
     def writes_slips(self) -> bool:
         """Whether the run follows its slips with fix bk/slips (their clusters)."""
-        return self.scene in ("clusters", "figures", "events", "full")
+        return records(self.scene, "slips")
 
     @property
     def writes_slip_frames(self) -> bool:
@@ -394,17 +383,17 @@ class RunSpec:
         (slips.lammpstrj: scenes clusters, events, full), from which the analysis finds the
         clusters at any s_x; the figures scene keeps each slip's clusters computed in the run
         instead (at S_X)."""
-        return self.scene in ("clusters", "events", "full")
+        return records(self.scene, "slip_frames")
 
     @property
     def writes_energy(self) -> bool:
         """Whether the run keeps the energy ledger and writes the event catalogue (scenes
         events, full)."""
-        return self.scene in ("events", "full")
+        return records(self.scene, "energy")
 
     @property
     def writes_fronts(self) -> bool:
-        return self.scene in ("fronts", "full")
+        return records(self.scene, "fronts")
 
     @property
     def fronts_limit(self) -> int | None:
