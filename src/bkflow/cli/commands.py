@@ -40,8 +40,8 @@ from bkflow.cli.guards import (  # noqa: E402
 )
 from bkflow.cli.parser import (  # noqa: E402
     PROTOCOL_SETTINGS,
-    accuracy_fields,
     build_parser,
+    option_fields,
     run_spec,
 )
 from bkflow.model.params import SpecError  # noqa: E402
@@ -159,8 +159,7 @@ def _sweep_specs(a) -> tuple:
         """A grid point's fields: the protocol's rule fed by --set and this point's --vary
         values of the settings it takes (start, companion, t_end, ...), as the options."""
         own = {k: v for k, v in extra.items() if k in PROTOCOL_SETTINGS}
-        return {"contact_rule": a.contact_rule, "scene": a.scene,
-                **accuracy_fields(a, {**routed, **own}), **sets}
+        return option_fields(a, {**routed, **own}, sets)
 
     check_run_count(math.prod([len(phis), len(sizes), a.seeds, *map(len, axes.values())]),
                     a.force)

@@ -292,10 +292,19 @@ PROTOCOL_SETTINGS = ("start", "companion", "t_end", "dt_factor", "until_steady",
                      "target_error", "accuracy")
 
 
-def accuracy_fields(a, settings: dict | None = None) -> dict:
+def option_fields(a, routed: dict, sets: dict, fixed: bool = False) -> dict:
+    """The RunSpec fields of ``bkflow run``'s and ``bkflow sweep``'s options (all but phi,
+    the size and the seed): the contact rule, the scene, the protocol's fields
+    (``accuracy_fields``: ``routed``, the --set values of its settings, over the options;
+    ``fixed``: a deck's fixed length) and the other --set values (``sets``)."""
+    return {"contact_rule": a.contact_rule, "scene": a.scene,
+            **accuracy_fields(a, routed, fixed), **sets}
+
+
+def accuracy_fields(a, settings: dict | None = None, fixed: bool = False) -> dict:
     """The run's start, length rule, dt_factor and target_error: the protocol's, from the
-    preset and the explicit options (bkflow.model.protocols.protocol_fields); ``settings``
-    (of --set) override the options they name."""
+    preset and the explicit options (bkflow.model.protocols.protocol_fields; ``fixed``: of a
+    run of a fixed length, a deck); ``settings`` (of --set) override the options they name."""
     given = {"start": a.start, "t_end": a.t_end, "dt_factor": a.dt_factor,
              "until_steady": a.until_steady, "target_error": a.target_error,
              "accuracy": a.accuracy,
@@ -307,7 +316,7 @@ def accuracy_fields(a, settings: dict | None = None) -> dict:
                         "run is steady: for a fixed length give --protocol paper (with --start "
                         "and --companion as wanted)")
     accuracy = given.pop("accuracy")
-    return protocol_fields(a.protocol, accuracy, **given)
+    return protocol_fields(a.protocol, accuracy, **given, fixed=fixed)
 
 
 def run_spec(a, deck: bool = False) -> RunSpec:
@@ -324,13 +333,5 @@ def run_spec(a, deck: bool = False) -> RunSpec:
         Lx, Ly = RunSpec.Lx, RunSpec.Ly
     sets = run_assignments(a.set)
     routed = {k: sets.pop(k) for k in PROTOCOL_SETTINGS if k in sets}
-    fields = {"contact_rule": a.contact_rule, "scene": a.scene, **accuracy_fields(a, routed)}
-    if deck and a.protocol == "steady" and not (a.until_steady or routed.get("until_steady")):
-        accuracy = routed.get("accuracy", a.accuracy)
-        t_end = routed.get("t_end", a.t_end)
-        fields.update(until_steady=False, companion=routed.get(
-                          "companion", None if a.companion in (None, "none") else a.companion),
-                      target_error=routed.get("target_error", a.target_error),
-                      t_end=ACCURACY[accuracy].t_end if t_end is None else t_end)
-    fields.update(sets)
-    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed, **fields)
+    return RunSpec(phi=a.phi, Lx=Lx, Ly=Ly, seed=a.seed,
+                   **option_fields(a, routed, sets, fixed=deck))

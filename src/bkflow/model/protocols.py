@@ -9,7 +9,8 @@ from bkflow.model.params import ACCURACY, PROTOCOLS, STEADY_COMPANION, STEADY_ST
 def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
                     start: str | None = None, t_end: float | None = None,
                     dt_factor: float | None = None, until_steady: bool = False,
-                    target_error: float | None = None, companion: str | None = "") -> dict:
+                    target_error: float | None = None, companion: str | None = "",
+                    fixed: bool = False) -> dict:
     """The RunSpec fields a protocol sets (start, companion, until_steady, t_end, accuracy,
     dt_factor, target_error) from an accuracy preset (``ACCURACY``) and what is given explicitly
     (None: the protocol's or the preset's; ``companion`` "" for the protocol's, None for
@@ -17,7 +18,10 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     ``start`` is that, STEADY_START) until the pair is steady and mu_bar's error is below the
     preset's target, at most the preset's t_cap; ``paper``: from the synchronized start, a
     fixed run of the preset's t_end, no companion (``until_steady`` adds the steady rule,
-    t_end is then its cap).
+    t_end is then its cap). ``fixed``: a run of a fixed length (a standalone deck, which has
+    no stop rule): the steady protocol then gives its start and the preset's t_end, without
+    its stop rule, and a companion or an error target only where given (the analysis of the
+    run says whether it was steady).
 
     >>> f = protocol_fields()
     >>> f["start"], f["companion"], f["until_steady"]
@@ -30,6 +34,11 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     if accuracy not in ACCURACY:
         raise SpecError(f"accuracy must be one of {', '.join(ACCURACY)}, got {accuracy!r}")
     preset = ACCURACY[accuracy]
+    if fixed and protocol == "steady" and not until_steady:
+        return {"start": STEADY_START if start is None else start,
+                "companion": None if companion == "" else companion, "until_steady": False,
+                "t_end": preset.t_end if t_end is None else t_end, "accuracy": accuracy,
+                "dt_factor": dt_factor, "target_error": target_error}
     steady = protocol == "steady" or bool(until_steady)
     default_start = STEADY_START if protocol == "steady" else "synchronized"
     default_t = preset.t_cap if protocol == "steady" else preset.t_end
