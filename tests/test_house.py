@@ -13,9 +13,11 @@ import pytest
 
 import bkflow
 from bkflow.cli.assignments import analysis_assignments
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 from bkflow.model.settings import AnalysisSettings
-from bkflow.store.rundir import META, STRESS, SUMMARY, RunDir
+from bkflow.store.layout import META, STRESS, SUMMARY
+from bkflow.store.rundir import RunDir
 
 SRC = Path(bkflow.__file__).parent
 ROOT = Path(__file__).resolve().parents[1]
@@ -311,7 +313,8 @@ def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
     import fcntl
     import os
 
-    from bkflow.store.rundir import LOCK, RunBusyError
+    from bkflow.store.errors import RunBusyError
+    from bkflow.store.layout import LOCK
 
     rd = RunDir(tmp_path)
     fd = os.open(tmp_path / LOCK, os.O_RDWR | os.O_CREAT)

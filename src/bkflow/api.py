@@ -28,8 +28,10 @@ from bkflow.figures.style import Figures, PlotError, style, value_label
 from bkflow.model.params import RunSpec, transient_step
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
+from bkflow.store.errors import AnalysisError, DamagedRunError
 from bkflow.store.formats import shell_word
-from bkflow.store.rundir import SUMMARY, AnalysisError, DamagedRunError, RunDir, sweep_run_dir
+from bkflow.store.layout import SUMMARY
+from bkflow.store.rundir import RunDir, sweep_run_dir
 
 
 class Run:
@@ -298,7 +300,7 @@ class Sweep:
         job id and parameters first (None when no run has events), made from the runs' own
         catalogues (workspace/JOB/events.parquet: stored once; DuckDB or polars read them
         there too, with runs.csv's job column to join the parameters)."""
-        from bkflow.store.rundir import SIGNAC_FILES
+        from bkflow.store.layout import SIGNAC_FILES
         from bkflow.store.tables import catalogue_table, check_tables
         from bkflow.sweeps.project import LENGTH
 

@@ -13,8 +13,9 @@ import pytest
 from bkflow.cli.commands import main
 from bkflow.lammps.deckfiles import STANDARD_DECKS, write_standard_decks
 from bkflow.lammps.engine import RunError, run
+from bkflow.model.checks import SpecError
 from bkflow.model.lattice import lattice_for, square_lattice
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.params import RunSpec
 from bkflow.store.rundir import RunDir
 from tests.support import ROOT, tool
 

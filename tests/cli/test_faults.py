@@ -25,7 +25,8 @@ from bkflow.cli.guards import (
     EXIT_INTERRUPTED,
     EXIT_RUN_FAILED,
 )
-from bkflow.store.rundir import META, SUMMARY, RunDir
+from bkflow.store.layout import META, SUMMARY
+from bkflow.store.rundir import RunDir
 from tests.support import fresh_python, tool
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -971,7 +972,7 @@ def test_damaged_derived_files_are_redone_by_the_command_that_needs_them(lammps,
     Run.clusters refuse them (DamagedRunError), and collect, or the sweep's own command again,
     makes the analysis again (exit 0) rather than drawing from half a table."""
     from bkflow.api import load_sweep
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     s = _small_sweep(tmp_path / "s")
     before = (s / "results.csv").read_text()
@@ -1015,7 +1016,7 @@ def test_a_companion_that_is_not_the_runs_is_refused(pair, tmp_path, stand_in):
     another length) is not this run's: analyze and the API refuse it in one line, never a
     gap of zero and 'steady'."""
     from bkflow.api import load_run
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     run = tmp_path / "run"
     shutil.copytree(pair / "run", run)

@@ -11,7 +11,7 @@ import pytest
 
 from bkflow.cli.assignments import parse_aspect, parse_sizes, parse_where
 from bkflow.figures.data import SweepData
-from bkflow.model.params import SpecError
+from bkflow.model.checks import SpecError
 from tests.support import tool
 
 

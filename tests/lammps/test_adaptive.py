@@ -19,7 +19,8 @@ from bkflow.model.params import (
     RunSpec,
 )
 from bkflow.model.protocols import protocol_fields
-from bkflow.store.rundir import BLOCKS, COMPANION, EXTREMA, RunDir
+from bkflow.store.layout import BLOCKS, COMPANION, EXTREMA
+from bkflow.store.rundir import RunDir
 from tests.support import tool
 
 

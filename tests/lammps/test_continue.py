@@ -15,7 +15,8 @@ from bkflow.lammps.continuation import continuation
 from bkflow.lammps.engine import run
 from bkflow.model.params import RunSpec
 from bkflow.model.protocols import protocol_fields
-from bkflow.store.rundir import CONTINUING, RunDir
+from bkflow.store.layout import CONTINUING
+from bkflow.store.rundir import RunDir
 from tests.support import tool
 
 pytestmark = pytest.mark.usefixtures("lammps")

@@ -292,7 +292,7 @@ def test_the_full_scene_keeps_the_first_fronts_and_a_movie_is_made(lammps, tmp_p
     from PIL import Image
 
     from bkflow.model.scenes import FRONTS_IN_FULL
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=1500, scene="full", seed=2)
     meta = run(spec, tmp_path / "r", progress=False).meta
@@ -407,7 +407,7 @@ def test_the_pictures_of_a_slip_name_the_runs_start_and_protocol():
 def test_overwriting_a_run_removes_its_movies_and_bad_requests_are_refused(
         lammps, tmp_path, capsys):
     import bkflow
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
 
     spec = RunSpec(phi=30.0, Lx=12, Ly=4, t_end=300, scene="fronts", seed=2)
     run(spec, tmp_path / "r", progress=False)

@@ -12,8 +12,10 @@ import pytest
 
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
-from bkflow.model.params import ACCURACY, ADAPTIVE_T_MIN, DT_FACTOR_MAX, RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import ADAPTIVE_T_MIN, RunSpec
 from bkflow.model.protocols import protocol_fields
+from bkflow.model.timestep import ACCURACY, DT_FACTOR_MAX
 from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import open_project
 from tests.support import tool

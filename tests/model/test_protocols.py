@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from bkflow.model.params import ACCURACY, STEADY_COMPANION, STEADY_START
+from bkflow.model.params import STEADY_COMPANION, STEADY_START
 from bkflow.model.protocols import protocol_fields
+from bkflow.model.timestep import ACCURACY
 
 
 def test_a_fixed_length_steady_run_keeps_the_start_and_drops_the_stop_rule():

@@ -10,8 +10,9 @@ import pytest
 from scipy import stats
 
 from bkflow.lammps.deck import data_text, deck_text
+from bkflow.model.checks import SpecError
 from bkflow.model.lattice import contact_start, lattice_for
-from bkflow.model.params import CONTACT_RULES, RunSpec, SpecError
+from bkflow.model.params import CONTACT_RULES, RunSpec
 from tests.reference import Reference
 from tests.support import global_vector, lammps_with, lively_start, unwrapped_state
 

@@ -7,7 +7,9 @@ import pytest
 from bkflow.lammps.deck import DeckOptions, data_text, setup_text
 from bkflow.lammps.engine import RunError, run
 from bkflow.lammps.plugin import open_lammps
-from bkflow.model.params import ACCURACY, DT_FACTOR_MAX, RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
+from bkflow.model.timestep import ACCURACY, DT_FACTOR_MAX
 from tests import reference
 from tests.support import INTEGRATION_PATHS
 

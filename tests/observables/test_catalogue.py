@@ -261,7 +261,7 @@ def test_another_threshold_never_mixes_two_slips_in_one_row(events_run, tmp_path
 
 @pytest.mark.parametrize("damage", ["garbage", "outside"])
 def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     lines = (d / "slips.lammpstrj").read_text().splitlines()
@@ -279,7 +279,7 @@ def test_damaged_first_breaks_are_refused(events_run, tmp_path, damage):
 def test_a_damaged_record_is_refused(events_run, tmp_path):
     """A record of the run (extrema.npy) damaged in place, its size kept: refused, naming
     it."""
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     data = bytearray((d / "extrema.npy").read_bytes())
@@ -294,7 +294,7 @@ def test_a_damaged_catalogue_is_refused_and_analyze_repairs_it(events_run, tmp_p
     sizes and digests): either one gone, cut or replaced, and the catalogue is refused with
     the repair named (DamagedRunError), never read half; bkflow analyze makes them again."""
     from bkflow.api import load_run
-    from bkflow.store.rundir import DamagedRunError
+    from bkflow.store.errors import DamagedRunError
 
     d = _copy(events_run, tmp_path)
     whole = load_run(d).events

@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import j0, j1
 
-from bkflow.model.lattice import square_lattice
+from bkflow.model.lattice import box_extent, square_lattice
 from bkflow.observables import clusters, order, stress
 from bkflow.observables.stationarity import mean_error
 from tests.support import fresh_python
@@ -244,8 +244,8 @@ def test_a_whole_box_slip_is_neither_dp_nor_dt_on_any_lattice(lx, ly, psi, expec
     x0 = lat.positions[:, :2].copy()
     ext = clusters.event_clusters(x0, x0 + [0.5, 0.0], lat.bonds, lat.box)
     assert ext.n_c.tolist() == [lx * ly]
-    assert ext.l_x[0] == pytest.approx(clusters.box_extent(lx, ly), rel=1e-12)
-    assert ext.l_y[0] == pytest.approx(clusters.box_extent(ly, lx), rel=1e-12)
+    assert ext.l_x[0] == pytest.approx(box_extent(lx, ly), rel=1e-12)
+    assert ext.l_y[0] == pytest.approx(box_extent(ly, lx), rel=1e-12)
     shape = clusters.cluster_shape(ext.l_x, ext.l_y, lat.box, psi_inf=psi)
     assert shape.regime == expected and shape.regime_fractions[expected] == 1.0
     assert shape.regime_fractions["DP"] == shape.regime_fractions["DT"] == 0.0

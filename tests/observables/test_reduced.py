@@ -19,8 +19,9 @@ from bkflow.model.lattice import square_lattice
 from bkflow.model.params import RunSpec
 from bkflow.model.protocols import protocol_fields
 from bkflow.observables import reduced, stationarity
+from bkflow.observables.reduced import LEDGER_COLUMNS
 from bkflow.observables.stress import slip_events
-from bkflow.store.rundir import LEDGER_COLUMNS, RunDir
+from bkflow.store.rundir import RunDir
 from tests.support import tool
 
 
@@ -306,7 +307,7 @@ def test_the_analysis_asks_for_what_the_records_hold(tmp_path):
     from bkflow.analysis.summary import analyze
     from bkflow.api import load_run
     from bkflow.model.settings import AnalysisSettings
-    from bkflow.store.rundir import AnalysisError, DamagedRunError
+    from bkflow.store.errors import AnalysisError, DamagedRunError
 
     base = RunSpec(**{**protocol_fields("paper"), "phi": 10.0, "Lx": 12, "Ly": 4, "seed": 2,
                       "t_end": 1500.0})

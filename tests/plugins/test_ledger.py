@@ -12,18 +12,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from bkflow.lammps.deck import (
-    LEDGER_SLOTS,
-    SLOTS,
-    DeckOptions,
-    continue_text,
-    data_text,
-    setup_text,
-)
+from bkflow.lammps.deck import SLOTS, DeckOptions, continue_text, data_text, setup_text
 from bkflow.lammps.plugin import open_lammps
 from bkflow.model.lattice import contact_start
 from bkflow.model.params import RunSpec
 from bkflow.observables.catalogue import balance
+from bkflow.observables.reduced import LEDGER_SLOTS
 from tests.reference import Reference
 from tests.support import RULE_COVER, global_vector, lively_start, tool, unwrapped_state
 

@@ -23,9 +23,11 @@ import pytest
 from bkflow.analysis.results import results_table
 from bkflow.cli.assignments import parse_sizes
 from bkflow.cli.commands import main
-from bkflow.model.params import RunSpec, SpecError
-from bkflow.store.rundir import LOCK as LOCK_FILE
-from bkflow.store.rundir import RunBusyError, RunDir
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
+from bkflow.store.errors import RunBusyError
+from bkflow.store.layout import LOCK as LOCK_FILE
+from bkflow.store.rundir import RunDir
 from bkflow.sweeps.grid import phi_values, sweep_specs
 from bkflow.sweeps.job import run_one
 from bkflow.sweeps.local import sweep
@@ -770,7 +772,7 @@ def test_the_readmes_sweep_example_runs_as_written(tiny_sweep, tmp_path):
 
 def test_load_run_refuses_what_is_not_a_finished_run(tmp_path):
     import bkflow
-    from bkflow.store.rundir import AnalysisError
+    from bkflow.store.errors import AnalysisError
 
     with pytest.raises(AnalysisError, match="no finished run"):
         bkflow.load_run(tmp_path)

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from bkflow.cli.commands import main
-from bkflow.store.rundir import EXTREMA, META
+from bkflow.store.layout import EXTREMA, META
 from bkflow.sweeps.project import finished, open_project
 from tests import slurm_local
 from tests.slurm_local import INSTALL_OPTION, jobs, local_slurm, squeue, why_not

@@ -321,7 +321,7 @@ def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_recor
     7 pt; --from-record redraws it from the record alone."""
     import matplotlib.pyplot as plt
 
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     wp = work_precision
     t = wp.table(_wp_runs())

@@ -19,7 +19,8 @@ from bkflow.observables import (
     order,
     stress,
 )
-from bkflow.store.rundir import SLIPS, AnalysisError, DamagedRunError
+from bkflow.store.errors import AnalysisError, DamagedRunError
+from bkflow.store.layout import SLIPS
 
 
 def cluster_result(spec: RunSpec, settings: AnalysisSettings, events: stress.SlipEvents,

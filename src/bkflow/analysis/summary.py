@@ -44,18 +44,9 @@ from bkflow.observables import (
     stress,
 )
 from bkflow.store import formats
-from bkflow.store.rundir import (
-    BLOCKS,
-    CLUSTERS,
-    DECK,
-    EVENTS,
-    EXTREMA,
-    PARAMS,
-    PSI,
-    AnalysisError,
-    DamagedRunError,
-    RunDir,
-)
+from bkflow.store.errors import AnalysisError, DamagedRunError
+from bkflow.store.layout import BLOCKS, CLUSTERS, DECK, EVENTS, EXTREMA, PARAMS, PSI
+from bkflow.store.rundir import RunDir
 
 
 @dataclass(frozen=True)

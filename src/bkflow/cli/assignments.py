@@ -16,7 +16,8 @@ import math
 import re
 from fractions import Fraction
 
-from bkflow.model.params import PAPER_SIZES, RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.settings import AnalysisSettings
 from bkflow.sweeps.grid import ASPECT
 

@@ -44,8 +44,9 @@ from bkflow.cli.parser import (  # noqa: E402
     option_fields,
     run_spec,
 )
-from bkflow.model.params import SpecError  # noqa: E402
+from bkflow.model.checks import SpecError  # noqa: E402
 from bkflow.model.settings import AnalysisSettings  # noqa: E402
+from bkflow.store import errors, layout  # noqa: E402
 from bkflow.store import rundir as rd  # noqa: E402
 from bkflow.store.formats import shell_word  # noqa: E402
 
@@ -305,7 +306,7 @@ def _movie_files(a):
     out = Path(a.out) if a.out else rd.RunDir(a.dir).movie_file(a.slip)
     if out.suffix.lower() != ".gif":
         raise SpecError(f"--out {out}: bkflow writes GIF movies (name it .gif)")
-    maps = out.parent / rd.FRONT_MAPS_PATTERN.format(a.slip)
+    maps = out.parent / layout.FRONT_MAPS_PATTERN.format(a.slip)
     if not out.parent.is_dir():
         raise SpecError(f"--out {out}: the directory {out.parent} does not exist")
     for p in (out, maps):  # a user's file of the same name is never replaced
@@ -328,7 +329,7 @@ def _movie(a) -> int:
     try:
         run = Run(a.dir)
         fronts = run.fronts
-    except (rd.AnalysisError, rd.DamagedRunError) as exc:
+    except (errors.AnalysisError, errors.DamagedRunError) as exc:
         guards.say(f"bkflow: error: {exc}")
         return EXIT_BAD_INPUT
     out, maps = _movie_files(a)

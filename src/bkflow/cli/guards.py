@@ -190,7 +190,7 @@ def _thread_count(text: str) -> bool:
 
 def _check_threads(env) -> None:
     """The thread counts of numexpr and OpenMP, whose libraries read them."""
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
 
     for var in ("NUMEXPR_MAX_THREADS", "NUMEXPR_NUM_THREADS"):
         v = env.get(var, "")
@@ -213,7 +213,7 @@ def check_environment(env=os.environ) -> None:
     not need: figures are written to files (matplotlib's Agg backend, whatever MPLBACKEND
     says), and a local run or sweep submits nothing (flow's SIGNAC_FLOW_ENVIRONMENT is for
     python -m bkflow.cluster)."""
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
 
     _check_threads(env)
     env["MPLBACKEND"] = "Agg"
@@ -231,7 +231,7 @@ def check_environment(env=os.environ) -> None:
 
 def environment_refused() -> int | None:
     """EXIT_BAD_INPUT, said, when ``check_environment`` refuses the environment."""
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
 
     try:
         check_environment()
@@ -307,9 +307,9 @@ def failure_handlers() -> list:
     exit code."""
     from bkflow.lammps.engine import RunDiskError, RunError, RunExistsError
     from bkflow.lammps.plugin import PluginError
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
+    from bkflow.store.errors import AnalysisError, DamagedRunError, RunBusyError
     from bkflow.store.formats import NotRegularFileError, OutsideError
-    from bkflow.store.rundir import AnalysisError, DamagedRunError, RunBusyError
 
     return [
         (NotRegularFileError, _said("bkflow: error: ", EXIT_BAD_INPUT)),

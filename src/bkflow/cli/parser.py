@@ -10,13 +10,12 @@ import argparse
 from bkflow import __version__
 from bkflow.cli.assignments import OWN_OPTIONS, parse_size, run_assignments
 from bkflow.cli.guards import EXIT_BAD_INPUT
+from bkflow.model.checks import SpecError
 from bkflow.model.params import (
-    ACCURACY,
     ADAPTIVE_CHUNK_T,
     ADAPTIVE_T_MIN,
     CONTACT_RULE_HELP,
     CONTACT_RULES,
-    DT_FACTOR_MAX,
     PAPER_SIZES,
     PATHS,
     PROTOCOLS,
@@ -26,13 +25,13 @@ from bkflow.model.params import (
     STEADY_DRIFT_BOUND,
     STEADY_START,
     RunSpec,
-    SpecError,
     size_from_n,
 )
 from bkflow.model.protocols import protocol_fields
 from bkflow.model.scenes import SCENES
 from bkflow.model.settings import AnalysisSettings
-from bkflow.store import rundir as rd
+from bkflow.model.timestep import ACCURACY, DT_FACTOR_MAX
+from bkflow.store import layout
 from bkflow.sweeps.grid import ASPECT, POINTS_PER_DECADE, SEEDS
 
 #: what ``bkflow --help`` says bkflow is
@@ -176,18 +175,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run_commands(sub) -> None:
     """bkflow run and bkflow deck."""
-    r = sub.add_parser("run", help=f"run the model: writes {rd.DECK}, {rd.DATA}, {rd.EXTREMA}, "
-                                   f"{rd.BLOCKS}, {rd.META} (and what the scene asks for)")
+    r = sub.add_parser("run", help=f"run the model: writes {layout.DECK}, {layout.DATA}, "
+                                   f"{layout.EXTREMA}, {layout.BLOCKS}, {layout.META} (and what "
+                                   "the scene asks for)")
     _spec_args(r)
     r.add_argument("--overwrite", action="store_true", help="redo a finished run in --out")
     r.add_argument("--force", action="store_true",
                    help="run even above the cost limits (work, memory, disk; bkflow.lammps.limits)")
     r.add_argument("--quiet", action="store_true", help="no progress line")
     r.add_argument("--no-analyze", action="store_true",
-                   help=f"skip the analysis ({rd.SUMMARY}); run bkflow analyze DIR later")
+                   help=f"skip the analysis ({layout.SUMMARY}); run bkflow analyze DIR later")
     _path_arg(r)
-    d = sub.add_parser("deck", help=f"write {rd.DECK}, {rd.DATA}, {rd.PARAMS} without running "
-                                    f"(lmp -in {rd.DECK})")
+    d = sub.add_parser("deck", help=f"write {layout.DECK}, {layout.DATA}, {layout.PARAMS} "
+                                    f"without running (lmp -in {layout.DECK})")
     _spec_args(d)
     _path_arg(d)
 
@@ -252,9 +252,10 @@ def _sweep_dir_commands(sub) -> None:
 
 def _run_dir_commands(sub) -> None:
     """bkflow analyze and bkflow movie, of a run directory."""
-    an = sub.add_parser("analyze", help=f"analyse a finished run: writes DIR/{rd.SUMMARY}, "
-                                        f"{rd.EVENTS_PARQUET} (+ {rd.PSI}, {rd.CLUSTERS})")
-    an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {rd.DECK})")
+    an = sub.add_parser("analyze", help=f"analyse a finished run: writes DIR/{layout.SUMMARY}, "
+                                        f"{layout.EVENTS_PARQUET} (+ {layout.PSI}, "
+                                        f"{layout.CLUSTERS})")
+    an.add_argument("dir", help=f"run directory (written by bkflow run or lmp -in {layout.DECK})")
     _analysis_arg(an)
     mv = sub.add_parser("movie", help="a rupture front: an animated GIF of one slip (the layer "
                                       "coloured by slip rate) and its x-t / y-t maps (PNG); "

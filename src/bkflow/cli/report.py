@@ -14,7 +14,7 @@ from bkflow.analysis.registry import lines as registry_lines
 from bkflow.analysis.registry import power_law_names
 from bkflow.model.params import STEADY_AGREEMENT
 from bkflow.observables.states import SWITCHING
-from bkflow.store import rundir as rd
+from bkflow.store import layout
 from bkflow.store.formats import shell_word
 
 
@@ -47,7 +47,7 @@ def analysing_again_line(out) -> str:
 def analysed_line(run_dir, why: str | None) -> str:
     """bkflow analyze's summary written, and why it was made again (``why``: what made the
     one there stale)."""
-    return (f"{run_dir}/{rd.SUMMARY} written"
+    return (f"{run_dir}/{layout.SUMMARY} written"
             + (f" (re-analysed: {why})" if why and not why.startswith("no ") else ""))
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bkflow.figures.style import PlotError
-from bkflow.model.params import SpecError
+from bkflow.model.checks import SpecError
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store.formats import read_text, shell_word
 from bkflow.store.rundir import RunDir, sweep_run_dir

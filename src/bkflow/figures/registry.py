@@ -26,8 +26,9 @@ from bkflow.figures.drops import fig_drops, fig_potency
 from bkflow.figures.friction import fig1b_stress, fig2a_friction, fig2b_asymmetry
 from bkflow.figures.order import fig3_order
 from bkflow.figures.style import STYLE, Figures, PlotError, new_figures, style
+from bkflow.store.errors import RunBusyError
 from bkflow.store.formats import MARK, atomic_file, foreign_file, inside, read_text, within
-from bkflow.store.rundir import RunBusyError, RunDir
+from bkflow.store.rundir import RunDir
 from bkflow.store.tables import (
     FIGURES_DIR,
     FIGURES_RECORD,

@@ -8,7 +8,8 @@ run asked for (``answers``), whether the request goes on with it from its restar
 from __future__ import annotations
 
 from bkflow.model.params import RunSpec
-from bkflow.store.rundir import EXTREMA, RunDir
+from bkflow.store.layout import EXTREMA
+from bkflow.store.rundir import RunDir
 
 #: the fields of a RunSpec that say how long a run goes on, not what it runs: a request that
 #: differs from a finished run in these alone may continue it, or be answered by it

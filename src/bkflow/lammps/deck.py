@@ -24,7 +24,7 @@ from bkflow import __version__
 from bkflow.model.lattice import Lattice, contact_start, lattice_for
 from bkflow.model.params import PATHS, S_X, RunSpec
 from bkflow.observables.reduced import LEDGER_SLOTS  # noqa: F401  (the energy ledger's slots)
-from bkflow.store.rundir import (
+from bkflow.store.layout import (
     BLOCKS,
     CLUSTER_ROWS,
     DATA,

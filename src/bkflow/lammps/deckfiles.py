@@ -10,10 +10,12 @@ import json
 from pathlib import Path
 
 from bkflow.lammps.deck import DeckOptions, data_text, deck_text
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 from bkflow.store import formats
 from bkflow.store.formats import write_text_atomic
-from bkflow.store.rundir import DATA, DECK, EXTREMA, META, PARAMS, STRESS, RunDir
+from bkflow.store.layout import DATA, DECK, EXTREMA, META, PARAMS, STRESS
+from bkflow.store.rundir import RunDir
 
 #: the decks checked in under lammps_inputs/ (regenerate: python -m bkflow.lammps.deckfiles
 #: lammps_inputs)

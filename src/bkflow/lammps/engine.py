@@ -43,7 +43,8 @@ from bkflow.lammps.plugin import ERROR_TOKENS, PATH_CODES, block_rows, open_lamm
 from bkflow.lammps.progress import RunProgress
 from bkflow.model.params import RunSpec
 from bkflow.store.formats import write_text_atomic
-from bkflow.store.rundir import COMPANION, DATA, DECK, LOG, META, RESTART, RunDir
+from bkflow.store.layout import COMPANION, DATA, DECK, LOG, META, RESTART
+from bkflow.store.rundir import RunDir
 
 
 class RunError(RuntimeError):

@@ -23,8 +23,9 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from bkflow.model.params import RunSpec, SpecError
-from bkflow.store.rundir import DECK
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
+from bkflow.store.layout import DECK
 
 #: the rate at which the time of a run is estimated: one core runs the fused path at 6e7 (N =
 #: 230400, out of the caches) to 1.7e8 atom-steps a second (N = 900 to 57600) and 3-4e7 at N =

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from bkflow.model.checks import SpecError
-from bkflow.model.params import ACCURACY, PROTOCOLS, STEADY_COMPANION, STEADY_START
+from bkflow.model.params import PROTOCOLS, STEADY_COMPANION, STEADY_START
+from bkflow.model.timestep import ACCURACY
 
 
 def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,

@@ -11,7 +11,7 @@ import pandas as pd
 
 from bkflow.model.params import RunSpec
 from bkflow.store import formats
-from bkflow.store.rundir import DamagedRunError
+from bkflow.store.errors import DamagedRunError
 
 RUNS_FILE = "runs.csv"
 RESULTS_FILE = "results.csv"

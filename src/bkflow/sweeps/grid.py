@@ -14,7 +14,8 @@ import itertools
 import math
 
 from bkflow.lammps.limits import cost
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 
 #: default sampling of a --phi range
 POINTS_PER_DECADE = 3

@@ -60,16 +60,9 @@ def seed(out, donors, spec: RunSpec) -> str | None:
     from pathlib import Path
 
     from bkflow.lammps.continuation import continuation
+    from bkflow.store.errors import RunBusyError
     from bkflow.store.formats import atomic_file
-    from bkflow.store.rundir import (
-        ANALYSIS_FILES,
-        COMPANION,
-        CONTINUING,
-        LOCK,
-        MARK,
-        META,
-        RunBusyError,
-    )
+    from bkflow.store.layout import ANALYSIS_FILES, COMPANION, CONTINUING, LOCK, MARK, META
 
     rd = RunDir(out)
     with rd.lock():   # the job's own run, which another process may be writing

@@ -9,7 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from bkflow.lammps.continuation import LENGTH_FIELDS, answers, continuation, other_request
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
 from bkflow.sweeps.project import (
@@ -43,7 +44,7 @@ def _takes(job, spec: RunSpec) -> bool:
     run is redone anyway). A run another process is writing is taken: the sweep runs the
     others and says that one is busy (its simulate finds it so), as for any busy run."""
     from bkflow.lammps.continuation import finished
-    from bkflow.store.rundir import RunBusyError
+    from bkflow.store.errors import RunBusyError
 
     rd = RunDir(job.path)
     try:

@@ -21,7 +21,8 @@ import pandas as pd
 from bkflow.analysis.results import write_tables
 from bkflow.lammps.engine import RunError
 from bkflow.lammps.progress import in_notebook, terminal_size
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store.rundir import RunDir
 from bkflow.store.tables import retire_figures

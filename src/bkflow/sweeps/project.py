@@ -19,7 +19,8 @@ from pathlib import Path
 
 from flow import FlowProject
 
-from bkflow.model.params import RunSpec, SpecError
+from bkflow.model.checks import SpecError
+from bkflow.model.params import RunSpec
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.sweeps import job as one
@@ -107,8 +108,8 @@ def _die_with_parent() -> None:
 
 def _record_failure(job, exc: Exception) -> None:
     from bkflow.lammps.engine import RunError, RunExistsError
+    from bkflow.store.errors import RunBusyError
     from bkflow.store.formats import NotRegularFileError, OutsideError
-    from bkflow.store.rundir import RunBusyError
 
     spec = spec_of(job)
     if isinstance(exc, RunBusyError):  # not a failure: another process (a cluster job) has it
@@ -215,7 +216,7 @@ def sweep_dir_problem(path) -> str | None:
     empty, or is a bkflow sweep). A sweep writes runs.csv, results.csv, analysis.json and a
     workspace: into a directory of the user's own files, or into a run directory, it would
     overwrite or bury them."""
-    from bkflow.store.rundir import MARK, META, bookkeeping, listing
+    from bkflow.store.layout import MARK, META, bookkeeping, listing
 
     path = Path(path)
     if path.exists() and not path.is_dir():

@@ -49,7 +49,7 @@ def main(argv=None) -> None:
         sys.exit(2)
     _check_environment()
     p = _sweep_project()
-    from bkflow.model.params import SpecError
+    from bkflow.model.checks import SpecError
     from bkflow.sweeps.project import check_workspace
 
     try:
