@@ -176,7 +176,7 @@ def test_no_run_file_name_is_written_outside_rundir():
 WRITERS = {"write_text", "write_bytes", "savefig", "save", "to_csv", "to_json", "to_parquet",
            "savetxt", "savez", "dump", "touch", "write", "writelines", "mkstemp", "copy",
            "copyfile", "copy2", "move", "rename", "replace"}
-#: the writes outside io.py that do not go through the atomic writer, and why that is right
+#: the writes outside store/files.py that do not go through the atomic writer, and why
 ALLOWED = {
     ("rundir.py", "touch"): "the empty marker that claims a new run directory",
     ("style.py", "savefig"): "a notebook's inline PNG, into an in-memory buffer",
@@ -220,12 +220,12 @@ def _writes(tree):
 
 def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
     """A figure, a movie, a deck, a table: every file bkflow writes goes through
-    io.atomic_file (a temporary file renamed over the old one), so that SIGTERM, Ctrl-C or a
-    full disk leaves the old file or the new one, never half of one. The only exceptions are
-    named above with their reason, and LAMMPS's own outputs of a run under way (not Python's)."""
+    bkflow.store.files.atomic_file (a temporary file renamed over the old one), so that
+    SIGTERM, Ctrl-C or a full disk leaves the old file or the new one, never half of one. The
+    only exceptions are named above with their reason, and LAMMPS's own outputs of a run under way (not Python's)."""
     bad = []
     for path in sorted(SRC.rglob("*.py")):
-        if path.name == "formats.py":
+        if path.name == "files.py":   # atomic_file itself
             continue
         for node, name, guarded in _writes(ast.parse(path.read_text())):
             if guarded or (path.name, name) in ALLOWED:
@@ -242,7 +242,7 @@ def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
             if name == "dump" and ast.unparse(node.func) != "json.dump":
                 continue
             bad.append(f"{path.name}:{node.lineno}: {ast.unparse(node)[:80]}")
-    assert not bad, "writes that bypass io.atomic_file:\n" + "\n".join(bad)
+    assert not bad, "writes that bypass files.atomic_file:\n" + "\n".join(bad)
     # and the check sees what it must: a bare write is caught
     probe = ast.parse("def f(fig, p):\n    fig.savefig(p)\n    open(p, 'w')\n"
                       "    with atomic_file(p, binary=True) as fh:\n        fig.savefig(fh)\n")

@@ -29,7 +29,7 @@ from bkflow.model.params import RunSpec, transient_step
 from bkflow.model.settings import AnalysisSettings
 from bkflow.store import formats
 from bkflow.store.errors import AnalysisError, DamagedRunError
-from bkflow.store.formats import shell_word
+from bkflow.store.files import shell_word
 from bkflow.store.layout import SUMMARY
 from bkflow.store.rundir import RunDir, sweep_run_dir
 
@@ -352,7 +352,7 @@ def plot_run(run_dir, out=None, formats=("png", "pdf")) -> list[Path]:
     """``bkflow plot RUN_DIR``: the run's figure (``Run.figure``) as ``out/run.FMT`` (default:
     in the run directory), atomically, never over a user's file (PlotError)."""
     from bkflow.figures.registry import save_figure
-    from bkflow.store.formats import foreign_file
+    from bkflow.store.files import foreign_file
 
     out = Path(run_dir) if out is None else Path(out)
     for fmt in formats:

@@ -1097,7 +1097,7 @@ def test_printed_commands_are_safe_to_paste(tmp_path, name):
     assert sh.returncode == 0, sh.stderr
     assert Path(sh.stdout.strip()) == (tmp_path / name).resolve()
     assert not list(tmp_path.rglob("PWNED"))
-    from bkflow.store.formats import shell_word
+    from bkflow.store.files import shell_word
 
     for word in (name, f"/abs/{name}"):   # and the helper every printed command uses
         assert shlex.split(shell_word(word)) in ([word], [f"./{word}"])

@@ -2,7 +2,7 @@
 path bkflow reads from a file, or finds in a directory it did not make (figures.json's list,
 the figures directory, a sweep's job folders, a run's files, its lock and its companion), is
 followed only where it stays inside, resolved, through no symbolic link
-(bkflow.store.formats.within).
+(bkflow.store.files.within).
 
 Each case plants links and absolute paths that lead to a directory ``outside``, runs the
 command a user would, and checks that ``outside`` is as it was: the same files, bytes and

@@ -52,7 +52,7 @@ from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields
 from bkflow.model.settings import AnalysisSettings
 from bkflow.observables.states import SWITCHING
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.rundir import sweep_run_dir
 from bkflow.store.tables import SETTINGS_FILE, read_tables, settings_in
 from bkflow.sweeps.grid import phi_values, sweep_specs
@@ -1151,7 +1151,7 @@ def main(argv=None) -> int:
         print(f"wrote {pth}")
     # the record as the documents read it back (JSON's order and types), rendered from that
     rec = json.loads(json.dumps(claim_record(out, prov)))
-    with formats.atomic_file(Path(a.claims)) as f:
+    with files.atomic_file(Path(a.claims)) as f:
         f.write(json.dumps(rec, indent=1) + "\n")
     print(f"wrote {a.claims}")
     Path(a.numbers).write_text(numbers(out, wall) + "\n" + claims.render_all(rec))

@@ -48,7 +48,7 @@ from bkflow.model.checks import SpecError  # noqa: E402
 from bkflow.model.settings import AnalysisSettings  # noqa: E402
 from bkflow.store import errors, layout  # noqa: E402
 from bkflow.store import rundir as rd  # noqa: E402
-from bkflow.store.formats import shell_word  # noqa: E402
+from bkflow.store.files import shell_word  # noqa: E402
 
 
 # ------------------------------------------------------------------------- a run
@@ -301,7 +301,7 @@ def _movie_files(a):
     file of the user's."""
     from pathlib import Path
 
-    from bkflow.store.formats import foreign_file
+    from bkflow.store.files import foreign_file
 
     out = Path(a.out) if a.out else rd.RunDir(a.dir).movie_file(a.slip)
     if out.suffix.lower() != ".gif":
@@ -319,7 +319,7 @@ def _movie_files(a):
 def _movie(a) -> int:
     from bkflow.api import Run
     from bkflow.figures.style import STYLE, PlotError
-    from bkflow.store.formats import MARK, atomic_file
+    from bkflow.store.files import MARK, atomic_file
 
     if not 0.1 <= a.fps <= 50:
         raise SpecError(f"--fps must lie in [0.1, 50] (a GIF shows a frame for at least "

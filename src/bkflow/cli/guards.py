@@ -309,7 +309,7 @@ def failure_handlers() -> list:
     from bkflow.lammps.plugin import PluginError
     from bkflow.model.checks import SpecError
     from bkflow.store.errors import AnalysisError, DamagedRunError, RunBusyError
-    from bkflow.store.formats import NotRegularFileError, OutsideError
+    from bkflow.store.files import NotRegularFileError, OutsideError
 
     return [
         (NotRegularFileError, _said("bkflow: error: ", EXIT_BAD_INPUT)),

@@ -15,7 +15,7 @@ from bkflow.analysis.registry import power_law_names
 from bkflow.model.params import STEADY_AGREEMENT
 from bkflow.observables.states import SWITCHING
 from bkflow.store import layout
-from bkflow.store.formats import shell_word
+from bkflow.store.files import shell_word
 
 
 def _num(s: dict, key: str, scale: float = 1.0) -> float:

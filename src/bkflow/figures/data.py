@@ -17,7 +17,8 @@ import pandas as pd
 from bkflow.figures.style import PlotError
 from bkflow.model.checks import SpecError
 from bkflow.model.settings import AnalysisSettings
-from bkflow.store.formats import read_text, shell_word
+from bkflow.store.files import shell_word
+from bkflow.store.formats import read_text
 from bkflow.store.rundir import RunDir, sweep_run_dir
 from bkflow.store.tables import (
     SETTINGS_FILE,

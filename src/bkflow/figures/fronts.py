@@ -227,7 +227,7 @@ def front_movie(front, lx: int, ly: int, dt: float, path, fps: float = 15.0,
         draw.rectangle((left - 1, top - 1, left + lx * cell, top + ly * cell), outline="black")
         draw.text(time_at, _time_text(front, k, dt), fill="black", font=font)
         frames.append(img.quantize(palette=pal, dither=Image.Dither.NONE))
-    from bkflow.store.formats import MARK, atomic_file
+    from bkflow.store.files import MARK, atomic_file
 
     with atomic_file(path, binary=True) as f:  # a full disk leaves no half GIF
         frames[0].save(f, format="GIF", save_all=True, append_images=frames[1:], loop=0,

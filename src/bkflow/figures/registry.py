@@ -27,7 +27,8 @@ from bkflow.figures.friction import fig1b_stress, fig2a_friction, fig2b_asymmetr
 from bkflow.figures.order import fig3_order
 from bkflow.figures.style import STYLE, Figures, PlotError, new_figures, style
 from bkflow.store.errors import RunBusyError
-from bkflow.store.formats import MARK, atomic_file, foreign_file, inside, read_text, within
+from bkflow.store.files import MARK, atomic_file, foreign_file, inside, within
+from bkflow.store.formats import read_text
 from bkflow.store.rundir import RunDir
 from bkflow.store.tables import (
     FIGURES_DIR,

@@ -13,7 +13,7 @@ from bkflow.lammps.deck import DeckOptions, data_text, deck_text
 from bkflow.model.checks import SpecError
 from bkflow.model.params import RunSpec
 from bkflow.store import formats
-from bkflow.store.formats import write_text_atomic
+from bkflow.store.files import write_text_atomic
 from bkflow.store.layout import DATA, DECK, EXTREMA, META, PARAMS, STRESS
 from bkflow.store.rundir import RunDir
 

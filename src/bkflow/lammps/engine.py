@@ -42,7 +42,7 @@ from bkflow.lammps.meta import count_committed, process_record, run_meta
 from bkflow.lammps.plugin import ERROR_TOKENS, PATH_CODES, block_rows, open_lammps
 from bkflow.lammps.progress import RunProgress
 from bkflow.model.params import RunSpec
-from bkflow.store.formats import write_text_atomic
+from bkflow.store.files import write_text_atomic
 from bkflow.store.layout import COMPANION, DATA, DECK, LOG, META, RESTART
 from bkflow.store.rundir import RunDir
 

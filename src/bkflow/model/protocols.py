@@ -30,16 +30,10 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
     >>> protocol_fields("paper")["start"], protocol_fields("paper")["companion"]
     ('synchronized', None)
     """
-    if protocol not in PROTOCOLS:
-        raise SpecError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {protocol!r}")
-    if accuracy not in ACCURACY:
-        raise SpecError(f"accuracy must be one of {', '.join(ACCURACY)}, got {accuracy!r}")
+    _check(protocol, accuracy)
     preset = ACCURACY[accuracy]
     if fixed and protocol == "steady" and not until_steady:
-        return {"start": STEADY_START if start is None else start,
-                "companion": None if companion == "" else companion, "until_steady": False,
-                "t_end": preset.t_end if t_end is None else t_end, "accuracy": accuracy,
-                "dt_factor": dt_factor, "target_error": target_error}
+        return _fixed_steady(accuracy, start, t_end, dt_factor, target_error, companion)
     steady = protocol == "steady" or bool(until_steady)
     default_start = STEADY_START if protocol == "steady" else "synchronized"
     default_t = preset.t_cap if protocol == "steady" else preset.t_end
@@ -53,3 +47,20 @@ def protocol_fields(protocol: str = "steady", accuracy: str = "default", *,
             "accuracy": accuracy, "dt_factor": dt_factor,
             "target_error": target_error if target_error is not None
             else preset.target_error if protocol == "steady" else None}
+
+
+def _check(protocol: str, accuracy: str) -> None:
+    if protocol not in PROTOCOLS:
+        raise SpecError(f"protocol must be one of {', '.join(PROTOCOLS)}, got {protocol!r}")
+    if accuracy not in ACCURACY:
+        raise SpecError(f"accuracy must be one of {', '.join(ACCURACY)}, got {accuracy!r}")
+
+
+def _fixed_steady(accuracy: str, start, t_end, dt_factor, target_error, companion) -> dict:
+    """The steady protocol's fields for a run of a fixed length (``protocol_fields``'s
+    ``fixed``): its start, the preset's t_end, no stop rule, a companion and an error target
+    only where given."""
+    return {"start": STEADY_START if start is None else start,
+            "companion": None if companion == "" else companion, "until_steady": False,
+            "t_end": ACCURACY[accuracy].t_end if t_end is None else t_end,
+            "accuracy": accuracy, "dt_factor": dt_factor, "target_error": target_error}

@@ -13,7 +13,7 @@ import numpy as np
 
 from bkflow.model.params import RunSpec
 from bkflow.model.settings import ANALYSIS_REVISION, AnalysisSettings
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.errors import DamagedRunError
 from bkflow.store.layout import (
     CLUSTER_ROWS,
@@ -98,7 +98,7 @@ class RunAnalysisFiles:
         # or replaced since is known (``table_problem``), and redone by whichever command needs
         # it (analyze, collect, sweep)
         summary = {**summary, "tables": sorted(tables), "analysis_revision": ANALYSIS_REVISION,
-                   "table_files": {name: formats.file_record(self.file(name)) for name in tables}}
+                   "table_files": {name: files.file_record(self.file(name)) for name in tables}}
         formats.write_json_atomic(self.file(SUMMARY), summary)
         return formats.json_ready(summary)
 
@@ -118,7 +118,7 @@ class RunAnalysisFiles:
             if p.is_symlink() or not p.is_file():
                 return f"{name} is missing"
             want = record.get(name) or {}
-            if p.stat().st_size != want.get("bytes") or formats.file_record(p) != want:
+            if p.stat().st_size != want.get("bytes") or files.file_record(p) != want:
                 return f"{name} is not the table the analysis wrote (cut, emptied or replaced)"
         return None
 
@@ -128,7 +128,7 @@ class RunAnalysisFiles:
         why = self.table_problem()
         if why is not None:
             raise DamagedRunError(f"{self.path}: {why}; bkflow analyze "
-                                  f"{formats.shell_word(self.path)} (or bkflow "
+                                  f"{files.shell_word(self.path)} (or bkflow "
                                   "collect, for a sweep) makes the analysis again")
         return self.file(name)
 

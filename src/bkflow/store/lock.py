@@ -12,7 +12,7 @@ import contextlib
 import errno
 import os
 
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.errors import RunBusyError
 from bkflow.store.layout import (
     ANALYSIS_FILES,
@@ -81,7 +81,7 @@ class RunLock:
         except OSError as exc:
             if exc.errno != errno.ELOOP:
                 raise
-            raise formats.OutsideError(f"{self.file(LOCK)} is a symbolic link: bkflow locks, "
+            raise files.OutsideError(f"{self.file(LOCK)} is a symbolic link: bkflow locks, "
                                        "deletes and writes only inside the directory it was "
                                        "given; remove it") from None
         try:
@@ -121,7 +121,7 @@ class RunLock:
 
         # replaced atomically: a link planted under the mark's name is replaced, never
         # followed (and no component of the path is a link: ``inside``)
-        formats.write_json_atomic(formats.inside(self.path, MARK, "the run's mark"),
+        formats.write_json_atomic(files.inside(self.path, MARK, "the run's mark"),
                                   {"bkflow": __version__, "began": time.time(),
                                    "directory": self._identity()})
 

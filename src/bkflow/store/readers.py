@@ -15,7 +15,7 @@ import numpy as np
 
 from bkflow.model.params import RunSpec
 from bkflow.observables.reduced import LEDGER_COLUMNS
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.errors import AnalysisError, DamagedRunError
 from bkflow.store.layout import (
     BLOCKS,
@@ -67,9 +67,9 @@ class RunReaders:
             try:
                 # a companion keeps its blocks only (no extrema.npy; a finished run's
                 # missing file is found by problem() before)
-                red = reduced.load(formats.regular(self.file(EXTREMA))
+                red = reduced.load(files.regular(self.file(EXTREMA))
                                    if self.file(EXTREMA).exists() else None,
-                                   formats.regular(self.file(BLOCKS)), *args)
+                                   files.regular(self.file(BLOCKS)), *args)
                 if self.file(SERIES_STRESS).exists():   # scenes series, full: every slip
                     red = dataclasses.replace(red, raw=lambda: self.read_stress(spec)[1],
                                               raw_ledger=lambda: self.read_ledger(spec))
@@ -118,7 +118,7 @@ class RunReaders:
         from bkflow.observables.reduced import SERIES_FIELDS, checked
 
         try:
-            r = checked(np.load(formats.regular(self.file(name)), allow_pickle=False),
+            r = checked(np.load(files.regular(self.file(name)), allow_pickle=False),
                         SERIES_FIELDS, name)
         except (ValueError, EOFError) as exc:
             raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "
@@ -222,7 +222,7 @@ class RunReaders:
         try:
             from bkflow.observables.reduced import PSI_FIELDS, checked
 
-            r = checked(np.load(formats.regular(self.file(PSI_RECORD)), allow_pickle=False),
+            r = checked(np.load(files.regular(self.file(PSI_RECORD)), allow_pickle=False),
                         PSI_FIELDS, PSI_RECORD)
             return np.asarray(r["step"], np.int64), np.asarray(r["psi"], float)
         except (ValueError, EOFError, KeyError) as exc:
@@ -238,7 +238,7 @@ class RunReaders:
         out = []
         for name, fields in ((SLIP_ROWS, SLIP_FIELDS), (CLUSTER_ROWS, CLUSTER_FIELDS)):
             try:
-                out.append(checked(np.load(formats.regular(self.file(name)), allow_pickle=False),
+                out.append(checked(np.load(files.regular(self.file(name)), allow_pickle=False),
                                    fields, name, lattice=lattice))
             except (ValueError, EOFError) as exc:
                 raise DamagedRunError(f"{self.file(name)} is damaged ({exc}); run the run "

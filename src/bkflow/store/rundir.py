@@ -26,7 +26,7 @@ from bkflow.model.params import RunSpec
 # the columns of the ledger (stress.csv's after t, sigma_x in the scenes that keep it, fix
 # bk/stress ``energy``; the records' fields): named once, in bkflow.observables.reduced
 from bkflow.observables.reduced import LEDGER_COLUMNS  # noqa: F401
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.analysed import RunAnalysisFiles
 from bkflow.store.errors import AnalysisError, DamagedRunError, RunBusyError  # noqa: F401
 from bkflow.store.layout import (  # noqa: F401  (every name of the layout, read from here too)
@@ -114,7 +114,7 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         for d in (self, self.companion()):
             meta = d.file(META)
             if os.path.lexists(meta):
-                with open(formats.regular(meta), "rb"):
+                with open(files.regular(meta), "rb"):
                     pass
 
     def is_complete(self) -> bool:
@@ -160,7 +160,7 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
             if name in MAY_CHANGE:
                 continue
             try:
-                actual = formats.sha256_of(self.file(name))
+                actual = files.sha256_of(self.file(name))
             except OSError as exc:
                 return f"{name} unreadable ({exc.strerror or exc})"
             if actual != digest:
@@ -208,9 +208,9 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         for name in self.REWRITTEN:
             if self.file(name).is_file():
                 data = formats.read_bytes(self.file(name))
-                with formats.atomic_file(self._before(name), binary=True) as f:
+                with files.atomic_file(self._before(name), binary=True) as f:
                     f.write(data)
-        formats.write_text_atomic(self.file(CONTINUING), str((self.meta() or {}).get("restart")))
+        files.write_text_atomic(self.file(CONTINUING), str((self.meta() or {}).get("restart")))
 
     def end_continuation(self, keep: str | None) -> None:
         """After the new record is committed: remove the continuation's note and every
@@ -228,7 +228,7 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
         and comes back by itself; else it is damaged and is run again."""
         if any(d.file(CONTINUING).exists() for d in (self, self.companion())):
             return ("a continuation of the run was interrupted, and the finished run is intact: "
-                    f"bkflow analyze {formats.shell_word(self.path)}, or the same bkflow run "
+                    f"bkflow analyze {files.shell_word(self.path)}, or the same bkflow run "
                     "command, restores it")
         return "the run is damaged; run it again (bkflow run --overwrite, or the sweep redoes it)"
 
@@ -287,15 +287,15 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
 
     def commit(self, meta: dict) -> dict:
         """Write meta.json last: the files' sizes and ``"status": "complete"`` with it."""
-        files = sorted(p.name for p in self.path.iterdir()
+        names = sorted(p.name for p in self.path.iterdir()
                        if p.name in RUN_FILES or p.name == meta.get("restart"))
-        meta = {**meta, "status": "complete", "files": sorted(set(files) | {META})}
+        meta = {**meta, "status": "complete", "files": sorted(set(names) | {META})}
         # sizes let a later check tell a finished run from one whose files were cut or lost
-        meta["file_bytes"] = {f: self.file(f).stat().st_size for f in files if f != META}
+        meta["file_bytes"] = {f: self.file(f).stat().st_size for f in names if f != META}
         meta["bytes_written"] = sum(meta["file_bytes"].values())
         # and their digests, whose contents are the run's: a record of another run of the
         # same size, a value written over in place, another run's restart file
-        meta["file_sha256"] = {f: formats.sha256_of(self.file(f)) for f in files
+        meta["file_sha256"] = {f: files.sha256_of(self.file(f)) for f in names
                                if f != META and f not in MAY_CHANGE}
         formats.write_json_atomic(self.file(META), meta)
         return meta
@@ -316,7 +316,7 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
             for p in self.path.glob(pattern.format("*")):
                 p.unlink(missing_ok=True)
         for p in self.path.glob("run.*"):   # bkflow plot's figure of the old run, not a user's
-            if p.is_file() and formats.made_by_bkflow(p):
+            if p.is_file() and files.made_by_bkflow(p):
                 p.unlink(missing_ok=True)
 
     def movie_file(self, slip: int) -> Path:

@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 
 from bkflow.model.params import RunSpec
-from bkflow.store import formats
+from bkflow.store import files, formats
 from bkflow.store.errors import DamagedRunError
 
 RUNS_FILE = "runs.csv"
@@ -74,7 +74,7 @@ def write_table_set(root, runs: pd.DataFrame, results: pd.DataFrame, settings: d
         (root / name).unlink(missing_ok=True)
     members = [n for n in (RUNS_FILE, RESULTS_FILE) if (root / n).is_file()]
     formats.write_json_atomic(root / SETTINGS_FILE, {
-        **settings, TABLES_KEY: {n: formats.file_record(root / n) for n in members}})
+        **settings, TABLES_KEY: {n: files.file_record(root / n) for n in members}})
 
 
 #: analysis.json's entry for the record of the sweep's tables (not an analysis setting)
@@ -112,12 +112,12 @@ def tables_problem(root) -> str | None:
     if not isinstance(record, dict) or RUNS_FILE not in record:
         return f"{SETTINGS_FILE} does not record the tables it belongs with"
     for name, want in record.items():
-        p = formats.within(root, name)   # a name the record gives: read only inside the sweep
+        p = files.within(root, name)   # a name the record gives: read only inside the sweep
         if p is None:
             return f"{SETTINGS_FILE} names {name!r}, which is not a table of the sweep's"
         if p.is_symlink() or not p.is_file():
             return f"{name} is missing"
-        if formats.file_record(p) != want:
+        if files.file_record(p) != want:
             return f"{name} is not the one the last collect wrote (cut, or written apart)"
     for name in (CATALOGUE_FILE, CATALOGUE_PARQUET):
         if name not in record and (root / name).exists():
@@ -135,7 +135,7 @@ def check_tables(root) -> None:
     """Raise StaleTablesError naming the repair when the sweep's tables are not one set."""
     why = tables_problem(root)
     if why is not None:
-        raise StaleTablesError(f"{root}: {why}; bkflow collect {formats.shell_word(root)} "
+        raise StaleTablesError(f"{root}: {why}; bkflow collect {files.shell_word(root)} "
                                "writes the sweep's "
                                "tables again")
 
@@ -197,7 +197,7 @@ def retire_figures(root) -> list[str]:
     current that is not; the user's own files there are left. Returns the files removed."""
     import json
 
-    from bkflow.store.formats import within
+    from bkflow.store.files import within
 
     out = within(root, FIGURES_DIR)
     if out is None:   # a link: what it holds is not the sweep's to remove

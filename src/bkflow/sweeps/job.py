@@ -61,7 +61,7 @@ def seed(out, donors, spec: RunSpec) -> str | None:
 
     from bkflow.lammps.continuation import continuation
     from bkflow.store.errors import RunBusyError
-    from bkflow.store.formats import atomic_file
+    from bkflow.store.files import atomic_file
     from bkflow.store.layout import ANALYSIS_FILES, COMPANION, CONTINUING, LOCK, MARK, META
 
     rd = RunDir(out)

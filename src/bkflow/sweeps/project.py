@@ -109,7 +109,7 @@ def _die_with_parent() -> None:
 def _record_failure(job, exc: Exception) -> None:
     from bkflow.lammps.engine import RunError, RunExistsError
     from bkflow.store.errors import RunBusyError
-    from bkflow.store.formats import NotRegularFileError, OutsideError
+    from bkflow.store.files import NotRegularFileError, OutsideError
 
     spec = spec_of(job)
     if isinstance(exc, RunBusyError):  # not a failure: another process (a cluster job) has it
