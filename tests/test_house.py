@@ -16,7 +16,7 @@ from bkflow.cli.assignments import analysis_assignments
 from bkflow.model.checks import SpecError
 from bkflow.model.params import RunSpec
 from bkflow.model.settings import AnalysisSettings
-from bkflow.store.layout import META, STRESS, SUMMARY
+from bkflow.store.layout import META
 from bkflow.store.rundir import RunDir
 
 SRC = Path(bkflow.__file__).parent
@@ -222,7 +222,8 @@ def test_nothing_writes_a_users_file_except_through_the_atomic_writer():
     """A figure, a movie, a deck, a table: every file bkflow writes goes through
     bkflow.store.files.atomic_file (a temporary file renamed over the old one), so that
     SIGTERM, Ctrl-C or a full disk leaves the old file or the new one, never half of one. The
-    only exceptions are named above with their reason, and LAMMPS's own outputs of a run under way (not Python's)."""
+    only exceptions are named above with their reason, and LAMMPS's own outputs of a run
+    under way (not Python's)."""
     bad = []
     for path in sorted(SRC.rglob("*.py")):
         if path.name == "files.py":   # atomic_file itself
@@ -272,61 +273,6 @@ def test_analysis_settings_defer_to_the_run_and_name_bad_values():
                         (["s_x=abc"], "not a number"), (["transient=1.5"], "[0, 1)")):
         with pytest.raises(SpecError, match=needle.replace("[", r"\[").replace(")", r"\)")):
             analysis_assignments(bad)
-
-
-# --------------------------------------------------------------------------- run directory
-def _fake_run(d: Path) -> RunDir:
-    rd = RunDir(d)
-    d.mkdir(parents=True, exist_ok=True)
-    rd.file(STRESS).write_text("t,sigma_x\n0,0\n0.1,0.01\n")
-    rd.commit({"params": RunSpec(phi=1.0).to_dict()})
-    return rd
-
-
-def test_a_run_directory_knows_when_its_files_were_cut(tmp_path):
-    rd = _fake_run(tmp_path / "r")
-    assert rd.problem() is None and rd.is_complete()
-    meta = json.loads(rd.file(META).read_text())
-    assert meta["file_bytes"] == {STRESS: rd.file(STRESS).stat().st_size}
-    with open(rd.file(STRESS), "r+b") as f:
-        f.truncate(10)
-    assert "stress.csv has 10 bytes" in rd.problem()
-    rd.file(STRESS).unlink()
-    assert rd.problem() == "stress.csv is missing"
-    assert RunDir(tmp_path / "none").problem() == "not run (no meta.json)"
-
-
-def test_a_summary_is_stale_under_other_settings(tmp_path):
-    rd = _fake_run(tmp_path / "r")
-    assert rd.analysis_problem() == "no summary.json"
-    settings = AnalysisSettings()
-    spec = rd.spec()
-    rd.write_analysis({"mu_bar": 0.1, "params": spec.to_dict(),
-                       "settings": settings.resolved(spec).to_dict()}, {})
-    assert rd.analysis_problem(settings) is None
-    assert "other analysis settings (s_x)" in rd.analysis_problem(AnalysisSettings(s_x=0.5))
-    rd.file(SUMMARY).write_text('{"mu_bar": 0.1')
-    assert rd.analysis_problem(settings) == "summary.json unreadable"
-
-
-def test_a_second_writer_is_refused_while_the_first_holds_the_lock(tmp_path):
-    import fcntl
-    import os
-
-    from bkflow.store.errors import RunBusyError
-    from bkflow.store.layout import LOCK
-
-    rd = RunDir(tmp_path)
-    fd = os.open(tmp_path / LOCK, os.O_RDWR | os.O_CREAT)
-    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as another process would
-    try:
-        with pytest.raises(RunBusyError, match="another bkflow process"):
-            with rd.lock():
-                pass
-    finally:
-        os.close(fd)
-    with rd.lock(), rd.lock():  # re-entrant within a process
-        pass
 
 
 # --------------------------------------------------------------------------- re-analysis

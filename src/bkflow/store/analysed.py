@@ -23,12 +23,14 @@ from bkflow.store.layout import (
     PSI,
     PSI_RECORD,
     SUMMARY,
+    RunFiles,
 )
 
 
-class RunAnalysisFiles:
-    """The analysis's files of a run directory (mixed into ``RunDir``: ``self.path``,
-    ``self.file``, ``self.spec``, the readers of the run's records)."""
+class RunAnalysisFiles(RunFiles):
+    """The analysis's files of a run directory (a part of ``RunDir``: they are checked against
+    its completion record, ``RunDir.spec`` and ``RunDir.problem``, and read with its
+    ``RunReaders``)."""
 
     def summary(self) -> dict | None:
         """summary.json, or None when there is none or it is unreadable."""

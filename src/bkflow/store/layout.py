@@ -41,6 +41,8 @@ paper's energy argument per cluster.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 DECK = "in.bk"
 DATA = "data.bk"
 PARAMS = "params.json"
@@ -125,3 +127,18 @@ def listing(names) -> str:
     """A few of ``names`` for a message: "a, b, c and 4 more"."""
     shown = sorted(names)
     return ", ".join(shown[:3]) + (f" and {len(shown) - 3} more" if len(shown) > 3 else "")
+
+
+class RunFiles:
+    """A run directory's path and the paths of its files (``file``): what each part of
+    ``bkflow.store.rundir.RunDir`` stands on (its lock and claim, its readers, its analysis's
+    files, its completion record)."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({str(self.path)!r})"
+
+    def file(self, name: str) -> Path:
+        return self.path / name

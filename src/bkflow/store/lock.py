@@ -31,6 +31,7 @@ from bkflow.store.layout import (
     RUN_FILES,
     SIGNAC_FILES,
     STRESS,
+    RunFiles,
     bookkeeping,
     listing,
 )
@@ -42,9 +43,8 @@ _HELD: set[str] = set()
 _WARNED_NO_FLOCK: set[str] = set()
 
 
-class RunLock:
-    """The lock and the claim of a run directory (mixed into ``RunDir``: ``self.path``,
-    ``self.file``)."""
+class RunLock(RunFiles):
+    """The lock and the claim of a run directory (a part of ``RunDir``)."""
 
     # ------------------------------------------------------------------ the lock
     def busy(self) -> bool:

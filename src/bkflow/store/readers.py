@@ -33,12 +33,13 @@ from bkflow.store.layout import (
     SLIPS,
     SNAPSHOTS,
     STRESS,
+    RunFiles,
 )
 
 
-class RunReaders:
-    """The readers of a run's records (mixed into ``RunDir``: ``self.path``, ``self.file``,
-    ``self.meta``, ``self.spec``)."""
+class RunReaders(RunFiles):
+    """The readers of a run's records (a part of ``RunDir``; a record without its parameters
+    is read with ``RunDir.spec``'s, and a deck's threshold with ``RunDir.meta``'s)."""
 
     def recorded_threshold(self, spec: RunSpec) -> float:
         """The zigzag threshold the run's extrema were recorded at: its deck's fix bk/reduce

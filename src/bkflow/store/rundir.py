@@ -86,15 +86,6 @@ class RunDir(RunLock, RunReaders, RunAnalysisFiles):
     ('phi10', 'stress.csv')
     """
 
-    def __init__(self, path):
-        self.path = Path(path)
-
-    def __repr__(self) -> str:
-        return f"RunDir({str(self.path)!r})"
-
-    def file(self, name: str) -> Path:
-        return self.path / name
-
     # ------------------------------------------------------------------ the completion record
     def _record(self, name: str) -> dict | None:
         try:
