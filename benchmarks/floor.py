@@ -51,7 +51,7 @@ from bkflow.cli.assignments import parse_size  # noqa: E402
 from bkflow.lammps.deck import FAST_SETTINGS, DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.model.lattice import lattice_for  # noqa: E402
 from bkflow.model.params import RunSpec  # noqa: E402
-from bkflow.store.rundir import DATA, STRESS  # noqa: E402
+from bkflow.store.layout import DATA, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
 KERNEL = Path(__file__).with_name("floor_kernel.c")

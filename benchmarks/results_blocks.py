@@ -676,7 +676,7 @@ def scene_goals() -> str:
 def accuracy_presets() -> str:
     """The accuracy presets as bkflow defines them now (bkflow.model.params.ACCURACY): the error
     target, the two constants of the time-step rule, the run lengths and the target error."""
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     out = ["| preset | target bias of the time step | c_contact (omega_c dt) | c_stable "
            "(dt omega_max) | t_end, paper protocol | cap, steady protocol | target error of "
@@ -871,7 +871,7 @@ def work_precision() -> str:
     import pandas as pd
     import work_precision as wp
 
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     t = pd.read_csv(wp.RECORD)
     pts = wp.preset_points(t)

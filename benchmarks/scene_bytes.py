@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bkflow.model.params import DEFAULT_SCENE, SCENES
+from bkflow.model.scenes import DEFAULT_SCENE, SCENES
 
 HERE = Path(__file__).resolve().parent
 RECORD = HERE / "records" / "scene_bytes.json"

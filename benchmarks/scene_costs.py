@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bkflow.model.params import SCENES
+from bkflow.model.scenes import SCENES
 
 
 def main(argv=None) -> None:

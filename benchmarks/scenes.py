@@ -23,8 +23,9 @@ from pathlib import Path
 from bkflow.analysis.summary import analyze
 from bkflow.cli.assignments import parse_size
 from bkflow.lammps.engine import run
-from bkflow.model.params import SCENES, RunSpec
-from bkflow.store.rundir import DATA, DECK, LOG, STRESS
+from bkflow.model.params import RunSpec
+from bkflow.model.scenes import SCENES
+from bkflow.store.layout import DATA, DECK, LOG, STRESS
 
 
 def _mb(b):

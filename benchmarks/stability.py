@@ -24,7 +24,8 @@ from bkflow.lammps.engine import RunError, run
 from bkflow.model import timestep
 from bkflow.model.params import RunSpec
 from bkflow.observables.stress import macroscopic_friction
-from bkflow.store.rundir import LOG, RunDir
+from bkflow.store.layout import LOG
+from bkflow.store.rundir import RunDir
 
 PHIS = (0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0)
 CS = (0.1, 0.5, 1.0, 1.25, 1.5, 1.75, 1.9, 2.0, 2.1, 2.5)

@@ -64,7 +64,7 @@ from bkflow.cli.assignments import parse_size  # noqa: E402
 from bkflow.lammps.deck import DeckOptions, data_text, setup_text  # noqa: E402
 from bkflow.model.lattice import lattice_for  # noqa: E402
 from bkflow.model.params import RunSpec  # noqa: E402
-from bkflow.store.rundir import DATA, DECK, LOG, STRESS  # noqa: E402
+from bkflow.store.layout import DATA, DECK, LOG, STRESS  # noqa: E402
 
 BIN = Path(sys.executable).parent
 #: the engine's comm cutoff on one rank (bkflow.lammps.deck.SERIAL_COMM_CUTOFF) and today's

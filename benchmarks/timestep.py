@@ -29,7 +29,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from longrun import RECORDS, LongRun, case_name  # noqa: E402
 
-from bkflow.model.params import ACCURACY, RunSpec, SpecError, size_from_n  # noqa: E402
+from bkflow.model.checks import SpecError  # noqa: E402
+from bkflow.model.params import RunSpec, size_from_n  # noqa: E402
+from bkflow.model.timestep import ACCURACY  # noqa: E402
 
 OUT = RECORDS / "timestep"
 PHI = (0.1, 0.464, 2.15, 10.0, 46.4, 215.0, 1000.0)

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bkflow.model.params import ACCURACY, RunSpec, omega_contact, omega_max, size_from_n, time_step
+from bkflow.model.params import RunSpec, size_from_n
+from bkflow.model.timestep import ACCURACY, omega_contact, omega_max, time_step
 
 NAME = re.compile(r"N(\d+)_phi([\d.]+)_random_s(\d+)_C([\d.]+)\.parquet$")
 TRANSIENT = 0.2

@@ -88,7 +88,7 @@ def preset_points(t: pd.DataFrame) -> pd.DataFrame:
     interpolated in dt between the steps measured)."""
     from timestep_report import spec_of
 
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     rows = []
     for (n, phi), g in t.groupby(["N", "phi"]):
@@ -136,7 +136,7 @@ def plot(t: pd.DataFrame, path: Path):
 
 def _panel(ax, t: pd.DataFrame, pts: pd.DataFrame, o: str) -> None:
     """One phi, one observable: a line per size, the presets' steps and targets."""
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     for name, p in ACCURACY.items():
         ax.axhline(100 * p.dt_error, color=PRESET_COLOURS[name], lw=0.9, ls="--", zorder=1)
@@ -167,7 +167,7 @@ def _panel(ax, t: pd.DataFrame, pts: pd.DataFrame, o: str) -> None:
 def _legend(fig, sizes) -> None:
     from matplotlib.lines import Line2D
 
-    from bkflow.model.params import ACCURACY
+    from bkflow.model.timestep import ACCURACY
 
     handles = [Line2D([], [], color=SIZE_STYLES[n][0], ls=SIZE_STYLES[n][1], lw=1.0,
                       marker="o", ms=2.5, label=f"N = {n}") for n in sizes]

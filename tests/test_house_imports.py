@@ -134,3 +134,75 @@ def test_the_private_name_check_finds_what_it_looks_for(tmp_path):
         "bkflow.figures.data._x", "claims._sem", "style._num", "y._z"]
     p.write_text("from bkflow import __version__\nimport os\nos._exit\n")
     assert private_imports(p) == []
+
+
+#: the faces that hand names on by design: the package's own (``import bkflow``) and the
+#: cluster path's command module (``python -m bkflow.cluster``)
+FACES = {"bkflow", "bkflow.cluster"}
+
+
+def _top_level(path: Path) -> tuple[set[str], dict[str, str]]:
+    """The names a module defines at its top level, and those it imports (name: module)."""
+    defined, imported = set(), {}
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            defined.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            for target in (node.targets if isinstance(node, ast.Assign) else [node.target]):
+                defined |= {n.id for n in ast.walk(target) if isinstance(n, ast.Name)}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            imported.update({a.asname or a.name: node.module for a in node.names})
+    return defined, imported
+
+
+def handed_on(paths, modules) -> list[str]:
+    """Where a file takes a name from a bkflow module that only imported it (a re-export):
+    ``from m import X`` or ``m.X`` with X imported, not defined, by m."""
+    tops = {name: _top_level(path) for name, path in modules.items()}
+
+    def relayed(module: str, name: str) -> bool:
+        if module not in tops or module in FACES or f"{module}.{name}" in modules:
+            return False
+        defined, imported = tops[module]
+        return name in imported and name not in defined
+
+    found = []
+    for path in paths:
+        tree = ast.parse(path.read_text())
+        alias = {}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                for a in node.names:
+                    if relayed(node.module, a.name):
+                        found.append(f"{path.name}:{node.lineno}: {node.module}.{a.name}")
+                    if f"{node.module}.{a.name}" in modules:
+                        alias[a.asname or a.name] = f"{node.module}.{a.name}"
+            elif isinstance(node, ast.Import):
+                alias.update({a.asname: a.name for a in node.names
+                              if a.asname and a.name in modules})
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
+                    node.value.id in alias and relayed(alias[node.value.id], node.attr):
+                found.append(f"{path.name}:{node.lineno}: {alias[node.value.id]}.{node.attr}")
+    return found
+
+
+def test_every_name_is_imported_from_where_it_lives():
+    """No module hands on another's names (a re-export): every import names the module that
+    defines the name, in the package, the tests, the benchmarks and the workflows."""
+    root = SRC.parent.parent
+    paths = [p for d in (*CODE, root / "tests") for p in sorted(d.rglob("*.py"))]
+    found = handed_on(paths, _modules())
+    assert found == [], "names imported from a module that only handed them on: " + \
+        "; ".join(found)
+
+
+def test_the_reexport_check_finds_what_it_looks_for(tmp_path):
+    mods = {"bkflow.a": tmp_path / "a.py", "bkflow.b": tmp_path / "b.py"}
+    mods["bkflow.a"].write_text("X = 1\n")
+    mods["bkflow.b"].write_text("from bkflow.a import X\nY = X\n")
+    user = tmp_path / "user.py"
+    user.write_text("from bkflow.a import X\nfrom bkflow.b import X, Y\nfrom bkflow import b\n"
+                    "b.X, b.Y\n")
+    assert sorted(f.split(": ")[1] for f in handed_on([user], mods)) == ["bkflow.b.X",
+                                                                         "bkflow.b.X"]

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from bkflow import __version__
 from bkflow.model.lattice import Lattice, contact_start, lattice_for
 from bkflow.model.params import PATHS, S_X, RunSpec
-from bkflow.observables.reduced import LEDGER_SLOTS  # noqa: F401  (the energy ledger's slots)
 from bkflow.store.layout import (
     BLOCKS,
     CLUSTER_ROWS,

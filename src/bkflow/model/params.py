@@ -28,9 +28,8 @@ from bkflow.model.checks import (
     number,
 )
 from bkflow.model.scenes import DEFAULT_SCENE, FRONTS_IN_FULL, SCENES, records
-from bkflow.model.timestep import (  # noqa: F401 (the model's names, with the run's)
+from bkflow.model.timestep import (
     ACCURACY,
-    DT_FACTOR_MAX,
     omega_contact,
     omega_max,
     time_step,

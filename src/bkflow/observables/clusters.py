@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bkflow.model.lattice import box_extent, box_fractions  # noqa: F401  (the regimes' yardstick)
+from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PSI_CRYSTAL as DEFAULT_PSI_CRYSTAL
 from bkflow.model.params import S_X as DEFAULT_S_X
 from bkflow.model.params import SPAN_FRACTION as DEFAULT_SPAN_FRACTION

@@ -7,13 +7,12 @@ ran; a finished run being continued is undone to itself when the continuation is
 (``begin_continuation``, ``undo_continuation``). The other roles of ``RunDir`` have their own
 modules, and ``RunDir`` holds them all:
 
-- ``bkflow.store.layout``: the name of every file (the table of what each holds), handed on
-  from here;
+- ``bkflow.store.layout``: the name of every file (the table of what each holds);
 - ``bkflow.store.lock``: the lock a writer holds, and the mark that claims a directory;
 - ``bkflow.store.readers``: the run's records as arrays (``read_reduced`` and the other
   ``read_*``);
 - ``bkflow.store.analysed``: summary.json and the analysis's tables, checked and read;
-- ``bkflow.store.errors``: the errors of a run directory, handed on from here.
+- ``bkflow.store.errors``: the errors of a run directory.
 """
 
 from __future__ import annotations
@@ -22,55 +21,31 @@ import os
 from pathlib import Path
 
 from bkflow.model.params import RunSpec
-
-# the columns of the ledger (stress.csv's after t, sigma_x in the scenes that keep it, fix
-# bk/stress ``energy``; the records' fields): named once, in bkflow.observables.reduced
-from bkflow.observables.reduced import LEDGER_COLUMNS  # noqa: F401
 from bkflow.store import files, formats
 from bkflow.store.analysed import RunAnalysisFiles
-from bkflow.store.errors import AnalysisError, DamagedRunError, RunBusyError  # noqa: F401
-from bkflow.store.layout import (  # noqa: F401  (every name of the layout, read from here too)
+from bkflow.store.errors import DamagedRunError
+from bkflow.store.layout import (
     ANALYSIS_FILES,
     BLOCKS,
-    CLUSTER_COLUMNS,
     CLUSTER_ROWS,
-    CLUSTERS,
     COMPANION,
     CONTINUING,
     DATA,
     DECK,
-    EVENT_COLUMNS,
-    EVENTS,
-    EVENTS_PARQUET,
     EXTREMA,
     FRONT_MAPS_PATTERN,
-    FRONTS,
-    LOCK,
-    LOG,
-    MARK,
-    MARK_SLACK_S,
     MAY_CHANGE,
     META,
     MOVIE_PATTERN,
     PARAMS,
-    PHASE,
-    PHASE_COLUMNS,
-    PSI,
-    PSI_COLUMNS,
     PSI_RECORD,
     RESTART,
     RUN_FILES,
     SERIES_PHASE,
     SERIES_STRESS,
-    SIGNAC_FILES,
     SLIP_ROWS,
-    SLIPS,
-    SNAPSHOTS,
     STRESS,
-    SUMMARY,
     WORKSPACE,
-    bookkeeping,
-    listing,
 )
 from bkflow.store.lock import RunLock
 from bkflow.store.readers import RunReaders
