@@ -410,7 +410,8 @@ def test_fig_contacts_shows_each_phi_smoothed_over_one_stated_window(drawn):
     _, figs = drawn
     fig = figs["fig_contacts"]
     tops = [ax for ax in fig.axes if ax.get_ylabel() == r"$\sigma_x/\sigma_n$"]
-    phis = [float(re.match(r"\$\\phi\$ = (\S+),", ax.get_title()).group(1)) for ax in tops]
+    titles = [ax.get_figure(root=False).get_suptitle() for ax in tops]   # each run's row's
+    phis = [float(re.match(r"\$\\phi\$ = (\S+),", t).group(1)) for t in titles]
     assert phis == [10.0, 100.0, 1000.0]
     said = {float(w) for leg in fig.legends for t in leg.get_texts()
             for w in re.findall(r"mean over (\S+) time units", t.get_text())}
