@@ -31,9 +31,9 @@ PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "R =", "1 -")
 #: what an axis label must say when it names the quantity: its unit
 UNITS = {"t (": r"($\sqrt{m/k_d}$)", r"$\sigma_x$ (": "($k_d/l$)", "stress drop": "($k_d/l$)",
          "potency": "($l$)"}
-#: the unit a probability density's axis must say, by the quantity its panel's x axis names:
-#: the inverse of that quantity's unit (a density of stress drops in k_d/l is per k_d/l)
-DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)"}
+#: a density axis's unit, by its panel's x quantity: the inverse of its unit (R: a pure number)
+DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)",
+                 "coherence $R$": "(per unit of $R$)"}
 
 
 @pytest.fixture(scope="module")
