@@ -30,6 +30,9 @@ QUIET_FILL = "tab:cyan"
 MIN_FONT = 7.0
 #: the stress's and R's time axes
 T_LABEL = r"$t$ ($10^6\,\sqrt{m/k_d}$)"
+#: the histogram's axis: a probability density of R is per unit of R (R is a pure number, so
+#: that the density is one too), as the package's densities say their unit
+R_DENSITY = "probability density of $R$\n(per unit of $R$)"
 
 
 def quiet_share(blocks: pd.DataFrame, n: int) -> float:
@@ -116,7 +119,7 @@ def _histogram(ax, g: pd.DataFrame, n: int) -> None:
     _threshold(ax, n, "v")
     ax.set_xlim(0, edges[-1])
     ax.set_xlabel("coherence $R$ of a block of $10^3$")
-    ax.set_ylabel("probability density")
+    ax.set_ylabel(R_DENSITY)
     seeds = sorted(g.seed.unique())
     ax.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}: every block\n(seeds {seeds[0]}-"
                  f"{seeds[-1]}, all starts; quiet {100 * q.mean():.1f}%)")

@@ -31,9 +31,9 @@ PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "R =", "1 -")
 #: what an axis label must say when it names the quantity: its unit
 UNITS = {"t (": r"($\sqrt{m/k_d}$)", r"$\sigma_x$ (": "($k_d/l$)", "stress drop": "($k_d/l$)",
          "potency": "($l$)"}
-#: the unit a probability density's axis must say, by the quantity its panel's x axis names:
-#: the inverse of that quantity's unit (a density of stress drops in k_d/l is per k_d/l)
-DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)"}
+#: a density axis's unit, by its panel's x quantity: the inverse of its unit (R: a pure number)
+DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)",
+                 "coherence $R$": "(per unit of $R$)"}
 
 
 @pytest.fixture(scope="module")
@@ -410,7 +410,8 @@ def test_fig_contacts_shows_each_phi_smoothed_over_one_stated_window(drawn):
     _, figs = drawn
     fig = figs["fig_contacts"]
     tops = [ax for ax in fig.axes if ax.get_ylabel() == r"$\sigma_x/\sigma_n$"]
-    phis = [float(re.match(r"\$\\phi\$ = (\S+),", ax.get_title()).group(1)) for ax in tops]
+    titles = [ax.get_figure(root=False).get_suptitle() for ax in tops]   # each run's row's
+    phis = [float(re.match(r"\$\\phi\$ = (\S+),", t).group(1)) for t in titles]
     assert phis == [10.0, 100.0, 1000.0]
     said = {float(w) for leg in fig.legends for t in leg.get_texts()
             for w in re.findall(r"mean over (\S+) time units", t.get_text())}

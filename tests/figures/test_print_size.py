@@ -16,7 +16,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from bkflow.analysis import registry as observables
 from bkflow.figures import clusters, drops, order, registry, style
+from bkflow.figures.declared import fig_declared
 from bkflow.figures.keys import state_handles
 from bkflow.model.lattice import box_extent
 from tests.figures.test_figures import (
@@ -29,10 +31,13 @@ from tests.figures.test_figures import (
     _marker_styles,
     _outside_or_hidden,
     _rgb,
+    _small_text,
     _unit_problems,
 )
 
 SIZES = ((20, 5), (40, 10))
+#: the paper's three sizes (``_Sweep(PAPER_SIZES)``), whose keys hold one size more
+PAPER_SIZES = ((20, 5), (40, 10), (60, 15))
 PHI = (0.1, 1.0, 10.0, 100.0, 1000.0)
 SEEDS = (1, 2)
 #: each (phi, seed)'s run state: every point state at each size (10: switching, 100: drifting,
@@ -43,8 +48,9 @@ RUN_STATE = {0.1: ("steady", "steady"), 1.0: ("steady", "steady"),
 POINT_STATE = {0.1: "steady", 1.0: "steady", 10.0: "coherent", 100.0: "drifting",
                1000.0: "metastable"}
 #: Psi(inf) and its error at (size, phi): at the stiff end the sizes differ by ~4 errors at 0.995
-PSI = {(20, 5): (0.56, 0.74, 0.947, 0.985, 0.9948), (40, 10): (0.55, 0.73, 0.946, 0.987, 0.9962)}
-PSI_SEM = {(20, 5): 3e-4, (40, 10): 1e-4}
+PSI = {(20, 5): (0.56, 0.74, 0.947, 0.985, 0.9948), (40, 10): (0.55, 0.73, 0.946, 0.987, 0.9962),
+       (60, 15): (0.55, 0.72, 0.946, 0.988, 0.9968)}
+PSI_SEM = {(20, 5): 3e-4, (40, 10): 1e-4, (60, 15): 1e-4}
 #: the power-law verdicts at each phi and seed: (verdict, p, R against a lognormal, its p,
 #: exponent): at 0.1 the law is drawn; at 1 it passes but a lognormal is better; at 100 the
 #: drifting seed 1 is left out and the steady seed 2 rejects it with no bootstrap sample worse;
@@ -109,11 +115,12 @@ class _Run:
 
 
 class _Sweep:
-    """What the figures read of a sweep (``SweepData``'s face)."""
+    """What the figures read of a sweep (``SweepData``'s face), of ``sizes`` (keys of
+    ``PSI``); every key an observable declares a figure of (``fig_declared``) made up too."""
 
-    def __init__(self):
+    def __init__(self, sizes=SIZES):
         rows = []
-        for (lx, ly), phi, seed in ((s, p, k) for s in SIZES for p in PHI for k in SEEDS):
+        for (lx, ly), phi, seed in ((s, p, k) for s in sizes for p in PHI for k in SEEDS):
             fit = FITS[phi][seed - 1]
             rows.append({
                 "job": f"{lx}x{ly}-{phi}-{seed}", "Lx": lx, "Ly": ly, "phi": phi, "seed": seed,
@@ -131,7 +138,7 @@ class _Sweep:
         self.runs = pd.DataFrame(rows)
         self.runs["drop_x_min"], self.runs["potency_x_min"] = 0.012, 2.4
         points = []
-        for (lx, ly), psi in PSI.items():
+        for (lx, ly), psi in ((s, PSI[s]) for s in sizes):
             for k, phi in enumerate(PHI):
                 mu = 0.12 - 0.002 * k - 0.001 * (lx == 40)
                 points.append({
@@ -142,7 +149,9 @@ class _Sweep:
                     "lx_over_ly_sem": 0.05, "psi_inf": psi[k], "psi_inf_sem": PSI_SEM[(lx, ly)],
                     "regime": "DT" if phi < 1 else "C"})
         self.results = pd.DataFrame(points)
-        self.sizes = list(SIZES)
+        for key in observables.figures().values():
+            self.results[key] = self.results.mu_bar
+        self.sizes = list(sizes)
         self.root = "made-up"
 
     def runs_of(self, lx, ly, phi=None):
@@ -195,6 +204,39 @@ def test_every_axis_says_its_unit_a_density_the_inverse_of_its_quantitys(made_up
     assert _unit_problems(made_up[1][name]) == [], name
 
 
+# --------------------------------------------------------------------------- print size
+#: every figure ``bkflow plot`` draws (its catalogue, ``registry.FIGURES``), and one of the
+#: family an observable declares (``fig_declared``, here of mu_bar: none may be declared)
+PRINTED = (*registry.FIGURES, "fig_declared")
+
+
+def _saved(data, name, out):
+    """The Figure ``name`` (of ``PRINTED``) of ``data`` and its PNG as ``bkflow plot`` saves
+    it (``registry.save_figure``: trimmed, at bkflow's resolution)."""
+    if name == "fig_declared":
+        with style.style():
+            fig = fig_declared(data, style.Figures(), key="mu_bar")
+    else:
+        fig = registry.figure(data, name)
+    (path,) = registry.save_figure(fig, out, name, ("png",))
+    return fig, path
+
+
+@pytest.mark.parametrize("sizes", [SIZES, PAPER_SIZES], ids=["two sizes", "the paper's three"])
+@pytest.mark.parametrize("name", PRINTED)
+def test_every_figure_fits_a_7_inch_column_with_no_text_under_7_pt(name, sizes, tmp_path):
+    """Every figure of the catalogue, as saved, at most ``style.COLUMN_WIDTH`` (7 in) wide, so
+    that it prints in a 6.5-7 in column at its own size or larger, and none of its text under
+    ``MIN_FONT`` (7 pt) at that size (fig_contacts was 9.7 in wide, fig2a_friction 10.1,
+    fig3_order 7.7, fig_drops and fig_potency 7.5: their 7 pt text printed near 5 pt)."""
+    from matplotlib.image import imread
+
+    fig, path = _saved(_Sweep(sizes), name, tmp_path)
+    width = imread(path).shape[1] / style.STYLE["savefig.dpi"]
+    assert width <= style.COLUMN_WIDTH, f"{name}: {width:.2f} in wide"
+    assert _small_text(fig) == [], name
+
+
 # --------------------------------------------------------------------------- item by item
 def test_the_states_are_told_apart_by_shape_or_by_full_against_open():
     """At print size a half fill is hard to read: two states differ in their marker's shape,
@@ -238,7 +280,7 @@ def test_fig3_shows_the_sizes_apart_at_the_stiff_end(made_up):
     dpi = fig.dpi
     assert abs(stiff[0] - stiff[1]) > style.STATE_SIZE * dpi / 72, stiff
     # (b) shows the stiff points, those whose Psi(inf) lies where (a)'s curves flatten
-    ys = {round(1 - v, 6) for psi in PSI.values() for v in psi if v >= order.PSI_ZOOM}
+    ys = {round(1 - v, 6) for s in SIZES for v in PSI[s] if v >= order.PSI_ZOOM}
     drawn = {round(float(y), 6) for ln in points for y in ln.get_ydata()}
     assert drawn == ys
 
@@ -321,17 +363,22 @@ def test_fig1b_draws_the_friction_line_inside_its_range(made_up):
         assert top in ax.get_yticks()
 
 
+def _run_title(ax) -> str:
+    """The title of the run whose panel ``ax`` of fig_contacts is: its row's."""
+    return ax.get_figure(root=False).get_suptitle()
+
+
 def test_fig_contacts_shades_a_switching_run_as_steady_and_keys_it(made_up):
     from matplotlib.colors import to_rgb
 
     fig = made_up[1]["fig_contacts"]
     keys = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
-    titles = [ax.get_title() for ax in fig.axes]
+    titles = [_run_title(ax) for ax in fig.axes]
     assert any(t.endswith("coherent") for t in titles), titles
     assert any("switching between the layer's steady states" in k for k in keys)
     for ax in fig.axes:
         for p in ax.patches:
-            if ax.get_title().endswith("coherent"):
+            if _run_title(ax).endswith("coherent"):
                 assert np.allclose(p.get_facecolor()[:3], to_rgb("tab:green"))
                 assert p.get_hatch()
 
@@ -340,7 +387,7 @@ def _contacts_of_a_switching_run(stationary, drift: float, companion=None):
     """fig_contacts of the made-up sweep whose run shown at phi = 10 (seed 1) visited both
     states with its trend test as given (runs.csv ``stationary``, ``drift``, ``drift_err``;
     ``companion_start``: the run's companion, whose pair's mean stress the test reads), and
-    that panel's title and shaded spans."""
+    run's title and the shaded spans of its row."""
     data = _Sweep()
     data.runs["companion_start"] = companion
     shown = (data.runs.phi == 10.0) & (data.runs.seed == 1)
@@ -348,10 +395,9 @@ def _contacts_of_a_switching_run(stationary, drift: float, companion=None):
     data.runs["stationary"], data.runs["drift"], data.runs["drift_err"] = True, 0.001, 0.004
     data.runs.loc[shown, ["stationary", "drift", "drift_err"]] = [stationary, drift, 0.004]
     fig = _draw(registry.figure(data, "fig_contacts"))
-    panels = [ax for ax in fig.axes if ax.get_title().startswith(r"$\phi$ = 10,")]
-    column = [ax for ax in fig.axes
-              if ax.get_position().x0 == pytest.approx(panels[0].get_position().x0)]
-    return fig, panels[0].get_title(), [p for ax in column for p in ax.patches]
+    row = [ax for ax in fig.axes if _run_title(ax).startswith(r"$\phi$ = 10,")]
+    assert len(row) == 2          # the run's stress beside its R
+    return fig, _run_title(row[0]), [p for ax in row for p in ax.patches]
 
 
 def test_fig_contacts_shades_a_switching_run_whose_stress_still_drifts_as_not_steady():

@@ -15,7 +15,12 @@ import pandas as pd
 import pytest
 
 from bkflow.observables.states import r_independent
-from tests.figures.test_figures import _draw, _outside_or_hidden, _small_text
+from tests.figures.test_figures import (
+    _density_problems,
+    _draw,
+    _outside_or_hidden,
+    _small_text,
+)
 from tests.support import ROOT
 from tests.workflows.test_paper_figures import _module
 
@@ -120,8 +125,11 @@ def test_every_panel_names_its_phi_and_n_and_a_histogram_is_drawn(stiff):
     assert len(panels) == 12
     for ax in panels:
         assert "N = " in ax.get_title() and "$\\phi$ = " in ax.get_title(), ax.get_title()
-    hists = [ax for ax in panels if ax.get_ylabel() == "probability density"]
+    hists = [ax for ax in panels
+             if ax.get_ylabel() == "probability density of $R$\n(per unit of $R$)"]
     assert len(hists) == 3 and all(ax.patches for ax in hists)
+    # a density says its unit, the inverse of its quantity's, as the package's figures do
+    assert all(_density_problems(ax.get_ylabel(), ax.get_xlabel()) == [] for ax in hists)
 
 
 def test_the_stiff_states_figure_is_readable(stiff):

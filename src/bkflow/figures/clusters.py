@@ -60,7 +60,7 @@ def fig4a_clusters(data: SweepData, plt):
     n = len(sets)
     ncols = 2 if n > 1 else 1
     nrows = -(-n // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(3.3 * ncols + 0.3, 3.2 * nrows + 0.9),
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.2 * ncols + 0.3, 3.2 * nrows + 0.9),
                              sharex=True, sharey=True, squeeze=False)
     top = _cluster_top(sets, (lx, ly))
     span = _span(data)

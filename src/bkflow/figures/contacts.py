@@ -1,10 +1,10 @@
 """The memory of the start, run by run (``fig_contacts``): the shear stress and the contacts'
-phase coherence R(t) over the whole run of a soft, an intermediate and a stiff phi, smoothed
-alike in every panel, the analysed window shaded by the run's state: steady (green), switching
-between the layer's steady states (green, hatched: a coherent or quiet window is one of them,
-its stress trend-free) or neither (orange: drifting, metastable, or states named while the
-stress still drifts), each panel's title giving the state and the trend test as the run's
-summary does.
+phase coherence R(t) over the whole run of a soft, an intermediate and a stiff phi, a row per
+run (its stress beside its R, on the run's time axis), smoothed alike in every panel, the
+analysed window shaded by the run's state: steady (green), switching between the layer's
+steady states (green, hatched: a coherent or quiet window is one of them, its stress
+trend-free) or neither (orange: drifting, metastable, or states named while the stress still
+drifts), each row's title giving the state and the trend test as the run's summary does.
 """
 
 from __future__ import annotations
@@ -16,7 +16,10 @@ import pandas as pd
 
 from bkflow.figures.data import SweepData, nearest_log, point_states
 from bkflow.figures.keys import protocol_label
-from bkflow.figures.style import MIN_FONT, size_label, value_label
+from bkflow.figures.style import COLUMN_WIDTH, MIN_FONT, size_label, value_label
+
+#: fig_contacts' width and the height of a run's row (inches)
+CONTACTS_WIDTH, CONTACTS_ROW = COLUMN_WIDTH - 0.2, 2.15
 
 
 def _smooth(t, x, width: float):
@@ -67,31 +70,40 @@ def fig_contacts(data: SweepData, plt):
     the run's state (``SHADES``, ``_shade``: steady; switching between the layer's steady
     states, quiet and coherent, each a steady state of its own; or neither, drifting or
     metastable, or a switching run whose stress still drifts), its state and trend test in
-    the panel's title (``_trend_words``), keyed below."""
+    the row's title (``_trend_words``), keyed below. A row per run, its stress beside its R
+    on one time axis (``_contact_rows``), so that the figure fits a 7 in column."""
     lx, ly = data.sizes[0]
     chosen = _contact_phis(data.runs_of(lx, ly).phi)
-    fig, axes = plt.subplots(2, len(chosen), figsize=(3.0 * len(chosen) + 0.6, 4.1),
-                             sharex="col", squeeze=False)
+    fig, axes = _contact_rows(plt, len(chosen))
     panels = _contact_records(data, axes, (lx, ly), chosen)
     if not panels:
         return None
     block = max(b for *_, b in panels)   # the records' block, in time units
     width = _window(min(t[-1] - t[0] for _, _, _, t, _, _, _ in panels), block)
-    shown = {_contact_panel(axes[0, j], axes[1, j], (lx, ly), panel, width)
+    shown = {_contact_panel(axes[j, 0], axes[j, 1], (lx, ly), panel, width)
              for j, *panel in panels}
-    for top, bottom in axes.T:  # every panel: the stresses' ranges differ
-        top.set_ylabel(r"$\sigma_x/\sigma_n$")
-        bottom.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
+    for stress, coherence in axes:  # every panel: the stresses' ranges differ
+        stress.set_ylabel(r"$\sigma_x/\sigma_n$")
+        coherence.set_ylabel(r"$R = |\langle e^{2\pi i u}\rangle|$")
     _contact_key(fig, data, width, block, shown)
     fig.suptitle("The start's memory: the stress and the contacts' phase coherence",
                  fontsize=9)
     return fig
 
 
+def _contact_rows(plt, n: int):
+    """fig_contacts' figure and its panels, ``axes[j]`` = (stress, R) of the ``j``-th run: a
+    row per run (a subfigure, its title the run's), the stress beside R on one time axis
+    (shared: the same run), ``CONTACTS_WIDTH`` wide."""
+    fig = plt.figure(figsize=(CONTACTS_WIDTH, CONTACTS_ROW * n + 0.9))
+    rows = fig.subfigures(n, 1, squeeze=False)[:, 0]
+    return fig, np.array([row.subplots(1, 2, sharex=True) for row in rows])
+
+
 def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
-    """[(column, phi, runs.csv row, t, sigma_x, phase series, block in time units)] of the
+    """[(row, phi, runs.csv row, t, sigma_x, phase series, block in time units)] of the
     first seed of each phi ``chosen`` at ``size`` whose run recorded its phase series; the
-    top panel of a run that did not says so."""
+    stress panel of a run that did not says so."""
     panels = []
     for j, phi in enumerate(chosen):
         row = data.runs_of(*size, phi).iloc[0]
@@ -100,8 +112,8 @@ def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
         red = rd.read_reduced(spec)
         phase = rd.phase_series(spec, red)
         if phase is None:
-            axes[0, j].text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
-                            transform=axes[0, j].transAxes, ha="center", va="center",
+            axes[j, 0].text(0.5, 0.5, "no phase series\n(run made before bkflow recorded it)",
+                            transform=axes[j, 0].transAxes, ha="center", va="center",
                             fontsize=MIN_FONT)
             continue
         t, sigma, _ = red.series()    # block means
@@ -115,8 +127,8 @@ def _contact_records(data: SweepData, axes, size, chosen) -> list[tuple]:
 #: hatched, keyed apart; one whose stress still drifts is not steady
 SHADES = {"steady": ("tab:green", None, "analysed window (after the transient): steady"),
           "switching": ("tab:green", "//", "analysed window: switching between the layer's "
-                        "steady states (quiet, coherent), trend-free"),
-          "other": ("tab:orange", None, "analysed window: not steady (drifting, metastable, "
+                        "steady states\n(quiet, coherent), trend-free"),
+          "other": ("tab:orange", None, "analysed window: not steady (drifting, metastable,\n"
                     "or states named while the stress still drifts)")}
 
 
@@ -163,35 +175,40 @@ def _trend_words(row) -> str:
             + ("trend-free" if flag else "the stress still drifts"))
 
 
-def _contact_panel(top, bottom, size, panel, width: float) -> str:
-    """One run's column of fig_contacts (``panel``: phi, runs.csv row, t, sigma_x, phase
-    series, block): sigma_x/sigma_n above, R below, each smoothed over ``width`` time units,
-    the analysed window shaded by its state (``SHADES``); the shade's name."""
+def _contact_panel(stress, coherence, size, panel, width: float) -> str:
+    """One run's row of fig_contacts (``panel``: phi, runs.csv row, t, sigma_x, phase
+    series, block): sigma_x/sigma_n (``stress``) beside R (``coherence``), each smoothed over
+    ``width`` time units, the analysed window shaded by its state (``SHADES``), the run and
+    its trend test the row's title; the shade's name."""
+    from matplotlib.ticker import MaxNLocator
+
     phi, row, t, sigma, phase, _ = panel
     ts, ss = _smooth(t, sigma / (row.sigma_n * getattr(row, "area", 1.0)), width)
-    top.plot(ts, ss, color="black", lw=0.8)
-    bottom.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
+    stress.plot(ts, ss, color="black", lw=0.8)
+    coherence.plot(phase["t"], phase["R"], color="plum", lw=0.3, alpha=0.6)
     tr, rr = _smooth(phase["t"], phase["R"], width)
-    bottom.plot(tr, rr, color="indigo", lw=1.2)
+    coherence.plot(tr, rr, color="indigo", lw=1.2)
     t0 = float(row.t_transient) if "t_transient" in row and pd.notna(row.t_transient) \
         else t[0]
     shade = _shade(row.get("state"), row.get("stationary"))
     colour, hatch, _ = SHADES[shade]
-    for ax in (top, bottom):
+    for ax in (stress, coherence):
         ax.axvspan(t0, t[-1], lw=0, **_shading(colour, hatch, 0.12))
     trend = _trend_words(row)
-    top.set_title(rf"$\phi$ = {value_label(phi)}, {size_label(*size)}, seed {int(row.seed)}: "
-                  f"{row.get('state', 'n/a')}" + (f"\n{trend}" if trend else ""),
-                  fontsize=MIN_FONT + 0.5)
-    bottom.set_ylim(0, 1.02)
-    bottom.set_xlabel(r"t ($\sqrt{m/k_d}$)")
+    stress.get_figure(root=False).suptitle(
+        rf"$\phi$ = {value_label(phi)}, {size_label(*size)}, seed {int(row.seed)}: "
+        f"{row.get('state', 'n/a')}" + (f"\n{trend}" if trend else ""), fontsize=MIN_FONT + 0.5)
+    coherence.set_ylim(0, 1.02)
+    for ax in (stress, coherence):
+        ax.set_xlabel(r"t ($\sqrt{m/k_d}$)")
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=4, steps=[1, 2, 2.5, 5, 10]))
     return shade
 
 
 def _contact_key(fig, data: SweepData, width: float, block: float, shown) -> None:
     """fig_contacts' key, below its panels: the curves, with the smoothing window and the
-    records' block, and the shading of the analysed window of the states ``shown`` (names
-    of ``SHADES``)."""
+    records' block, and beside them the shading of the analysed window of the states
+    ``shown`` (names of ``SHADES``)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -204,6 +221,9 @@ def _contact_key(fig, data: SweepData, width: float, block: float, shown) -> Non
         if name in shown:
             handles.append(Patch(lw=0, **_shading(colour, hatch, 0.25)))
             labels.append(words)
-    fig.legend(handles, labels, loc="outside lower center", ncol=3, frameon=False,
+    # two columns, the curves in the first and the shadings in the second (blanks fill it)
+    handles += [Line2D([], [], ls="none")] * (6 - len(handles))
+    labels += [""] * (6 - len(labels))
+    fig.legend(handles, labels, loc="outside lower center", ncol=2, frameon=False,
                fontsize=MIN_FONT, handlelength=1.8, columnspacing=1.2,
                title=protocol_label(data), title_fontsize=MIN_FONT)

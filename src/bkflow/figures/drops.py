@@ -19,6 +19,7 @@ from bkflow.figures.clusters import cluster_phis, cluster_size
 from bkflow.figures.data import SweepData, point_states
 from bkflow.figures.keys import state_key
 from bkflow.figures.style import (
+    COLUMN_WIDTH,
     MIN_FONT,
     phi_colour,
     plain_log_ticks,
@@ -38,6 +39,9 @@ FITTED_STATES = ("steady", "switching")
 DROP_DENSITY = "probability density\nof $\\Delta\\sigma_x$ ($l/k_d$)"
 DROP_DENSITY_ALL = "probability density of\n$\\Delta\\sigma_x$, all drops ($l/k_d$)"
 POTENCY_DENSITY = "probability density\nof the potency ($l^{-1}$)"
+#: the size of fig_drops and fig_potency (inches): two panels side by side, within a 7 in
+#: column as saved (``COLUMN_WIDTH``), the key below them
+DENSITY_SIZE = (COLUMN_WIDTH - 0.2, 3.5)
 
 
 def _log_density(d, bins: int, part=None) -> tuple[np.ndarray, np.ndarray]:
@@ -162,8 +166,9 @@ def _law_title(verdicts) -> str:
 
 def _phi_label(phi: float, state: str, verdict: Verdict) -> str:
     """A phi's entry in a density's key: its value, its point's state (its marker's) and the
-    verdict's words."""
-    return rf"$\phi$ = {value_label(phi)} ({state}): {verdict.words}"
+    verdict's words, the seeds it rests on (where it leaves some out) on a line of their own,
+    so that the key fits a 7 in column."""
+    return rf"$\phi$ = {value_label(phi)} ({state}): " + verdict.words.replace("; ", ";\n")
 
 
 def _point_state(points: pd.DataFrame, phi: float) -> str:
@@ -212,7 +217,7 @@ def fig_drops(data: SweepData, plt):
     of (a)'s phi it is, counted from the data. Markers by the point's state
     (``state_marker``), colours by phi (``phi_colour``)."""
     lx, ly = cluster_size(data)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=DENSITY_SIZE)
     points = data.results_of(lx, ly)
     drawn, stiff, verdicts = [], None, []
     for phi in cluster_phis(data.runs_of(lx, ly).phi):
@@ -313,7 +318,7 @@ def fig_potency(data: SweepData, plt):
     potency, slip times area, is this times the area l^2 each particle stands for: l^3; the axes
     show the sum as computed, so their unit is l.)"""
     lx, ly = cluster_size(data)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(7.4, 3.4))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=DENSITY_SIZE)
     points = data.results_of(lx, ly)
     verdicts = []
     for phi in cluster_phis(data.runs_of(lx, ly).phi):

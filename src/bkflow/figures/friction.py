@@ -10,7 +10,14 @@ import pandas as pd
 
 from bkflow.figures.data import SweepData, nearest_log, point_states
 from bkflow.figures.keys import draw_series, protocol_label, regime_key, state_key
-from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, size_label, state_marker, value_label
+from bkflow.figures.style import (
+    COLUMN_WIDTH,
+    MIN_FONT,
+    REGIME_COLOURS,
+    size_label,
+    state_marker,
+    value_label,
+)
 from bkflow.model.lattice import box_extent
 
 
@@ -128,8 +135,12 @@ def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
     <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``state_marker``);
     the majority regime of the smallest size written above each phi in the paper's colours,
-    keyed below (``regime_key``)."""
-    fig, (a, c, b) = plt.subplots(1, 3, figsize=(10.0, 3.1))
+    keyed below (``regime_key``). The paper's panel, mu_bar with the regimes, across the
+    figure's width, the other two below it side by side, every panel on one phi axis: the
+    figure fits a 7 in column (``COLUMN_WIDTH``)."""
+    fig = plt.figure(figsize=(COLUMN_WIDTH - 0.2, 6.0))
+    panels = fig.subplot_mosaic([["a", "a"], ["c", "b"]], sharex=True)
+    a, c, b = panels["a"], panels["c"], panels["b"]
     for k, (lx, ly) in enumerate(data.sizes):
         g = data.results_of(lx, ly)
         for ax, f in ((a, "mu_bar"), (c, "mu_bar_large"), (b, "mean_stress_ratio")):
@@ -142,9 +153,10 @@ def fig2a_friction(data: SweepData, plt):
     for ax in (a, c, b):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
+        ax.xaxis.set_tick_params(labelbottom=True)
     state_key(fig, data, ax=a, extra=regime_key(shown))
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
-                f"{data.sizes[0][1]})", fontsize=8)
+                f"{data.sizes[0][1]})", fontsize=9)
     c.set_title("large drops only (drop > mean drop)", fontsize=8)
     b.set_title("time-averaged stress", fontsize=9)
     return fig

@@ -10,6 +10,7 @@ import pandas as pd
 
 from bkflow.figures.data import SweepData, point_errors, point_states
 from bkflow.figures.style import (
+    COLUMN_WIDTH,
     MIN_FONT,
     REGIME_COLOURS,
     REGIME_NOTE,
@@ -107,20 +108,49 @@ def state_key(fig, data: SweepData, ax=None, extra=((), ()), states=None,
     labelled handles, e.g. one per size), on rows of their own the marker convention
     (``state_marker``) for the ``states`` shown (default: those of the sweep's points), and
     ``extra`` (handles, labels), e.g. fig2a's regime letters, on rows of their own below;
-    in ``ncol`` columns (default: as many as the figure's width holds)."""
+    in ``ncol`` columns (default: as many as the figure's width holds, ``key_columns``)."""
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
     shown = set(point_states(data.results)) if states is None else set(states)
     groups = [(handles, labels), state_handles(shown), (list(extra[0]), list(extra[1]))]
     groups = [(list(h), list(w)) for h, w in groups if len(h)]
     if not groups:
         return
-    # as many columns as the figure's width holds (a key wider than the figure squeezes it)
-    ncol = ncol or min(max(len(h) for h, _ in groups), 6,
-                       max(2, int(fig.get_figwidth() // 1.6)))
+    # as many columns as the figure's width holds, within a column's width as saved
+    ncol = ncol or key_columns(groups, fig.get_figwidth())
     handles, labels = _in_rows(groups, ncol)
     fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
                fontsize=MIN_FONT, handletextpad=0.3, columnspacing=1.2,
                title=protocol_label(data), title_fontsize=MIN_FONT)
+
+
+def key_columns(groups, width: float) -> int:
+    """The columns of a key of ``groups`` ((handles, labels) each, laid out by ``_in_rows``)
+    below a figure ``width`` inches wide: as many as its longest group has, up to 6 and one per
+    1.6 in of the width, fewer while the key at ``MIN_FONT`` (``key_width``) would make the
+    figure as saved wider than ``COLUMN_WIDTH`` (less the 0.1 in that saving pads each side
+    with), at least one."""
+    cap = min(max(len(h) for h, _ in groups), 6, max(2, int(width // 1.6)))
+    return next((n for n in range(cap, 1, -1) if key_width(groups, n) <= COLUMN_WIDTH - 0.2),
+                1)
+
+
+def key_width(groups, ncol: int, fontsize: float = MIN_FONT) -> float:
+    """The width in inches of a key of ``groups`` in ``ncol`` columns (``_in_rows``), its text
+    ``fontsize`` points: each column its widest label with a handle (2 em) and the gap to it
+    (0.3 em), 1.2 em between columns and 0.4 em at each side (``state_key``'s legend)."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextToPath
+
+    measure, font = TextToPath(), FontProperties(size=fontsize)
+
+    def text_width(label: str) -> float:
+        return max(measure.get_text_width_height_descent(line, font, ismath=line.count("$") > 1)[0]
+                   for line in label.split("\n")) / 72
+
+    labels = _in_rows(groups, ncol)[1]
+    rows, em = len(labels) // ncol, fontsize / 72
+    widest = [max(map(text_width, labels[c * rows:(c + 1) * rows])) for c in range(ncol)]
+    return sum(widest) + ncol * 2.3 * em + (ncol - 1) * 1.2 * em + 0.8 * em
 
 
 def _in_rows(groups, ncol: int) -> tuple[list, list[str]]:

@@ -9,7 +9,14 @@ import numpy as np
 
 from bkflow.figures.data import SweepData, nearest_log
 from bkflow.figures.keys import draw_series, state_key
-from bkflow.figures.style import MIN_FONT, phi_colour, plain_log_ticks, size_label, value_label
+from bkflow.figures.style import (
+    COLUMN_WIDTH,
+    MIN_FONT,
+    phi_colour,
+    plain_log_ticks,
+    size_label,
+    value_label,
+)
 
 #: phi of the Psi(t) panel (the paper's Fig. 3 inset)
 INSET_PHI = (1e3, 1e2, 10.0, 1.0)
@@ -35,7 +42,7 @@ def fig3_order(data: SweepData, plt):
     samples look like a resolved fall. (c) shows the first ``PSI_SAMPLES`` samples on a
     linear time axis, each one marked, and says the sampling interval: the fall is drawn as
     what the record holds, a step the sampling does not resolve, followed by the plateau."""
-    fig = plt.figure(figsize=(7.6, 4.6))
+    fig = plt.figure(figsize=(COLUMN_WIDTH - 0.2, 4.8))
     panels = fig.subplot_mosaic([["a", "c"], ["b", "c"]], width_ratios=(1.25, 1),
                                 height_ratios=(1.1, 1))
     ax, low, ins = panels["a"], panels["b"], panels["c"]
@@ -109,9 +116,8 @@ def _inset_axes(ins, steps, inset_size) -> None:
     ins.set_ylabel(r"$1 - \Psi(t)$")
     lo, hi = f"{min(steps):.3g}", f"{max(steps):.3g}"   # (the runs' time steps differ)
     every = lo if lo == hi else f"{lo} to {hi}"
-    ins.set_title(f"(c) the paper's inset: from the start, N = {inset_size[0] * inset_size[1]}, "
-                  "one seed;\n"
-                  rf"$\Psi$ sampled every {every} time units (dots), $\Psi(0) = 1$",
-                  fontsize=MIN_FONT)
+    ins.set_title("(c) the paper's inset: from the start,\n"
+                  f"N = {inset_size[0] * inset_size[1]}, one seed; " + r"$\Psi$ sampled" + "\n"
+                  rf"every {every} time units (dots), $\Psi(0) = 1$", fontsize=MIN_FONT)
     ins.legend(fontsize=MIN_FONT, frameon=False, loc="upper center",
                bbox_to_anchor=(0.5, -0.14), ncol=4, handlelength=1.5, columnspacing=0.8)

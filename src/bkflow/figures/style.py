@@ -34,6 +34,9 @@ PHI_RANGE = (0.1, 1000.0)
 
 #: the smallest text of any figure, in points at its saved size
 MIN_FONT = 7.0
+#: the widest any figure is as saved (inches, trimmed): a 6.5-7 in column prints it at its own
+#: size or larger, so that its text is never under ``MIN_FONT`` in print
+COLUMN_WIDTH = 7.0
 
 #: bkflow's figure style, applied (matplotlib.rc_context) only while bkflow builds and saves
 #: a figure: the user's rcParams are never changed
