@@ -382,7 +382,7 @@ def unrendered_markup(html: str) -> list[str]:
 
 def test_the_docs_show_an_image_of_every_figure():
     """docs/sweeps.md shows each figure ``bkflow plot`` draws, and the image is there."""
-    from bkflow.figures.registry import FIGURES
+    from bkflow.figures.catalogue import FIGURES
 
     text = (ROOT / "docs" / "sweeps.md").read_text()
     for name in FIGURES:

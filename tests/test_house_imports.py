@@ -136,9 +136,10 @@ def test_the_private_name_check_finds_what_it_looks_for(tmp_path):
     assert private_imports(p) == []
 
 
-#: the faces that hand names on by design: the package's own (``import bkflow``) and the
-#: cluster path's command module (``python -m bkflow.cluster``)
-FACES = {"bkflow", "bkflow.cluster"}
+#: the faces that hand names on by design: the package's own (``import bkflow``), the
+#: cluster path's command module (``python -m bkflow.cluster``) and the documented path of the
+#: figures' catalogue and writer (docs/api.md before they were two modules)
+FACES = {"bkflow", "bkflow.cluster", "bkflow.figures.registry"}
 
 
 def _top_level(path: Path) -> tuple[set[str], dict[str, str]]:
@@ -206,3 +207,14 @@ def test_the_reexport_check_finds_what_it_looks_for(tmp_path):
                     "b.X, b.Y\n")
     assert sorted(f.split(": ")[1] for f in handed_on([user], mods)) == ["bkflow.b.X",
                                                                          "bkflow.b.X"]
+
+
+def test_the_documented_faces_still_answer():
+    """Code written against the old documented path of ``bkflow plot``'s catalogue and writer
+    gets the same objects."""
+    from bkflow.figures import catalogue, registry, writer
+
+    assert (registry.plot, registry.save_figure, registry.FORMATS) == \
+        (writer.plot, writer.save_figure, writer.FORMATS)
+    assert (registry.figure, registry.FIGURES, registry.FigureSpec) == \
+        (catalogue.figure, catalogue.FIGURES, catalogue.FigureSpec)

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from bkflow.figures.catalogue import FIGURES, figure
 from bkflow.figures.data import SweepData
 from bkflow.figures.fronts import front_figure, front_frame_figure, front_movie, run_description
-from bkflow.figures.registry import FIGURES, figure
 from bkflow.figures.style import Figures, PlotError, style, value_label
 from bkflow.model.params import RunSpec, transient_step
 from bkflow.model.settings import AnalysisSettings
@@ -351,7 +351,7 @@ RUN_FIGURE = "run"
 def plot_run(run_dir, out=None, formats=("png", "pdf")) -> list[Path]:
     """``bkflow plot RUN_DIR``: the run's figure (``Run.figure``) as ``out/run.FMT`` (default:
     in the run directory), atomically, never over a user's file (PlotError)."""
-    from bkflow.figures.registry import save_figure
+    from bkflow.figures.writer import save_figure
     from bkflow.store.files import foreign_file
 
     out = Path(run_dir) if out is None else Path(out)

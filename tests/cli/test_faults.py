@@ -472,7 +472,7 @@ def test_figures_and_movies_are_whole_or_not_written(tmp_path, monkeypatch, faul
     from matplotlib.figure import Figure
 
     from bkflow.figures.fronts import front_movie
-    from bkflow.figures.registry import save_figure as _save
+    from bkflow.figures.writer import save_figure as _save
     from bkflow.store.formats import Front
 
     fig = Figure()

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.figures import clusters, drops, registry, style
+from bkflow.figures import catalogue, clusters, drops, style
 from bkflow.figures.data import SweepData
 from bkflow.figures.keys import protocol_label
 from tests.support import tool
@@ -52,8 +52,8 @@ def drawn(sweep):
 
     data = SweepData(sweep)
     figs = {}
-    for name in registry.FIGURES:
-        fig = registry.figure(data, name)
+    for name in catalogue.FIGURES:
+        fig = catalogue.figure(data, name)
         with style.style():
             FigureCanvasAgg(fig).draw()
         figs[name] = fig
@@ -188,20 +188,20 @@ def _small_text(fig, least: float = style.MIN_FONT) -> list:
 
 
 # --------------------------------------------------------------------------- every figure
-@pytest.mark.parametrize("name", list(registry.FIGURES))
+@pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
     _, figs = drawn
     small = _small_text(figs[name])
     assert small == [], f"{name}: text under {style.MIN_FONT} pt: {small[:5]}"
 
 
-@pytest.mark.parametrize("name", list(registry.FIGURES))
+@pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_point_lies_inside_its_axes_and_off_the_keys(drawn, name):
     _, figs = drawn
     assert _outside_or_hidden(figs[name]) == [], name
 
 
-@pytest.mark.parametrize("name", list(registry.FIGURES))
+@pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_marker_style_drawn_is_keyed(drawn, name):
     """Each marker shape and fill on a panel (a point's state, a phi, a population) is shown
     by a key of the figure."""
@@ -253,13 +253,13 @@ def _density_problems(label: str, x: str) -> list[str]:
     return [] if units[0] in label else [f"{label!r}: a density without its unit {units[0]}"]
 
 
-@pytest.mark.parametrize("name", list(registry.FIGURES))
+@pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
     _, figs = drawn
     assert _unit_problems(figs[name]) == [], name
 
 
-@pytest.mark.parametrize("name", list(registry.FIGURES))
+@pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_colour_and_shading_that_encodes_something_is_keyed(drawn, name):
     """Within a panel, two or more colours of data (lines or markers) mean something: each
     is in a key of the figure; so is every shaded span's colour."""

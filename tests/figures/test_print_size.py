@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from bkflow.analysis import registry as observables
-from bkflow.figures import clusters, drops, order, registry, style
+from bkflow.figures import catalogue, clusters, drops, order, style, writer
 from bkflow.figures.declared import fig_declared
 from bkflow.figures.keys import state_handles
 from bkflow.model.lattice import box_extent
@@ -174,7 +174,7 @@ NAMES = ("fig1b_stress", "fig2a_friction", "fig2b_asymmetry", "fig3_order", "fig
 @pytest.fixture(scope="module")
 def made_up():
     data = _Sweep()
-    return data, {name: _draw(registry.figure(data, name)) for name in NAMES}
+    return data, {name: _draw(catalogue.figure(data, name)) for name in NAMES}
 
 
 # --------------------------------------------------------------------------- every figure
@@ -205,20 +205,20 @@ def test_every_axis_says_its_unit_a_density_the_inverse_of_its_quantitys(made_up
 
 
 # --------------------------------------------------------------------------- print size
-#: every figure ``bkflow plot`` draws (its catalogue, ``registry.FIGURES``), and one of the
+#: every figure ``bkflow plot`` draws (its catalogue, ``catalogue.FIGURES``), and one of the
 #: family an observable declares (``fig_declared``, here of mu_bar: none may be declared)
-PRINTED = (*registry.FIGURES, "fig_declared")
+PRINTED = (*catalogue.FIGURES, "fig_declared")
 
 
 def _saved(data, name, out):
     """The Figure ``name`` (of ``PRINTED``) of ``data`` and its PNG as ``bkflow plot`` saves
-    it (``registry.save_figure``: trimmed, at bkflow's resolution)."""
+    it (``writer.save_figure``: trimmed, at bkflow's resolution)."""
     if name == "fig_declared":
         with style.style():
             fig = fig_declared(data, style.Figures(), key="mu_bar")
     else:
-        fig = registry.figure(data, name)
-    (path,) = registry.save_figure(fig, out, name, ("png",))
+        fig = catalogue.figure(data, name)
+    (path,) = writer.save_figure(fig, out, name, ("png",))
     return fig, path
 
 
@@ -394,7 +394,7 @@ def _contacts_of_a_switching_run(stationary, drift: float, companion=None):
     data.runs["state"] = data.runs["state"].where(~shown, "quiet+coherent")
     data.runs["stationary"], data.runs["drift"], data.runs["drift_err"] = True, 0.001, 0.004
     data.runs.loc[shown, ["stationary", "drift", "drift_err"]] = [stationary, drift, 0.004]
-    fig = _draw(registry.figure(data, "fig_contacts"))
+    fig = _draw(catalogue.figure(data, "fig_contacts"))
     row = [ax for ax in fig.axes if _run_title(ax).startswith(r"$\phi$ = 10,")]
     assert len(row) == 2          # the run's stress beside its R
     return fig, _run_title(row[0]), [p for ax in row for p in ax.patches]

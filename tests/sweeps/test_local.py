@@ -190,7 +190,7 @@ def test_plot_skips_what_a_scene_did_not_record(lammps, tmp_path):
     specs = sweep_specs([10.0], [(20, 5)], 1, t_end=200.0, scene="friction")
     rep = sweep(specs, tmp_path / "s", jobs=1, progress=False)
     assert len(rep.finished) == 1
-    from bkflow.figures.registry import plot
+    from bkflow.figures.writer import plot
 
     written, skipped = plot(tmp_path / "s", formats=("png",))
     assert {p.stem for p in written} == {"fig1b_stress", "fig2a_friction", "fig_drops",

@@ -45,8 +45,8 @@ import pandas as pd
 from bkflow.figures.clusters import cluster_scatter
 from bkflow.figures.data import SweepData, point_states
 from bkflow.figures.keys import state_handles
-from bkflow.figures.registry import plot
 from bkflow.figures.style import STATE_FILL, STYLE, new_figures, state_marker
+from bkflow.figures.writer import plot
 from bkflow.model.lattice import box_fractions
 from bkflow.model.params import PAPER_SIZES, RunSpec
 from bkflow.model.protocols import protocol_fields

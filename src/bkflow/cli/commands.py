@@ -261,8 +261,8 @@ def _collect(a) -> int:
 
 # ------------------------------------------------------------------------- figures
 def _plot(a) -> int:
-    from bkflow.figures.registry import plot
     from bkflow.figures.style import PlotError
+    from bkflow.figures.writer import plot
 
     formats = tuple(f.strip() for f in a.format.split(","))
     where = parse_where(a.where)
