@@ -908,7 +908,7 @@ def test_the_advice_names_the_file_that_was_changed(tmp_path):
                  else "params.json is not the one bkflow deck wrote")
 
 
-# --------------------------------------------------------------------------- third round
+# ------------------------------------------------- shared sweeps, derived files, pasted commands
 def _small_sweep(root: Path) -> Path:
     p = bk("sweep", "--phi", "1,1000", "--seeds", "1", "--sizes", "12x3", "--aspect", "any",
            "--t-end", "300", "--protocol", "paper", "--jobs", "2", "--out", root, "--quiet")

@@ -23,7 +23,7 @@ def _files(d):
 
 
 def test_a_foreign_directory_is_refused_before_the_lock_from_python(tmp_path):
-    """engine.run called from Python (not through the CLI, which used to check first) leaves
+    """engine.run called from Python (not only through the CLI) leaves
     no lock file in a directory that is not its own, and changes nothing there."""
     d = tmp_path / "theirs"
     d.mkdir()

@@ -69,7 +69,7 @@ def test_both_paths_run_the_rules_step(path, phi, workdir, lammps):
 def test_a_step_too_long_for_the_friction_law_stops_the_run(workdir, lammps):
     """A contact 100 times stiffer at C = 1.9: inside the linear stability bound, yet each step
     carries contacts past their whole range (the friction force passes mu_s sigma_n A): the run
-    stops and says so, where it used to finish with a mean stress up to 1.8 mu_s sigma_n."""
+    stops and says so, rather than finish with a mean stress up to 1.8 mu_s sigma_n."""
     spec = RunSpec(phi=10.0, dt_factor=1.9, k_e=1000.0, t_end=500.0, scene="friction")
     with pytest.raises(RunError, match="past their whole range"):
         run(spec, workdir / "r", progress=False)

@@ -46,7 +46,7 @@ def test_plugin_matches_reference_integrator(size, phi, mode, damping, workdir):
     s, crossed = step_watching_the_box(ref, ref.start(x0 - [PRELOAD, 0.0], v0, anchor=x0),
                                        STEPS)
     # the overshoot counter counts what the rule could not bring back, not its rounding:
-    # coulomb's rescaling onto the threshold counted about half its breaks (issue 41)
+    # (a counter of the rescaling's rounding would count about half of coulomb's breaks)
     assert overshoot == s.overshoot
 
     # the window exercised what it is meant to

@@ -1,5 +1,5 @@
-"""``python -m bkflow.cluster``: what it refuses and what it advises (issue 41's classes 10,
-16 and 17: the job scripts' python quoted, no circular advice, no typo run as nothing)."""
+"""``python -m bkflow.cluster``: what it refuses and what it advises (the job scripts' python
+quoted, no circular advice, no typo run as nothing)."""
 
 from __future__ import annotations
 

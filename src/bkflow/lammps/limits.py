@@ -85,7 +85,7 @@ SLIP_ROW_BYTES_PER_T = 20.0
 #: 4000, paper's protocol): 0.52 at phi <= 10, 0.41 at 100, 0.21 at 1000, as
 #: FRONT_SHARE / (1 + phi / FRONT_PHI); a slip lasts at most FRONT_SAMPLES samples (77 at
 #: phi = 1, 27 at 1000), which bounds the full scene's FRONTS_IN_FULL slips
-#: (tests/cli/test_faults_round4.py checks every scene's estimate within 2x of what it writes)
+#: (tests/cli/test_fault_classes.py checks every scene's estimate within 2x of what it writes)
 FRONT_SHARE = 0.52
 #: slips a time unit after the transient, the most measured (N = 100, paper's protocol, t_end
 #: 4000: 0.063 at phi = 10, 0.068 at 1, 0.08 at 100 and 1000; the rows' bytes above allow

@@ -1,4 +1,4 @@
-"""Faults, round 4 (issue 41): one test per failure class, each failing before its fix."""
+"""The failure classes of faults.py's attacks: one test per class, each failing before its fix."""
 
 from __future__ import annotations
 
