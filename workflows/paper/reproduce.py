@@ -60,6 +60,7 @@ from bkflow.sweeps.local import available_cores, fmt_duration, sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import claims  # noqa: E402  (workflows/paper/claims.py, beside this script)
+import claims_record  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 PHI = "1e-1:1e3"
@@ -220,7 +221,7 @@ def numbers(out: Path, wall: dict) -> str:
                 if field not in g or g[field].isna().all():
                     continue
                 g = g.sort_values("phi")
-                m = claims.minimum(g.phi, g[field], g[f"{field}_sem"], int(g.n_seeds.min()))
+                m = claims_record.minimum(g.phi, g[field], g[f"{field}_sem"], int(g.n_seeds.min()))
                 e = g[f"{field}_sem"].to_numpy(float)
                 mu_s = float(g.mu_s.iloc[0])
                 lines.append(f"| {label} | {n} | {m['phi']:g} | {_pm(m['min'], m['sem'])} | "
@@ -397,7 +398,7 @@ def cluster_rows(out: Path, label: str) -> pd.DataFrame | None:
     c = pd.concat(parts, ignore_index=True)
     c["shape"] = ""
     for (lx, ly), k in c.groupby(["Lx", "Ly"]).groups.items():
-        c.loc[k, "shape"] = claims.shape_class(c.l_x[k], c.l_y[k], int(lx), int(ly))
+        c.loc[k, "shape"] = claims_record.shape_class(c.l_x[k], c.l_y[k], int(lx), int(ly))
     return c
 
 
@@ -904,13 +905,13 @@ def _lengths(ends: set, fixed: bool) -> str:
 def sizes_figure(out: Path, figs: Path) -> Path | None:
     """The steady curve as the lattice grows: mu_bar against N (log) at every phi all sizes
     were run at, with its error over seeds, and the line fitted on the sizes with at least 3
-    seeds (claims.size_trend); the sizes of fewer seeds drawn as diamonds (an open marker
+    seeds (claims_record.size_trend); the sizes of fewer seeds drawn as diamonds (an open marker
     means a drifting point in bkflow's figures)."""
     cs = curves(out)
-    steady = [cs[k][0] for k in claims.SIZE_CURVES if k in cs]
+    steady = [cs[k][0] for k in claims_record.SIZE_CURVES if k in cs]
     if not steady:
         return None
-    trend = claims.size_trend(pd.concat(steady, ignore_index=True))
+    trend = claims_record.size_trend(pd.concat(steady, ignore_index=True))
     if not trend["phi"]:
         return None
     plt = new_figures()
@@ -1070,7 +1071,7 @@ def aspect_share_figure(aspect_dir: Path, out: Path) -> Path:
         rows = []
         for phi, g in s.groupby("phi"):
             per_seed = [cluster_share(h, "DT") for _, h in g.groupby("seed")]
-            rows.append((phi, cluster_share(g, "DT"), claims.standard_error(per_seed)))
+            rows.append((phi, cluster_share(g, "DT"), claims_record.standard_error(per_seed)))
         if not rows:
             continue
         x, y, e = (np.asarray(v, float) for v in zip(*rows))
@@ -1098,7 +1099,7 @@ def claim_record(out: Path, prov: dict | None = None) -> dict:
 
     cs = curves(out)
     aspect = _tables(out, "aspect")
-    return claims.record(cs, {label: out / CURVES[label][0] for label in cs},
+    return claims_record.record(cs, {label: out / CURVES[label][0] for label in cs},
                          (aspect[0], out / "aspect") if aspect is not None else None,
                          ASPECT_SIZES, prov if prov is not None else provenance())
 
