@@ -124,9 +124,7 @@ def _shared_cluster_axes(axes) -> None:
     where the fewest of the panel's points lie: a name never sits on the data."""
     if not axes:
         return
-    pts = {ax: np.concatenate([np.asarray(ln.get_xydata(), float) for ln in ax.get_lines()
-                               if ln.get_marker() == "o" and len(ln.get_xdata()) > 0]
-                              or [np.empty((0, 2))]) for ax in axes}
+    pts = {ax: _scatter_points(ax) for ax in axes}
     top = max([1.1] + [float(np.nanmax(p)) * 1.03 for p in pts.values() if len(p)])
     span = 0.9
     regions = {"C / W": ((span, top), (span, top)), "LC": ((span, top), (0, span)),
@@ -143,20 +141,35 @@ def _shared_cluster_axes(axes) -> None:
             name = t.get_text()
             if name not in regions:
                 continue
-            (x0, x1), (y0, y1), *side = regions[name]
-            gx, gy = np.meshgrid(np.linspace(x0 + 0.06 * top, x1 - 0.06 * top, 12),
-                                 np.linspace(y0 + 0.04 * top, y1 - 0.04 * top, 12))
-            cand = np.column_stack([gx.ravel(), gy.ravel()])
-            if side:   # DP below the diagonal, DT above it (with a margin for the letters)
-                keep = cand[:, 1] < cand[:, 0] - 0.08 * top if side[0] == "below" \
-                    else cand[:, 1] > cand[:, 0] + 0.08 * top
-                cand = cand[keep]
-            if not len(cand):
-                continue
-            d = np.hypot(p[None, :, 0] - cand[:, None, 0], p[None, :, 1] - cand[:, None, 1]) \
-                if len(p) else np.full((len(cand), 1), np.inf)
-            best = cand[int(np.argmin((d < 0.07 * top).sum(axis=1)))]
-            t.set_position(tuple(best))
+            best = _emptiest_place(regions[name], p, top)
+            if best is not None:
+                t.set_position(best)
+
+
+def _scatter_points(ax) -> np.ndarray:
+    """The (x, y) of every cluster a cluster scatter drew on ``ax`` (its "o" markers)."""
+    return np.concatenate([np.asarray(ln.get_xydata(), float) for ln in ax.get_lines()
+                           if ln.get_marker() == "o" and len(ln.get_xdata()) > 0]
+                          or [np.empty((0, 2))])
+
+
+def _emptiest_place(region: tuple, p: np.ndarray, top: float) -> tuple | None:
+    """Where in ``region`` ((x0, x1), (y0, y1)[, "below" or "above" the diagonal]) of a
+    cluster scatter whose range ends at ``top`` the fewest of the points ``p`` lie near: the
+    place of the region's name (None where the region leaves no room)."""
+    (x0, x1), (y0, y1), *side = region
+    gx, gy = np.meshgrid(np.linspace(x0 + 0.06 * top, x1 - 0.06 * top, 12),
+                         np.linspace(y0 + 0.04 * top, y1 - 0.04 * top, 12))
+    cand = np.column_stack([gx.ravel(), gy.ravel()])
+    if side:   # DP below the diagonal, DT above it (with a margin for the letters)
+        keep = cand[:, 1] < cand[:, 0] - 0.08 * top if side[0] == "below" \
+            else cand[:, 1] > cand[:, 0] + 0.08 * top
+        cand = cand[keep]
+    if not len(cand):
+        return None
+    d = np.hypot(p[None, :, 0] - cand[:, None, 0], p[None, :, 1] - cand[:, None, 1]) \
+        if len(p) else np.full((len(cand), 1), np.inf)
+    return tuple(cand[int(np.argmin((d < 0.07 * top).sum(axis=1)))])
 
 
 #: the aspect ratios' colours (Okabe and Ito's palette), one per Lx/Ly

@@ -96,6 +96,22 @@ def claim2(runs: pd.DataFrame) -> dict:
     ends = {str(int(n)): [_f(g.sort_values("phi")["mean"].iloc[0]),
                           _f(g.sort_values("phi")["mean"].iloc[-1])]
             for n, g in t.groupby("N")}
+    worst, below_lower = _spread_across_sizes(t)
+    stiff = t[t.phi >= 100]
+    # the largest difference was picked from every pair of sizes at every stiff phi
+    pairs = math.comb(stiff.N.nunique(), 2) if len(stiff) else 0
+    worst["critical"] = _f(critical(int(stiff.seeds.min()) if len(stiff) else 0,
+                                    looks=stiff.phi.nunique() * max(1, pairs)))
+    worst["significant"] = bool(worst["z"] is not None and worst["critical"] is not None
+                                and worst["z"] > worst["critical"])
+    return {"ends": ends, "stiff_size_spread": worst,
+            "soft_smaller_at_larger_N": [int(sum(below_lower)), len(below_lower)]}
+
+
+def _spread_across_sizes(t: pd.DataFrame) -> tuple[dict, list]:
+    """Psi(inf)'s differences between sizes (``t``: per N and phi, _per_seed's): at phi >=
+    100 the largest one and its phi, and the most significant one (in combined errors) and its
+    phi; below phi = 100, per phi whether the smallest N lies above the largest."""
     worst = {"z": None, "diff": None, "phi": None, "z_at": None}
     below_lower = []
     for phi, g in t.groupby("phi"):
@@ -112,15 +128,7 @@ def claim2(runs: pd.DataFrame) -> dict:
             worst.update(z=_f(z), z_at=_f(phi))
         if phi < 100:
             below_lower.append(bool(m[0] > m[-1]))
-    stiff = t[t.phi >= 100]
-    # the largest difference was picked from every pair of sizes at every stiff phi
-    pairs = math.comb(stiff.N.nunique(), 2) if len(stiff) else 0
-    worst["critical"] = _f(critical(int(stiff.seeds.min()) if len(stiff) else 0,
-                                    looks=stiff.phi.nunique() * max(1, pairs)))
-    worst["significant"] = bool(worst["z"] is not None and worst["critical"] is not None
-                                and worst["z"] > worst["critical"])
-    return {"ends": ends, "stiff_size_spread": worst,
-            "soft_smaller_at_larger_N": [int(sum(below_lower)), len(below_lower)]}
+    return worst, below_lower
 
 
 def claim3(res: pd.DataFrame) -> dict:
@@ -322,31 +330,43 @@ def size_trend(runs: pd.DataFrame, field: str = "mu_bar") -> dict:
     looks = len(common)
     for phi in common:
         g = t[np.isclose(t.phi, phi)].sort_values("N")
-        x, y, e = np.log10(g.N.to_numpy(float)), g["mean"].to_numpy(), g["sem"].to_numpy()
-        # the slope from the sizes with at least 3 seeds (an error over 2 seeds is one
-        # difference: a t with one degree of freedom would decide nothing); the others shown
-        ok = np.isfinite(e) & (e > 0) & (g.seeds.to_numpy() >= 3)
-        slope = err = z = None
-        if ok.sum() >= 2:
-            w = 1 / e[ok] ** 2
-            xm = np.sum(w * x[ok]) / np.sum(w)
-            sxx = np.sum(w * (x[ok] - xm) ** 2)
-            slope = float(np.sum(w * (x[ok] - xm) * y[ok]) / sxx)
-            err = float(1 / math.sqrt(sxx))
-            z = slope / err
-        seeds = int(g.seeds[ok].min()) if ok.any() else 0
-        out["phi"][f"{phi:g}"] = {
-            "fitted": [int(n) for n in g.N[ok]],
-            "N": [int(n) for n in g.N], "mean": [_f(v) for v in y], "sem": [_f(v) for v in e],
-            "seeds": [int(v) for v in g.seeds], "slope_per_decade": _f(slope) if slope is not None
-            else None, "slope_err": _f(err) if err is not None else None,
-            "z": _f(z) if z is not None else None,
-            "critical": _f(critical(seeds, looks)),
-            "falls": bool(z is not None and -z > critical(seeds, looks)),
-            "rises": bool(z is not None and z > critical(seeds, looks)),
-            "found80": _f((critical(seeds, looks) + power_quantile(seeds)) * err)
-            if err is not None else None}
+        out["phi"][f"{phi:g}"] = _trend_at(g, looks)
     return out
+
+
+def _trend_at(g: pd.DataFrame, looks: int) -> dict:
+    """size_trend at one phi: ``g`` its means per N (_per_seed's, in order of N), ``looks``
+    the phi tested."""
+    x, y, e = np.log10(g.N.to_numpy(float)), g["mean"].to_numpy(), g["sem"].to_numpy()
+    # the slope from the sizes with at least 3 seeds (an error over 2 seeds is one
+    # difference: a t with one degree of freedom would decide nothing); the others shown
+    ok = np.isfinite(e) & (e > 0) & (g.seeds.to_numpy() >= 3)
+    slope, err, z = _weighted_slope(x[ok], y[ok], e[ok])
+    seeds = int(g.seeds[ok].min()) if ok.any() else 0
+    return {
+        "fitted": [int(n) for n in g.N[ok]],
+        "N": [int(n) for n in g.N], "mean": [_f(v) for v in y], "sem": [_f(v) for v in e],
+        "seeds": [int(v) for v in g.seeds], "slope_per_decade": _f(slope) if slope is not None
+        else None, "slope_err": _f(err) if err is not None else None,
+        "z": _f(z) if z is not None else None,
+        "critical": _f(critical(seeds, looks)),
+        "falls": bool(z is not None and -z > critical(seeds, looks)),
+        "rises": bool(z is not None and z > critical(seeds, looks)),
+        "found80": _f((critical(seeds, looks) + power_quantile(seeds)) * err)
+        if err is not None else None}
+
+
+def _weighted_slope(x, y, e) -> tuple:
+    """The slope of y against x by weighted least squares (the weights 1/e^2), its error from
+    those weights, and its z: (None, None, None) with fewer than two points."""
+    if len(x) < 2:
+        return None, None, None
+    w = 1 / e ** 2
+    xm = np.sum(w * x) / np.sum(w)
+    sxx = np.sum(w * (x - xm) ** 2)
+    slope = float(np.sum(w * (x - xm) * y) / sxx)
+    err = float(1 / math.sqrt(sxx))
+    return slope, err, slope / err
 
 
 def clusters_of(sweep_dir: Path, runs: pd.DataFrame) -> pd.DataFrame | None:

@@ -229,9 +229,6 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     phases (docs/model.md "Steady state"). No equilibration time is drawn: Chodera's
     detection answers tens of time units on a slow drift and 0 on the synchronized plateau
     (benchmarks/stationarity.py measures it)."""
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
     sets = []
     for name, words, marker in RELAXATION_SETS:
         t = sweep_tables(out, name)
@@ -255,42 +252,14 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
             g = runs[runs.N == n]
             if not len(g):
                 continue
-            t_run = g.t_run.to_numpy(float)
-            ok = np.isfinite(t_run) & (t_run > 0)   # a log axis: a length must be > 0
-            left_out += int((~ok).sum())
-            g, t_run = g[ok], t_run[ok]
-            # the seeds of one phi side by side, within 0.2 decade (the grid's phi lie a
-            # third of a decade apart: each phi's runs stay a group of their own)
-            order = sorted(set(g.seed))
-            rank = g.seed.map({s: i for i, s in enumerate(order)}).to_numpy(float)
-            step = min(0.07, 0.2 / max(len(order) - 1, 1))
-            x = g.phi.to_numpy(float) * 10 ** (step * (rank - (len(order) - 1) / 2))
-            ms = 3.8 if len(order) <= 4 else 2.8
-            verdicts = _run_verdicts(g)
-            for v, (colour, _) in RELAXATION_STATES.items():
-                k = verdicts == v
-                if k.any():
-                    present.add(v)
-                    ax.plot(x[k], t_run[k], marker, ls="none", ms=ms, color=colour, mew=0.3,
-                            mec="white", alpha=0.9)
+            drawn = _draw_relaxation_runs(ax, g, marker, present)
+            left_out += len(g) - len(drawn)
             markers.setdefault(words, (marker, set()))[1].update(
-                {(n, float(t)) for t in g.t_end})
-        lx, ly = (PAPER_SIZES[n] if n in PAPER_SIZES else LARGE_SIZE)
-        ax.set_title(f"N = {n} ({lx}x{ly})", fontsize=9)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        if col >= len(ns) - ncols:
-            ax.set_xlabel(r"$\phi$")
-        if col % ncols == 0:
-            ax.set_ylabel(r"its length $t_{\rm run}$ ($\sqrt{m/k_d}$)")
-    handles = [Patch(color=RELAXATION_STATES[v][0]) for v in RELAXATION_STATES if v in present]
-    labels = [RELAXATION_STATES[v][1] for v in RELAXATION_STATES if v in present]
-    for words, (marker, ends) in markers.items():
-        handles.append(Line2D([], [], marker=marker, ls="none", color="0.35", ms=4))
-        labels.append(words + ": " + _lengths(ends, "fixed" in words))
+                {(n, float(t)) for t in drawn.t_end})
+        _label_relaxation_panel(ax, n, bottom=col >= len(ns) - ncols, left=col % ncols == 0)
     # the states in the first column, the sets of runs in the second
-    fig.legend(handles, labels, loc="outside lower center", ncol=2, frameon=False,
-               fontsize=6.5)
+    fig.legend(*_relaxation_key(present, markers), loc="outside lower center", ncol=2,
+               frameon=False, fontsize=6.5)
     fig.suptitle("How long the start is remembered: every run's verdict at the length it ran\n"
                  "(the verdict reads the stress's trend and the contacts' phases: neither a "
                  "drift nor a plateau that\nremembers the start passes for steady; no "
@@ -298,6 +267,58 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
                  + (f"\n{left_out} run(s) without a length left out" if left_out else ""),
                  fontsize=7.5)
     return write_figure(fig, figs / "relaxation.png")
+
+
+def _draw_relaxation_runs(ax, g: pd.DataFrame, marker: str, present: set) -> pd.DataFrame:
+    """One set of runs ``g`` of one N on ``ax`` of the relaxation figure, each at phi and its
+    length, coloured by its verdict (the verdicts drawn added to ``present``); the runs drawn
+    returned: those without a length (none on a log axis) are left out."""
+    t_run = g.t_run.to_numpy(float)
+    ok = np.isfinite(t_run) & (t_run > 0)   # a log axis: a length must be > 0
+    g, t_run = g[ok], t_run[ok]
+    # the seeds of one phi side by side, within 0.2 decade (the grid's phi lie a
+    # third of a decade apart: each phi's runs stay a group of their own)
+    order = sorted(set(g.seed))
+    rank = g.seed.map({s: i for i, s in enumerate(order)}).to_numpy(float)
+    step = min(0.07, 0.2 / max(len(order) - 1, 1))
+    x = g.phi.to_numpy(float) * 10 ** (step * (rank - (len(order) - 1) / 2))
+    ms = 3.8 if len(order) <= 4 else 2.8
+    verdicts = _run_verdicts(g)
+    for v, (colour, _) in RELAXATION_STATES.items():
+        k = verdicts == v
+        if k.any():
+            present.add(v)
+            ax.plot(x[k], t_run[k], marker, ls="none", ms=ms, color=colour, mew=0.3,
+                    mec="white", alpha=0.9)
+    return g
+
+
+def _label_relaxation_panel(ax, n: int, bottom: bool, left: bool) -> None:
+    """The relaxation figure's panel of N = ``n``: its title and log axes, phi under it in the
+    ``bottom`` row, the length left of it in the ``left`` column."""
+    lx, ly = (PAPER_SIZES[n] if n in PAPER_SIZES else LARGE_SIZE)
+    ax.set_title(f"N = {n} ({lx}x{ly})", fontsize=9)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    if bottom:
+        ax.set_xlabel(r"$\phi$")
+    if left:
+        ax.set_ylabel(r"its length $t_{\rm run}$ ($\sqrt{m/k_d}$)")
+
+
+def _relaxation_key(present: set, markers: dict) -> tuple[list, list]:
+    """The relaxation figure's key (handles, labels): the verdicts ``present``, then each set
+    of runs drawn (``markers``: its words -> its marker and (N, t_end) pairs) with its
+    lengths or caps."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = [Patch(color=RELAXATION_STATES[v][0]) for v in RELAXATION_STATES if v in present]
+    labels = [RELAXATION_STATES[v][1] for v in RELAXATION_STATES if v in present]
+    for words, (marker, ends) in markers.items():
+        handles.append(Line2D([], [], marker=marker, ls="none", color="0.35", ms=4))
+        labels.append(words + ": " + _lengths(ends, "fixed" in words))
+    return handles, labels
 
 
 def _lengths(ends: set, fixed: bool) -> str:
