@@ -1,10 +1,10 @@
-"""The paper's claims as workflows/paper/claims.py decides them: each test on cases whose
-answer is known, and the documents rendered from its record (numbers.md's "Claims" section,
-REPRODUCTION.md's blocks: tests/test_results_blocks.py) equal to what the record gives."""
+"""The paper's claims as workflows/paper/claims_record.py and claims.py decide them: each test
+on cases whose answer is known, and the documents rendered from its record (numbers.md's
+"Claims" section, REPRODUCTION.md's blocks: tests/test_results_blocks.py) equal to what the
+record gives."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -13,18 +13,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.workflows.test_paper_figures import _module
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "workflows" / "paper"
 
 
-def _claims():
-    spec = importlib.util.spec_from_file_location("claims", PAPER / "claims.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-claims = _claims()
+claims = _module(PAPER / "claims.py", "claims")
+claims_record = _module(PAPER / "claims_record.py", "claims_record")
 
 
 def test_the_critical_value_is_students_t_corrected_for_the_places_looked_at():
@@ -41,20 +37,20 @@ def test_the_critical_value_is_students_t_corrected_for_the_places_looked_at():
 def test_an_interior_dip_counts_only_beyond_the_corrected_critical_value():
     phi = [0.1, 1, 10, 100, 1000]
     y = [0.120, 0.118, 0.110, 0.116, 0.119]
-    m = claims.minimum(phi, y, [0.001] * 5, seeds=10)
+    m = claims_record.minimum(phi, y, [0.001] * 5, seeds=10)
     assert m["phi"] == 10 and m["interior"] and m["non_monotonic"] and m["looks"] == 3
     assert m["z_hi"] == pytest.approx(0.009 / math.hypot(0.001, 0.001))
     assert m["critical"] == pytest.approx(claims.critical(10, looks=3))
     # a dip of 2.6 combined errors: beyond the uncorrected 2.26 but not the corrected 2.93
     y3 = [0.120, 0.118, 0.120 - 2.6 * math.hypot(0.001, 0.001), 0.120, 0.120]
-    m = claims.minimum(phi, y3, [0.001] * 5, seeds=10)
+    m = claims_record.minimum(phi, y3, [0.001] * 5, seeds=10)
     assert m["critical_one"] < 2.6 < m["critical"] and not m["non_monotonic"]
     # the same dip under errors four times larger: not significant, and the power says so
-    m = claims.minimum(phi, y, [0.004] * 5, seeds=10)
+    m = claims_record.minimum(phi, y, [0.004] * 5, seeds=10)
     assert not m["non_monotonic"] and m["dip80"] == pytest.approx(
         (claims.critical(10, 3) + claims.power_quantile(10)) * math.hypot(0.004, 0.004))
     # the lowest point at an end is never non-monotonic
-    m = claims.minimum(phi, [0.12, 0.118, 0.116, 0.114, 0.11], [1e-6] * 5, seeds=10)
+    m = claims_record.minimum(phi, [0.12, 0.118, 0.116, 0.114, 0.11], [1e-6] * 5, seeds=10)
     assert not m["interior"] and not m["non_monotonic"] and m["z_lo"] is None
 
 
@@ -73,7 +69,7 @@ def test_the_dip_is_found_with_the_power_it_claims():
         found = 0
         for _ in range(trials):
             draws = truth + rng.normal(0, sd, (seeds, 5))
-            m = claims.minimum(phi, draws.mean(0), draws.std(0, ddof=1) / math.sqrt(seeds),
+            m = claims_record.minimum(phi, draws.mean(0), draws.std(0, ddof=1) / math.sqrt(seeds),
                                seeds)
             found += m["non_monotonic"] and (depth == 0 or m["phi"] == 10)
         # about 80% (the sample errors and the choice of the lowest point move it a little)
@@ -88,8 +84,8 @@ def test_a_rectangle_is_classified_as_claim_4_classifies_a_cluster(a, b, expecte
     from bkflow.model.lattice import box_fractions
     from bkflow.observables.clusters import regime
 
-    lx_, ly_ = claims.rectangle_extents(a, b, 20, 5)
-    assert claims.shape_class([lx_], [ly_], 20, 5)[0] == expected
+    lx_, ly_ = claims_record.rectangle_extents(a, b, 20, 5)
+    assert claims_record.shape_class([lx_], [ly_], 20, 5)[0] == expected
     fx, fy = box_fractions(lx_, ly_, (20, 5))
     assert {"C": "whole", "W": "whole"}.get(regime(fx, fy, 0.95), regime(fx, fy, 0.95)) \
         == expected
@@ -100,7 +96,7 @@ def test_eq2_makes_rows_cheapest_for_small_slips_and_columns_past_delta_star():
     delta^2; the column wins above delta* = 2a / (1 - a^2), a = (Ly/Lx)^(1/2) = 0.5, 4/3."""
     n_c = np.array([5, 5, 20, 20])
     delta = np.array([0.1, 2.0, 0.1, 2.0])
-    best = claims.cheapest_shape(n_c, delta, 20, 5)
+    best = claims_record.cheapest_shape(n_c, delta, 20, 5)
     # five sites: a strip of 5 x 1 (no side spans, so both terms count) beats one column
     # (1 x 5, n_y = Ly: only the term across) at both slips: 0.0101 against 0.05, 11.6
     # against 20; a strip wider than tall is DP
@@ -112,14 +108,14 @@ def test_eq2_makes_rows_cheapest_for_small_slips_and_columns_past_delta_star():
 
 def test_kappa_is_agreement_beyond_chance():
     a = np.array(["row"] * 50 + ["column"] * 50)
-    assert claims.kappa(a, a) == 1.0
+    assert claims_record.kappa(a, a) == 1.0
     # b agrees with a on 50% of the items, as two independent labels of these frequencies do
     b = np.array(["row", "column"] * 50)
-    assert claims.kappa(a, b) == pytest.approx(0.0)
+    assert claims_record.kappa(a, b) == pytest.approx(0.0)
     # always the majority class: high raw agreement, no skill
     c = np.array(["row"] * 90 + ["column"] * 10)
     assert np.mean(c == np.array(["row"] * 100)) == 0.9
-    assert claims.kappa(c, np.array(["row"] * 100)) == pytest.approx(0.0)
+    assert claims_record.kappa(c, np.array(["row"] * 100)) == pytest.approx(0.0)
 
 
 def _runs(rows):
@@ -129,8 +125,8 @@ def _runs(rows):
 def test_regime_shares_weight_runs_by_their_clusters():
     runs = _runs([{"n_clusters": 30, "regime_fractions[DT]": 1.0},
                   {"n_clusters": 10, "regime_fractions[DT]": 0.0}])
-    assert claims.cluster_share(runs, "DT") == pytest.approx(0.75)
-    assert math.isnan(claims.cluster_share(runs.assign(n_clusters=0), "DT"))
+    assert claims_record.cluster_share(runs, "DT") == pytest.approx(0.75)
+    assert math.isnan(claims_record.cluster_share(runs.assign(n_clusters=0), "DT"))
 
 
 def test_aspect_claim_takes_its_error_from_the_seeds():
@@ -138,7 +134,7 @@ def test_aspect_claim_takes_its_error_from_the_seeds():
     for seed, dt in ((1, 0.0), (2, 0.02), (3, 0.01)):
         rows.append({"Lx": 10, "Ly": 10, "seed": seed, "phi": 1.0, "n_clusters": 100,
                      "regime_fractions[DT]": dt, "regime_fractions[W]": 0.5})
-    a = claims.claim5(_runs(rows), [(10, 10), (20, 5)])
+    a = claims_record.claim5(_runs(rows), [(10, 10), (20, 5)])
     v = a["10x10"]
     assert v["DT"] == pytest.approx(0.01) and v["seeds"] == 3
     assert v["DT_sem"] == pytest.approx(np.std([0, 0.02, 0.01], ddof=1) / math.sqrt(3))
@@ -285,7 +281,7 @@ def test_the_size_trend_finds_a_known_slope_and_only_fits_sizes_of_three_seeds()
                 slope = -0.002 if phi == 1000.0 else 0.0
                 rows.append({"N": n, "phi": phi, "seed": seed,
                              "mu_bar": 0.12 + slope * math.log10(n) + rng.normal(0, 2e-4)})
-    t = claims.size_trend(pd.DataFrame(rows))
+    t = claims_record.size_trend(pd.DataFrame(rows))
     stiff, soft = t["phi"]["1000"], t["phi"]["1"]
     assert stiff["fitted"] == [100, 400, 900] and stiff["N"] == [100, 400, 900, 3600]
     assert abs(stiff["slope_per_decade"] + 0.002) < 3 * stiff["slope_err"]
@@ -297,7 +293,7 @@ def test_two_identical_schemes_do_not_differ():
     rows = [{"N": 100, "phi": phi, "seed": s, "mu_bar": 0.12 - 0.001 * s + 0.0001 * phi}
             for phi in (0.1, 1.0, 10.0) for s in range(5)]
     runs = pd.DataFrame(rows)
-    k = claims.scheme_bias(runs, runs)["100"]
+    k = claims_record.scheme_bias(runs, runs)["100"]
     assert k["z"] == [0.0, 0.0, 0.0] and k["first"] == k["second"]
     text = claims.render_scheme({"scheme": {"100": k}})
     assert "+0.0% to +0.0%" in text and "at no phi" in text

@@ -1,7 +1,9 @@
-"""The figures workflows/paper/reproduce.py and benchmarks/work_precision.py draw themselves,
-drawn from made-up tables (no run, no LAMMPS): every value drawn inside its axes and none under
-a key, nothing non-positive on a log axis, and what each figure promises its reader (shared y
-ranges, the mu_s reference, the runs left out and why, distinguishable curves)."""
+"""The figures the paper's reproduction (workflows/paper/: paper_figures.py, energy_argument.py,
+aspect_check.py) and benchmarks/work_precision.py draw themselves, drawn from made-up tables
+(no run, no LAMMPS): every value drawn inside its axes and none under a key, nothing
+non-positive on a log axis, and what each figure promises its reader (shared y ranges, the mu_s
+reference, the runs left out and why, distinguishable curves); and reproduce.py, which calls
+them, runs as a script with its modules beside it."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from bkflow.figures.style import STYLE
 from tests.figures.test_figures import _small_text
 from tests.support import ROOT
 from tests.sweeps.test_local import _hidden_points
@@ -29,9 +32,37 @@ def _module(path, name):
     return mod
 
 
+PAPER = ROOT / "workflows" / "paper"
+
+
 @pytest.fixture(scope="module")
-def reproduce():
-    return _module(ROOT / "workflows" / "paper" / "reproduce.py", "paper_reproduce")
+def paper_figures():
+    return _module(PAPER / "paper_figures.py", "paper_figures")
+
+
+@pytest.fixture(scope="module")
+def energy():
+    return _module(PAPER / "energy_argument.py", "energy_argument")
+
+
+@pytest.fixture(scope="module")
+def aspect():
+    return _module(PAPER / "aspect_check.py", "aspect_check")
+
+
+@pytest.fixture(scope="module")
+def sweeps():
+    return _module(PAPER / "paper_sweeps.py", "paper_sweeps")
+
+
+def test_reproduce_runs_as_a_script_with_its_modules_beside_it():
+    """python workflows/paper/reproduce.py finds the modules beside it by their file names."""
+    import subprocess
+
+    p = subprocess.run([sys.executable, str(PAPER / "reproduce.py"), "--help"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "--protocols" in p.stdout and "Reproduce the paper's claims" in p.stdout
 
 
 @pytest.fixture(scope="module")
@@ -77,13 +108,13 @@ def _curves():
 
 
 def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
-        reproduce, figures, monkeypatch, tmp_path):
+        paper_figures, figures, monkeypatch, tmp_path):
     """Each row one y range across N (so that a deeper curve at larger N is seen as such),
     every point inside its axes and none under the key; the paper's minimum, 40% below mu_s,
     drawn in the mu_bar rows and a right axis in % below mu_s; each state its fill, as in
     every bkflow figure, and each curve its own colour and line style."""
-    monkeypatch.setattr(reproduce, "curves", lambda out: _curves())
-    reproduce.protocols_figure(tmp_path, tmp_path)
+    monkeypatch.setattr(paper_figures, "curves", lambda out: _curves())
+    paper_figures.protocols_figure(tmp_path, tmp_path)
     fig = figures["fig2a_protocols.png"]
     assert _hidden_points(fig) == []
     panels = [ax for ax in fig.axes if ax.get_lines()]
@@ -131,7 +162,7 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
     # the same (two reds that only differ in shade were the complaint)
     from matplotlib.colors import to_rgb
 
-    style = list(reproduce.CURVE_STYLE.values())
+    style = list(paper_figures.CURVE_STYLE.values())
     for i, (c1, ls1) in enumerate(style):
         for c2, ls2 in style[i + 1:]:
             far = np.linalg.norm(np.subtract(to_rgb(c1), to_rgb(c2))) >= 0.25
@@ -140,7 +171,7 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
 
 
 def test_fig2a_protocols_fits_a_7_inch_column_with_no_text_under_7_pt(
-        reproduce, monkeypatch, tmp_path):
+        paper_figures, sweeps, monkeypatch, tmp_path):
     """The reproduction's four sizes (N = 100, 400, 900 and 3600, the largest only in the
     steady protocol) in panels two sizes wide: the PNG as saved (trimmed, at bkflow's
     resolution) at most 7 in wide, so that it prints in a 6.5-7 in column at its own size or
@@ -153,24 +184,24 @@ def test_fig2a_protocols_fits_a_7_inch_column_with_no_text_under_7_pt(
     wide = {label: (None, pd.concat([res, res.assign(N=900, mu_bar=res.mu_bar - 0.002)]))
             for label, (_, res) in curves.items()}
     wide["steady protocol, N = 3600"] = (None, big)
-    monkeypatch.setattr(reproduce, "curves", lambda out: wide)
+    monkeypatch.setattr(paper_figures, "curves", lambda out: wide)
     kept = {}
-    write = reproduce._write
-    monkeypatch.setattr(reproduce, "_write",
+    write = paper_figures.write_figure
+    monkeypatch.setattr(paper_figures, "write_figure",
                         lambda fig, path: kept.setdefault("fig", fig) and write(fig, path))
-    path = reproduce.protocols_figure(tmp_path, tmp_path)
+    path = paper_figures.protocols_figure(tmp_path, tmp_path)
     height, width = imread(path).shape[:2]
-    dpi = reproduce.STYLE["savefig.dpi"]
+    dpi = STYLE["savefig.dpi"]
     assert width / dpi <= 7.0, f"{width / dpi:.2f} in wide"
     fig = kept["fig"]
     assert _small_text(fig) == []
     assert _hidden_points(fig) == []
     panels = [ax for ax in fig.axes if ax.get_lines()]
-    assert len(panels) == 4 * len(reproduce.OBSERVABLES)
+    assert len(panels) == 4 * len(sweeps.OBSERVABLES)
     ranges = {}
     for ax in panels:
         ranges.setdefault(ax.get_ylim(), []).append(ax)
-    assert sorted(len(r) for r in ranges.values()) == [4] * len(reproduce.OBSERVABLES)
+    assert sorted(len(r) for r in ranges.values()) == [4] * len(sweeps.OBSERVABLES)
     titles = {ax.get_title() for ax in panels} - {""}
     assert titles == {f"N = {n}" for n in (100, 400, 900, 3600)}
 
@@ -188,7 +219,7 @@ def _runs(n, t_end, start="synchronized"):
 
 
 def test_the_relaxation_figure_draws_verdicts_not_equilibration_times(
-        reproduce, figures, monkeypatch, tmp_path):
+        paper_figures, figures, monkeypatch, tmp_path):
     """Every run with a length is drawn at it, on a log axis that holds nothing non-positive;
     a run without one (t_run 0 or missing) is left out and counted in the title; each
     verdict has its colour and words in the key; no equilibration time is drawn."""
@@ -197,10 +228,10 @@ def test_the_relaxation_figure_draws_verdicts_not_equilibration_times(
     steady.loc[0, "t_run"] = 0.0
     steady.loc[1, "t_run"] = math.nan
     tables = {"paper": paper, "steady": steady}
-    monkeypatch.setattr(reproduce, "_tables",
+    monkeypatch.setattr(paper_figures, "sweep_tables",
                         lambda out, name, where=None: (tables[name], None) if name in tables
                         else None)
-    reproduce.relaxation_figure(tmp_path, tmp_path)
+    paper_figures.relaxation_figure(tmp_path, tmp_path)
     fig = figures["relaxation.png"]
     assert _hidden_points(fig) == []
     drawn = 0
@@ -215,7 +246,7 @@ def test_the_relaxation_figure_draws_verdicts_not_equilibration_times(
     assert "2 run(s) without a length left out" in title and "equilibration" in title
     keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     for v in ("steady", "switching", "drifting", "metastable"):
-        assert reproduce.RELAXATION_STATES[v][1] in keyed, v
+        assert paper_figures.RELAXATION_STATES[v][1] in keyed, v
     assert any("t_end = 1000, 4000" in k for k in keyed)
     assert any("cap 100000" in k for k in keyed)
     assert not any("equil" in (ax.get_ylabel() + ax.get_title()) for ax in fig.axes)
@@ -230,7 +261,7 @@ def _clusters(rng, n=400):
                          "phi": rng.choice(PHI, n)})
 
 
-def test_the_energy_figure_shows_every_cluster_or_says_why_not(reproduce, figures, tmp_path):
+def test_the_energy_figure_shows_every_cluster_or_says_why_not(energy, figures, tmp_path):
     """Rise above, fall below: every cluster with a perimeter and a change is a point (none
     off its log axes: the fall's size on the same upright log axes, whose corner labels no
     longer collide); those without a perimeter and those that did not change are counted in
@@ -241,8 +272,8 @@ def test_the_energy_figure_shows_every_cluster_or_says_why_not(reproduce, figure
                         "DT": [0.3, 0.2, 0.01, 0, 0], "slip_median": 0.1})
     found = {(label, 100): {"clusters_table": _clusters(rng), "per_phi": per,
                             "delta_star": 1.33}
-             for label in reproduce.ENERGY_CURVES}
-    reproduce.energy_figure(found, tmp_path)
+             for label in energy.ENERGY_CURVES}
+    energy.energy_figure(found, tmp_path)
     fig = figures["energy_argument.png"]
     assert _hidden_points(fig) == []
     g = pd.concat(f["clusters_table"] for f in found.values())
@@ -268,19 +299,19 @@ def test_the_energy_figure_shows_every_cluster_or_says_why_not(reproduce, figure
 
 
 def test_the_aspect_share_figure_tells_all_six_lattices_apart(
-        reproduce, figures, monkeypatch, tmp_path):
+        aspect, sweeps, figures, monkeypatch, tmp_path):
     """Six lattices, six styles (colour: the aspect ratio; line and marker: the size; every
     marker filled), each keyed with its size and N, the key below the axes, an error bar over
     the seeds on every point."""
     rows = []
-    for lx, ly in reproduce.ASPECT_SIZES:
+    for lx, ly in sweeps.ASPECT_SIZES:
         for phi in PHI:
             for seed in (1, 2, 3):
                 rows.append({"Lx": lx, "Ly": ly, "phi": phi, "seed": seed, "n_clusters": 100,
                              "regime_fractions[DT]": 0.5 / (1 + phi) * lx / (lx + ly)
                              * (1 + 0.05 * seed)})
-    monkeypatch.setattr(reproduce, "read_tables", lambda d: (pd.DataFrame(rows), None))
-    reproduce.aspect_share_figure(tmp_path, tmp_path)
+    monkeypatch.setattr(aspect, "read_tables", lambda d: (pd.DataFrame(rows), None))
+    aspect.aspect_share_figure(tmp_path, tmp_path)
     fig = figures["aspect_dt_share.png"]
     assert _hidden_points(fig) == []
     (ax,) = fig.axes
@@ -294,7 +325,7 @@ def test_the_aspect_share_figure_tells_all_six_lattices_apart(
     assert len(bars) == 6 and all(len(b.get_segments()) == len(PHI) for b in bars)
     keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert keyed == [f"N = {lx * ly}: {lx}x{ly} (Lx/Ly = {lx / ly:g})"
-                     for lx, ly in reproduce.ASPECT_SIZES]
+                     for lx, ly in sweeps.ASPECT_SIZES]
 
 
 def _wp_runs(seed=0):
