@@ -20,7 +20,7 @@ import pytest
 
 from bkflow.figures import catalogue, clusters, drops, style
 from bkflow.figures.data import SweepData
-from bkflow.figures.keys import protocol_label
+from bkflow.figures.legends import protocol_label
 from tests.support import tool
 
 SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",

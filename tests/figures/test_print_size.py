@@ -19,7 +19,7 @@ import pytest
 from bkflow.analysis import registry as observables
 from bkflow.figures import catalogue, clusters, drops, order, style, writer
 from bkflow.figures.declared import fig_declared
-from bkflow.figures.keys import state_handles
+from bkflow.figures.legends import state_handles
 from bkflow.model.lattice import box_extent
 from tests.figures.test_figures import (
     _data_lines,

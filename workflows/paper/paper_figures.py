@@ -13,7 +13,7 @@ from claims_record import SIZE_CURVES, size_trend
 from paper_sweeps import LARGE_SIZE, OBSERVABLES, curves, sweep_tables
 
 from bkflow.figures.data import point_states
-from bkflow.figures.keys import state_handles
+from bkflow.figures.legends import state_handles
 from bkflow.figures.style import STATE_FILL, STYLE, new_figures, state_marker
 from bkflow.model.params import PAPER_SIZES
 
@@ -66,7 +66,7 @@ def protocols_figure(out: Path, figs: Path) -> Path | None:
     panels per N, two N side by side (PROTOCOL_COLUMNS: the figure fits a 7 in column), one
     curve per protocol and run length (colour and line style, CURVE_STYLE); a point's
     marker's shape and fill are its state, as in every bkflow figure
-    (bkflow.figures.style.state_marker, keyed by bkflow.figures.keys.state_handles). Each
+    (bkflow.figures.style.state_marker, keyed by bkflow.figures.legends.state_handles). Each
     observable's panels share one y range across N, so that a curve's depth can be compared
     between sizes; the right axis reads each value as a fraction below mu_s (the runs' static
     friction coefficient), and a grey line marks the paper's minimum, 40% below mu_s."""

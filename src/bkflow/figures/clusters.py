@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from bkflow.figures.data import SweepData, nearest_log
-from bkflow.figures.keys import protocol_label
+from bkflow.figures.legends import protocol_label
 from bkflow.figures.style import MIN_FONT, REGIME_COLOURS, phi_colour, size_label, value_label
 from bkflow.model.lattice import box_fractions
 

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bkflow.figures.data import SweepData, nearest_log, point_states
-from bkflow.figures.keys import protocol_label
+from bkflow.figures.legends import protocol_label
 from bkflow.figures.style import COLUMN_WIDTH, MIN_FONT, size_label, value_label
 
 #: fig_contacts' width and the height of a run's row (inches)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from bkflow.analysis.registry import keys
 from bkflow.figures.data import SweepData
-from bkflow.figures.keys import draw_series, state_key
+from bkflow.figures.legends import draw_series, state_legend
 from bkflow.figures.style import size_label
 
 #: the axis label of a declared unit
@@ -31,5 +31,5 @@ def fig_declared(data: SweepData, plt, key: str):
     ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
     ax.set_ylabel(f"{key} {UNIT_LABELS.get(declared.unit, '')}".strip())
     ax.set_title(declared.meaning, fontsize=9)
-    state_key(fig, data, ax=ax)
+    state_legend(fig, data, ax=ax)
     return fig

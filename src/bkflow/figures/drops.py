@@ -17,7 +17,7 @@ import pandas as pd
 from bkflow.analysis.registry import power_law_names
 from bkflow.figures.clusters import cluster_phis, cluster_size
 from bkflow.figures.data import SweepData, point_states
-from bkflow.figures.keys import state_key
+from bkflow.figures.legends import state_legend
 from bkflow.figures.style import (
     COLUMN_WIDTH,
     MIN_FONT,
@@ -191,7 +191,7 @@ def _fitted_law(ax, runs: pd.DataFrame, key: str, values: np.ndarray, colour) ->
 def _density_key(fig, data: SweepData) -> None:
     """A density figure's key, below its panels across the figure's width: one row per phi
     (its colour, its state's marker, the verdict), titled with the runs' protocol."""
-    state_key(fig, data, ax=fig.axes[0], states=(), ncol=1)
+    state_legend(fig, data, ax=fig.axes[0], states=(), ncol=1)
 
 
 def _log_axes(*axes) -> None:

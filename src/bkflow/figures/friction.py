@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from bkflow.figures.data import SweepData, nearest_log, point_states
-from bkflow.figures.keys import draw_series, protocol_label, regime_key, state_key
+from bkflow.figures.legends import draw_series, protocol_label, regime_legend, state_legend
 from bkflow.figures.style import (
     COLUMN_WIDTH,
     MIN_FONT,
@@ -135,7 +135,7 @@ def fig2a_friction(data: SweepData, plt):
     """mu_bar(phi) (every slip above the threshold), mu_bar over the large drops, and
     <sigma_x>/sigma_n(phi), per size, with error bars; markers by state (``state_marker``);
     the majority regime of the smallest size written above each phi in the paper's colours,
-    keyed below (``regime_key``). The paper's panel, mu_bar with the regimes, across the
+    keyed below (``regime_legend``). The paper's panel, mu_bar with the regimes, across the
     figure's width, the other two below it side by side, every panel on one phi axis: the
     figure fits a 7 in column (``COLUMN_WIDTH``)."""
     fig = plt.figure(figsize=(COLUMN_WIDTH - 0.2, 6.0))
@@ -154,7 +154,7 @@ def fig2a_friction(data: SweepData, plt):
         ax.set_xscale("log")
         ax.set_xlabel(r"$\phi = k_b/\Delta k_d$")
         ax.xaxis.set_tick_params(labelbottom=True)
-    state_key(fig, data, ax=a, extra=regime_key(shown))
+    state_legend(fig, data, ax=a, extra=regime_legend(shown))
     a.set_title(f"Fig. 2a: macroscopic friction (letters: regime, {data.sizes[0][0]}x"
                 f"{data.sizes[0][1]})", fontsize=9)
     c.set_title("large drops only (drop > mean drop)", fontsize=8)
@@ -202,7 +202,7 @@ def fig2b_asymmetry(data: SweepData, plt):
     ax.set_ylabel(r"$\langle l_x\rangle / \langle l_y\rangle$")
     ax.set_title("Fig. 2b: cluster asymmetry", fontsize=9)
     # the notes in the key below, where they cover no point
-    state_key(fig, data, ax=ax, extra=([Line2D([], [], color="grey", ls=":", lw=0.8)], [
+    state_legend(fig, data, ax=ax, extra=([Line2D([], [], color="grey", ls=":", lw=0.8)], [
         "the box's Lx/Ly" + (f"; a whole-box slip on an odd side\nreaches {whole}"
                              if whole else "")]))
     return fig

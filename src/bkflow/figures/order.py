@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from bkflow.figures.data import SweepData, nearest_log
-from bkflow.figures.keys import draw_series, state_key
+from bkflow.figures.legends import draw_series, state_legend
 from bkflow.figures.style import (
     COLUMN_WIDTH,
     MIN_FONT,
@@ -48,7 +48,7 @@ def fig3_order(data: SweepData, plt):
     ax, low, ins = panels["a"], panels["b"], panels["c"]
     low.sharex(ax)
     _order_panels(ax, low, data)
-    state_key(fig, data, ax=ax)
+    state_legend(fig, data, ax=ax)
     inset_size = (40, 10) if (40, 10) in data.sizes else data.sizes[0]
     runs = data.runs_of(*inset_size)
     phis = sorted(set(runs.phi))

@@ -51,7 +51,7 @@ STYLE = {"font.size": 9, "axes.labelsize": 9, "legend.fontsize": 7.5, "xtick.lab
 #: diamond filled on the left (some metastable: a flat stress that still remembers its start;
 #: split vertically, so that the curve through the marker does not hide the split). One
 #: convention for every figure that marks states (bkflow plot's and the reproduction's,
-#: workflows/paper), drawn by ``state_marker`` and keyed by ``keys.state_handles``
+#: workflows/paper), drawn by ``state_marker`` and keyed by ``legends.state_handles``
 STATE_FILL = {"steady": "full", "switching": "bottom", "drifting": "none", "metastable": "left"}
 STATE_MARKER = {"steady": "o", "switching": "s", "drifting": "o", "metastable": "D"}
 #: the words of each state in a figure's key (every figure that marks states: bkflow plot's

@@ -1,7 +1,8 @@
-"""How the figures mark and key what they show, alike in every figure: a curve against phi (one
-per size, told apart by colour and line) whose markers say each point's state (``state_marker``:
-shape and fill), the key of those markers and of the regime letters, laid out below a figure's
-panels, and the words naming the runs' protocol, the title of every key.
+"""How the figures mark what they show and say it in their legends, alike in every figure
+("legend", never "key": a key is a summary's): a curve against phi (one per size, told apart
+by colour and line) whose markers say each point's state (``state_marker``: shape and fill),
+the legend of those markers and of the regime letters, laid out below a figure's panels, and
+the words naming the runs' protocol, the title of every legend.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def state_handles(present=tuple(STATE_FILL), colour="dimgrey") -> tuple[list, li
             [STATE_WORDS[name] for name in shown])
 
 
-def regime_key(regimes) -> tuple[list, list[str]]:
+def regime_legend(regimes) -> tuple[list, list[str]]:
     """The key of the regime letters (``REGIME_COLOURS``, ``REGIME_WORDS``) for the regimes
     given: each letter as its marker, in its colour; where DP or DT is among them, what their
     f_x and f_y are (``REGIME_NOTE``) after them."""
@@ -102,13 +103,13 @@ def protocol_label(data: SweepData) -> str:
     return "mixed protocols"
 
 
-def state_key(fig, data: SweepData, ax=None, extra=((), ()), states=None,
+def state_legend(fig, data: SweepData, ax=None, extra=((), ()), states=None,
               ncol: int | None = None) -> None:
     """The figure's key, below its panels where it covers no point: the curves of ``ax`` (its
     labelled handles, e.g. one per size), on rows of their own the marker convention
     (``state_marker``) for the ``states`` shown (default: those of the sweep's points), and
     ``extra`` (handles, labels), e.g. fig2a's regime letters, on rows of their own below;
-    in ``ncol`` columns (default: as many as the figure's width holds, ``key_columns``)."""
+    in ``ncol`` columns (default: as many as the figure's width holds, ``legend_columns``)."""
     handles, labels = ax.get_legend_handles_labels() if ax is not None else ([], [])
     shown = set(point_states(data.results)) if states is None else set(states)
     groups = [(handles, labels), state_handles(shown), (list(extra[0]), list(extra[1]))]
@@ -116,28 +117,28 @@ def state_key(fig, data: SweepData, ax=None, extra=((), ()), states=None,
     if not groups:
         return
     # as many columns as the figure's width holds, within a column's width as saved
-    ncol = ncol or key_columns(groups, fig.get_figwidth())
+    ncol = ncol or legend_columns(groups, fig.get_figwidth())
     handles, labels = _in_rows(groups, ncol)
     fig.legend(handles, labels, loc="outside lower center", ncol=ncol, frameon=False,
                fontsize=MIN_FONT, handletextpad=0.3, columnspacing=1.2,
                title=protocol_label(data), title_fontsize=MIN_FONT)
 
 
-def key_columns(groups, width: float) -> int:
+def legend_columns(groups, width: float) -> int:
     """The columns of a key of ``groups`` ((handles, labels) each, laid out by ``_in_rows``)
     below a figure ``width`` inches wide: as many as its longest group has, up to 6 and one per
-    1.6 in of the width, fewer while the key at ``MIN_FONT`` (``key_width``) would make the
+    1.6 in of the width, fewer while the key at ``MIN_FONT`` (``legend_width``) would make the
     figure as saved wider than ``COLUMN_WIDTH`` (less the 0.1 in that saving pads each side
     with), at least one."""
     cap = min(max(len(h) for h, _ in groups), 6, max(2, int(width // 1.6)))
-    return next((n for n in range(cap, 1, -1) if key_width(groups, n) <= COLUMN_WIDTH - 0.2),
+    return next((n for n in range(cap, 1, -1) if legend_width(groups, n) <= COLUMN_WIDTH - 0.2),
                 1)
 
 
-def key_width(groups, ncol: int, fontsize: float = MIN_FONT) -> float:
+def legend_width(groups, ncol: int, fontsize: float = MIN_FONT) -> float:
     """The width in inches of a key of ``groups`` in ``ncol`` columns (``_in_rows``), its text
     ``fontsize`` points: each column its widest label with a handle (2 em) and the gap to it
-    (0.3 em), 1.2 em between columns and 0.4 em at each side (``state_key``'s legend)."""
+    (0.3 em), 1.2 em between columns and 0.4 em at each side (``state_legend``'s legend)."""
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextToPath
 
