@@ -1,4 +1,4 @@
-"""The figures workflows/paper/reproduce.py and benchmarks/work_precision.py draw themselves,
+"""The figures workflows/paper/reproduce.py and benchmarks/report/work_precision.py draw themselves,
 drawn from made-up tables (no run, no LAMMPS): every value drawn inside its axes and none under
 a key, nothing non-positive on a log axis, and what each figure promises its reader (shared y
 ranges, the mu_s reference, the runs left out and why, distinguishable curves)."""
@@ -36,7 +36,9 @@ def reproduce():
 
 @pytest.fixture(scope="module")
 def work_precision():
-    return _module(ROOT / "benchmarks" / "work_precision.py", "work_precision")
+    from benchmarks.report import work_precision
+
+    return work_precision
 
 
 @pytest.fixture()
