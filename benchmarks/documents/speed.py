@@ -125,12 +125,12 @@ def fixed_cost() -> str:
 
 def scene_bytes() -> str:
     """Per size and scene: bytes per 10^5 time units, the loop against friction's, and the
-    analysis against the loop (benchmarks/measure/scene_bytes.py's record)."""
+    analysis against the loop (benchmarks/measure/scene_costs.py's record)."""
     from benchmarks.documents.readme_numbers import human
 
     rec = record("scene_bytes")
     if rec is None:
-        return "(not measured yet: python -m benchmarks.measure.scene_bytes)\n"
+        return "(not measured yet: python -m benchmarks.measure.scene_costs)\n"
     out = []
     for size, m in sorted(rec.get("sizes", {}).items(), key=lambda kv: len(kv[0])):
         lx, ly = (int(v) for v in size.split("x"))
