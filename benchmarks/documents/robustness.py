@@ -8,7 +8,7 @@ from benchmarks.documents.cells import record
 
 
 def faults() -> str:
-    """The fault fuzz's cases and verdicts (benchmarks/checks/faults/fuzz.py's record)."""
+    """The fault fuzz's cases and verdicts (benchmarks/checks/faults/run.py's record)."""
     rec = record("faults")
     if rec is None:
         return "(not measured yet: python -m benchmarks.checks.faults)\n"
