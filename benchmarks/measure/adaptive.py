@@ -1,6 +1,7 @@
 """Adaptive run length (--target-error) against the fixed-length preset of the same accuracy.
 
-For each phi: fixed runs of the ``default`` preset (its t_end), one per seed, give mu_bar
+For each phi: fixed runs of the ``default`` preset (the paper's protocol: its time step and
+t_end, from the synchronized start, no companion), one per seed, give mu_bar
 with a mean standard error E, the preset's accuracy at that phi; adaptive runs of the same
 seeds with ``--target-error E`` (cap: 4 x that t_end) stop as soon as their own error is
 below E. Reported per phi (mean over seeds): the fixed run's length
@@ -12,24 +13,25 @@ process (the machine is shared: the ratio is the result).
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 
 import numpy as np
 
+from benchmarks.harness import parser
 from bkflow.analysis.summary import analyze
 from bkflow.lammps.engine import run
 from bkflow.model.params import ACCURACY, RunSpec
+from bkflow.model.protocols import protocol_fields
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    ap = parser(__doc__)
     ap.add_argument("--phi", type=float, nargs="+", default=[0.1, 10.0, 1000.0])
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--preset", default="default", choices=sorted(ACCURACY))
     a = ap.parse_args(argv)
-    c, t_end = ACCURACY[a.preset]
-    print(f"preset {a.preset}: C = {c:g}, t_end = {t_end:g}; adaptive cap {4 * t_end:g}; "
+    t_end = ACCURACY[a.preset].t_end
+    print(f"preset {a.preset}: its time step, t_end = {t_end:g}; adaptive cap {4 * t_end:g}; "
           f"scene friction, N = 100, seeds 1..{a.seeds}\n")
     print("| phi | target E (fixed runs' mean error) | fixed: t_end, wall | adaptive: t_run "
           "(range), wall, error | wall saved | target reached |")
@@ -37,7 +39,8 @@ def main(argv=None) -> None:
     for phi in a.phi:
         fixed_runs = []
         for seed in range(1, a.seeds + 1):
-            fixed = RunSpec(phi=phi, seed=seed, dt_factor=c, t_end=t_end, scene="friction")
+            fixed = RunSpec(phi=phi, seed=seed, scene="friction",
+                            **protocol_fields("paper", a.preset))
             with tempfile.TemporaryDirectory() as d:
                 wall = run(fixed, d, progress=False).meta["wall_time_s"]
                 fixed_runs.append((fixed, wall, analyze(d)["mu_bar_err"]))

@@ -14,12 +14,12 @@ is max |sigma_x - sigma_x,ref| over the window, and |<sigma_x> -
 
 from __future__ import annotations
 
-import argparse
 import math
 import tempfile
 
 import numpy as np
 
+from benchmarks.harness import parser
 from bkflow.cli.assignments import parse_size
 from bkflow.lammps.engine import run
 from bkflow.model.params import CONTACT_RULES, DAMPING_MODES, RunSpec
@@ -69,7 +69,7 @@ def slope(cs, errs):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    ap = parser(__doc__)
     ap.add_argument("--phi", type=float, nargs="+", default=[10.0])
     ap.add_argument("--size", default="20x5")
     ap.add_argument("--levels", type=int, default=6)

@@ -13,13 +13,13 @@ and the fused path, one seed.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.harness import parser
 from bkflow.model.lattice import lattice_for
 from bkflow.model.params import RunSpec
 from tests.reference import Reference
@@ -50,7 +50,7 @@ def residual(spec: RunSpec, t_end: float, *, friction=True, f_max=None, mode=Non
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = parser(__doc__)
     p.add_argument("--t", type=float, default=40.0)
     p.add_argument("--size", default="8x3")
     p.add_argument("--phi", type=float, default=10.0)

@@ -14,12 +14,12 @@
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 
 import numpy as np
 
+from benchmarks.harness import parser
 from bkflow.lammps.engine import RunError, run
 from bkflow.model import timestep
 from bkflow.model.params import RunSpec
@@ -97,7 +97,7 @@ def long_run(t_end=16000.0):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    ap = parser(__doc__)
     ap.add_argument("--phi", type=float, nargs="+", default=list(PHIS))
     ap.add_argument("--c", type=float, nargs="+", default=list(CS))
     ap.add_argument("--t-end", type=float, default=2000.0)
