@@ -22,6 +22,7 @@ which a shared, noisy machine does not disturb.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -45,7 +46,8 @@ def loop_child(case: dict) -> None:
     spec = RunSpec.from_dict(case["spec"])
     from bkflow.lammps.plugin import open_lammps
 
-    with tempfile.TemporaryDirectory() as tmp:
+    # in a scratch directory: every file the deck writes (its records too) goes there
+    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):
         work = Path(tmp)
         (work / "data.bk").write_text(data_text(spec))
         lmp = open_lammps(log="none")
