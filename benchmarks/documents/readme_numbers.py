@@ -19,7 +19,6 @@ cannot drift from the measurements, and runs the quick start itself to compare i
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 import re
@@ -30,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.harness import RECORDS, ROOT, parser, tool
+from benchmarks.harness import RECORDS, ROOT, parser, read_json, tool, write_json
 
 README = ROOT / "README.md"
 RECORD = RECORDS / "readme_numbers.json"
@@ -285,7 +284,8 @@ def render_synopses(text: str, synopses: dict[str, str]) -> str:
 
 
 def load() -> dict:
-    return json.loads(RECORD.read_text()) if RECORD.exists() else {}
+    """The README's record (empty where nothing was measured yet)."""
+    return read_json(RECORD) or {}
 
 
 def main(argv=None) -> int:
@@ -311,7 +311,7 @@ def main(argv=None) -> int:
                 s = record[key]
                 record.setdefault("sweep_history", []).append(
                     {k: s[k] for k in ("date", "commit", "wall_s", "bytes", "runs", "jobs")})
-            RECORD.write_text(json.dumps(record, indent=1) + "\n")
+            write_json(RECORD, record)
             print(f"  {key}: done", flush=True)
     synopses = _synopses()
     text = README.read_text()

@@ -1,5 +1,6 @@
-/* The floor of issue 13: the model step of fix bk/substrate as a tight single-thread C kernel,
-   with nothing of LAMMPS around it. Compiled and driven by benchmarks/floor.py
+/* The floor: the model step of fix bk/substrate as a tight single-thread C kernel, with nothing
+   of LAMMPS around it, the fastest this model runs on one core. Compiled and driven by
+   benchmarks/measure/floor.py
    (gcc -O3 -march=native -fno-math-errno -shared -fPIC), called through ctypes.
 
    The model (docs/model.md; plugins/README.md), for the one configuration the benchmark

@@ -10,7 +10,7 @@ from are recorded down to the size-scaled threshold, 1% x 100/N) and reads every
 at both thresholds with the analysis's own functions (bkflow.observables.reduced events, the
 transient, bkflow.analysis.summary.drop_result: Clauset et al.'s test and the lognormal comparison).
 The record, benchmarks/records/large_drops.json, fills REPRODUCTION.md's block `large-drops`
-(benchmarks/documents/results_blocks.py).
+(benchmarks/documents/steady.py).
 """
 
 from __future__ import annotations

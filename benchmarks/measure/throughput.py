@@ -19,8 +19,9 @@ LAMMPS's "Loop time" is the time of the loop; the floor's is its own clock aroun
 ``--whole``: the whole process, ``bkflow run --scene friction --no-analyze`` (imports, deck,
 LAMMPS start, loop, meta.json), wall clock, new (``--path auto``; ``--new-bkflow``, or this
 bkflow) against old: the bkflow of ``--old-bkflow`` (an environment built from git tag
-``before-speed``: see benchmarks/RESULTS.md) if given, else ``--path general`` of this bkflow
-(which shares the new engine's Python side, so it understates the gain). Compare two regular
+``before-speed``, the engine before the fused path: see benchmarks/RESULTS.md) if given, else
+``--path general`` of this bkflow (which shares the fused path's Python side, so it
+understates the gain). Compare two regular
 installs (``pip install .``): an editable install under PYTHONDONTWRITEBYTECODE compiles its
 modules at every start.
 
@@ -300,7 +301,7 @@ def main(argv=None):
     ap.add_argument("--old-bkflow", default=None,
                     help="--whole: the bkflow command of an older engine (a git-tag build)")
     ap.add_argument("--new-bkflow", default=None,
-                    help="--whole: the bkflow command of the new engine (default: this one); "
+                    help="--whole: the bkflow command to measure (default: this one); "
                          "give a regular install (pip install .) to compare like with like")
     ap.add_argument("--scaling", action="store_true")
     ap.add_argument("--compare-output", action="store_true")

@@ -79,8 +79,9 @@ def bias(runs: pd.DataFrame) -> pd.DataFrame:
 
 def at_step(table: pd.DataFrame, n: int, phi: float, dt: float, obs: str) -> tuple:
     """The bias of ``obs`` at time step ``dt`` (N = n, phi): measured at that step where a run
-    was (within 0.5%: timestep.py runs each preset's own step), else interpolated linearly in
-    dt between the measured steps of that phi, flagged; (bias, its standard error, measured)."""
+    was (within 0.5%: benchmarks/measure/timestep.py runs each preset's own step), else
+    interpolated linearly in dt between the measured steps of that phi, flagged; (bias, its
+    standard error, measured)."""
     g = table[(table.N == n) & np.isclose(table.phi, phi)].sort_values("dt")
     hit = g[np.isclose(g.dt, dt, rtol=5e-3)]
     if len(hit):

@@ -7,10 +7,9 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
-from pathlib import Path
 
 from benchmarks.checks.faults.fuzz import SHORT, Fuzz, bk, complete, digest, row_cut
+from benchmarks.harness import tool
 
 
 def arguments(fuzz: Fuzz) -> None:
@@ -102,7 +101,7 @@ def directories(fuzz: Fuzz) -> None:
                {2})
     lmp = d / "standalone"
     bk("deck", "--phi", "10", "--t-end", "50", "--scene", "friction", "--out", lmp)
-    subprocess.run([str(Path(sys.executable).with_name("lmp")), "-in", "in.bk", "-screen",
+    subprocess.run([tool("lmp"), "-in", "in.bk", "-screen",
                     "none", "-var", "comm_cutoff", "1.0"], cwd=lmp, check=True)
     snap = digest(lmp)
     fuzz.check("run into a finished lmp run", bk("run", "--phi", "10", *SHORT, "--out", lmp),

@@ -14,10 +14,9 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 from benchmarks.checks.faults.fuzz import SHORT, Fuzz, bk, digest, whole_figure
-from benchmarks.harness import BKFLOW, ROOT
+from benchmarks.harness import BKFLOW, ROOT, tool
 
 
 def users_tables(fuzz: Fuzz) -> None:
@@ -165,7 +164,7 @@ def misread(fuzz: Fuzz) -> None:
     doc.write_text(json.dumps(data))
     fuzz.check("[8] plot when the sweep's settings are not its tables'", bk("plot", d), {2})
     # lmp -in inside a finished run
-    lmp_bin = str(Path(sys.executable).with_name("lmp"))
+    lmp_bin = tool("lmp")
     for case, extra in (("a fixed run", []), ("an adaptive pair", ["--size", "12x3",
                                                                   "--target-error", "2e-3",
                                                                   "--protocol", "steady"])):
