@@ -13,13 +13,12 @@ def _sweep_wall(h: dict) -> float:
     one (the record's ``sweep``), the time its printed output gives, where
     benchmarks/documents/readme_numbers.py reads one (``printed_wall``); else the measured
     ``wall_s``."""
-    from benchmarks.documents import readme_numbers
+    from benchmarks.documents.readme_numbers import printed_wall
 
     s = readme_record().get("sweep") or {}
-    printed = getattr(readme_numbers, "printed_wall", None)
-    if printed is not None and s.get("output") and h.get("commit") == s.get("commit") \
+    if s.get("output") and h.get("commit") == s.get("commit") \
             and h.get("bytes") == s.get("bytes"):
-        wall = printed(s["output"])
+        wall = printed_wall(s["output"])
         if wall is not None:
             return wall
     return h["wall_s"]
