@@ -4,7 +4,7 @@
    clock, the contacts' load phases) is a static inline scalar function here, and every code that
    integrates or observes the model calls it: fix bk/substrate's general path
    (fix_bk_substrate_forces.cpp), the fused kernel (bk_fused_kernel.inc, built once per
-   instruction set) and the floor benchmark (benchmarks/floor_kernel.c). As LAMMPS's GRANULAR sub-models
+   instruction set) and the floor benchmark (benchmarks/measure/floor_kernel.c). As LAMMPS's GRANULAR sub-models
    share stateless kernels between the host and Kokkos, and HOOMD-blue's CPU and GPU potentials
    share one evaluator.
 

@@ -150,7 +150,7 @@ void BKRowBlocks::halo_wait(void *self, double *x, double *y)
   }
 }
 
-// the exchanges' share of the run (benchmarks/RESULTS.md, benchmarks/scaling_model.py)
+// the exchanges' share of the run (benchmarks/RESULTS.md, benchmarks/report/scaling_model.py)
 void BKRowBlocks::log_halo_time(LAMMPS *lammps, const char *fix_id)
 {
   if (K > 1 && halo_calls) {

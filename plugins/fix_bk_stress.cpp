@@ -10,7 +10,7 @@
    the end of every run command and at most a second after the last flush, instead of one
    write and flush per line as fix print does, which at one line every ~7 steps costs 4-24% of
    a run against 1-2% for the buffer (N = 900 to 100, benchmarks/RESULTS.md; measured by
-   benchmarks/throughput.py --compare-output).
+   benchmarks/measure/throughput.py --compare-output).
 
    With `energy` each line also holds the contact breaks since the substrate fix was defined
    and its energy ledger (docs/model.md "Energy"; the substrate fix needs its own keyword

@@ -19,11 +19,12 @@ CODE = (SRC, ROOT / "benchmarks", ROOT / "workflows")
 
 
 def _modules() -> dict[str, Path]:
-    """bkflow's modules by dotted name (a package by its own name)."""
+    """bkflow's modules and the benchmarks' by dotted name (a package by its own name)."""
     out = {}
-    for p in SRC.rglob("*.py"):
-        parts = p.relative_to(SRC.parent).with_suffix("").parts
-        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    for top in (SRC, ROOT / "benchmarks"):
+        for p in top.rglob("*.py"):
+            parts = p.relative_to(top.parent).with_suffix("").parts
+            out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
     return out
 
 
@@ -35,8 +36,8 @@ def _target(name: str, modules) -> str | None:
 
 
 def import_graph(modules) -> dict[str, set[str]]:
-    """Every bkflow module's imports of other bkflow modules, anywhere in it; a package's
-    import of its own parent (``from bkflow import __version__``) is not a circle."""
+    """Every module's imports of the others (bkflow's and the benchmarks'), anywhere in it; a
+    package's import of its own parent (``from bkflow import __version__``) is not a circle."""
     graph = defaultdict(set)
     for name, path in modules.items():
         for node in ast.walk(ast.parse(path.read_text())):
@@ -47,7 +48,8 @@ def import_graph(modules) -> dict[str, set[str]]:
             else:
                 continue
             for imported in names:
-                to = _target(imported, modules) if imported.startswith("bkflow") else None
+                ours = imported.split(".")[0] in ("bkflow", "benchmarks")
+                to = _target(imported, modules) if ours else None
                 if to and to != name and not name.startswith(to + "."):
                     graph[name].add(to)
     return graph
@@ -89,13 +91,13 @@ def test_the_circle_check_finds_a_circle(tmp_path):
 
 @functools.cache
 def _scripts() -> frozenset[str]:
-    return frozenset(p.stem for d in CODE[1:] for p in d.rglob("*.py"))
+    return frozenset(p.stem for p in (ROOT / "workflows").rglob("*.py"))
 
 
 def _ours(module: str) -> bool:
-    """A module of this repository: bkflow's, or a script of benchmarks/ or workflows/ (which
-    import each other by their file names)."""
-    return module.split(".")[0] in {"bkflow"} | _scripts()
+    """A module of this repository: bkflow's, the benchmarks' (a package), or a script of
+    workflows/ (which import each other by their file names)."""
+    return module.split(".")[0] in {"bkflow", "benchmarks"} | _scripts()
 
 
 def _private(name: str) -> bool:

@@ -1,11 +1,11 @@
 """The README is true to the digit: every synopsis (README and docs) is argparse's own, the
 quick start's output and size are what the command prints and writes today (but for the wall
 time, the throughput and the kernel's name, which depend on the machine; the trajectory does
-not), and every measured number in it is the record of benchmarks/readme_numbers.py."""
+not), and every measured number in it is the record of benchmarks/documents/readme_numbers.py
+(benchmarks/records/readme_numbers.json)."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shlex
 import subprocess
@@ -22,11 +22,9 @@ RUNNING = ROOT / "docs" / "running.md"
 
 
 def _numbers():
-    spec = importlib.util.spec_from_file_location("readme_numbers",
-                                                  ROOT / "benchmarks" / "readme_numbers.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    from benchmarks.documents import readme_numbers
+
+    return readme_numbers
 
 
 def _blocks(kind: str, *pages) -> dict[str, str]:
@@ -54,14 +52,15 @@ def test_every_command_has_its_synopsis_and_each_is_argparses():
 
 def test_the_readmes_measured_numbers_are_the_record():
     """The sweep's time, size and printed table, the quick start's size and the suite's
-    count and time: README.md says what benchmarks/readme_numbers.py measured
+    count and time: README.md says what benchmarks/documents/readme_numbers.py measured
     (readme_numbers.json), and the record holds a measurement of each."""
     numbers = _numbers()
     record = numbers.load()
     assert {"sweep", "run", "tests"} <= set(record)
     text = README.read_text()
     assert numbers.render(text, record) == text, \
-        "README.md differs from the record: python benchmarks/readme_numbers.py --write-readme"
+        "README.md differs from the record: python -m benchmarks.documents.readme_numbers " \
+        "--write-readme"
     assert record["sweep"]["command"] in text and record["run"]["command"] in text
     assert record["tests"]["passed"]
 
@@ -81,14 +80,14 @@ def test_the_records_test_counts_are_todays():
         return sum("::" in ln for ln in p.stdout.splitlines())
 
     assert (record["all"], record["fast"]) == (count(), count("-m", "not slow")), \
-        "the README's test counts are stale: python benchmarks/readme_numbers.py --tests " \
-        "--write-readme"
+        "the README's test counts are stale: python -m benchmarks.documents.readme_numbers " \
+        "--tests --write-readme"
 
 
 def test_the_readme_gives_the_main_commands_time_once_and_only_from_the_record():
     """The main command's wall time and disk use are in the README only where
-    benchmarks/readme_numbers.py writes them from its record, and its time is one number: the
-    cost sentence gives the time the printed output gives (it said 30 s above a run line
+    benchmarks/documents/readme_numbers.py writes them from its record, and its time is one
+    number: the cost sentence gives the time the printed output gives (it said 30 s above a run line
     "done in 0:00:29"; once, 8 min 40 s by hand after a re-measurement). No other wall time
     or size is written by hand."""
     numbers = _numbers()
@@ -230,19 +229,17 @@ def test_the_python_example_runs_as_written(lammps, tmp_path):
 
 def test_the_readmes_scaling_numbers_are_the_measured_and_the_models():
     """README's "Scaling out": the speed-ups are RESULTS.md's table (throughput.py --scaling),
-    the model's constants and stopping points are benchmarks/scaling_model.py's on its
+    the model's constants and stopping points are benchmarks/report/scaling_model.py's on its
     MEASURED"""
-    import sys
-
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import scaling_model as sm
+    from benchmarks.report import scaling_model as sm
 
     text = " ".join(README.read_text().split())
     got = re.search(r"two fused ranks run (\d\.\d\d)x one at N = 14400 and (\d\.\d\d)x at 57600 "
                     r"\((\d\.\d\d)x at 230400", text)
     assert got, "README's scaling sentence is gone"
     results = (ROOT / "benchmarks" / "RESULTS.md").read_text()
-    section = results[results.index("### Scaling (`python benchmarks/throughput.py --scaling`)"):]
+    section = results[results.index(
+        "### Scaling (`python -m benchmarks.measure.throughput --scaling`)"):]
     for n, ratio in zip(("14400", "57600", "230400"), got.groups()):
         row = next(r for r in section.splitlines() if re.match(rf"\| \d+x\d+ \| {n} \|", r))
         assert row.split("|")[7].strip().strip("*") == ratio, (n, row)

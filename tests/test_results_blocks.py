@@ -1,30 +1,22 @@
 """One source for every number: the generated blocks of benchmarks/RESULTS.md and
-workflows/paper/REPRODUCTION.md are what benchmarks/results_blocks.py makes from the recorded
+workflows/paper/REPRODUCTION.md are what benchmarks/documents/ makes from the recorded
 benchmarks (benchmarks/records/), and the switching calibration bkflow installs
-(src/bkflow/observables/switching.json) is what benchmarks/stiff_states.py report makes from
+(src/bkflow/observables/switching.json) is what benchmarks/report/stiff_states.py makes from
 the same records. A document or a calibration edited by hand, or records changed without the
 documents regenerated, fail here."""
 
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-BENCH = ROOT / "benchmarks"
-
 
 @pytest.fixture(scope="module")
 def blocks():
-    sys.path.insert(0, str(BENCH))
-    try:
-        import results_blocks
-    finally:
-        sys.path.remove(str(BENCH))
+    from benchmarks.documents import results_blocks
+
     return results_blocks
 
 
@@ -35,8 +27,8 @@ def test_every_generated_block_is_its_records(blocks):
         assert names, f"{doc} has no generated block"
         assert not names - set(blocks.BLOCKS), f"{doc}: blocks no generator makes"
         assert blocks.render(text) == text, (
-            f"{doc}: a generated block differs from its records; run python "
-            "benchmarks/results_blocks.py --write")
+            f"{doc}: a generated block differs from its records; run python -m "
+            "benchmarks.documents.results_blocks --write")
 
 
 def test_a_block_edited_by_hand_is_caught(blocks):
@@ -60,24 +52,26 @@ def _close(a, b) -> bool:
     return a == b
 
 
-def test_the_installed_switching_calibration_is_the_records(blocks):
+def test_the_installed_switching_calibration_is_the_records():
+    from benchmarks.documents.stiff_end import states
     from bkflow.observables.states import CALIBRATION
 
-    sr, runs, means = blocks._states()
+    sr, runs, means = states()
     made = json.loads(sr.calibration_text(runs, means))
     installed = json.loads(CALIBRATION.read_text())
     assert _close(made, installed), ("src/bkflow/observables/switching.json differs from the "
-                                     "records: run python benchmarks/stiff_states.py report")
+                                     "records: run python -m benchmarks.report.stiff_states")
 
 
-def test_the_long_run_curve_record_is_the_records(blocks):
+def test_the_long_run_curve_record_is_the_records():
     """benchmarks/records/long_run_curve.csv (which fig2a_protocols draws) is what the long
-    runs' records give (benchmarks/stiff_states.py report writes it)."""
+    runs' records give (benchmarks/report/stiff_states.py writes it)."""
     import pandas as pd
-    import stiff_states
 
-    sr, runs, means = blocks._states()
-    made = stiff_states.curve_table(means)
-    recorded = pd.read_csv(stiff_states.CURVE)
+    from benchmarks.documents.stiff_end import states
+
+    sr, runs, means = states()
+    made = sr.curve_table(means)
+    recorded = pd.read_csv(sr.CURVE)
     pd.testing.assert_frame_equal(made.reset_index(drop=True), recorded, check_dtype=False,
                                   rtol=1e-8)

@@ -1,6 +1,6 @@
 """Nothing lost, nothing misread: one test per class of fault (the full fuzz of about 80
-cases is benchmarks/faults.py). Each asserts the exit code, the one-line message and that no
-finished result changed or was mis-marked."""
+cases is benchmarks/checks/faults/). Each asserts the exit code, the one-line message and that
+no finished result changed or was mis-marked."""
 
 from __future__ import annotations
 

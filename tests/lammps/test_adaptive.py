@@ -101,7 +101,7 @@ def test_a_steady_run_that_hits_its_cap_says_why(lammps, tmp_path):
 
 def test_a_switching_layer_runs_to_its_cap_and_says_what_it_would_need(lammps, tmp_path):
     """At phi = 1000, N = 100 the layer switches between a quiet and a coherent state on
-    scales of 10^4-10^5 time units (benchmarks/stiff_states.py, its records
+    scales of 10^4-10^5 time units (benchmarks/measure/stiff_states.py, its records
     benchmarks/records/stiff_states/): no affordable run averages over that, and the mean of
     the states a short run visited is not the long-run mean (nor is a random start's approach
     a state). So the run does not stop on its own error: it goes on to its cap, names the

@@ -38,8 +38,8 @@ WINDOWS = [4e3, 1e4, 2e4, 5e4, 1e5, 2e5]
 
 
 def _calibration(rng):
-    """A calibration made as benchmarks/stiff_states.py makes it: three layers, four long runs
-    each, the truth of each layer its runs' pooled mean."""
+    """A calibration made as benchmarks/report/stiff_states.py makes it: three layers, four long
+    runs each, the truth of each layer its runs' pooled mean."""
     layers = []
     for _ in range(3):
         runs = [telegraph(rng, 2000)[0] for _ in range(4)]

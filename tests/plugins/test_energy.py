@@ -87,7 +87,7 @@ def test_breaks_make_the_closure_first_order_and_the_located_break_keeps_it_smal
     seeds. Both resets are first order (the mean falls about 2x when dt halves): the kicks
     apply the re-formed contact's force over the whole step in which it broke, an error of
     order f_max v dt per break. Locating the break inside the step keeps that error many times
-    smaller than resetting at the end of the step (benchmarks/energy_order.py: 12-23x)."""
+    smaller than resetting at the end of the step (benchmarks/measure/energy_order.py: 12-23x)."""
     means = {}
     for mode in ("reset", "reset/step"):
         for c in (0.1, 0.05):

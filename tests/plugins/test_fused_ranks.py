@@ -324,15 +324,12 @@ def test_block_rows_is_the_plugins_division():
 
 
 def test_the_scaling_model_fit_recovers_known_parameters():
-    """benchmarks/scaling_model.py: two-rank times made from a known model give its parameters
-    back (exactly without noise; with 1% noise, a 64-rank prediction within 10%), and its
-    predictions follow from it"""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    """benchmarks/report/scaling_model.py: two-rank times made from a known model give its
+    parameters back (exactly without noise; with 1% noise, a 64-rank prediction within 10%), and
+    its predictions follow from it"""
     import numpy as np
-    from scaling_model import Model, fit, stops, strong
+
+    from benchmarks.report.scaling_model import Model, fit, stops, strong
 
     sizes = [(60, 900), (120, 3600), (240, 14400), (480, 57600), (960, 230400)]
     n = tuple(float(N) for _, N in sizes)

@@ -1,7 +1,7 @@
-"""The figures benchmarks/ draws from its records, drawn from made-up records (no run, no
-LAMMPS): the stiff end's long runs (benchmarks/states_figure.py), whether its blocks fall into
-two states (benchmarks/bimodality.py, with its record and generated block) and the relaxation
-from the synchronized start (benchmarks/stationarity.py). What a referee found wrong, checked:
+"""The figures benchmarks/report/ draws from its records, drawn from made-up records (no run, no
+LAMMPS): the stiff end's long runs (stiff_states_figure.py), whether its blocks fall into two
+states (bimodality.py, with its record and generated block) and the relaxation from the
+synchronized start (stationarity.py). What a referee found wrong, checked:
 a threshold on every panel of R and inside its range, a seed that shows both states, every
 panel naming its phi and N, a histogram, no text under 7 pt, every point inside its axes and
 off the keys, time axes with their unit, t_equil = 0 drawn (not lost off a log axis)."""
@@ -21,25 +21,18 @@ from tests.figures.test_figures import (
     _outside_or_hidden,
     _small_text,
 )
-from tests.support import ROOT
-from tests.workflows.test_paper_figures import _module
 
 STARTS = ("synchronized", "random", "stratified", "partial")
 
 
 @pytest.fixture(scope="module")
 def bench():
-    """The benchmark modules, imported as their scripts import each other."""
-    import sys
+    """The benchmark modules the figures are drawn by."""
+    from benchmarks.measure import stationarity as measured
+    from benchmarks.report import bimodality, stationarity, stiff_states_figure
 
-    here = str(ROOT / "benchmarks")
-    sys.path.insert(0, here)
-    try:
-        mods = {name: _module(ROOT / "benchmarks" / f"{name}.py", name)
-                for name in ("states_report", "states_figure", "bimodality", "stationarity")}
-    finally:
-        sys.path.remove(here)
-    return mods
+    return {"states_figure": stiff_states_figure, "bimodality": bimodality,
+            "stationarity": stationarity, "stationarity_record": measured}
 
 
 def _blocks(rng, k, r_level, quiet_every=0, n=100):
@@ -55,8 +48,9 @@ def _blocks(rng, k, r_level, quiet_every=0, n=100):
 
 
 def _runs(seed=0) -> pd.DataFrame:
-    """states_report.load's rows, made up: at N = 100, phi = 215 seed 1 never quiet and seed 2
-    in both states, at phi = 1000 both seeds switching, at N = 400 none quiet."""
+    """benchmarks/report/stiff_states.py's ``load``, its rows made up: at N = 100, phi = 215
+    seed 1 never quiet and seed 2 in both states, at phi = 1000 both seeds switching, at N = 400
+    none quiet."""
     rng = np.random.default_rng(seed)
     rows = []
     layers = {(100, 215.0): {1: (0.15, 0), 2: (0.15, 40)}, (100, 1000.0): {1: (0.2, 30),
@@ -199,22 +193,17 @@ def test_the_bimodality_figure_is_readable_and_marks_the_threshold(bench, bimoda
 
 
 def test_the_bimodality_block_renders_its_record(bimodal, monkeypatch):
-    import sys
+    from benchmarks.documents import steady as rb
 
     runs, rec = bimodal
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        rb = _module(ROOT / "benchmarks" / "results_blocks.py", "results_blocks_b")
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
-    monkeypatch.setattr(rb, "_record", lambda name: rec if name == "bimodality" else None)
+    monkeypatch.setattr(rb, "record", lambda name: rec if name == "bimodality" else None)
     text = rb.bimodality()
     rows = [ln for ln in text.splitlines() if ln.startswith("| 100 ") or ln.startswith("| 400 ")]
     assert len(rows) == len(rec["layers"])
     reading = text[text.index("Reading: b above 0.556"):]
     assert "1000" in reading.split("; the stress")[0]                  # R's two modes
     assert "N = 400" not in reading.split("; the stress")[0]           # and N = 400's one
-    monkeypatch.setattr(rb, "_record", lambda name: None)
+    monkeypatch.setattr(rb, "record", lambda name: None)
     assert rb.bimodality().startswith("(not measured yet")
 
 
@@ -235,9 +224,10 @@ def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_p
     import matplotlib.pyplot as plt
 
     st = bench["stationarity"]
-    st.write_relaxation_record(*_relaxation_made_up(), tmp_path / "rec.json")
+    bench["stationarity_record"].write_relaxation_record(*_relaxation_made_up(),
+                                                         tmp_path / "rec.json")
     df2, curves2 = st.read_relaxation_record(tmp_path / "rec.json")
-    fig = _draw(st._relaxation_figure(df2, curves2, tmp_path / "relax.png"))
+    fig = _draw(st.relaxation_figure(df2, curves2, tmp_path / "relax.png"))
     try:
         a, b = fig.axes
         assert a.get_xlabel() == "t (time units)" and "(time units" in b.get_ylabel()
@@ -257,29 +247,22 @@ def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_p
 
 def test_the_relaxation_table_is_its_records_medians_over_fitted_seeds(bench, tmp_path,
                                                                        monkeypatch):
-    """RESULTS' relaxation table (results_blocks.relaxation) comes from the record: tau and
+    """RESULTS' relaxation table (benchmarks/documents/steady.py) comes from the record: tau and
     A / s_inf are medians over the seeds with a fit (a seed without one is not a zero), and the
     count of those seeds is printed; t_equil and the late mean over every seed."""
-    import sys
+    from benchmarks.documents import steady as rb
 
-    st = bench["stationarity"]
+    st, measured = bench["stationarity"], bench["stationarity_record"]
     df, curves = _relaxation_made_up()
     df.loc[(df.N == 400) & (df.phi == 1000.0) & (df.seed == 3), ["tau", "amplitude"]] = np.nan
     df.loc[(df.N == 100) & (df.phi == 0.1), "tau"] = np.nan
     rec = tmp_path / "rec.json"
-    st.write_relaxation_record(df, curves, rec)
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        rb = _module(ROOT / "benchmarks" / "results_blocks.py", "results_blocks")
-        import stationarity
-
-        monkeypatch.setattr(stationarity, "RELAXATION_RECORD", rec)
-        monkeypatch.setattr(stationarity, "read_relaxation_record",
-                            lambda: st.read_relaxation_record(rec))
-        rows = {tuple(c.strip() for c in line.split("|")[1:3]): line
-                for line in rb.relaxation().splitlines()[2:]}
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    measured.write_relaxation_record(df, curves, rec)
+    monkeypatch.setattr(measured, "RELAXATION_RECORD", rec)
+    read = st.read_relaxation_record
+    monkeypatch.setattr(st, "read_relaxation_record", lambda: read(rec))
+    rows = {tuple(c.strip() for c in line.split("|")[1:3]): line
+            for line in rb.relaxation().splitlines()[2:]}
     assert rows[("400", "1000")].split("|")[3:5] == [" 2 of 3 ", " 1.25e+03 "]  # (1000 + 1500) / 2
     assert rows[("100", "0.1")].split("|")[3:6] == [" 0 of 3 ", " - ", " - "]
     assert rows[("100", "10")].split("|")[6] == " 0 "

@@ -1,6 +1,6 @@
 """The figures the paper's reproduction (workflows/paper/: paper_figures.py, energy_argument.py,
-aspect_check.py) and benchmarks/work_precision.py draw themselves, drawn from made-up tables
-(no run, no LAMMPS): every value drawn inside its axes and none under a key, nothing
+aspect_check.py) and benchmarks/report/work_precision.py draw themselves, drawn from made-up
+tables (no run, no LAMMPS): every value drawn inside its axes and none under a key, nothing
 non-positive on a log axis, and what each figure promises its reader (shared y ranges, the mu_s
 reference, the runs left out and why, distinguishable curves); and reproduce.py, which calls
 them, runs as a script with its modules beside it."""
@@ -67,7 +67,9 @@ def test_reproduce_runs_as_a_script_with_its_modules_beside_it():
 
 @pytest.fixture(scope="module")
 def work_precision():
-    return _module(ROOT / "benchmarks" / "work_precision.py", "work_precision")
+    from benchmarks.report import work_precision
+
+    return work_precision
 
 
 @pytest.fixture()

@@ -4,9 +4,9 @@ verdict, and the tables REPRODUCTION.md and numbers.md show, rendered from the r
 ``claims_record.py`` computes the record from the sweeps' tables (``record``) and
 ``reproduce.py`` writes it to ``workflows/paper/claims.json``; numbers.md's "Claims" section and
 REPRODUCTION.md's verdicts and per-claim tables are rendered from that record by the functions
-here (``render_*``), REPRODUCTION.md's through ``benchmarks/results_blocks.py``, which loads this
-file alone (it imports no module beside it). tests/test_results_blocks.py fails when a document
-and the record differ, so that no number of the reproduction is typed twice.
+here (``render_*``), REPRODUCTION.md's through ``benchmarks/documents/results_blocks.py``,
+which loads this file alone (it imports no module beside it). tests/test_results_blocks.py
+fails when a document and the record differ, so that no number of the reproduction is typed twice.
 
 The tests (errors are standard errors over seeds; a difference is significant where it
 exceeds Student's t quantile of one-sided level ``ALPHA`` (a two-sided 5%) with seeds - 1

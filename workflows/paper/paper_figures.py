@@ -36,7 +36,7 @@ CURVE_STYLE = {"paper, t_end = 1000": ("#E69F00", ":"),
                "steady protocol": ("#0072B2", "-"),
                "steady protocol, N = 3600": ("#56B4E9", "-"),
                "synchronized start until steady": ("#009E73", "-")}
-#: the long-run curve (benchmarks/stiff_states.py report writes it from the long runs: each
+#: the long-run curve (benchmarks/report/stiff_states.py writes it from the long runs: each
 #: layer's mean over 10^6 time units from four starts, the seeds' mean), drawn in fig2a as the
 #: truth the protocols are read against; its columns per figure row
 LONG_RUN_CURVE = (Path(__file__).resolve().parents[2] / "benchmarks" / "records"
@@ -228,7 +228,7 @@ def relaxation_figure(out: Path, figs: Path) -> Path | None:
     pass for a forgotten start here: the verdict reads the stress's trend and the contacts'
     phases (docs/model.md "Steady state"). No equilibration time is drawn: Chodera's
     detection answers tens of time units on a slow drift and 0 on the synchronized plateau
-    (benchmarks/stationarity.py measures it)."""
+    (benchmarks/measure/stationarity.py measures it)."""
     sets = []
     for name, words, marker in RELAXATION_SETS:
         t = sweep_tables(out, name)

@@ -196,7 +196,7 @@ def _header(spec: RunSpec, path: str, steps: int | None = None) -> list[str]:
     }[path]) + [""]
 
 
-#: LAMMPS settings that speed up the fused path and change no number (benchmarks/floor.py):
+#: LAMMPS settings that speed up the fused path and change no number (benchmarks/measure/floor.py):
 #: the fused fix mirrors positions into LAMMPS only when something reads them, so a
 #: neighbour check every step would force a copy every step. On several ranks on the general
 #: path they are safe too: ghosts reach bond_limit + 1 beyond a subdomain, and an atom moves

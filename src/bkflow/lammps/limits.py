@@ -29,8 +29,8 @@ from bkflow.store.layout import DECK
 
 #: the rate at which the time of a run is estimated: one core runs the fused path at 6e7 (N =
 #: 230400, out of the caches) to 1.7e8 atom-steps a second (N = 900 to 57600) and 3-4e7 at N =
-#: 100 (benchmarks/throughput.py; its --scaling measurement is benchmarks/scaling_model.py's
-#: MEASURED), the general path at 3-5e7: generous
+#: 100 (benchmarks/measure/throughput.py; its --scaling measurement is
+#: benchmarks/report/scaling_model.py's MEASURED), the general path at 3-5e7: generous
 #: for the fused path (a run at N = 14400 takes about a third of the time said)
 ATOM_STEPS_PER_SECOND = 5e7
 #: one run (with its companion) may take at most this many atom-steps (about an hour of one
@@ -75,7 +75,7 @@ class Cost:
 #: points a time unit at the extrema threshold, 16 bytes each, 80 with the ledger; blocks.npy:
 #: 80 bytes a block of BLOCK_EVERY, 144 with the ledger); with the slips' rows of the default
 #: scene (slips.npy, clusters.npy: 96 and 80 bytes a slip, up to ~0.1 slips a time unit at
-#: phi = 1000) SLIP_ROW_BYTES_PER_T more; benchmarks/scene_bytes.py, its record
+#: phi = 1000) SLIP_ROW_BYTES_PER_T more; benchmarks/measure/scene_costs.py, its record
 #: benchmarks/records/scene_bytes.json
 RECORD_BYTES_PER_T = 16.0
 RECORD_BYTES_PER_T_LEDGER = 60.0

@@ -79,7 +79,7 @@ STARTS = ("synchronized", "random", "stratified", "partial")
 PARTIAL_FRACTION = 0.3
 
 #: the protocols of a run (docs/model.md "Steady state"). steady, the default: the start
-#: that forgets fastest (STEADY_START, measured: benchmarks/stiff_states.py's runs from four
+#: that forgets fastest (STEADY_START, measured: benchmarks/measure/stiff_states.py's runs from four
 #: starts, its records benchmarks/records/stiff_states/), run
 #: until the run is steady (RunSpec.until_steady), the preset's t_cap its cap. paper: the
 #: paper's synchronized start, a fixed t_end (the preset's)
@@ -88,11 +88,12 @@ PROTOCOLS = ("steady", "paper")
 STEADY_START = "random"
 #: the start of the steady protocol's companion run: from the other side of the steady state
 #: (the stratified and random starts approach a stiff layer's plateau from below, the partial
-#: one from above: benchmarks/stiff_states.py's runs, benchmarks/records/stiff_states/)
+#: one from above: benchmarks/measure/stiff_states.py's runs, benchmarks/records/stiff_states/)
 STEADY_COMPANION = "partial"
 #: a run and its companion agree when their mean stresses over the analysed window differ by
 #: at most this (relative): then neither remembers its start (the verdict's false-steady rate on
-#: the long runs of benchmarks/stiff_states.py, benchmarks/states_report.py's verdicts)
+#: the long runs of benchmarks/measure/stiff_states.py, benchmarks/report/stiff_states.py's
+#: verdicts)
 STEADY_AGREEMENT = 0.005
 
 #: a run until steady (RunSpec.until_steady) must be able to exclude a drift of the stress
@@ -177,7 +178,7 @@ class RunSpec:
     contact_rule: str = checked("reset", choice(CONTACT_RULES))
     #: starting state of the contacts (STARTS)
     start: str = checked("synchronized", choice(STARTS))
-    #: velocity of the damping force (DAMPING_MODES; benchmarks/convergence.py)
+    #: velocity of the damping force (DAMPING_MODES; benchmarks/measure/convergence.py)
     damping: str = checked("implicit", choice(DAMPING_MODES))
     k_d: float = checked(1.0, number(gt=0))
     #: half-width of the k_d^i, in (0, k_d] (checked with k_d)

@@ -7,8 +7,9 @@ import math
 from typing import NamedTuple
 
 #: Largest accepted C = dt omega_max, omega_max^2 = (4 k_b + k_e + k_d + dk_d) / m the layer's
-#: fastest mode: the measured stability bound (benchmarks/stability.py: every phi from 0.1 to
-#: 1e4 stable at C = 1.9, phi >= 100 blowing up at C = 2.0, velocity Verlet's omega dt < 2).
+#: fastest mode: the measured stability bound (benchmarks/measure/stability.py: every phi from
+#: 0.1 to 1e4 stable at C = 1.9, phi >= 100 blowing up at C = 2.0, velocity Verlet's
+#: omega dt < 2).
 #: Any time step, from a preset's rule or from --dt-factor, is refused above it.
 DT_FACTOR_MAX = 1.9
 
@@ -18,10 +19,10 @@ class Preset(NamedTuple):
     the steady observables (<sigma_x>/sigma_n and mu_bar, relative), at every phi. Its time
     step follows the rule of ``time_step``, dt = min(c_contact / omega_c, c_stable /
     omega_max), the two constants the largest that meet ``dt_error`` at every phi measured
-    (benchmarks/timestep.py, its records benchmarks/records/timestep/). Beside it: the length of a
-    fixed run (the paper's protocol), the cap of a run until steady (the steady protocol) and
-    the standard error of mu_bar that the steady protocol waits for (absolute; mu_bar is
-    0.10-0.12, so 2e-4 is about 0.2%)."""
+    (benchmarks/measure/timestep.py, its records benchmarks/records/timestep/). Beside it: the
+    length of a fixed run (the paper's protocol), the cap of a run until steady (the steady
+    protocol) and the standard error of mu_bar that the steady protocol waits for (absolute; mu_bar
+    is 0.10-0.12, so 2e-4 is about 0.2%)."""
 
     dt_error: float
     c_contact: float
@@ -32,7 +33,7 @@ class Preset(NamedTuple):
 
 
 #: accuracy presets (Preset): the time step's error target and the rule's constants from the
-#: work-precision of benchmarks/timestep.py, errors and costs in benchmarks/RESULTS.md. The
+#: work-precision of benchmarks/measure/timestep.py, errors and costs in benchmarks/RESULTS.md. The
 #: stiff layers take the stability margin's step: fast's, 1.8 of the bound's 1.9, where its 1%
 #: target allows it (the measured bias at C = 1.9 is within 0.7% at phi = 215 and 1000, N = 100
 #: and 400), default's 1.5 (0.2%), precise's 1.0 (0.1%)
@@ -59,7 +60,7 @@ def time_step(preset: Preset, w_max: float, w_contact: float) -> float:
     """The time step of an accuracy preset: dt = min(c_contact / omega_c, c_stable /
     omega_max). Soft layers (bonds slower than the contacts) take the contacts' step; stiff
     ones the stability bound's, with its margin: their bond modes barely move the contacts,
-    so resolving them buys no accuracy (benchmarks/timestep.py, its records
+    so resolving them buys no accuracy (benchmarks/measure/timestep.py, its records
     benchmarks/records/timestep/).
 
     >>> dt = time_step(ACCURACY["default"], omega_max(0.1, 10, 1, 1, 1), omega_contact(10, 1, 1, 1))

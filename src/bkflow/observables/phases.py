@@ -20,7 +20,7 @@ R itself. The phase fluctuation
 
 is therefore about 1 (at most 1) for independent contacts and about N R^2 for contacts that
 still share the start's phase: 20-40 on the synchronized plateau at N = 100, where R is
-0.55-0.65 (the long runs of benchmarks/stiff_states.py keep the synchronized start's
+0.55-0.65 (the long runs of benchmarks/measure/stiff_states.py keep the synchronized start's
 chi). It needs no reference for what
 the steady state looks like at the run's phi, and it grows with N where a memory is held.
 

@@ -1,6 +1,6 @@
 """The long-lived states a layer visits, and the error of a mean that covers its switching
-between them (docs/model.md, "The stiff end's states"; measured by benchmarks/stiff_states.py,
-its records benchmarks/records/stiff_states/).
+between them (docs/model.md, "The stiff end's states"; measured by
+benchmarks/measure/stiff_states.py, its records benchmarks/records/stiff_states/).
 
 Pure functions on arrays, like ``bkflow.observables.stress``.
 
@@ -20,12 +20,13 @@ Error of a mean. A window of length W shorter than the switching's time scale ca
 from its own samples, how far its mean is from the layer's long-run mean: a layer that sat in
 the quiet state throughout looks precise and is not. The variance of W-window means about the
 long-run mean of the same layer, relative, was measured on long runs (10^6-10^7 time units,
-benchmarks/stiff_states.py) for the model's default parameters at N = 100 and 400, at several
-phi and W: ``CALIBRATION`` (switching.json, written by ``benchmarks/stiff_states.py report``).
-``window_variance`` interpolates it (log phi, log W); the error of a run's mean is the larger of
-its own estimate (``bkflow.observables.stationarity.mean_error``) and the calibrated one. Where the
-calibration does not reach (another N, other model parameters), only the run's own estimate
-is left, and the result says so.
+benchmarks/measure/stiff_states.py) for the model's default parameters at N = 100 and 400, at
+several phi and W: ``CALIBRATION`` (switching.json, written by
+``benchmarks/report/stiff_states.py``). ``window_variance`` interpolates it (log phi, log W); the
+error of a run's mean is the larger of its own estimate
+(``bkflow.observables.stationarity.mean_error``) and the calibrated one. Where the calibration does
+not reach (another N, other model parameters), only the run's own estimate is left, and the result
+says so.
 
 >>> round(r_independent(100), 4)
 0.0886
@@ -46,7 +47,7 @@ QUIET, COHERENT = "quiet", "coherent"
 STATE_NAMES = (QUIET, COHERENT)
 #: block length (time units) over which the coherence R is averaged to name the state
 BLOCK_T = 1000.0
-#: the calibration of the switching variance (benchmarks/stiff_states.py report writes it)
+#: the calibration of the switching variance (benchmarks/report/stiff_states.py writes it)
 CALIBRATION = Path(__file__).with_name("switching.json")
 #: the parameters the calibration holds for: the model's defaults (RunSpec) of these fields
 CALIBRATED_FIELDS = ("k_e", "mu_s", "sigma_n", "area", "V_d", "gamma", "mass", "k_d", "dk_d",
@@ -215,7 +216,7 @@ def window_variance(observable: str, phi: float, n: int, window: float,
 #: (a smaller layer fluctuates more: the calibrated variance falls as 1/N or faster from N =
 #: 100 to 400), times BORROWED_FACTOR where the model's parameters or the lattice's aspect are
 #: not the calibrated ones
-#: (measured on the held-out long runs of benchmarks/offgrid.py: benchmarks/RESULTS.md,
+#: (measured on the held-out long runs of benchmarks/measure/offgrid.py: benchmarks/RESULTS.md,
 #: "The verdict off the grid")
 BORROWED_FACTOR = 2.0
 

@@ -31,7 +31,7 @@ SIMULATE, ANALYZE = "simulate", "analyze"
 #: project-document key of the sweep's analysis settings
 SETTINGS_KEY = "analysis_settings"
 #: engine throughput assumed for cluster wall-time requests (atom-steps/s, one core); the
-#: measured figure is 3-4e7 (benchmarks/throughput.py), halved for slower cluster cores
+#: measured figure is 3-4e7 (benchmarks/measure/throughput.py), halved for slower cluster cores
 ASSUMED_THROUGHPUT = 1.5e7
 
 
