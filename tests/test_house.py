@@ -461,12 +461,13 @@ def test_the_plugin_compiles_without_a_warning():
 
 
 def test_the_tests_mirror_the_package():
-    """tests/<group>/ for each group of src/bkflow (and the plugin, the paper's workflow);
+    """tests/<group>/ for each group of src/bkflow (and the plugin, the paper's workflow, the
+    benchmarks' checks);
     at the top only what spans the house: its layers, the recipes of docs/develop.md, the
     README and the generated blocks."""
     tests = ROOT / "tests"
     dirs = {d.name for d in tests.iterdir() if d.is_dir() and d.name != "__pycache__"}
-    assert dirs - {"plugins", "workflows"} <= set(GROUPS), dirs
+    assert dirs - {"plugins", "workflows", "benchmarks"} <= set(GROUPS), dirs
     top = {p.name for p in tests.glob("test_*.py")}
     assert top <= {"test_house.py", "test_house_imports.py", "test_extending.py",
                    "test_readme.py", "test_results_blocks.py"}, top

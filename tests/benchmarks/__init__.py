@@ -1,0 +1,1 @@
+"""Tests of the benchmarks' checks: the normalizer of the CLI comparison."""
