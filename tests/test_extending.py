@@ -168,7 +168,7 @@ def test_a_throwaway_contact_rule_passes_the_reference_tests_on_both_paths(lammp
 def test_a_new_observable_touches_at_most_four_places():
     hunks = _hunks_by_file(_diff("Adding an observable"))
     outside = _outside_tests_and_docs(hunks)
-    assert "src/bkflow/analysis/registry.py" in outside
+    assert "src/bkflow/analysis/summary_keys.py" in outside
     assert sum(outside.values()) <= MAX_PLACES and len(outside) <= MAX_FILES, outside
 
 
@@ -184,7 +184,7 @@ def test_a_throwaway_observable_reaches_the_summary_tables_cli_and_a_figure(lamm
     boot = ("import sys; sys.meta_path[:] = [f for f in sys.meta_path "
             "if not type(f).__module__.startswith('_editable_')]; "
             f"sys.path.insert(0, {str(scratch / 'src')!r}); "
-            "import bkflow.analysis.registry as r; "
+            "import bkflow.analysis.summary_keys as r; "
             "assert 'mean_drop' in {o.name for o in r.OBSERVABLES}, r.__file__; "
             "from bkflow.cli import main; sys.exit(main(sys.argv[1:]))")
 

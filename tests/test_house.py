@@ -79,7 +79,7 @@ def test_observables_are_pure_numerics():
 
 
 def test_figures_never_analyse_and_never_need_flow():
-    """Figures read tables; of the analysis only the registry's declarations (which keys an
+    """Figures read tables; of the analysis only the summary keys' declarations (which keys an
     observable draws, their units)."""
     for path in (SRC / "figures").glob("*.py"):
         assert not _bkflow_imports(path) & {"lammps", "sweeps"}, path.name
@@ -89,7 +89,8 @@ def test_figures_never_analyse_and_never_need_flow():
         analysis |= {f"{n.module}.{a.name}" for n in ast.walk(tree)
                      if isinstance(n, ast.ImportFrom) and n.module == "bkflow.analysis"
                      for a in n.names}
-        assert analysis <= {"bkflow.analysis", "bkflow.analysis.registry"}, (path.name, analysis)
+        assert analysis <= {"bkflow.analysis", "bkflow.analysis.summary_keys"}, (path.name,
+                                                                                 analysis)
         text = path.read_text()
         assert "import flow" not in text and "from flow" not in text
         assert "import signac" not in text and "signac_project_document" not in text, path.name

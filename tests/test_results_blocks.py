@@ -1,7 +1,7 @@
 """One source for every number: the generated blocks of benchmarks/RESULTS.md and
 workflows/paper/REPRODUCTION.md are what benchmarks/documents/ makes from the recorded
 benchmarks (benchmarks/records/), and the switching calibration bkflow installs
-(src/bkflow/observables/switching.json) is what benchmarks/report/stiff_states.py makes from
+(src/bkflow/model/switching.json) is what benchmarks/report/stiff_states.py makes from
 the same records. A document or a calibration edited by hand, or records changed without the
 documents regenerated, fail here."""
 
@@ -54,12 +54,12 @@ def _close(a, b) -> bool:
 
 def test_the_installed_switching_calibration_is_the_records():
     from benchmarks.documents.stiff_end import states
-    from bkflow.observables.states import CALIBRATION
+    from bkflow.model.calibration import SWITCHING
 
     sr, runs, means = states()
     made = json.loads(sr.calibration_text(runs, means))
-    installed = json.loads(CALIBRATION.read_text())
-    assert _close(made, installed), ("src/bkflow/observables/switching.json differs from the "
+    installed = json.loads(SWITCHING.read_text())
+    assert _close(made, installed), ("src/bkflow/model/switching.json differs from the "
                                      "records: run python -m benchmarks.report.stiff_states")
 
 

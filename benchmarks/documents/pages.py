@@ -22,8 +22,9 @@ def claims_block(name: str):
 
 
 def summary_keys() -> str:
-    """docs/analysis.md's table of every summary key, from the registry that declares them."""
-    from bkflow.analysis.registry import keys_table
+    """docs/analysis.md's table of every summary key, from their declarations
+    (bkflow.analysis.summary_keys)."""
+    from bkflow.analysis.summary_keys import keys_table
 
     return keys_table() + "\n"
 

@@ -1,6 +1,6 @@
 """The generated blocks of benchmarks/RESULTS.md, workflows/paper/REPRODUCTION.md and
 docs/analysis.md and docs/develop.md: every number there that comes from a benchmark's
-records, the table of the summary's keys (from bkflow.analysis.registry) and the package's
+records, the table of the summary's keys (from bkflow.analysis.summary_keys) and the package's
 layout, is written by a function of this folder, between ``<!-- generated: NAME -->`` and
 ``<!-- end -->``.
 

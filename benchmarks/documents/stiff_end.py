@@ -209,11 +209,12 @@ def states_needed() -> str:
     """Per (N, phi): the calibrated relative error of a run's mean (about the layer's
     long-run mean) at run lengths 10^4, 10^5, 10^6, and the length a run needs for 1% and
     0.2% on <sigma_x>/sigma_n and on mu_bar."""
-    from bkflow.observables.states import calibration, window_variance
+    from bkflow.model.calibration import switching
+    from bkflow.observables.states import window_variance
 
     out = ["| N | phi | error of <sigma_x>/sigma_n at T = 1e4 / 1e5 / 1e6 | of mu_bar | T for "
            "1% / 0.2% on <sigma_x>/sigma_n | on mu_bar |", "|---|---|---|---|---|---|"]
-    for n, size in calibration().get("sizes", {}).items():
+    for n, size in switching().get("sizes", {}).items():
         for phi in size["phi"]:
             errs = {o: " / ".join(f"{100 * math.sqrt(window_variance(o, phi, int(n), T)):.2g}%"
                                   for T in (1e4, 1e5, 1e6)) for o in ("stress", "mu_bar")}

@@ -1,7 +1,7 @@
 """Long runs off the calibrated grid: the held-out truth that the steady protocol's verdict and
 estimate are judged on (benchmarks/report/protocol_bias.py reads them).
 
-The switching calibration (src/bkflow/observables/switching.json) and the stop rule were made on
+The switching calibration (src/bkflow/model/switching.json) and the stop rule were made on
 the model's defaults at N = 100 and 400 (benchmarks/measure/stiff_states.py). Here the same
 long runs, four starts each, are made where nothing was calibrated: other model parameters
 (gamma, k_e, V_d) at N = 100, and another aspect (a square 10x10 lattice). N = 900 at the

@@ -1,6 +1,6 @@
 """What the long runs of benchmarks/measure/stiff_states.py say: the states, their occupancy and
 residence times, the long-run means, the switching calibration
-(src/bkflow/observables/switching.json) and the coverage of the error that uses it, the
+(src/bkflow/model/switching.json) and the coverage of the error that uses it, the
 long-run curve (benchmarks/records/long_run_curve.csv) and the figure
 (benchmarks/stiff_states.png).
 
@@ -35,8 +35,9 @@ import pandas as pd
 from benchmarks.harness import RECORDS, parser
 from benchmarks.measure.stiff_states import OUT
 from benchmarks.report import stiff_states_figure
+from bkflow.model.calibration import SWITCHING, in_place, reread
 from bkflow.observables import states, switching
-from bkflow.observables.states import BLOCK_T, CALIBRATION, r_independent
+from bkflow.observables.states import BLOCK_T, r_independent
 
 #: the share of each run left out as the start's transient
 TRANSIENT = 0.2
@@ -129,10 +130,7 @@ def coverage(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
     seeds = sorted(runs.seed.unique())
     for seed in seeds:
         table = {"sizes": window_table(runs, means, exclude_seed=seed)}
-        states.calibration.cache_clear()
-        original = states.calibration
-        states.calibration = lambda table=table: table  # noqa: E731
-        try:
+        with in_place(table):
             for _, r in runs[runs.seed == seed].iterrows():
                 lm = means[(r.N, r.phi, seed)]
                 for W in WINDOWS:
@@ -146,8 +144,6 @@ def coverage(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
                     cov_m = np.abs(m[ok] - lm["mu_bar"]) <= 1.96 * math.sqrt(vm) * np.abs(m[ok])
                     rows.append({"N": r.N, "phi": r.phi, "W": W, "seed": seed,
                                  "n": len(s), "stress": cov_s.mean(), "mu_bar": cov_m.mean()})
-        finally:
-            states.calibration = original
     df = pd.DataFrame(rows)
     return df.groupby(["N", "phi", "W"]).apply(
         lambda g: pd.Series({"windows": g.n.sum(),
@@ -341,7 +337,7 @@ def paper_points(runs: pd.DataFrame, means: dict) -> pd.DataFrame:
 
 def calibration(runs: pd.DataFrame, means: dict) -> dict:
     """The switching calibration that bkflow.observables.states reads
-    (src/bkflow/observables/switching.json)."""
+    (src/bkflow/model/switching.json)."""
     sizes = window_table(runs, means)
     occ = occupancy(runs)
     for n, size in sizes.items():
@@ -389,9 +385,9 @@ def report(root=OUT) -> None:
     runs = load(root)
     means = layer_means(runs)
     occ = occupancy(runs)
-    CALIBRATION.write_text(calibration_text(runs, means))
-    states.calibration.cache_clear()
-    print(f"wrote {CALIBRATION}")
+    SWITCHING.write_text(calibration_text(runs, means))
+    reread()
+    print(f"wrote {SWITCHING}")
     curve_table(means).to_csv(CURVE, index=False, float_format="%.10g")
     print(f"wrote {CURVE}")
     pd.set_option("display.width", 200)

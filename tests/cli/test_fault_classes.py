@@ -450,7 +450,7 @@ def test_every_stress_ratio_is_per_contact_load(lammps, tmp_path):
     gives in units of sigma_n is the same, and mu_bar lies below mu_s."""
     import json
 
-    from bkflow.analysis.registry import keys
+    from bkflow.analysis.summary_keys import keys
 
     got = []
     for sets in (["area=2", "sigma_n=5"], ["sigma_n=10"]):

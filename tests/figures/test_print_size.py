@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bkflow.analysis import registry as observables
+from bkflow.analysis import summary_keys as observables
 from bkflow.figures import catalogue, clusters, drops, order, style, writer
 from bkflow.figures.declared import fig_declared
 from bkflow.figures.legends import state_handles

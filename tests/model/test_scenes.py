@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from bkflow.analysis.registry import OBSERVABLES, Key, Observable
+from bkflow.analysis.summary_keys import OBSERVABLES, Key, Observable
 from bkflow.model.params import RunSpec
 from bkflow.model.scenes import RECORDS, SCENE_RECORDS, SCENES, records, scenes_with
 

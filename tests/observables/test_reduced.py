@@ -123,8 +123,10 @@ def _records_and_series(workdir, spec, path="auto", ranks=1):
     (workdir / "in.bk").write_text(deck)
     _lmp(workdir, ranks)
     rd = RunDir(workdir)
-    recs = reduced.load(workdir / "extrema.npy", workdir / "blocks.npy", spec.stress_nevery,
-                        spec.block_nevery, spec.dt, spec.extrema_threshold_stress)
+    recs = reduced.Reduced(
+        reduced.checked_extrema(np.load(workdir / "extrema.npy"), "extrema.npy"),
+        reduced.checked_blocks(np.load(workdir / "blocks.npy"), "blocks.npy"),
+        spec.stress_nevery, spec.block_nevery, spec.dt, float(spec.extrema_threshold_stress))
     _, sigma = rd.read_stress(spec)
     series = reduced.from_series(sigma, spec.stress_nevery, spec.block_nevery, spec.dt,
                                  spec.extrema_threshold_stress, rd.read_phase(spec),

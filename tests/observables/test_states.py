@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from bkflow.model import calibration
 from bkflow.observables import pair, states, switching
 from bkflow.observables.stationarity import mean_error
 
@@ -209,7 +210,7 @@ def test_where_nothing_is_calibrated_the_errors_borrow_wide():
         assert states.calibrated(spec) is not None
         sigma = spec.sigma_n * 0.107 * (1 + 1e-5 * rng.standard_normal(len(t)))
         w = states.window(spec, t, sigma, None, 0.2 * t[-1])
-        near = min(map(int, states.calibration()["sizes"]),
+        near = min(map(int, calibration.switching()["sizes"]),
                    key=lambda n: abs(math.log(n / spec.N)))
         v = states.window_variance("stress", 100.0, near, w.t1 - w.t0)
         assert w.var_borrowed == pytest.approx(v * max(factor, 1.0), rel=1e-9)

@@ -1,2 +1,2 @@
-"""A run's records turned into its summary: the observables' registry (every summary key with
-its unit and meaning, declared once) and summarize, which fills it."""
+"""A run's records turned into its summary: the summary's keys, each declared once with the
+observable that computes it (``summary_keys``), and summarize, which computes them."""

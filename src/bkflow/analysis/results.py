@@ -1,6 +1,7 @@
 """The sweep's results from its runs' summaries: ``runs.csv`` (one row per finished run, every
 scalar of its summary) and ``results.csv`` (one row per point of the grid: the mean over seeds
-and its error of every key the registry declares ``averaged``, the seeds' states)."""
+and its error of every key bkflow.analysis.summary_keys declares ``averaged``; the seeds'
+states)."""
 
 from __future__ import annotations
 
@@ -9,20 +10,20 @@ import math
 import numpy as np
 import pandas as pd
 
-from bkflow.analysis import registry
+from bkflow.analysis import summary_keys
 from bkflow.model.params import RunSpec
 from bkflow.observables.states import STATE_NAMES, SWITCHING
 from bkflow.store.tables import NOT_GROUPED, write_table_set
 
 #: summary fields averaged over seeds in results.csv (mean and standard error), from the
-#: registry (its ``averaged`` keys)
-RESULT_FIELDS = registry.averaged_keys()
+#: declarations (their ``averaged`` keys)
+RESULT_FIELDS = summary_keys.averaged_keys()
 #: result fields whose runs carry their own standard error (``<field>_err``, covering the
 #: switching between states: bkflow.observables.states): results.csv gives the mean of those
 #: as ``<field>_err_within_run``, and the point's error ``<field>_err``, the larger of the
 #: seeds' standard error and the runs' own errors combined, sqrt(sum err_i^2) / n: three seeds
 #: that happen to sit in one state agree closely, and their scatter alone would understate it
-WITHIN_RUN_ERRORS = registry.WITHIN_RUN_ERRORS
+WITHIN_RUN_ERRORS = summary_keys.WITHIN_RUN_ERRORS
 #: what results.csv counts of its seeds' runs: each verdict, and those switching between
 #: states (any of bkflow.observables.states.SWITCHING)
 STATE_COUNTS = ("steady", "drifting", "metastable", "switching")

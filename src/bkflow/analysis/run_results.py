@@ -1,5 +1,5 @@
 """One run's results, one frozen dataclass per observable, each with the row it gives the
-summary (``row()``; its keys are declared in ``bkflow.analysis.registry``): friction, large
+summary (``row()``; its keys are declared in ``bkflow.analysis.summary_keys``): friction, large
 drops, the trend test, the state (with the companion run), the power law of the drops, order
 and the slip clusters. ``bkflow.analysis.summary`` computes them."""
 
@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bkflow.analysis import registry
+from bkflow.analysis import summary_keys
 from bkflow.model.params import RunSpec
 from bkflow.observables import (
     clusters,
@@ -232,7 +232,7 @@ class StateResult:
         if w.comp is None:
             row["states_visited"] = None
         if c is None:
-            return {**row, **{k.name: k.missing for k in registry.CONTACT_KEYS}}
+            return {**row, **{k.name: k.missing for k in summary_keys.CONTACT_KEYS}}
         return {**row, "phase_coherence": c.R, "phase_coherence_static": c.R_static,
                 "phase_fluctuation": c.fluctuation, "phase_r2": c.R2, "phase_u_std": c.u_std,
                 "phase_drift": c.trend.drift, "phase_drift_z": c.trend.drift_z,
@@ -292,16 +292,18 @@ class ClusterResult:
     # record of the run, not a table to write again
     recorded: bool = False
 
-    def row(self) -> dict:
-        s, g = self.shape, self.shape_large
+    def potency_row(self) -> dict | None:
+        """The power law of the potencies (None: not tested)."""
         p = self.potency
-        magnitude = {} if p is None else {
+        return None if p is None else {
             "potency_exponent": p.fit.alpha, "potency_exponent_err": p.fit.alpha_err,
             "potency_x_min": p.fit.x_min, "potency_n_tail": p.fit.n_tail,
             "potency_power_law": p.verdict, "potency_fit_p": p.p,
             "potency_vs_lognormal": p.lognormal_R, "potency_vs_lognormal_p": p.lognormal_p}
-        return {**magnitude,
-                "lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
+
+    def row(self) -> dict:
+        s, g = self.shape, self.shape_large
+        return {"lx_mean_over_Lx": s.lx_mean_over_Lx, "ly_mean_over_Ly": s.ly_mean_over_Ly,
                 "lx_over_ly": s.lx_over_ly, "n_clusters": s.n_clusters,
                 "n_cluster_events": self.n_events,
                 "n_slips_without_snapshots": self.n_without_snapshots,

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from bkflow import __version__
-from bkflow.analysis import registry
+from bkflow.analysis import summary_keys
 from bkflow.analysis.cluster_results import cluster_from_rows, cluster_result
 from bkflow.analysis.run_results import (
     ClusterResult,
@@ -64,25 +63,18 @@ class RunAnalysis:
     drops: DropResult
     order: OrderResult | None = None
     clusters: ClusterResult | None = None
-    extra: dict = field(default_factory=dict)
     # the records with the breaks and the energy ledger (scenes events, full), or None
     ledger: reduced.Reduced | None = None
+    # the analysed stress series (times, sigma_x in stress units), which added observables read
+    t: np.ndarray | None = None
+    sigma: np.ndarray | None = None
 
     def summary(self) -> dict:
-        """The summary row: parameters and settings nested, one key per observable."""
-        row = {"bkflow": __version__, "params": self.spec.to_dict(),
-               "settings": self.settings.to_dict(), "N": self.spec.N,
-               "t_run": self.spec.t_end, "dt": self.spec.dt, "dt_rule": self.spec.dt_rule,
-               **registry.not_measured()}
-        for part in (self.friction, self.steady, self.state, self.large, self.drops, self.order,
-                     self.clusters):
-            if part is not None:
-                row.update(part.row())
-        if self.ledger is not None:
-            row["energy_residual"] = catalogue.ledger_residual(
-                self.ledger.ledger_at_blocks(), self.friction.friction.t_transient)
-        row.update(self.extra)
-        return row
+        """The summary row: every declared observable's keys (``summary_keys.summary``),
+        parameters and settings nested."""
+        t0 = self.friction.friction.t_transient
+        return summary_keys.summary(summary_keys.Context(
+            self.spec, self.settings, self.t, self.sigma, self.events.after(t0), t0, run=self))
 
     def tables(self) -> dict:
         """The tables of the run directory: {file name: columns}."""
@@ -281,10 +273,8 @@ def summarize(spec: RunSpec, red: reduced.Reduced, snapshots=None, slip_frames=N
     clus = cluster_from_rows(spec, settings, events, t0, *slip_rows, psi_inf, large.large) \
         if slip_rows is not None else None if slip_frames is None else cluster_result(
             spec, settings, events, t0, *slip_frames, psi_inf, large.large, slip_breaks)
-    extra = registry.compute_added(registry.Context(spec, settings, t, sigma, events.after(t0),
-                                                    t0)) if registry.added() else {}
     return RunAnalysis(spec, settings, events, fr, steady, verdict, large, drops, orders, clus,
-                       extra, ledger=red if red.has_ledger else None)
+                       ledger=red if red.has_ledger else None, t=t, sigma=sigma)
 
 
 def analyze(run_dir, settings: AnalysisSettings = AnalysisSettings()) -> dict:

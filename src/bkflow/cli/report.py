@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-from bkflow.analysis.registry import lines as registry_lines
-from bkflow.analysis.registry import power_law_names
+from bkflow.analysis.summary_keys import lines as observable_lines
+from bkflow.analysis.summary_keys import power_law_names
 from bkflow.model.params import STEADY_AGREEMENT
 from bkflow.observables.states import SWITCHING
 from bkflow.store import layout
@@ -116,7 +116,7 @@ def state_line(s: dict) -> str:
 
 def power_law_line(s: dict, key: str, what: str) -> str:
     """The report's line on a power law of the summary's ``key``_* entries (their names
-    declared in ``bkflow.analysis.registry``)."""
+    declared in ``bkflow.analysis.summary_keys``)."""
     verdict, fit_p, vs_lognormal, vs_lognormal_p = power_law_names(key)
     exponent = (f"exponent {_g(s, f'{key}_exponent', '.2f')} +- "
                 f"{_g(s, f'{key}_exponent_err', '.2f')}")
@@ -212,7 +212,7 @@ def summary_lines(s: dict) -> list[str]:
         lines.append(f"  energy: the balance (plate work = change of elastic and kinetic energy "
                      f"+ dissipation) closes to {_g(s, 'energy_residual', '.1e')} of the "
                      "plate's work over the analysed run")
-    return lines + registry_lines(s)
+    return lines + observable_lines(s)
 
 
 # ------------------------------------------------------------------------- a sweep's table

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from bkflow.analysis import registry as observables
+from bkflow.analysis import summary_keys as observables
 from bkflow.figures.clusters import fig4a_clusters
 from bkflow.figures.contacts import fig_contacts
 from bkflow.figures.data import SweepData

@@ -1,10 +1,10 @@
-"""The figures of the observables that declare one (``bkflow.analysis.registry``, an
+"""The figures of the observables that declare one (``bkflow.analysis.summary_keys``, an
 Observable's ``figure``): its key against phi, one series per size, each point the seeds'
 mean with its error and its marker by state, as the paper's figures draw theirs."""
 
 from __future__ import annotations
 
-from bkflow.analysis.registry import keys
+from bkflow.analysis.summary_keys import keys
 from bkflow.figures.data import SweepData
 from bkflow.figures.legends import draw_series, state_legend
 from bkflow.figures.style import size_label

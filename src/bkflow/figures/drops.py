@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from bkflow.analysis.registry import power_law_names
+from bkflow.analysis.summary_keys import power_law_names
 from bkflow.figures.clusters import cluster_phis, cluster_size
 from bkflow.figures.data import SweepData, point_states
 from bkflow.figures.legends import state_legend
@@ -105,7 +105,7 @@ def power_law_verdict(runs: pd.DataFrame, key: str = "drop") -> Verdict:
     """The verdict on a power law of one phi's seeds ``runs`` (``key`` "drop": the stress
     drops; "potency": the slips' potencies), from the analyses of those whose state is in
     ``FITTED_STATES`` (runs.csv ``drop_power_law``, ``drop_fit_p``, ``drop_vs_lognormal[_p]``,
-    named by ``bkflow.analysis.registry.power_law_names``); the key says how many seeds it
+    named by ``bkflow.analysis.summary_keys.power_law_names``); the key says how many seeds it
     rests on where it leaves some out."""
     fitted = runs[np.isin(point_states(runs), FITTED_STATES)]
     n, k = len(runs), len(fitted)

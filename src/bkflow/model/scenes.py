@@ -1,6 +1,6 @@
 """What each scene records: one table, read by the run's parameters (``RunSpec.writes_*``),
 the deck (``bkflow.lammps.deck``), the cost estimate (``bkflow.lammps.limits``), the
-observables that need a record (``bkflow.analysis.registry``) and the benchmarks.
+observables that need a record (``bkflow.analysis.summary_keys``) and the benchmarks.
 
 Every scene keeps the records of ``fix bk/reduce`` (``extrema.npy``, ``blocks.npy``: the
 stress and the contacts' phases reduced in the run); a scene adds the ``RECORDS`` it lists in

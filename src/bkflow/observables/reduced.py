@@ -356,18 +356,17 @@ def bounds_problem(records: np.ndarray, lattice: tuple | None = None) -> str | N
     return None
 
 
-def load(extrema_path, blocks_path, nevery: int, block: int, dt: float,
-         threshold: float) -> Reduced:
-    """The records of a run (``numpy.load``; a record cut short raises ValueError). The
-    reader checks the paths first (``bkflow.store.rundir``: a FIFO is refused, never waited on)."""
-    from pathlib import Path
+def checked_extrema(extrema: np.ndarray, name: str) -> np.ndarray:
+    """fix bk/reduce's extrema as read (``name``: its file's, for the message): ValueError
+    where they are not a record of extrema or their steps do not increase."""
+    ext = checked(extrema, tuple(extrema_dtype(ledger).names for ledger in (False, True)), name)
+    if len(ext) and (np.diff(ext["step"]) <= 0).any():
+        raise ValueError(f"{name}: its steps do not increase")
+    return ext
 
-    ext = None if extrema_path is None else checked(
-        np.load(extrema_path, allow_pickle=False),
-        tuple(extrema_dtype(ledger).names for ledger in (False, True)), Path(extrema_path).name)
-    blk = checked(np.load(blocks_path, allow_pickle=False),
-                  tuple(blocks_dtype(p, ledger).names for p in (True, False)
-                        for ledger in (False, True)), Path(blocks_path).name)
-    if ext is not None and len(ext) and (np.diff(ext["step"]) <= 0).any():
-        raise ValueError(f"{Path(extrema_path).name}: its steps do not increase")
-    return Reduced(ext, blk, nevery, block, dt, float(threshold))
+
+def checked_blocks(blocks: np.ndarray, name: str) -> np.ndarray:
+    """fix bk/reduce's block sums as read (``name``: its file's): ValueError where they are not
+    a record of blocks."""
+    return checked(blocks, tuple(blocks_dtype(p, ledger).names for p in (True, False)
+                                 for ledger in (False, True)), name)

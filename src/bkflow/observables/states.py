@@ -21,8 +21,8 @@ from its own samples, how far its mean is from the layer's long-run mean: a laye
 the quiet state throughout looks precise and is not. The variance of W-window means about the
 long-run mean of the same layer, relative, was measured on long runs (10^6-10^7 time units,
 benchmarks/measure/stiff_states.py) for the model's default parameters at N = 100 and 400, at
-several phi and W: ``CALIBRATION`` (switching.json, written by
-``benchmarks/report/stiff_states.py``). ``window_variance`` interpolates it (log phi, log W); the
+several phi and W: the model's switching calibration (``bkflow.model.calibration``, written
+by ``benchmarks/report/stiff_states.py``). ``window_variance`` interpolates it (log phi, log W); the
 error of a run's mean is the larger of its own estimate
 (``bkflow.observables.stationarity.mean_error``) and the calibrated one. Where the calibration does
 not reach (another N, other model parameters), only the run's own estimate is left, and the result
@@ -34,21 +34,18 @@ says so.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
+
+from bkflow.model.calibration import switching
 
 #: the states (the verdict names those a window visited)
 QUIET, COHERENT = "quiet", "coherent"
 STATE_NAMES = (QUIET, COHERENT)
 #: block length (time units) over which the coherence R is averaged to name the state
 BLOCK_T = 1000.0
-#: the calibration of the switching variance (benchmarks/report/stiff_states.py writes it)
-CALIBRATION = Path(__file__).with_name("switching.json")
 #: the parameters the calibration holds for: the model's defaults (RunSpec) of these fields
 CALIBRATED_FIELDS = ("k_e", "mu_s", "sigma_n", "area", "V_d", "gamma", "mass", "k_d", "dk_d",
                      "contact_rule", "damping")
@@ -148,18 +145,9 @@ def composition(b: Blocks, t_fail=None, sigma_fail_ratio=None) -> Composition:
 
 
 # ------------------------------------------------------------------------- the calibration
-@lru_cache(maxsize=1)
-def calibration() -> dict:
-    """The switching calibration (switching.json), or {} when absent."""
-    try:
-        return json.loads(CALIBRATION.read_text())
-    except (OSError, ValueError):
-        return {}
-
-
 def calibrated(spec) -> str | None:
     """Why the calibration does not hold for ``spec`` (a RunSpec), or None when it does."""
-    cal = calibration()
+    cal = switching()
     if not cal:
         return "no calibration of the switching is installed"
     from bkflow.model.params import RunSpec
@@ -198,7 +186,7 @@ def window_variance(observable: str, phi: float, n: int, window: float,
     ({"phi", "windows", observable: table}) instead of the installed one's. Interpolated in
     log phi and log window (held at the ends in phi; beyond the longest window it falls as
     1 / window, below the shortest it is held); None for an empty window."""
-    size = size if size is not None else calibration().get("sizes", {}).get(str(n))
+    size = size if size is not None else switching().get("sizes", {}).get(str(n))
     if not size or not window > 0:   # no calibration, or no window (a run shorter than it)
         return None
     windows = np.log(np.asarray(size["windows"], float))
@@ -227,7 +215,7 @@ def borrowed_variance(observable: str, spec, window: float,
     BORROWED_FACTOR); None where no calibration is installed or the window is empty.
     ``widen`` False: the nearest calibrated layer's own, unwidened (what the trend test takes
     for the slow fluctuations it must not call a drift)."""
-    sizes = calibration().get("sizes", {})
+    sizes = switching().get("sizes", {})
     if not sizes or not window > 0:
         return None
     near = min(sizes, key=lambda k: abs(math.log(int(k) / spec.N)))
@@ -264,7 +252,7 @@ def memory_chi(n: int) -> float:
     phase, at N = n: the calibration's, the largest chi of a window of the long runs from
     every start once their start was forgotten, with a margin (of the nearest calibrated N);
     MEMORY_CHI_DEFAULT without a calibration."""
-    sizes = calibration().get("sizes", {})
+    sizes = switching().get("sizes", {})
     if not sizes:
         return MEMORY_CHI_DEFAULT
     nearest = min(sizes, key=lambda k: abs(math.log(int(k) / n)))
@@ -278,7 +266,7 @@ TWO_STATES = 0.01
 def two_states(phi: float, n: int) -> bool | None:
     """Whether the calibration shows the layer at (phi, N = n) in both states (the rarer one
     at least TWO_STATES of the time, interpolated in log phi); None where it has no such N."""
-    size = calibration().get("sizes", {}).get(str(n))
+    size = switching().get("sizes", {}).get(str(n))
     if not size or "quiet" not in size:
         return None
     q = _interp(math.log(phi), np.log(size["phi"]), np.asarray(size["quiet"], float))

@@ -1,7 +1,7 @@
 """Calibrating a layer's switching between states from long runs: the window means slid along
 each run's blocks, their deviations from the layer's long-run mean, and the table of
 ``bkflow.observables.states.window_variance`` they give (``benchmarks/report/stiff_states.py``
-writes it to switching.json, which ``states.calibration`` reads)."""
+writes it to switching.json, the model's calibration: ``bkflow.model.calibration``)."""
 
 from __future__ import annotations
 

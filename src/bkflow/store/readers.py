@@ -14,6 +14,7 @@ import dataclasses
 import numpy as np
 
 from bkflow.model.params import RunSpec
+from bkflow.observables import reduced
 from bkflow.observables.reduced import LEDGER_COLUMNS
 from bkflow.store import files, formats
 from bkflow.store.errors import AnalysisError, DamagedRunError
@@ -57,20 +58,27 @@ class RunReaders(RunFiles):
         except ValueError:
             return spec.extrema_threshold_stress
 
+    def _extrema(self) -> np.ndarray | None:
+        """fix bk/reduce's extrema (None: a companion keeps its blocks only; a finished run's
+        missing file is found by problem() before)."""
+        if not self.file(EXTREMA).exists():
+            return None
+        return reduced.checked_extrema(np.load(files.regular(self.file(EXTREMA)),
+                                               allow_pickle=False), EXTREMA)
+
     def read_reduced(self, spec: RunSpec):
         """The run's records of its stress and phases (``bkflow.observables.reduced.Reduced``):
         fix bk/reduce's, or the same reduction of the raw series of a run that has no records
         (a run written before bkflow reduced in the run)."""
-        from bkflow.observables import reduced
-
         args = (spec.stress_nevery, spec.block_nevery, spec.dt, self.recorded_threshold(spec))
         if self.file(BLOCKS).exists() or not self.file(STRESS).exists():
             try:
                 # a companion keeps its blocks only (no extrema.npy; a finished run's
                 # missing file is found by problem() before)
-                red = reduced.load(files.regular(self.file(EXTREMA))
-                                   if self.file(EXTREMA).exists() else None,
-                                   files.regular(self.file(BLOCKS)), *args)
+                ext = self._extrema()
+                blk = reduced.checked_blocks(np.load(files.regular(self.file(BLOCKS)),
+                                                     allow_pickle=False), BLOCKS)
+                red = reduced.Reduced(ext, blk, *args[:3], float(args[3]))
                 if self.file(SERIES_STRESS).exists():   # scenes series, full: every slip
                     red = dataclasses.replace(red, raw=lambda: self.read_stress(spec)[1],
                                               raw_ledger=lambda: self.read_ledger(spec))

@@ -1,12 +1,20 @@
-"""Every key of a run's summary, declared once: its observable, unit, meaning, the value it
-holds where the run did not measure it, and whether the sweep's results average it over seeds.
+"""Every key of a run's summary, declared once with the observable that computes it: its unit,
+meaning, the value it holds where the run did not measure it, and whether the sweep's results
+average it over seeds.
 
-The consumers read this registry rather than lists of their own: the summary fills in the
-keys of the observables a scene did not record (``not_measured``), ``results.csv`` averages the
-``averaged`` keys (``averaged_keys``), the power-law verdicts are read by their declared names
-(``power_law_keys``), docs/analysis.md's table of keys is rendered from it (``keys_table``),
-and an observable added by the recipe of docs/develop.md ("Adding an observable") is computed,
-printed, tabled and drawn from its declaration alone (``compute``, ``line``, ``figure``).
+Every observable, bkflow's own and an added one alike, gives its keys through one path: its
+``compute(ctx)`` takes a ``Context`` (the run's parameters and settings, its analysed stress
+series, the slips after the transient, and the run's results of bkflow's own observables,
+``bkflow.analysis.summary.RunAnalysis``) and returns {key: value} for exactly its declared
+keys, or None where the run did not record what it needs (its keys then hold their
+``missing`` values). ``summary(ctx)`` is the summary in the order the keys are declared.
+
+The consumers read these declarations rather than lists of their own: results.csv averages
+the ``averaged`` keys (``averaged_keys``, in the order of ``COLUMNS`` and then of their
+declaration), the power-law verdicts are read by their declared names (``power_law_keys``),
+docs/analysis.md's table of keys is rendered from it (``keys_table``), and an observable added
+by the recipe of docs/develop.md ("Adding an observable") is computed, printed, tabled and
+drawn from its declaration alone (``compute``, ``line``, ``figure``).
 
 An observable's declaration::
 
@@ -14,10 +22,6 @@ An observable's declaration::
                                       averaged=True),),
                compute=my_function, line="mean stress drop {mean_drop:.4g} sigma_n",
                figure="mean_drop")
-
-``compute(ctx)`` takes a ``Context`` (the run's parameters, settings, analysed series and
-slips) and returns {key: value} for the observable's keys; the observables of bkflow itself
-are computed by ``bkflow.analysis.summary`` (their ``compute`` is None).
 """
 
 from __future__ import annotations
@@ -26,7 +30,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from bkflow import __version__
 from bkflow.model.scenes import RECORDS
+from bkflow.observables import catalogue
 
 NAN = math.nan
 
@@ -40,17 +46,17 @@ class Key:
     #                    "" (a pure number), "label" (a word), "count", "bool", "map" (by key)
     meaning: str
     missing: object = NAN   # its value where the run did not measure it
-    #: results.csv gives its mean over the seeds with a standard error: True, or for
-    #: bkflow's own keys the place of its column (1, 2, ...; added observables' come after)
-    averaged: bool | int = False
+    #: results.csv gives its mean over the seeds with a standard error (its column: ``COLUMNS``)
+    averaged: bool = False
 
 
 @dataclass(frozen=True)
 class Context:
-    """What an added observable's ``compute`` gets: the run (``spec``, ``settings`` resolved
-    for it), its analysed stress series (``t``, ``sigma``, sigma_x in stress units), the slips
-    after the transient (``events``: bkflow.observables.stress.SlipEvents) and the transient's
-    end ``t_transient``."""
+    """What an observable's ``compute`` gets: the run (``spec``, ``settings`` resolved for it),
+    its analysed stress series (``t``, ``sigma``, sigma_x in stress units), the slips after the
+    transient (``events``: bkflow.observables.stress.SlipEvents), the transient's end
+    ``t_transient``, and ``run``: the results of bkflow's own observables
+    (``bkflow.analysis.summary.RunAnalysis``; None where only added observables are asked)."""
 
     spec: object
     settings: object
@@ -58,6 +64,7 @@ class Context:
     sigma: object
     events: object
     t_transient: float
+    run: object = None
 
 
 @dataclass(frozen=True)
@@ -65,9 +72,12 @@ class Observable:
     """An observable and its summary keys. ``needs``: the record without which its keys hold
     their ``missing`` values (a name of ``bkflow.model.scenes.RECORDS``: the scenes that keep
     it say where it is measured; None: every run has it).
-    ``compute``: for an added observable, Context -> {key: value}. ``line``: the line
-    ``bkflow run`` and ``bkflow analyze`` print, a format string of its keys. ``figure``: the
-    key ``bkflow plot`` draws against phi, one series per size (figure ``fig_<key>``)."""
+    ``compute``: Context -> {key: value} of exactly its keys, or None where the run did not
+    record what it needs. ``written_by``: instead of ``compute``, the part of bkflow that writes
+    the keys into the summary (the run's record: its files, its wall time).
+    ``line``: the line ``bkflow run`` and ``bkflow analyze`` print, a format string of its keys.
+    ``figure``: the key ``bkflow plot`` draws against phi, one series per size (figure
+    ``fig_<key>``)."""
 
     name: str
     keys: tuple[Key, ...]
@@ -75,11 +85,26 @@ class Observable:
     compute: Callable | None = field(default=None, compare=False)
     line: str | None = None
     figure: str | None = None
+    written_by: str | None = None
 
     def __post_init__(self):
         if self.needs is not None and self.needs not in RECORDS:
             raise ValueError(f"observable {self.name!r} needs {self.needs!r}, not a record a "
                              f"scene keeps ({', '.join(RECORDS)})")
+        if (self.compute is None) == (self.written_by is None):
+            raise ValueError(f"observable {self.name!r}: declare how its keys are found, "
+                             "either compute or written_by (not both)")
+
+    def values(self, ctx: Context) -> dict:
+        """{key: value} of this observable for one run, in the order of its declaration: what
+        ``compute`` gives, checked against the declared keys, or their ``missing`` values."""
+        got = self.compute(ctx)
+        if got is None:
+            return {k.name: k.missing for k in self.keys}
+        if set(got) != set(self.names):
+            raise ValueError(f"observable {self.name} returned {sorted(got)}, not its declared "
+                             f"keys {list(self.names)}")
+        return {n: got[n] for n in self.names}
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -91,7 +116,7 @@ def power_law_keys(prefix: str, what: str, ks: bool = True) -> tuple[Key, ...]:
     against it; bkflow.observables.stress.power_law_test), named ``<prefix>_...``."""
     keys = [Key(f"{prefix}_exponent", "", f"the maximum-likelihood exponent of the {what} "
                 "above x_min (Clauset, Shalizi, Newman 2009, Eq. 3.1)",
-                averaged=9 if prefix == "drop" else 0),
+                averaged=prefix == "drop"),
             Key(f"{prefix}_exponent_err", "", "its error, (alpha - 1)/sqrt(n_tail)"),
             Key(f"{prefix}_x_min", "stress" if prefix == "drop" else "l",
                 "the lower end of the fitted tail"),
@@ -115,21 +140,21 @@ def _power_law_verdicts(prefix: str) -> tuple[str, str, str, str]:
 def _shape_keys(suffix: str, whose: str) -> tuple[Key, ...]:
     large = bool(suffix)
     return (Key(f"lx_mean_over_Lx{suffix}", "", f"<l_x/Lx> over {whose}",
-                averaged=0 if large else 7),
+                averaged=not large),
             Key(f"ly_mean_over_Ly{suffix}", "", f"<l_y/Ly> over {whose}",
-                averaged=0 if large else 8),
-            Key(f"lx_over_ly{suffix}", "", f"<l_x>/<l_y> over {whose}", averaged=6 if large else 5))
+                averaged=not large),
+            Key(f"lx_over_ly{suffix}", "", f"<l_x>/<l_y> over {whose}", averaged=True))
 
 
 def _state_keys() -> tuple[Key, ...]:
     per_state = []
-    for i, s in enumerate(("quiet", "coherent")):
+    for s in ("quiet", "coherent"):
         per_state += [Key(f"time_{s}", "", f"the fraction of the window's time spent {s}",
-                          averaged=17 + i),
+                          averaged=True),
                       Key(f"mean_stress_ratio_{s}", "sigma_n", f"<sigma_x>/sigma_n while {s}",
-                          averaged=19 + i),
+                          averaged=True),
                       Key(f"mu_bar_{s}", "sigma_n", f"mu_bar of the slips while {s}",
-                          averaged=21 + i)]
+                          averaged=True)]
     return (
         Key("state", "label", "the verdict over the analysed window: steady, drifting, "
             "metastable, or the states visited (docs/model.md \"Steady state\")"),
@@ -151,10 +176,10 @@ def _state_keys() -> tuple[Key, ...]:
 
 #: the contacts' phase statistics (bkflow.observables.phases); missing without a phase record
 CONTACT_KEYS = (
-    Key("phase_coherence", "", "the mean of R over the window", averaged=15),
+    Key("phase_coherence", "", "the mean of R over the window", averaged=True),
     Key("phase_coherence_static", "", "|<Z>|"),
     Key("phase_fluctuation", "", "the phase fluctuation chi = N <|Z - <Z>|^2> (coherent "
-        "above 3)", averaged=16),
+        "above 3)", averaged=True),
     Key("phase_r2", "", "the second harmonic"),
     Key("phase_u_std", "", "the spread of u"),
     Key("phase_drift", "", "the trend of R"),
@@ -162,25 +187,61 @@ CONTACT_KEYS = (
     Key("contacts_coherent", "bool", "chi above the memory threshold", missing=None),
 )
 
+def _analysis(ctx: Context) -> dict:
+    return {"bkflow": __version__, "params": ctx.spec.to_dict(),
+            "settings": ctx.settings.to_dict()}
+
+
+def _run(ctx: Context) -> dict:
+    s = ctx.spec
+    return {"N": s.N, "t_run": s.t_end, "dt": s.dt, "dt_rule": s.dt_rule}
+
+
+def _result(name: str) -> Callable:
+    """The ``compute`` of one of bkflow's own observables: the row of the run's result
+    ``name`` (``RunAnalysis.<name>``: FrictionResult, ...; None where its scene did not record
+    what it needs)."""
+    def compute(ctx: Context) -> dict | None:
+        part = getattr(ctx.run, name)
+        return None if part is None else part.row()
+    return compute
+
+
+def _potency(ctx: Context) -> dict | None:
+    clusters = ctx.run.clusters
+    return None if clusters is None else clusters.potency_row()
+
+
+def _energy(ctx: Context) -> dict | None:
+    """The energy ledger's residual over the analysed run (the scenes that keep the ledger)."""
+    ledger = ctx.run.ledger
+    return None if ledger is None else {"energy_residual": catalogue.ledger_residual(
+        ledger.ledger_at_blocks(), ctx.run.friction.friction.t_transient)}
+
+
 OBSERVABLES: list[Observable] = [
-    Observable("record", (
+    Observable("analysis", (
         Key("bkflow", "label", "the version of bkflow that analysed the run"),
-        Key("analysis_revision", "count", "the revision of the analysis code"),
         Key("params", "map", "the run's parameters (RunSpec)"),
         Key("settings", "map", "the analysis settings, resolved for the run"),
+    ), compute=_analysis),
+    Observable("record", (
+        Key("analysis_revision", "count", "the revision of the analysis code"),
         Key("tables", "label", "the run's tables written beside the summary"),
         Key("table_files", "map", "their sizes and digests"),
         Key("wall_time_s", "time", "the run's wall-clock time in seconds"),
         Key("bytes_written", "count", "the bytes of the run's files"),
-    )),
+    ), written_by="the store, as it writes the analysis (bkflow.store.analysed), and the "
+                  "run's record of itself"),
     Observable("run", (
         Key("N", "count", "the particles, Lx Ly"),
-        Key("t_run", "time", "the length of the run", averaged=14),
+        Key("t_run", "time", "the length of the run", averaged=True),
         Key("dt", "time", "the time step"),
         Key("dt_rule", "label", "the rule the time step came from"),
-    )),
+    ), compute=_run),
     Observable("order", (Key("psi_inf", "", "the mean of Psi(t) over the last 20% of the run",
-                             averaged=4),), needs="snapshots"),
+                             averaged=True),), needs="snapshots",
+               compute=_result("order")),
     Observable("clusters", (
         *_shape_keys("", "all slip clusters (N_c >= 2)"),
         Key("n_clusters", "count", "the clusters", missing=None),
@@ -193,21 +254,21 @@ OBSERVABLES: list[Observable] = [
         Key("n_clusters_large", "count", "the clusters of the large slips", missing=None),
         Key("regime_large", "label", "their most frequent regime", missing=None),
         Key("regime_fractions_large", "map", "the share of each regime", missing=None),
-    ), needs="slips"),
+    ), needs="slips", compute=_result("clusters")),
     Observable("potency", power_law_keys("potency", "slips' potencies", ks=False),
-               needs="slips"),
+               needs="slips", compute=_potency),
     Observable("energy", (Key("energy_residual", "", "(plate work - change of energy - "
                               "dissipation) / plate work over the analysed run"),),
-               needs="energy"),
+               needs="energy", compute=_energy),
     Observable("friction", (
         Key("mu_bar", "sigma_n", "<sigma_fail>/sigma_n over the slips after the transient",
-            averaged=1),
+            averaged=True),
         Key("mu_bar_err", "sigma_n", "its error, covering the switching between states"),
         Key("mu_bar_err_run", "sigma_n", "its error from the run's own correlated slips"),
         Key("mu_bar_err_reliable", "bool", "at least 10 effectively independent slips"),
-        Key("n_slips", "count", "the slips after the transient", averaged=10),
+        Key("n_slips", "count", "the slips after the transient", averaged=True),
         Key("mean_stress_ratio", "sigma_n", "the time average of sigma_x/sigma_n after the "
-            "transient", averaged=3),
+            "transient", averaged=True),
         Key("mean_stress_ratio_err", "sigma_n", "its error, covering the switching"),
         Key("mean_stress_ratio_err_run", "sigma_n", "its error over its correlated samples"),
         Key("slip_threshold_stress", "stress", "the slip threshold"),
@@ -231,11 +292,11 @@ OBSERVABLES: list[Observable] = [
         Key("t_needed", "time", "the run length at which the calibrated error of mu_bar "
             "reaches the run's target (None: no target, no calibration, or reached sooner)",
             missing=None),
-    )),
+    ), compute=_result("friction")),
     Observable("stationarity", (
         Key("stationary", "bool", "the stress is trend-free over the window"),
         Key("drift", "", "the relative change of the stress across the window",
-            averaged=12),
+            averaged=True),
         Key("drift_err", "", "its standard error"),
         Key("drift_z", "", "its ratio to its error"),
         Key("drift_p", "", "its p-value"),
@@ -243,19 +304,27 @@ OBSERVABLES: list[Observable] = [
         Key("block_t", "time", "the block means' times"),
         Key("block_means", "stress", "the block means the test rests on"),
         Key("t_equil", "time", "where the stationary part starts (equilibration detection)",
-            averaged=13),
-    )),
-    Observable("state", _state_keys() + CONTACT_KEYS),
+            averaged=True),
+    ), compute=_result("steady")),
+    Observable("state", _state_keys() + CONTACT_KEYS, compute=_result("state")),
     Observable("large", (
         Key("mu_bar_large", "sigma_n", "mu_bar over the slips whose drop exceeds the run's "
-            "mean drop", averaged=2),
+            "mean drop", averaged=True),
         Key("mu_bar_large_err", "sigma_n", "its error, covering the switching"),
         Key("mu_bar_large_err_run", "sigma_n", "its error from the run alone"),
-        Key("n_slips_large", "count", "the large slips", averaged=11),
+        Key("n_slips_large", "count", "the large slips", averaged=True),
         Key("large_drop_threshold", "stress", "the drop that counts as large"),
-    )),
-    Observable("drops", power_law_keys("drop", "stress drops")),
+    ), compute=_result("large")),
+    Observable("drops", power_law_keys("drop", "stress drops"), compute=_result("drops")),
 ]
+
+#: the order of results.csv's averaged columns of bkflow's own keys (those declared
+#: ``averaged``): the friction first, as results.csv has always had them
+COLUMNS = ("mu_bar", "mu_bar_large", "mean_stress_ratio", "psi_inf", "lx_over_ly",
+           "lx_over_ly_large", "lx_mean_over_Lx", "ly_mean_over_Ly", "drop_exponent", "n_slips",
+           "n_slips_large", "drift", "t_equil", "t_run", "phase_coherence", "phase_fluctuation",
+           "time_quiet", "time_coherent", "mean_stress_ratio_quiet",
+           "mean_stress_ratio_coherent", "mu_bar_quiet", "mu_bar_coherent")
 
 #: the averaged keys that carry each run's own error (``<key>_err``, covering the switching)
 WITHIN_RUN_ERRORS = ("mu_bar", "mu_bar_large", "mean_stress_ratio")
@@ -278,28 +347,21 @@ def not_measured(*needs: str) -> dict:
 
 
 def averaged_keys() -> tuple[str, ...]:
-    """The keys results.csv averages over seeds: bkflow's own in their column order, then
-    those of added observables in the order they were declared."""
-    declared = [k for o in OBSERVABLES for k in o.keys if k.averaged]
-    own = sorted((k for k in declared if k.averaged is not True), key=lambda k: k.averaged)
-    return tuple(k.name for k in own) + tuple(k.name for k in declared if k.averaged is True)
+    """The keys results.csv averages over seeds: bkflow's own in their columns' order
+    (``COLUMNS``), then those of added observables in the order they were declared."""
+    declared = [k.name for o in OBSERVABLES for k in o.keys if k.averaged]
+    return tuple(n for n in COLUMNS if n in declared) + tuple(n for n in declared
+                                                               if n not in COLUMNS)
 
 
-def added() -> list[Observable]:
-    """The observables computed from their declaration (``compute``)."""
-    return [o for o in OBSERVABLES if o.compute is not None]
-
-
-def compute_added(ctx: Context) -> dict:
-    """The keys of every added observable for one run, checked against their declaration."""
-    out = {}
-    for o in added():
-        values = o.compute(ctx)
-        if set(values) != set(o.names):
-            raise ValueError(f"observable {o.name} returned {sorted(values)}, not its declared "
-                             f"keys {list(o.names)}")
-        out.update((n, values[n]) for n in o.names)
-    return out
+def summary(ctx: Context) -> dict:
+    """A run's summary: the keys of every observable it computes (``compute``), in the order
+    they are declared, each checked against its declaration."""
+    row = {}
+    for o in OBSERVABLES:
+        if o.written_by is None:
+            row.update(o.values(ctx))
+    return row
 
 
 def lines(summary: dict) -> list[str]:
