@@ -4,6 +4,7 @@ happen, a LAMMPS instance on it, and its state read back. Imported explicitly
 
 from __future__ import annotations
 
+import importlib.util
 import itertools
 import os
 import shutil
@@ -108,3 +109,27 @@ def lammps_with(spec, lattice, velocities, workdir: Path, preload=0.0, parts=(Tr
         # anchors were taken at fix creation: moving the atoms back pre-loads the drive
         lmp.command(f"displace_atoms all move {-preload!r} 0 0")
     return lmp
+
+
+def workflow_module(path, name):
+    """The workflow script at ``path`` imported as module ``name``, with its own folder on the
+    path while it imports (the paper's modules import each other by their names)."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(path.parent))
+    try:
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(str(path.parent))
+    return mod
+
+
+def fake_scheduler(tmp_path, scripts: dict) -> dict:
+    """The environment of a SLURM whose commands are these shell scripts ({name: body})."""
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    for name, body in scripts.items():
+        (fake / name).write_text(f"#!/bin/sh\n{body}\n")
+        (fake / name).chmod(0o755)
+    return {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
+            "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}

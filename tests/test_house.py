@@ -24,9 +24,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: the layers of the package, bottom to top (docs/develop.md, "Layout"): a module imports
 #: modules of its own group and of groups below it, never one above. The faces at the top
-#: (``bkflow/__init__.py``, ``bkflow/cluster.py``) only hand names on.
+#: (``bkflow/__init__.py``, ``bkflow/slurm.py`` and its old name ``bkflow/cluster.py``) only
+#: hand names on.
 LAYERS = ("model", "observables", "store", "lammps", "analysis", "sweeps", "figures", "api",
-          "cli", "cluster")
+          "cli", "slurm", "cluster")
 #: what each group is for, in the words of its __init__
 GROUPS = ("model", "observables", "store", "lammps", "analysis", "sweeps", "figures", "cli")
 

@@ -95,9 +95,9 @@ def _scripts() -> frozenset[str]:
 
 
 def _ours(module: str) -> bool:
-    """A module of this repository: bkflow's, the benchmarks' (a package), or a script of
-    workflows/ (which import each other by their file names)."""
-    return module.split(".")[0] in {"bkflow", "benchmarks"} | _scripts()
+    """A module of this repository: bkflow's, the benchmarks' or the tests' (packages), or a
+    script of workflows/ (which import each other by their file names)."""
+    return module.split(".")[0] in {"bkflow", "benchmarks", "tests"} | _scripts()
 
 
 def _private(name: str) -> bool:
@@ -128,6 +128,15 @@ def test_no_private_name_is_taken_across_modules():
     assert found == [], "private names taken across modules: " + "; ".join(found)
 
 
+def test_no_test_module_takes_another_test_modules_private_name():
+    """What tests share is a public name of a helper module (tests/support.py,
+    tests/figures/reading.py), not a private one of another test file."""
+    tests = ROOT / "tests"
+    found = [f for p in sorted(tests.rglob("*.py")) for f in private_imports(p)
+             if f.split(": ")[1].startswith("tests.")]
+    assert found == [], "private names of other test modules: " + "; ".join(found)
+
+
 def test_the_private_name_check_finds_what_it_looks_for(tmp_path):
     p = tmp_path / "user.py"
     p.write_text("from bkflow.figures import style\nfrom bkflow.figures.data import _x, y\n"
@@ -138,10 +147,11 @@ def test_the_private_name_check_finds_what_it_looks_for(tmp_path):
     assert private_imports(p) == []
 
 
-#: the faces that hand names on by design: the package's own (``import bkflow``), the
-#: cluster path's command module (``python -m bkflow.cluster``) and the documented path of the
-#: figures' catalogue and writer (docs/api.md before they were two modules)
-FACES = {"bkflow", "bkflow.cluster", "bkflow.figures.registry"}
+#: the faces that hand names on by design: the package's own (``import bkflow``), the SLURM
+#: path's command module (``python -m bkflow.slurm``) and its old name (``bkflow.cluster``),
+#: and the documented path of the figures' catalogue and writer (docs/api.md before they were
+#: two modules)
+FACES = {"bkflow", "bkflow.slurm", "bkflow.cluster", "bkflow.figures.registry"}
 
 
 def _top_level(path: Path) -> tuple[set[str], dict[str, str]]:

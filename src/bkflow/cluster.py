@@ -1,5 +1,6 @@
-"""``python -m bkflow.cluster``: the stable name of the sweep-on-a-cluster command, which the
-job scripts of a submitted sweep call. The command itself is ``bkflow.sweeps.slurm``."""
+"""``python -m bkflow.cluster``: the old name of ``python -m bkflow.slurm`` (the sweep on a
+SLURM cluster), kept so that job scripts submitted before it was renamed still run; "cluster"
+in bkflow now means the slip clusters only."""
 
 from bkflow.sweeps.slurm import main, project  # noqa: F401
 

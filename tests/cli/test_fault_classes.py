@@ -516,7 +516,7 @@ def test_the_mpirun_refusal_gives_whole_commands():
 
     why = mpi_refusal({"OMPI_COMM_WORLD_SIZE": "2"})
     assert "bkflow deck ... --out DIR, then cd DIR && mpirun -np K lmp -in in.bk" in why
-    assert (Path(__file__).parents[2] / "docs" / "cluster.md").exists()
+    assert (Path(__file__).parents[2] / "docs" / "slurm.md").exists()
 
 
 def test_a_run_can_be_looked_at_from_the_command_line(lammps, tmp_path):

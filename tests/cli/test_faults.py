@@ -560,9 +560,9 @@ def test_bkflow_under_mpirun_is_refused_not_hung(lammps, tmp_path):
     _refused_under_mpirun(p, "bkflow: error: bkflow was started as 2 MPI processes")
     assert p.stdout == ""
     # the cluster's command line too (its run would hang the same way), before it reads anything
-    p = subprocess.run([tool("mpirun"), "-np", "2", sys.executable, "-m", "bkflow.cluster",
+    p = subprocess.run([tool("mpirun"), "-np", "2", sys.executable, "-m", "bkflow.slurm",
                         "run"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
-    _refused_under_mpirun(p, "bkflow.cluster: error: bkflow was started as 2 MPI processes")
+    _refused_under_mpirun(p, "bkflow.slurm: error: bkflow was started as 2 MPI processes")
     assert sorted(os.listdir(tmp_path)) == []
 
 
@@ -769,11 +769,11 @@ def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
 
 @pytest.mark.slow
 def test_the_documented_cluster_commands_run(lammps, tmp_path):
-    """Every `python -m bkflow.cluster run ...` that README, docs and cluster.py show is
+    """Every `python -m bkflow.slurm run ...` that README, docs and cluster.py show is
     accepted by flow and finishes the runs."""
     import re
 
-    texts = [p.read_text() for p in (ROOT / "README.md", ROOT / "docs" / "cluster.md",
+    texts = [p.read_text() for p in (ROOT / "README.md", ROOT / "docs" / "slurm.md",
                                      ROOT / "src" / "bkflow" / "cluster.py")]
     cmds = sorted({m.strip() for t in texts
                    for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
@@ -782,7 +782,7 @@ def test_the_documented_cluster_commands_run(lammps, tmp_path):
         d = tmp_path / f"c{i}"
         assert bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene",
                   "friction", "--protocol", "paper", "--out", d, "--init").returncode == 0
-        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "run", *args.split()],
+        p = subprocess.run([sys.executable, "-m", "bkflow.slurm", "run", *args.split()],
                            cwd=d, capture_output=True, text=True, timeout=600)
         assert p.returncode == 0, (args, p.stderr[-2000:])
         assert len(list((d / "workspace").glob("*/meta.json"))) == 2, args
@@ -874,12 +874,12 @@ def test_process_limits_are_named_before_mpi_starts(tmp_path, limit, needle):
     (["submit", "--pretend"], "slurm"),
 ])
 def test_cluster_bad_input_is_exit_2(tmp_path, small_sweep, args, env):
-    """python -m bkflow.cluster: a job that does not exist, a bad option value or an
+    """python -m bkflow.slurm: a job that does not exist, a bad option value or an
     environment signac-flow does not know is bad input (exit 2, one line), not "a run failed"
     (exit 1) with a scheduler hint, nor a traceback."""
     d = tmp_path / "s"
     shutil.copytree(small_sweep, d)
-    p = subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=d,
+    p = subprocess.run([sys.executable, "-m", "bkflow.slurm", *args], cwd=d,
                        capture_output=True, text=True, timeout=120,
                        env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": env})
     assert p.returncode == EXIT_BAD_INPUT, p.stderr

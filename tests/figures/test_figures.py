@@ -21,19 +21,22 @@ import pytest
 from bkflow.figures import catalogue, clusters, drops, style
 from bkflow.figures.data import SweepData
 from bkflow.figures.legends import protocol_label
+from tests.figures.reading import (
+    data_lines,
+    draw_as_saved,
+    every_axes,
+    key_colours,
+    laws_and_title,
+    outside_or_hidden,
+    rgb,
+    small_text,
+    unit_problems,
+    unkeyed_styles,
+)
 from tests.support import tool
 
 SWEEP = ["--phi", "10,100,1000", "--start", "synchronized", "--seeds", "1", "--t-end", "400",
          "--jobs", "2", "--quiet"]
-#: labels of quantities without units (pure numbers); a probability density is not one: its
-#: unit is the inverse of its quantity's (``DENSITY_UNITS``)
-PURE = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "R =", "1 -")
-#: what an axis label must say when it names the quantity: its unit
-UNITS = {"t (": r"($\sqrt{m/k_d}$)", r"$\sigma_x$ (": "($k_d/l$)", "stress drop": "($k_d/l$)",
-         "potency": "($l$)"}
-#: a density axis's unit, by its panel's x quantity: the inverse of its unit (R: a pure number)
-DENSITY_UNITS = {"stress drop": r"($l/k_d$)", "potency": r"($l^{-1}$)",
-                 "coherence $R$": "(per unit of $R$)"}
 
 
 @pytest.fixture(scope="module")
@@ -60,145 +63,18 @@ def drawn(sweep):
     return data, figs
 
 
-def _draw(fig):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    with style.style():
-        FigureCanvasAgg(fig).draw()
-    return fig
-
-
-def _all_axes(fig):
-    return [a for ax in fig.axes for a in (ax, *ax.child_axes)]
-
-
-def _legends(fig):
-    from matplotlib.legend import Legend
-
-    return list(fig.legends) + [c for ax in _all_axes(fig) for c in ax.get_children()
-                                if isinstance(c, Legend)]
-
-
-def _rgb(colour):
-    from matplotlib.colors import to_rgb
-
-    return tuple(round(v, 3) for v in to_rgb(colour))
-
-
-def _key_colours(fig) -> set:
-    """The colours of every handle drawn in the figure's keys (lines, markers, patches)."""
-    from matplotlib.collections import LineCollection
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
-    out = set()
-    for leg in _legends(fig):
-        for a in leg.findobj(Line2D):
-            out |= {_rgb(a.get_color()), _rgb(a.get_markerfacecolor())
-                    if a.get_markerfacecolor() not in ("none", "None") else None}
-        for a in leg.findobj(Patch):
-            if a is not leg.legendPatch:
-                out.add(_rgb(a.get_facecolor()))
-        for a in leg.findobj(LineCollection):
-            out |= {_rgb(c) for c in a.get_colors()}
-    return out - {None}
-
-
-def _data_lines(ax):
-    """The lines of ``ax`` that draw data: visible, with points."""
-    return [ln for ln in ax.get_lines() if ln.get_visible() and len(ln.get_xydata())]
-
-
-def _outside_or_hidden(fig) -> list[str]:
-    """Every drawn point (of lines with or without markers, error bars too) outside its axes,
-    and every marker under a key or an inset."""
-    from matplotlib.collections import LineCollection
-
-    r = fig.canvas.get_renderer()
-    keys = [k.get_window_extent(r) for k in _legends(fig)]
-    bad = []
-    for ax in _all_axes(fig):
-        if not ax.get_visible() or not ax.axison:
-            continue
-        box = ax.get_window_extent(r).expanded(1.01, 1.01)
-        over = keys + [inset.get_window_extent(r) for inset in ax.child_axes]
-        for ln in _data_lines(ax):
-            pts = ln.get_transform().transform(ln.get_xydata())
-            pts = pts[np.isfinite(pts).all(axis=1)]
-            marked = ln.get_marker() not in (None, "", "None", "none")
-            for x, y in pts:
-                if not box.contains(x, y):
-                    bad.append(f"{ax.get_title() or ax.get_ylabel()}: {ln.get_label()} at "
-                               f"({x:.0f}, {y:.0f}) outside its axes")
-                elif marked and any(b.contains(x, y) for b in over):
-                    bad.append(f"{ax.get_title() or ax.get_ylabel()}: {ln.get_label()} under a "
-                               "key")
-        for coll in ax.collections:
-            if isinstance(coll, LineCollection) and coll.get_visible():  # error bars
-                for seg in coll.get_segments():
-                    for x, y in ax.transData.transform(seg):
-                        if np.isfinite([x, y]).all() and not box.contains(x, y):
-                            bad.append(f"{ax.get_ylabel()}: an error bar outside its axes")
-    return bad
-
-
-def _marked(lines) -> list:
-    """The lines of ``lines`` that draw markers, an error bar's caps left out."""
-    return [ln for ln in lines if str(ln.get_marker()) not in ("", "None", "none", " ", "_")]
-
-
-def _marker_styles(lines) -> set:
-    """(marker, fill) of each line of ``lines`` that draws markers (not an error bar's caps)."""
-    return {(str(ln.get_marker()), ln.get_fillstyle()) for ln in _marked(lines)}
-
-
-def _drawn_styles_keyed(fig) -> list:
-    """The marker styles (shape, fill) drawn on a panel of ``fig`` (markers of 4 pt or more:
-    not a scatter's dots) that no key of the figure shows, with their panel's title."""
-    from matplotlib.lines import Line2D
-
-    keyed = _marker_styles(h for leg in _legends(fig) for h in leg.findobj(Line2D))
-    bad = []
-    for ax in _all_axes(fig):
-        drawn = _marker_styles(ln for ln in _data_lines(ax) if ln.get_transform() is ax.transData
-                               and ln.get_markersize() >= 4)
-        bad += [(ax.get_title(), style_) for style_ in drawn - keyed]
-    return bad
-
-
-def _laws_and_title(fig) -> tuple[int, int, list[str]]:
-    """A density figure's (fig_drops, fig_potency) laws: how many (a) draws, how many its title
-    says are drawn (checked against the number of phi it names), and its key's words
-    (checked: as many give an exponent as laws are drawn)."""
-    ax = fig.axes[0]
-    m = re.search(r"(\d+) of (\d+) phi", ax.get_title())
-    assert m, ax.get_title()
-    laws = [ln for ln in _data_lines(ax) if str(ln.get_marker()) in ("None", "none", "")]
-    keys = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
-    assert int(m.group(1)) == len(laws) == sum(r"$\alpha$" in k for k in keys), keys
-    assert int(m.group(2)) == sum(k.startswith(r"$\phi$") for k in keys)
-    return len(laws), int(m.group(2)), keys
-
-def _small_text(fig, least: float = style.MIN_FONT) -> list:
-    """The visible text of ``fig`` under ``least`` points (at its saved size): (text, size)."""
-    from matplotlib.text import Text
-
-    return [(t.get_text(), t.get_fontsize()) for t in fig.findobj(Text)
-            if t.get_visible() and t.get_text().strip() and t.get_fontsize() < least - 1e-9]
-
-
 # --------------------------------------------------------------------------- every figure
 @pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_no_text_is_smaller_than_the_least_readable_size(drawn, name):
     _, figs = drawn
-    small = _small_text(figs[name])
+    small = small_text(figs[name])
     assert small == [], f"{name}: text under {style.MIN_FONT} pt: {small[:5]}"
 
 
 @pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_point_lies_inside_its_axes_and_off_the_keys(drawn, name):
     _, figs = drawn
-    assert _outside_or_hidden(figs[name]) == [], name
+    assert outside_or_hidden(figs[name]) == [], name
 
 
 @pytest.mark.parametrize("name", list(catalogue.FIGURES))
@@ -206,7 +82,7 @@ def test_every_marker_style_drawn_is_keyed(drawn, name):
     """Each marker shape and fill on a panel (a point's state, a phi, a population) is shown
     by a key of the figure."""
     _, figs = drawn
-    assert _drawn_styles_keyed(figs[name]) == [], name
+    assert unkeyed_styles(figs[name]) == [], name
 
 
 @pytest.mark.parametrize("name", ["fig_drops", "fig_potency"])
@@ -214,49 +90,14 @@ def test_the_density_titles_and_keys_say_the_same(drawn, name):
     """The title's count of the phi with a law drawn, the laws drawn and the key's exponents
     agree; no p is printed as 0.00 (below the bootstrap's resolution: p < 0.001)."""
     _, figs = drawn
-    _, _, keys = _laws_and_title(figs[name])
+    _, _, keys = laws_and_title(figs[name])
     assert not any(re.search(r"p <= 0\.00?\b", k) for k in keys), keys
-
-
-def _unit_problems(fig) -> list[str]:
-    """Every axis of ``fig`` that draws data and does not say what it shows in its unit: no
-    label, a label with neither a unit nor a pure number's name (``PURE``), a quantity
-    without its unit (``UNITS``), or a probability density without the inverse of its
-    quantity's unit (``DENSITY_UNITS``, the quantity named by its panel's x axis)."""
-    bad = []
-    for ax in _all_axes(fig):
-        if not ax.get_visible() or not ax.axison or not _data_lines(ax):
-            continue
-        # a panel stacked on another with the same axis shares that axis' label
-        xs = [a.get_xlabel() for a in ax.get_shared_x_axes().get_siblings(ax)]
-        ys = [a.get_ylabel() for a in ax.get_shared_y_axes().get_siblings(ax)]
-        x, y = max(xs, key=len), max(ys, key=len)
-        for label in (x, y):
-            if not label:
-                bad.append("an axis without a label")
-            elif "density" in label:
-                bad += _density_problems(label, x)
-            elif not ("(" in label or any(w in label for w in PURE)):
-                bad.append(f"{label!r}: no unit")
-            else:
-                bad += [f"{label!r} lacks its unit {unit}" for quantity, unit in UNITS.items()
-                        if quantity in label and "/\\sigma_n" not in label and unit not in label]
-    return bad
-
-
-def _density_problems(label: str, x: str) -> list[str]:
-    """Why a probability density's axis ``label`` (of a panel whose x axis says ``x``) does
-    not give its unit, the inverse of its quantity's (none: it does)."""
-    units = [unit for quantity, unit in DENSITY_UNITS.items() if quantity in x]
-    if not units:
-        return [f"{label!r}: a density of {x!r}, whose unit no check knows"]
-    return [] if units[0] in label else [f"{label!r}: a density without its unit {units[0]}"]
 
 
 @pytest.mark.parametrize("name", list(catalogue.FIGURES))
 def test_every_axis_says_what_it_shows_in_its_units(drawn, name):
     _, figs = drawn
-    assert _unit_problems(figs[name]) == [], name
+    assert unit_problems(figs[name]) == [], name
 
 
 @pytest.mark.parametrize("name", list(catalogue.FIGURES))
@@ -267,13 +108,13 @@ def test_every_colour_and_shading_that_encodes_something_is_keyed(drawn, name):
 
     _, figs = drawn
     fig = figs[name]
-    keyed = _key_colours(fig)
-    for ax in _all_axes(fig):
-        colours = {_rgb(ln.get_color()) for ln in _data_lines(ax)
+    keyed = key_colours(fig)
+    for ax in every_axes(fig):
+        colours = {rgb(ln.get_color()) for ln in data_lines(ax)
                    if ln.get_transform() is ax.transData}
         if len(colours) > 1:
             assert colours - keyed == set(), f"{name}: colours without a key {colours - keyed}"
-        spans = {_rgb(p.get_facecolor()) for p in ax.patches
+        spans = {rgb(p.get_facecolor()) for p in ax.patches
                  if isinstance(p, (Polygon, Rectangle)) and p is not ax.patch}
         assert spans - keyed == set(), f"{name}: shading without a key {spans - keyed}"
 
@@ -284,7 +125,7 @@ def test_panels_that_are_compared_share_their_ranges(drawn):
     assert len(stress) == 2 and stress[0].get_ylim() == stress[1].get_ylim()
     coherence = [ax for ax in figs["fig_contacts"].axes if ax.get_ylabel().startswith("$R")]
     assert len(coherence) == 3 and len({ax.get_ylim() for ax in coherence}) == 1
-    panels = [ax for ax in figs["fig4a_clusters"].axes if _data_lines(ax)]
+    panels = [ax for ax in figs["fig4a_clusters"].axes if data_lines(ax)]
     assert len(panels) == 3
     assert len({ax.get_xlim() for ax in panels}) == 1
     assert len({ax.get_ylim() for ax in panels}) == 1
@@ -343,34 +184,35 @@ def test_phi_colours_are_sequential_and_not_the_papers_regime_code():
 
     shades = [rgb_to_hsv(style.phi_colour(phi)[:3])[2] for phi in sorted(clusters.CLUSTER_PHI)]
     assert shades == sorted(shades, reverse=True)   # the stiffer, the darker
-    regime = {_rgb(c) for c in style.REGIME_COLOURS.values()}
-    assert not {_rgb(style.phi_colour(phi)) for phi in clusters.CLUSTER_PHI} & regime
+    regime = {rgb(c) for c in style.REGIME_COLOURS.values()}
+    assert not {rgb(style.phi_colour(phi)) for phi in clusters.CLUSTER_PHI} & regime
 
 
 def test_fig4a_draws_every_phi_visible_filled_and_counted(drawn):
     """One panel per phi: each shows all its clusters (the count in its title is the sweep's
     n_clusters), as filled circles in its phi's colour."""
     data, figs = drawn
-    panels = [ax for ax in figs["fig4a_clusters"].axes if _data_lines(ax)]
+    panels = [ax for ax in figs["fig4a_clusters"].axes if data_lines(ax)]
     shown = []
     for ax in panels:
         m = re.match(r"\$\\phi\$ = (\S+): (\d+) clusters", ax.get_title())
         assert m, ax.get_title()
         phi, count = float(m.group(1)), int(m.group(2))
         shown.append(phi)
-        dots = [ln for ln in _data_lines(ax) if ln.get_marker() == "o"]
+        dots = [ln for ln in data_lines(ax) if ln.get_marker() == "o"]
         assert len(dots) == 1 and len(dots[0].get_xydata()) == count
         assert count == int(data.runs_of(20, 5, phi).n_clusters.sum())
         assert dots[0].get_markerfacecolor() not in ("none", "None", "white")
-        assert _rgb(dots[0].get_markerfacecolor()) == _rgb(style.phi_colour(phi))
+        assert rgb(dots[0].get_markerfacecolor()) == rgb(style.phi_colour(phi))
     assert shown == [1000.0, 100.0, 10.0]
 
 
 def test_the_cluster_scatter_draws_the_densest_set_lowest_and_counts_each(drawn):
     data, _ = drawn
-    fig = _draw(clusters.cluster_scatter(data, style.Figures(), 20, 5, [10.0, 100.0, 1000.0], "t"))
+    fig = draw_as_saved(clusters.cluster_scatter(data, style.Figures(), 20, 5,
+                                                 [10.0, 100.0, 1000.0], "t"))
     (ax,) = fig.axes
-    sets = [ln for ln in _data_lines(ax) if ln.get_marker() == "o"]
+    sets = [ln for ln in data_lines(ax) if ln.get_marker() == "o"]
     sizes = [len(ln.get_xydata()) for ln in sets]
     assert len(sets) == 3
     order = sorted(sets, key=lambda ln: ln.get_zorder())
@@ -379,7 +221,7 @@ def test_the_cluster_scatter_draws_the_densest_set_lowest_and_counts_each(drawn)
     keys = [t.get_text() for t in ax.get_legend().get_texts()]
     for n in sizes:
         assert any(f": {n} clusters" in k for k in keys), keys
-    assert _outside_or_hidden(fig) == []
+    assert outside_or_hidden(fig) == []
 
 
 @pytest.mark.parametrize("with_drops,words", [
@@ -401,7 +243,7 @@ def test_fig_drops_counts_the_phi_it_drew(drawn, monkeypatch, with_drops, words)
     with style.style():
         fig = drops.fig_drops(data, style.Figures())
     left, right = fig.axes
-    points = [ln for ln in _data_lines(left) if ln.get_marker() not in ("None", "", None)]
+    points = [ln for ln in data_lines(left) if ln.get_marker() not in ("None", "", None)]
     assert len(points) == len(with_drops)
     assert right.get_title().endswith(f"({words})"), right.get_title()
 
@@ -418,8 +260,8 @@ def test_fig_contacts_shows_each_phi_smoothed_over_one_stated_window(drawn):
     assert len(said) == 1
     window = said.pop()
     for ax in fig.axes:
-        dark = [ln for ln in _data_lines(ax) if _rgb(ln.get_color()) in
-                {_rgb("black"), _rgb("indigo")}]
+        dark = [ln for ln in data_lines(ax) if rgb(ln.get_color()) in
+                {rgb("black"), rgb("indigo")}]
         assert len(dark) == 1
         steps = np.diff(dark[0].get_xdata())
         assert np.median(steps) == pytest.approx(window, rel=0.1)
@@ -433,7 +275,7 @@ def test_fig1b_fits_its_range_to_the_traces_and_draws_the_friction_line_in_it(dr
     data, figs = drawn
     top = float(data.runs.mu_s.iloc[0] * data.runs.sigma_n.iloc[0])
     axes = figs["fig1b_stress"].axes
-    ys = np.concatenate([ln.get_ydata() for ax in axes for ln in _data_lines(ax)
+    ys = np.concatenate([ln.get_ydata() for ax in axes for ln in data_lines(ax)
                          if ln.get_transform() is ax.transData])
     r = figs["fig1b_stress"].canvas.get_renderer()
     for ax in axes:
@@ -452,7 +294,7 @@ def test_fig3_shows_psi_sample_by_sample_with_its_interval(drawn):
     panel = next(ax for ax in figs["fig3_order"].axes if ax.get_ylabel() == r"$1 - \Psi(t)$")
     assert panel.get_xscale() == "linear"
     every = float(re.search(r"every (\S+) time units", panel.get_title()).group(1))
-    lines = _data_lines(panel)
+    lines = data_lines(panel)
     assert lines
     for ln in lines:
         t = ln.get_xdata()
@@ -476,11 +318,11 @@ def test_the_potency_is_a_length(drawn):
 def test_fig2a_keys_its_regime_letters(drawn):
     _, figs = drawn
     fig = figs["fig2a_friction"]
-    letters = {(t.get_text(), _rgb(t.get_color())) for t in fig.axes[0].texts}
+    letters = {(t.get_text(), rgb(t.get_color())) for t in fig.axes[0].texts}
     assert letters
     from matplotlib.lines import Line2D
 
-    keyed = {(re.sub(r"\$\\mathrm\{(\w+)\}\$", r"\1", str(h.get_marker())), _rgb(h.get_color()))
+    keyed = {(re.sub(r"\$\\mathrm\{(\w+)\}\$", r"\1", str(h.get_marker())), rgb(h.get_color()))
              for leg in fig.legends for h in leg.findobj(Line2D)}
     assert letters <= keyed, letters - keyed
 
@@ -494,17 +336,17 @@ def test_the_checks_find_what_they_look_for():
     b.plot([0.5], [0.5], "s", color="tab:blue", label="under the key")
     b.plot([0, 1], [0, 1], color="tab:green")
     b.legend(loc="center")                                 # over the marker at (0.5, 0.5)
-    _draw(fig)
-    found = _outside_or_hidden(fig)
+    draw_as_saved(fig)
+    found = outside_or_hidden(fig)
     assert sum("outside its axes" in f for f in found) == 1
     assert sum("under a key" in f for f in found) == 1
-    assert _rgb("tab:blue") in _key_colours(fig) and _rgb("tab:green") not in _key_colours(fig)
+    assert rgb("tab:blue") in key_colours(fig) and rgb("tab:green") not in key_colours(fig)
     a.set_title("small", fontsize=style.MIN_FONT - 1)
-    assert _small_text(fig) == [("small", style.MIN_FONT - 1)]
+    assert small_text(fig) == [("small", style.MIN_FONT - 1)]
     fine, ax = style.Figures().subplots()
     ax.plot([0, 1], [0, 1], "o")
-    assert _outside_or_hidden(_draw(fine)) == []
-    assert _small_text(fine) == []
+    assert outside_or_hidden(draw_as_saved(fine)) == []
+    assert small_text(fine) == []
 
 
 def test_the_unit_check_finds_a_density_without_its_unit():
@@ -516,9 +358,9 @@ def test_the_unit_check_finds_a_density_without_its_unit():
         ax.set_xlabel(r"stress drop $\Delta\sigma_x$ ($k_d/l$)")
     a.set_ylabel("probability density")
     b.set_ylabel("probability density (of all drops)")
-    assert len(_unit_problems(fig)) == 2
+    assert len(unit_problems(fig)) == 2
     a.set_ylabel(r"probability density of $\Delta\sigma_x$ ($l/k_d$)")
     b.set_ylabel(r"probability density of $\Delta\sigma_x$, all drops ($k_d/l$)")
-    assert _unit_problems(fig) == [f"{b.get_ylabel()!r}: a density without its unit ($l/k_d$)"]
+    assert unit_problems(fig) == [f"{b.get_ylabel()!r}: a density without its unit ($l/k_d$)"]
     b.set_ylabel(a.get_ylabel())
-    assert _unit_problems(fig) == []
+    assert unit_problems(fig) == []

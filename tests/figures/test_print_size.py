@@ -21,18 +21,18 @@ from bkflow.figures import catalogue, clusters, drops, order, style, writer
 from bkflow.figures.declared import fig_declared
 from bkflow.figures.legends import state_handles
 from bkflow.model.lattice import box_extent
-from tests.figures.test_figures import (
-    _data_lines,
-    _draw,
-    _drawn_styles_keyed,
-    _laws_and_title,
-    _legends,
-    _marked,
-    _marker_styles,
-    _outside_or_hidden,
-    _rgb,
-    _small_text,
-    _unit_problems,
+from tests.figures.reading import (
+    data_lines,
+    draw_as_saved,
+    figure_legends,
+    laws_and_title,
+    marked_lines,
+    marker_styles,
+    outside_or_hidden,
+    rgb,
+    small_text,
+    unit_problems,
+    unkeyed_styles,
 )
 
 SIZES = ((20, 5), (40, 10))
@@ -174,7 +174,7 @@ NAMES = ("fig1b_stress", "fig2a_friction", "fig2b_asymmetry", "fig3_order", "fig
 @pytest.fixture(scope="module")
 def made_up():
     data = _Sweep()
-    return data, {name: _draw(catalogue.figure(data, name)) for name in NAMES}
+    return data, {name: draw_as_saved(catalogue.figure(data, name)) for name in NAMES}
 
 
 # --------------------------------------------------------------------------- every figure
@@ -183,7 +183,7 @@ def test_every_point_inside_its_axes_and_no_small_text(made_up, name):
     from matplotlib.text import Text
 
     fig = made_up[1][name]
-    assert _outside_or_hidden(fig) == [], name
+    assert outside_or_hidden(fig) == [], name
     small = [(t.get_text(), t.get_fontsize()) for t in fig.findobj(Text)
              if t.get_visible() and t.get_text().strip()
              and t.get_fontsize() < style.MIN_FONT - 1e-9]
@@ -194,14 +194,14 @@ def test_every_point_inside_its_axes_and_no_small_text(made_up, name):
 def test_every_marker_style_drawn_is_keyed(made_up, name):
     """Each marker shape and fill drawn on a panel (a point's state, a population) is one a
     key of the figure shows: a reader can look every marker up."""
-    assert _drawn_styles_keyed(made_up[1][name]) == [], name
+    assert unkeyed_styles(made_up[1][name]) == [], name
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_every_axis_says_its_unit_a_density_the_inverse_of_its_quantitys(made_up, name):
     """No unit-less axis: a probability density (fig_drops, fig_potency) is per unit of its
     quantity, and says so (test_figures.DENSITY_UNITS)."""
-    assert _unit_problems(made_up[1][name]) == [], name
+    assert unit_problems(made_up[1][name]) == [], name
 
 
 # --------------------------------------------------------------------------- print size
@@ -234,7 +234,7 @@ def test_every_figure_fits_a_7_inch_column_with_no_text_under_7_pt(name, sizes, 
     fig, path = _saved(_Sweep(sizes), name, tmp_path)
     width = imread(path).shape[1] / style.STYLE["savefig.dpi"]
     assert width <= style.COLUMN_WIDTH, f"{name}: {width:.2f} in wide"
-    assert _small_text(fig) == [], name
+    assert small_text(fig) == [], name
 
 
 # --------------------------------------------------------------------------- item by item
@@ -258,7 +258,7 @@ def test_the_states_are_told_apart_by_shape_or_by_full_against_open():
 
 def test_fig2a_marks_every_state_and_keys_the_regimes_in_words(made_up):
     fig = made_up[1]["fig2a_friction"]
-    drawn = _marker_styles(ln for ax in fig.axes for ln in _data_lines(ax))
+    drawn = marker_styles(ln for ax in fig.axes for ln in data_lines(ax))
     assert drawn == {(style.STATE_MARKER[n], style.STATE_FILL[n]) for n in style.STATE_FILL}
     keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert style.REGIME_WORDS["DT"] in keyed and "f_x < f_y" in style.REGIME_WORDS["DT"]
@@ -273,7 +273,7 @@ def test_fig3_shows_the_sizes_apart_at_the_stiff_end(made_up):
     fig = made_up[1]["fig3_order"]
     (low,) = [ax for ax in fig.axes if ax.get_ylabel() == r"$1 - \Psi(\infty)$"]
     assert low.get_yscale() == "log"
-    points = _marked(_data_lines(low))
+    points = marked_lines(data_lines(low))
     stiff = [low.transData.transform(xy)[1] for ln in points for xy in ln.get_xydata()
              if xy[0] == max(PHI)]
     assert len(stiff) == len(SIZES)
@@ -287,14 +287,14 @@ def test_fig3_shows_the_sizes_apart_at_the_stiff_end(made_up):
 
 def test_fig4a_says_what_its_axes_are_and_shows_clusters_past_the_whole_box(made_up):
     fig = made_up[1]["fig4a_clusters"]
-    panels = [ax for ax in fig.axes if _data_lines(ax)]
+    panels = [ax for ax in fig.axes if data_lines(ax)]
     for ax in panels:
         assert "whole" in ax.get_xlabel() + ax.get_ylabel() or not ax.get_xlabel()
-        for ln in _data_lines(ax):
+        for ln in data_lines(ax):
             if ln.get_marker() == "o":
                 x, y = np.asarray(ln.get_xydata()).T
                 assert ax.get_xlim()[1] >= x.max() and ax.get_ylim()[1] >= y.max()
-    said = " ".join(leg.get_title().get_text() for leg in _legends(fig)).replace("\n", " ")
+    said = " ".join(leg.get_title().get_text() for leg in figure_legends(fig)).replace("\n", " ")
     assert "above 1" in said and f"up to {BEYOND:.3g}" in said
     # a few clusters: each share with its count; the counts add up to the panel's
     few = next(ax for ax in panels if ax.get_title().startswith(r"$\phi$ = 1000"))
@@ -307,7 +307,7 @@ def test_fig_drops_title_and_key_come_from_one_verdict(made_up):
     entries giving an exponent; a law that passes the bootstrap and loses to a lognormal is
     said to pass; p is never printed as 0.00."""
     fig = made_up[1]["fig_drops"]
-    drawn, shown, keys = _laws_and_title(fig)
+    drawn, shown, keys = laws_and_title(fig)
     assert drawn == 2 and shown == len(clusters.cluster_phis(PHI))
     one = next(k for k in keys if k.startswith(r"$\phi$ = 1 "))
     assert "power law p >= 0.18" in one and "lognormal favoured" in one
@@ -335,8 +335,8 @@ def test_fig_potency_fits_only_the_steady_or_switching_seeds(made_up):
     left = drops.power_law_verdict(data.runs_of(20, 5, 100.0), "potency")
     assert left.kind == "rejected" and list(left.runs.seed) == [2]
     ax = figs["fig_potency"].axes[0]
-    (law,) = [ln for ln in _data_lines(ax) if str(ln.get_marker()) in ("None", "none", "")
-              and _rgb(ln.get_color()) == _rgb(style.phi_colour(1000.0))]
+    (law,) = [ln for ln in data_lines(ax) if str(ln.get_marker()) in ("None", "none", "")
+              and rgb(ln.get_color()) == rgb(style.phi_colour(1000.0))]
     x, y = np.asarray(law.get_xydata()).T
     assert np.polyfit(np.log(x), np.log(y), 1)[0] == pytest.approx(-2.0)
     for _, r in data.runs.iterrows():   # no verdict rests on a drifting or metastable seed
@@ -394,7 +394,7 @@ def _contacts_of_a_switching_run(stationary, drift: float, companion=None):
     data.runs["state"] = data.runs["state"].where(~shown, "quiet+coherent")
     data.runs["stationary"], data.runs["drift"], data.runs["drift_err"] = True, 0.001, 0.004
     data.runs.loc[shown, ["stationary", "drift", "drift_err"]] = [stationary, drift, 0.004]
-    fig = _draw(catalogue.figure(data, "fig_contacts"))
+    fig = draw_as_saved(catalogue.figure(data, "fig_contacts"))
     row = [ax for ax in fig.axes if _run_title(ax).startswith(r"$\phi$ = 10,")]
     assert len(row) == 2          # the run's stress beside its R
     return fig, _run_title(row[0]), [p for ax in row for p in ax.patches]

@@ -65,3 +65,24 @@ def test_a_claim_without_a_spec_checks_no_cost_and_is_reentrant(tmp_path, monkey
     monkeypatch.setattr(limits, "MAX_ATOM_STEPS", 1.0)
     with claim(tmp_path / "a") as rd, claim(tmp_path / "a"):
         assert rd.file(LOCK).exists()
+
+
+def test_a_claim_inside_a_claim_checks_nothing_again(tmp_path, monkeypatch):
+    """``bkflow run`` claims its directory around the run, which claims it again: the checks
+    (the record read for the answer, the cost) are made once; a claim after the outer one
+    has ended checks again."""
+    from bkflow.lammps import engine
+    from bkflow.lammps.continuation import answers
+
+    asked = []
+    monkeypatch.setattr(engine, "answers", lambda *a, **k: asked.append(1) or answers(*a, **k))
+    spec = _spec()
+    with claim(tmp_path / "a", spec):
+        with claim(tmp_path / "a", spec.replace(t_end=1e12)):   # would be refused alone
+            pass
+    assert len(asked) == 1
+    monkeypatch.setattr(limits, "MAX_ATOM_STEPS", 1.0)
+    with pytest.raises(CostError):
+        with claim(tmp_path / "a", spec):
+            pass
+    assert len(asked) == 2

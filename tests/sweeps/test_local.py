@@ -32,7 +32,8 @@ from bkflow.sweeps.grid import phi_values, sweep_specs
 from bkflow.sweeps.job import run_one
 from bkflow.sweeps.local import sweep
 from bkflow.sweeps.project import finished, open_project
-from tests.support import ROOT, tool
+from tests.figures.reading import hidden_points
+from tests.support import ROOT, fake_scheduler, tool
 
 
 def is_complete(d):
@@ -338,15 +339,6 @@ def test_the_tables_write_each_float_as_its_shortest_text_and_read_it_back_exact
 
 
 # --------------------------------------------------------------------------- cluster
-def _fake_scheduler(tmp_path, scripts: dict) -> dict:
-    """The environment of a SLURM whose commands are these shell scripts ({name: body})."""
-    fake = tmp_path / "bin"
-    fake.mkdir()
-    for name, body in scripts.items():
-        (fake / name).write_text(f"#!/bin/sh\n{body}\n")
-        (fake / name).chmod(0o755)
-    return {**os.environ, "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}",
-            "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment"}
 
 
 def slurm_directives(script: str) -> dict:
@@ -391,12 +383,12 @@ def test_the_script_sbatch_is_given_is_a_job_script(tmp_path):
                  "--out", str(out)]) == 0
     saved = tmp_path / "saved"
     saved.mkdir()
-    env = _fake_scheduler(tmp_path, {
+    env = fake_scheduler(tmp_path, {
         "squeue": "exit 0",
         "sbatch": f'n=$(ls {saved} | wc -l); for a in "$@"; do [ -f "$a" ] && '
                   f'cp "$a" {saved}/$n.sh; done; [ -t 0 ] || cat > {saved}/stdin$n.sh; '
                   'echo "Submitted batch job 1$n"'})
-    sub = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--bundle", "2"],
+    sub = subprocess.run([sys.executable, "-m", "bkflow.slurm", "submit", "--bundle", "2"],
                          cwd=out, env=env, capture_output=True, text=True, timeout=300)
     assert sub.returncode == 0, sub.stderr
     scripts = [p.read_text() for p in saved.iterdir() if p.stat().st_size]
@@ -412,10 +404,10 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
     out = tmp_path / "grid"
     assert main(["sweep", "--phi", "1,10", "--seeds", "2", "--t-end", "100", "--init",
                  "--out", str(out)]) == 0
-    env = _fake_scheduler(tmp_path, {"squeue": "exit 0"})  # an empty queue
-    # the project ships in the package: python -m bkflow.cluster (workflows/project.py is a
+    env = fake_scheduler(tmp_path, {"squeue": "exit 0"})  # an empty queue
+    # the project ships in the package: python -m bkflow.slurm (workflows/project.py is a
     # thin example of the same)
-    sub = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--pretend",
+    sub = subprocess.run([sys.executable, "-m", "bkflow.slurm", "submit", "--pretend",
                           "--bundle", "2", "--parallel"], cwd=out, env=env, capture_output=True,
                          text=True, timeout=300)
     assert sub.returncode == 0, sub.stderr
@@ -427,7 +419,7 @@ def test_cluster_project_bundles_runs_into_slurm_jobs_and_runs_the_same_operatio
         assert d["--nodes"] == "1"  # the bundle's runs share the script's node
         assert d["--cpus-per-task"] == "1"
         assert "export OMP_NUM_THREADS=1" in s  # our template, not only flow's
-        assert len(re.findall(rf"{re.escape(sys.executable)} -m bkflow.cluster run -o simulate "
+        assert len(re.findall(rf"{re.escape(sys.executable)} -m bkflow.slurm run -o simulate "
                               r"-j \w+ &", s)) == 2
     jobs = sorted(set(re.findall(r"-j (\w+)", sub.stdout)))
     assert len(jobs) == 4
@@ -596,34 +588,6 @@ def test_bad_set_or_vary_is_one_line_and_exit_2(args, needle, tmp_path):
     assert not (tmp_path / "s").exists()
 
 
-def _hidden_points(fig) -> list[str]:
-    """The data points of a figure that a reader cannot see: outside their axes, or under a
-    key (a legend of the axes or of the figure) or an inset."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.collections import PathCollection
-    from matplotlib.legend import Legend
-
-    FigureCanvasAgg(fig).draw()
-    r = fig.canvas.get_renderer()
-    keys = [k.get_window_extent(r) for k in fig.legends]
-    keys += [c.get_window_extent(r) for ax in fig.axes for c in ax.get_children()
-             if isinstance(c, Legend)]
-    hidden = []
-    for i, ax in enumerate(fig.axes):
-        box = ax.get_window_extent(r).expanded(1.02, 1.02)
-        over = keys + [inset.get_window_extent(r) for inset in ax.child_axes]
-        sets = [(line.get_label(), line.get_transform().transform(line.get_xydata()))
-                for line in ax.get_lines() if line.get_marker() not in (None, "", "None", "none")]
-        sets += [(c.get_label(), c.get_offset_transform().transform(c.get_offsets()))
-                 for c in ax.collections if isinstance(c, PathCollection)]
-        for label, pts in sets:
-            for x, y in pts[np.isfinite(pts).all(axis=1)]:
-                if not box.contains(x, y) or any(b.contains(x, y) for b in over):
-                    hidden.append(f"axes {i} ({ax.get_title() or ax.get_ylabel()}): {label} "
-                                  f"at ({x:.0f}, {y:.0f})")
-    return hidden
-
-
 def test_every_figure_shows_every_point_with_a_key_and_units(tiny_sweep):
     """Each figure, as drawn: no data point outside its axes or under a key or an inset; a
     key of the marker convention (fill = state) wherever points are drawn by state; every axis
@@ -635,7 +599,7 @@ def test_every_figure_shows_every_point_with_a_key_and_units(tiny_sweep):
     pure = ("phi", "mu", "Psi", "/\\sigma_n", "l_x", "l_y", "probability", "R =", "1 -")
     for name in sweep.figures:
         fig = sweep.figure(name)
-        assert _hidden_points(fig) == [], name
+        assert hidden_points(fig) == [], name
         for ax in fig.axes:
             if not ax.get_visible() or not (ax.get_lines() or ax.collections):
                 continue
@@ -714,7 +678,7 @@ def test_the_drop_figure_draws_a_power_law_only_where_it_is_plausible(tiny_sweep
     assert parts[0].startswith("system-wide") and parts[0].endswith("of 2000")
     shares = [float(re.search(r"(\d+)% of", t).group(1)) for t in parts]
     assert sum(shares) == pytest.approx(100, abs=1)
-    assert _hidden_points(fig) == []
+    assert hidden_points(fig) == []
 
 
 def test_notebook_objects_leave_the_users_figures_backend_and_style_alone(tiny_sweep):
@@ -807,7 +771,7 @@ def test_vary_takes_parameters_that_have_options_of_their_own(lammps, tmp_path):
 
 
 def test_the_cluster_command_outside_a_sweep_is_one_line_and_exit_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=tmp_path,
+    proc = subprocess.run([sys.executable, "-m", "bkflow.slurm", "status"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "is not a sweep directory" in proc.stderr and len(proc.stderr.splitlines()) == 1
@@ -839,16 +803,16 @@ def test_the_cluster_command_says_in_one_line_when_the_scheduler_fails(tmp_path)
     assert main(["sweep", "--phi", "1", "--seeds", "1", "--t-end", "50", "--init",
                  "--out", str(out)]) == 0
     failing = "echo 'squeue: fatal: no config' >&2\nexit 1"
-    env = _fake_scheduler(tmp_path, {"squeue": failing, "sbatch": failing})
-    proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=out, env=env,
+    env = fake_scheduler(tmp_path, {"squeue": failing, "sbatch": failing})
+    proc = subprocess.run([sys.executable, "-m", "bkflow.slurm", "status"], cwd=out, env=env,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1
-    ours = [ln for ln in proc.stderr.splitlines() if ln.startswith("bkflow.cluster:")]
+    ours = [ln for ln in proc.stderr.splitlines() if ln.startswith("bkflow.slurm:")]
     assert len(ours) == 1 and "StandardEnvironment" in ours[0]
     assert "Traceback" not in proc.stderr
-    help_ = subprocess.run([sys.executable, "-m", "bkflow.cluster", "--help"], cwd=tmp_path,
+    help_ = subprocess.run([sys.executable, "-m", "bkflow.slurm", "--help"], cwd=tmp_path,
                            capture_output=True, text=True, timeout=120)
-    assert help_.returncode == 0 and "python -m bkflow.cluster" in help_.stdout
+    assert help_.returncode == 0 and "python -m bkflow.slurm" in help_.stdout
 
 
 def test_the_cluster_scatter_shows_every_cluster_and_rounds_its_key():

@@ -1,5 +1,5 @@
 """The cluster path for real: a one-node SLURM (tests/slurm_local.py) runs a sweep submitted
-with ``python -m bkflow.cluster submit --bundle 2 --parallel``; a re-submission queues
+with ``python -m bkflow.slurm submit --bundle 2 --parallel``; a re-submission queues
 nothing; a job cancelled mid-run is redone by the next submission. Skipped (saying why) where
 SLURM cannot be started: not root, or SLURM not installed (``pytest --install-slurm``, what CI
 runs, installs Debian's packages first; a plain ``pytest`` installs nothing)."""
@@ -30,7 +30,7 @@ def slurm(lammps, tmp_path_factory, request):
 def _submit(sweep_dir, env, *extra) -> dict[str, str]:
     """Submit the sweep's eligible runs; {SLURM job id: job name} of the jobs it queued."""
     before = set(jobs(env))
-    proc = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", *extra],
+    proc = subprocess.run([sys.executable, "-m", "bkflow.slurm", "submit", *extra],
                           cwd=sweep_dir, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     names = re.findall(r"Submitting cluster job '([^']+)'", proc.stdout + proc.stderr)

@@ -15,11 +15,11 @@ import pandas as pd
 import pytest
 
 from bkflow.observables.states import r_independent
-from tests.figures.test_figures import (
-    _density_problems,
-    _draw,
-    _outside_or_hidden,
-    _small_text,
+from tests.figures.reading import (
+    density_problems,
+    draw_as_saved,
+    outside_or_hidden,
+    small_text,
 )
 
 STARTS = ("synchronized", "random", "stratified", "partial")
@@ -89,7 +89,7 @@ def _inside(ax, how, value) -> bool:
 @pytest.fixture(scope="module")
 def stiff(bench):
     runs = _runs()
-    return runs, _draw(bench["states_figure"].draw(runs))
+    return runs, draw_as_saved(bench["states_figure"].draw(runs))
 
 
 def test_every_panel_of_r_draws_the_threshold_within_its_range(stiff):
@@ -123,15 +123,15 @@ def test_every_panel_names_its_phi_and_n_and_a_histogram_is_drawn(stiff):
              if ax.get_ylabel() == "probability density of $R$\n(per unit of $R$)"]
     assert len(hists) == 3 and all(ax.patches for ax in hists)
     # a density says its unit, the inverse of its quantity's, as the package's figures do
-    assert all(_density_problems(ax.get_ylabel(), ax.get_xlabel()) == [] for ax in hists)
+    assert all(density_problems(ax.get_ylabel(), ax.get_xlabel()) == [] for ax in hists)
 
 
 def test_the_stiff_states_figure_is_readable(stiff):
     """No text under 7 pt, every point inside its axes and off the key, time axes in the
     model's time unit."""
     _, fig = stiff
-    assert _small_text(fig) == []
-    assert _outside_or_hidden(fig) == []
+    assert small_text(fig) == []
+    assert outside_or_hidden(fig) == []
     times = [ax.get_xlabel() for ax in fig.axes if ax.get_xlabel().startswith("$t$")]
     assert len(times) == 9 and all(r"\sqrt{m/k_d}" in x for x in times)
 
@@ -177,15 +177,15 @@ def test_the_bimodality_figure_is_readable_and_marks_the_threshold(bench, bimoda
     import matplotlib.pyplot as plt
 
     runs, rec = bimodal
-    fig = _draw(bench["bimodality"].draw(runs, rec))
+    fig = draw_as_saved(bench["bimodality"].draw(runs, rec))
     try:
         panels = [ax for ax in fig.axes if ax.get_xlabel().startswith(r"$R\,/")]
         assert len(panels) >= 4 + 3
         for ax in panels:
             lines = _threshold_lines(ax, 1.0)
             assert lines and all(_inside(ax, how, 1.0) for how, _ in lines), ax.get_title()
-        assert _small_text(fig) == []
-        assert _outside_or_hidden(fig) == []
+        assert small_text(fig) == []
+        assert outside_or_hidden(fig) == []
         texts = [t.get_text() for ax in fig.axes for t in ax.texts]
         assert any("not recorded" in t for t in texts)        # N = 900 is not in the records
     finally:
@@ -227,7 +227,7 @@ def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_p
     bench["stationarity_record"].write_relaxation_record(*_relaxation_made_up(),
                                                          tmp_path / "rec.json")
     df2, curves2 = st.read_relaxation_record(tmp_path / "rec.json")
-    fig = _draw(st.relaxation_figure(df2, curves2, tmp_path / "relax.png"))
+    fig = draw_as_saved(st.relaxation_figure(df2, curves2, tmp_path / "relax.png"))
     try:
         a, b = fig.axes
         assert a.get_xlabel() == "t (time units)" and "(time units" in b.get_ylabel()
@@ -238,8 +238,8 @@ def test_the_relaxation_figure_keeps_t_equil_zero_and_says_its_unit(bench, tmp_p
             assert ln.get_ydata()[0] == pytest.approx(b.get_ylim()[0])
         labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
         assert any("t_equil = 0" in t and "lower edge" in t for t in labels)
-        assert _small_text(fig) == []
-        assert _outside_or_hidden(fig) == []
+        assert small_text(fig) == []
+        assert outside_or_hidden(fig) == []
     finally:
         plt.close(fig)
     assert (tmp_path / "relax.png").stat().st_size > 10000

@@ -13,14 +13,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.workflows.test_paper_figures import _module
+from tests.support import workflow_module
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "workflows" / "paper"
 
 
-claims = _module(PAPER / "claims.py", "claims")
-claims_record = _module(PAPER / "claims_record.py", "claims_record")
+claims = workflow_module(PAPER / "claims.py", "claims")
+claims_record = workflow_module(PAPER / "claims_record.py", "claims_record")
 
 
 def test_the_critical_value_is_students_t_corrected_for_the_places_looked_at():

@@ -7,7 +7,6 @@ them, runs as a script with its modules beside it."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 
@@ -16,43 +15,30 @@ import pandas as pd
 import pytest
 
 from bkflow.figures.style import STYLE
-from tests.figures.test_figures import _small_text
-from tests.support import ROOT
-from tests.sweeps.test_local import _hidden_points
-
-
-def _module(path, name):
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.path.insert(0, str(path.parent))
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.path.remove(str(path.parent))
-    return mod
-
+from tests.figures.reading import hidden_points, small_text
+from tests.support import ROOT, workflow_module
 
 PAPER = ROOT / "workflows" / "paper"
 
 
 @pytest.fixture(scope="module")
 def paper_figures():
-    return _module(PAPER / "paper_figures.py", "paper_figures")
+    return workflow_module(PAPER / "paper_figures.py", "paper_figures")
 
 
 @pytest.fixture(scope="module")
 def energy():
-    return _module(PAPER / "energy_argument.py", "energy_argument")
+    return workflow_module(PAPER / "energy_argument.py", "energy_argument")
 
 
 @pytest.fixture(scope="module")
 def aspect():
-    return _module(PAPER / "aspect_check.py", "aspect_check")
+    return workflow_module(PAPER / "aspect_check.py", "aspect_check")
 
 
 @pytest.fixture(scope="module")
 def sweeps():
-    return _module(PAPER / "paper_sweeps.py", "paper_sweeps")
+    return workflow_module(PAPER / "paper_sweeps.py", "paper_sweeps")
 
 
 def test_reproduce_runs_as_a_script_with_its_modules_beside_it():
@@ -118,7 +104,7 @@ def test_fig2a_protocols_shares_y_per_row_keys_mu_s_and_tells_the_states_apart(
     monkeypatch.setattr(paper_figures, "curves", lambda out: _curves())
     paper_figures.protocols_figure(tmp_path, tmp_path)
     fig = figures["fig2a_protocols.png"]
-    assert _hidden_points(fig) == []
+    assert hidden_points(fig) == []
     panels = [ax for ax in fig.axes if ax.get_lines()]
     rows = {}
     for ax in panels:
@@ -196,8 +182,8 @@ def test_fig2a_protocols_fits_a_7_inch_column_with_no_text_under_7_pt(
     dpi = STYLE["savefig.dpi"]
     assert width / dpi <= 7.0, f"{width / dpi:.2f} in wide"
     fig = kept["fig"]
-    assert _small_text(fig) == []
-    assert _hidden_points(fig) == []
+    assert small_text(fig) == []
+    assert hidden_points(fig) == []
     panels = [ax for ax in fig.axes if ax.get_lines()]
     assert len(panels) == 4 * len(sweeps.OBSERVABLES)
     ranges = {}
@@ -235,7 +221,7 @@ def test_the_relaxation_figure_draws_verdicts_not_equilibration_times(
                         else None)
     paper_figures.relaxation_figure(tmp_path, tmp_path)
     fig = figures["relaxation.png"]
-    assert _hidden_points(fig) == []
+    assert hidden_points(fig) == []
     drawn = 0
     for ax in fig.axes:
         if ax.get_yscale() == "log":
@@ -277,7 +263,7 @@ def test_the_energy_figure_shows_every_cluster_or_says_why_not(energy, figures, 
              for label in energy.ENERGY_CURVES}
     energy.energy_figure(found, tmp_path)
     fig = figures["energy_argument.png"]
-    assert _hidden_points(fig) == []
+    assert hidden_points(fig) == []
     g = pd.concat(f["clusters_table"] for f in found.values())
     shown = g[(g.eq2_estimate > 0) & (g.bond_change != 0)]
     from matplotlib.collections import PathCollection
@@ -315,7 +301,7 @@ def test_the_aspect_share_figure_tells_all_six_lattices_apart(
     monkeypatch.setattr(aspect, "read_tables", lambda d: (pd.DataFrame(rows), None))
     aspect.aspect_share_figure(tmp_path, tmp_path)
     fig = figures["aspect_dt_share.png"]
-    assert _hidden_points(fig) == []
+    assert hidden_points(fig) == []
     (ax,) = fig.axes
     lines = [ln for ln in ax.get_lines() if ln.get_marker() not in ("None", "", "_")]
     styles = {(ln.get_color(), ln.get_marker(), ln.get_linestyle()) for ln in lines}
@@ -365,7 +351,7 @@ def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_recor
     fig = wp.plot(t, tmp_path / "wp.png")
     try:
         assert (tmp_path / "wp.png").stat().st_size > 10000
-        assert _hidden_points(fig) == []
+        assert hidden_points(fig) == []
         texts = [x.get_text() for leg in fig.legends for x in leg.get_texts()]
         assert {"N = 100", "N = 400"} <= set(texts)
         for name, p in ACCURACY.items():
@@ -385,7 +371,7 @@ def test_work_precision_marks_the_presets_and_targets_and_redraws_from_its_recor
             targets = {round(ln.get_ydata()[0], 9) for ln in ax.get_lines()
                        if ln.get_linestyle() == "--" and ln.get_xydata()[0][0] == 0}
             assert targets == {round(100 * p.dt_error, 9) for p in ACCURACY.values()}
-        assert _small_text(fig) == []
+        assert small_text(fig) == []
     finally:
         plt.close(fig)
     record = tmp_path / "record.csv"

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from claims_record import standard_error
+from claims_record import cluster_share, standard_error
 from paper_figures import write_figure
-from paper_sweeps import ASPECT_SIZES, cluster_share
+from paper_sweeps import ASPECT_SIZES
 
 from bkflow.figures.clusters import cluster_scatter
 from bkflow.figures.data import SweepData

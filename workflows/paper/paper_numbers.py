@@ -11,9 +11,9 @@ import numpy as np
 import pandas as pd
 from aspect_check import aspect_numbers
 from claims import num_text
-from claims_record import minimum
+from claims_record import cluster_share, minimum
 from energy_argument import energy_argument, energy_numbers
-from paper_sweeps import OBSERVABLES, cluster_share, curves, sweep_tables
+from paper_sweeps import OBSERVABLES, curves, sweep_tables
 
 from bkflow.observables.states import SWITCHING
 

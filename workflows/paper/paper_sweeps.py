@@ -1,10 +1,9 @@
 """The reproduction's sweeps: each protocol's runs (``protocols``, the directory OUT/<name>
 each goes into), the curves its figures and tables compare, read from the sweeps' tables
-(``curves``), and the share of their slip clusters in a regime (``cluster_share``)."""
+(``curves``). The share of their slip clusters in a regime is claims_record.cluster_share."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -58,16 +57,6 @@ def protocols(seeds: int, dt_factor: float,
                                       "t_end": SYNC_STEADY_CAP}),
         "aspect": sweep_specs(grid, ASPECT_SIZES, seeds, **paper),
     }
-
-
-def cluster_share(runs: pd.DataFrame, regime: str) -> float:
-    """The share of all slip clusters of ``runs`` that the regime rule calls ``regime``:
-    each run's fraction weighted by its number of clusters (NaN without clusters)."""
-    w = runs.n_clusters.to_numpy(dtype=float)
-    col = f"regime_fractions[{regime}]"
-    if col not in runs or not w.sum() > 0:
-        return math.nan
-    return float(np.nansum(runs[col].to_numpy(dtype=float) * w) / w.sum())
 
 
 #: the curves compared in the figures and tables: label -> (protocol directory, selection)

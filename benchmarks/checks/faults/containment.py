@@ -98,7 +98,7 @@ def job_scripts(fuzz: Fuzz) -> None:
     env = {**os.environ, "SIGNAC_FLOW_ENVIRONMENT": "DefaultSlurmEnvironment",
            "PATH": f"{fake}{os.pathsep}{os.environ['PATH']}"}
     for extra in ([], ["--bundle", "2", "--parallel"]):
-        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "submit", "--pretend",
+        p = subprocess.run([sys.executable, "-m", "bkflow.slurm", "submit", "--pretend",
                             *extra], cwd=d, capture_output=True, text=True, timeout=120,
                            env=env)
         # sbatch reads a directive up to a second "#": an option after it is lost
@@ -230,7 +230,7 @@ def advice(fuzz: Fuzz) -> None:
     (job / "signac_statepoint.json").write_text(json.dumps(point))
     job.rename(job.with_name(calc_id(point)))
     for env in ("StandardEnvironment", "NoSuchEnvironment"):
-        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "status"], cwd=d,
+        p = subprocess.run([sys.executable, "-m", "bkflow.slurm", "status"], cwd=d,
                            capture_output=True, text=True, timeout=120,
                            env={**os.environ, "SIGNAC_FLOW_ENVIRONMENT": env})
         fuzz.check(f"[T10] cluster status of a rehashed state point phi = -1 ({env})", p,

@@ -268,21 +268,21 @@ def tracebacks(fuzz: Fuzz) -> None:
 
 
 def docs(fuzz: Fuzz) -> None:
-    """[14] every documented `python -m bkflow.cluster run` runs."""
+    """[14] every documented `python -m bkflow.slurm run` runs."""
     import re
 
-    texts = [(ROOT / f).read_text() for f in ("README.md", "docs/cluster.md",
-                                               "src/bkflow/cluster.py")]
+    texts = [(ROOT / f).read_text() for f in ("README.md", "docs/slurm.md",
+                                               "src/bkflow/slurm.py")]
     cmds = sorted({m.strip() for t in texts
                    for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
     for args in cmds:
         d = fuzz.scratch() / "c"
         bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene", "friction",
            "--protocol", "paper", "--out", d, "--init")
-        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", "run", *args.split()],
+        p = subprocess.run([sys.executable, "-m", "bkflow.slurm", "run", *args.split()],
                            cwd=d, capture_output=True, text=True, timeout=600)
         p = subprocess.CompletedProcess(p.args, p.returncode, p.stdout, "")  # flow's bars
-        fuzz.check(f"[14] the documented `python -m bkflow.cluster run {args}`", p, {0})
+        fuzz.check(f"[14] the documented `python -m bkflow.slurm run {args}`", p, {0})
 
 
 def cluster(fuzz: Fuzz) -> None:
@@ -292,8 +292,8 @@ def cluster(fuzz: Fuzz) -> None:
                                                      "--pretend"]):
         d = fuzz.scratch() / "s"
         shutil.copytree(fuzz.sweep, d)
-        p = subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=d,
+        p = subprocess.run([sys.executable, "-m", "bkflow.slurm", *args], cwd=d,
                            capture_output=True, text=True, timeout=120,
                            env={**os.environ,
                                 "SIGNAC_FLOW_ENVIRONMENT": "StandardEnvironment"})
-        fuzz.check(f"[14] python -m bkflow.cluster {' '.join(args)}", p, {2})
+        fuzz.check(f"[14] python -m bkflow.slurm {' '.join(args)}", p, {2})

@@ -155,7 +155,7 @@ def cluster_command(fuzz: Fuzz) -> None:
     for name, args, code in (("[F16] cluster submit --pretend without a scheduler",
                               ["submit", "--pretend"], {1}),
                              ("[F17] cluster run -o simulat", ["run", "-o", "simulat"], {2})):
-        fuzz.check(name, subprocess.run([sys.executable, "-m", "bkflow.cluster", *args], cwd=g,
+        fuzz.check(name, subprocess.run([sys.executable, "-m", "bkflow.slurm", *args], cwd=g,
                                         env=env, capture_output=True, text=True), code)
     odd = f"{fuzz.scratch()}/my env/$(touch pwned)/python"
     p = subprocess.run([sys.executable, "-c", f"import shlex, sys; sys.executable = {odd!r}\n"

@@ -212,7 +212,7 @@ def check_environment(env=os.environ) -> None:
     under pandas, fails to read a bad OMP_NUM_THREADS). Adjusts what the command line does
     not need: figures are written to files (matplotlib's Agg backend, whatever MPLBACKEND
     says), and a local run or sweep submits nothing (flow's SIGNAC_FLOW_ENVIRONMENT is for
-    python -m bkflow.cluster)."""
+    python -m bkflow.slurm)."""
     from bkflow.model.checks import SpecError
 
     _check_threads(env)

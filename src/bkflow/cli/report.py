@@ -246,9 +246,9 @@ def jobs_created_lines(out, n_jobs: int, done: int) -> list[str]:
     """``bkflow sweep --init``: the jobs created, and how to run them."""
     where = shell_word(out)
     return [f"{out}: {n_jobs} jobs ({done} finished); run them here with",
-            f"  (cd {where} && python -m bkflow.cluster run)",
+            f"  (cd {where} && python -m bkflow.slurm run)",
             "or submit them to the cluster's scheduler with",
-            f"  (cd {where} && python -m bkflow.cluster submit)"]
+            f"  (cd {where} && python -m bkflow.slurm submit)"]
 
 
 def sweep_done_line(rep) -> str:
@@ -290,7 +290,7 @@ def sweep_outcome(rep) -> tuple[str, str] | None:
     says what to do); None when every run finished."""
     if rep.busy and not rep.failed and len(rep.busy) == len(rep.unfinished):
         return "busy", (f"bkflow: busy: {len(rep.busy)} run(s) are being written by another "
-                        "process (e.g. python -m bkflow.cluster run); run the same command once "
+                        "process (e.g. python -m bkflow.slurm run); run the same command once "
                         "it is done")
     if rep.refused and len(rep.refused) == len(rep.failed) and not rep.unfinished:
         return "refused", (f"bkflow: {len(rep.refused)} run(s) refused: their directories hold "

@@ -179,6 +179,11 @@ def _claim(rd: RunDir, overwrite: bool, spec: RunSpec | None = None) -> None:
     rd.mark()
 
 
+#: the run directories this process has claimed (``claim``), which a claim inside takes as
+#: they are: its checks were made by the claim around it
+_CLAIMED: set[str] = set()
+
+
 @contextlib.contextmanager
 def claim(out, spec: RunSpec | None = None, overwrite: bool = False, force: bool = False):
     """The run directory ``out`` held for one writer (a ``RunDir``), after the checks that
@@ -186,14 +191,22 @@ def claim(out, spec: RunSpec | None = None, overwrite: bool = False, force: bool
     directory holds its answer already and ``overwrite`` is not asked, nor when ``spec`` is
     None: the caller runs nothing), and a directory that is not bkflow's refused
     (``refuse_foreign``) before its lock is taken. ``run`` claims its directory; a caller
-    that analyses the run too (``bkflow run``) claims it around both (the lock is
-    re-entrant)."""
+    that analyses the run too (``bkflow run``) claims it around both, and the claim inside
+    (the run's) takes the directory as the one around it checked it."""
     rd = RunDir(Path(out).absolute())
+    key = str(rd.path.resolve())
+    if key in _CLAIMED:   # claimed around this call (bkflow run): checked then
+        yield rd
+        return
     if spec is not None and (overwrite or not answers(rd, spec, identical=False)):
         check_cost(spec, out, force)
     refuse_foreign(rd, out)   # before the lock: no lock file in someone else's directory
     with rd.lock():
-        yield rd
+        _CLAIMED.add(key)
+        try:
+            yield rd
+        finally:
+            _CLAIMED.discard(key)
 
 
 def refuse_foreign(rd: RunDir, shown) -> None:

@@ -275,4 +275,4 @@ def mpi_refusal(env=os.environ) -> str | None:
             "would all write the same run and wait on each other: start it once (a sweep runs "
             "its runs side by side with --jobs J, a cluster's with its job scripts); to run "
             "one lattice on K ranks: bkflow deck ... --out DIR, then cd DIR && mpirun -np K "
-            f"lmp -in {DECK} (docs/cluster.md)")
+            f"lmp -in {DECK} (docs/slurm.md)")

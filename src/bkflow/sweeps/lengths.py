@@ -130,7 +130,7 @@ def _taken(same: list, spec: RunSpec):
 def init_jobs(specs, root, settings: AnalysisSettings | None = None,
               force: bool = False) -> int:
     """Create the jobs of ``specs`` in the sweep directory ``root`` without running them (for
-    a cluster: ``python -m bkflow.cluster run|submit``); the number already finished. ``force``:
+    a cluster: ``python -m bkflow.slurm run|submit``); the number already finished. ``force``:
     their runs may go above the cost limits."""
     check_sweep_dir(root)  # before the lock file is made
     with RunDir(root).lock():

@@ -1,18 +1,18 @@
-"""A sweep on a cluster: ``python -m bkflow.cluster status|run|submit|exec ...``, run inside a
+"""A sweep on a cluster: ``python -m bkflow.slurm status|run|submit|exec ...``, run inside a
 sweep directory (``bkflow sweep ... --out DIR --init`` creates one without running it).
 
 This is signac-flow's command line for ``bkflow.sweeps.project.ClusterProject``, whose
 operations ``simulate`` and ``analyze`` are the ones ``bkflow sweep`` runs locally, and whose
 job-script template ships with the package (``bkflow/sweeps/templates/script.sh``): it works from a
-wheel as from a checkout. The job scripts it submits call ``python -m bkflow.cluster`` again
+wheel as from a checkout. The job scripts it submits call ``python -m bkflow.slurm`` again
 (the python that submitted, whose environment holds bkflow):
 
     bkflow sweep --phi 1e-1:1e3 --sizes 100,400,900 --seeds 3 --out grid --init
     cd grid
-    python -m bkflow.cluster status
-    python -m bkflow.cluster submit --bundle 16 --parallel --pretend   # show the scripts
-    python -m bkflow.cluster submit --bundle 16 --parallel             # sbatch
-    python -m bkflow.cluster run -p 2                                # or here, 2 at a time
+    python -m bkflow.slurm status
+    python -m bkflow.slurm submit --bundle 16 --parallel --pretend   # show the scripts
+    python -m bkflow.slurm submit --bundle 16 --parallel             # sbatch
+    python -m bkflow.slurm run -p 2                                # or here, 2 at a time
     bkflow collect .
 """
 
@@ -28,14 +28,14 @@ from pathlib import Path
 
 def project(path=None):
     """The cluster project of the sweep directory ``path`` (default: the current one), whose
-    submitted commands are ``<this python> -m bkflow.cluster ...``."""
+    submitted commands are ``<this python> -m bkflow.slurm ...``."""
     from bkflow.sweeps.project import ClusterProject
 
     return ClusterProject.get_project(
         os.getcwd() if path is None else str(path),
         # quoted: flow writes it into the job scripts' shell lines as it is, where a space in
         # the path would split it and a "$(...)" in it would run
-        entrypoint={"executable": shlex.quote(sys.executable), "path": "-m bkflow.cluster"})
+        entrypoint={"executable": shlex.quote(sys.executable), "path": "-m bkflow.slurm"})
 
 
 def main(argv=None) -> None:
@@ -45,7 +45,7 @@ def main(argv=None) -> None:
 
     why = mpi_refusal()
     if why:  # K copies of one command in one MPI world: they would wait forever
-        print(f"bkflow.cluster: error: {why}", file=sys.stderr)
+        print(f"bkflow.slurm: error: {why}", file=sys.stderr)
         sys.exit(2)
     _check_environment()
     p = _sweep_project()
@@ -55,13 +55,13 @@ def main(argv=None) -> None:
     try:
         check_workspace(p.path)  # a hand-edited workspace: named with its repair
     except SpecError as exc:
-        print(f"bkflow.cluster: error: {exc}", file=sys.stderr)
+        print(f"bkflow.slurm: error: {exc}", file=sys.stderr)
         sys.exit(2)
     # flow logs a scheduler's failure before raising it: the one line below says it instead
     logging.getLogger("flow").setLevel(logging.CRITICAL)
     unknown = unknown_operations(p, sys.argv[1:])
     if unknown:  # flow would select nothing, run nothing, and exit 0
-        print(f"bkflow.cluster: error: no operation {', '.join(unknown)}: the operations are "
+        print(f"bkflow.slurm: error: no operation {', '.join(unknown)}: the operations are "
               f"{', '.join(sorted(p.operations))}", file=sys.stderr)
         sys.exit(2)
     acting = sys.argv[1:2] in (["run"], ["exec"]) and "--pretend" not in sys.argv
@@ -84,7 +84,7 @@ def _exit_if_failed(p, before: dict) -> None:
     flow itself goes on and exits 0), so that a job script, and a user, see it."""
     new = {k: v for k, v in _errors(p).items() if before.get(k) != v}
     if new:
-        print(f"bkflow.cluster: error: {len(new)} run(s) failed; the first: "
+        print(f"bkflow.slurm: error: {len(new)} run(s) failed; the first: "
               f"{next(iter(new.values()))}", file=sys.stderr)
         sys.exit(1)
 
@@ -130,7 +130,7 @@ def _check_environment() -> None:
             from flow.environment import ComputeEnvironment
 
             known = sorted(c.__name__ for c in _subclasses(ComputeEnvironment))
-            print(f"bkflow.cluster: error: SIGNAC_FLOW_ENVIRONMENT={env} is no environment "
+            print(f"bkflow.slurm: error: SIGNAC_FLOW_ENVIRONMENT={env} is no environment "
                   f"signac-flow knows (it knows {', '.join(known)}): unset it, or name one of "
                   "those", file=sys.stderr)
             sys.exit(2)
@@ -147,13 +147,13 @@ def _sweep_project():
 
             why = workspace_problem(Path.cwd())
             if why is not None:
-                print(f"bkflow.cluster: error: {why}", file=sys.stderr)
+                print(f"bkflow.slurm: error: {why}", file=sys.stderr)
                 sys.exit(2)
         if {"-h", "--help"} & set(sys.argv[1:]):
             with contextlib.suppress(BrokenPipeError):
                 print(__doc__)
             sys.exit(0)
-        print(f"bkflow.cluster: error: {os.getcwd()} is not a sweep directory (no signac "
+        print(f"bkflow.slurm: error: {os.getcwd()} is not a sweep directory (no signac "
               "project here): run it inside the --out directory of bkflow sweep ... --init",
               file=sys.stderr)
         sys.exit(2)  # bad input, as bkflow's own commands
@@ -168,14 +168,14 @@ def _run(p) -> None:
         sys.exit(130)
     except (LookupError, ValueError, TypeError) as exc:  # no such job, a bad option value
         first = " ".join((str(exc).strip().splitlines() or [type(exc).__name__])[0].split())
-        print(f"bkflow.cluster: error: {first}: check the job ids and options "
-              "(python -m bkflow.cluster COMMAND --help)", file=sys.stderr)
+        print(f"bkflow.slurm: error: {first}: check the job ids and options "
+              "(python -m bkflow.slurm COMMAND --help)", file=sys.stderr)
         sys.exit(2)  # bad input, as bkflow's own commands
     except Exception as exc:  # flow asks the scheduler (squeue) for the status of every job
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         hint = (_scheduler_hint(sys.argv[1:]) if _from_scheduler(exc) else
-                f" ({type(exc).__name__}; bkflow.cluster did not expect it: please report it)")
-        print(f"bkflow.cluster: error: {first}{hint}", file=sys.stderr)
+                f" ({type(exc).__name__}; bkflow.slurm did not expect it: please report it)")
+        print(f"bkflow.slurm: error: {first}{hint}", file=sys.stderr)
         sys.exit(1)
 
 
@@ -185,7 +185,7 @@ def _scheduler_hint(argv: list[str]) -> str:
     without one the jobs run here, with ``run``."""
     standard = os.environ.get("SIGNAC_FLOW_ENVIRONMENT") == "StandardEnvironment"
     here = ("SIGNAC_FLOW_ENVIRONMENT=StandardEnvironment "
-            f"{shlex.quote(sys.executable)} -m bkflow.cluster")
+            f"{shlex.quote(sys.executable)} -m bkflow.slurm")
     if argv and argv[0] == "submit":
         return (" (submit needs a working batch scheduler (sbatch, squeue), and this machine "
                 f"has {'none' if standard else 'no working one'}: run the jobs here instead, "

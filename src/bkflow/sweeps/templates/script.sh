@@ -1,7 +1,7 @@
 {#- bkflow's job script: flow's template for the detected scheduler (SLURM on a cluster with
     sbatch; see `python project.py submit --help`), extended for bkflow. Edit here to add
     #SBATCH lines your site needs (account, QOS) or `module load` lines; the run commands
-    themselves are flow's: `<python> -m bkflow.cluster run -o simulate -j <job id>`.
+    themselves are flow's: `<python> -m bkflow.slurm run -o simulate -j <job id>`.
     Comments inside the header are shell comments: a Jinja comment there that trims
     whitespace (one whose delimiters carry a minus sign) joins the #SBATCH line before it with
     the next, and Slurm reads everything after a second hash on a line as a comment; and no
