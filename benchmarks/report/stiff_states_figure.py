@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.harness import BENCH
+from bkflow.figures.style import COLUMN_WIDTH
 from bkflow.observables.states import r_independent
 
 FIGURE = BENCH / "stiff_states.png"
@@ -28,6 +29,7 @@ STARTS = {"synchronized": "tab:red", "random": "tab:blue", "stratified": "tab:gr
 QUIET_FILL = "tab:cyan"
 #: the smallest text, in points at the saved size
 MIN_FONT = 7.0
+
 #: the stress's and R's time axes
 T_LABEL = r"$t$ ($10^6\,\sqrt{m/k_d}$)"
 #: the histogram's axis: a probability density of R is per unit of R (R is a pure number, so
@@ -76,9 +78,9 @@ def _traces(top, mid, g: pd.DataFrame, n: int, seed: int) -> None:
     for ax in (top, mid):
         ax.set_xlabel(T_LABEL)
     kept = pd.concat(list(mine.blocks), ignore_index=True)
-    top.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}: its four starts\n"
-                  f"(quiet {100 * quiet_share(kept, n):.1f}% of its blocks)")
-    mid.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}: coherence")
+    top.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}: four starts\n"
+                  f"(quiet {100 * quiet_share(kept, n):.1f}% of the blocks)")
+    mid.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}:\ncoherence")
 
 
 def _threshold(ax, n: int, how: str) -> None:
@@ -104,7 +106,7 @@ def _longest(ax, g: pd.DataFrame, n: int, seed: int) -> None:
     ax.plot(tt, rec.s.groupby(grp).mean(), lw=0.8, color="k")
     ax.set_ylabel(r"$\langle\sigma_x\rangle/\sigma_n$ (means of " + _sci(k * 1000) + ")")
     ax.set_xlabel(T_LABEL)
-    ax.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}: its longest run\n"
+    ax.set_title(f"N = {n}, $\\phi$ = {g.phi.iloc[0]:g}, seed {seed}: longest run\n"
                  f"({row.start} start, {_sci(float(rec.t1.iloc[-1]))})")
 
 
@@ -144,7 +146,7 @@ def draw(runs: pd.DataFrame, cases=CASES):
     cases = [(n, phi) for n, phi in cases if ((runs.N == n) & (runs.phi == phi)).any()]
     with plt.rc_context({"font.size": MIN_FONT, "axes.titlesize": MIN_FONT + 0.5,
                          "legend.fontsize": MIN_FONT + 0.5}):
-        fig, axes = plt.subplots(4, len(cases), figsize=(2.6 * len(cases), 9.6),
+        fig, axes = plt.subplots(4, len(cases), figsize=(COLUMN_WIDTH, 9.6),
                                  squeeze=False, layout="constrained")
         for j, (n, phi) in enumerate(cases):
             g = runs[(runs.N == n) & (runs.phi == phi)]

@@ -210,3 +210,20 @@ def hidden_points(fig) -> list[str]:
                     hidden.append(f"axes {i} ({ax.get_title() or ax.get_ylabel()}): {label} "
                                   f"at ({x:.0f}, {y:.0f})")
     return hidden
+
+
+def text_outside(fig) -> list[str]:
+    """What of ``fig`` (drawn as saved) reaches past the figure's edge, where an image saved at
+    the figure's size (not trimmed to its content, as ``bkflow plot`` saves) cuts it: each axes (its titles, labels and tick labels as drawn) and each legend of the
+    figure, by its title or label."""
+    from matplotlib.legend import Legend
+
+    r = fig.canvas.get_renderer()
+    box = fig.bbox.padded(2 * fig.dpi / 72)   # within 2 pt: a glyph's margin, not a cut
+    parts = [(ax.get_title() or ax.get_ylabel(), ax.get_tightbbox(r)) for ax in fig.axes
+             if ax.get_visible()]
+    parts += [("a legend", c.get_window_extent(r)) for c in fig.get_children()
+              if isinstance(c, Legend)]
+    parts += [(t.get_text(), t.get_window_extent(r)) for t in fig.texts if t.get_text()]
+    return [name for name, b in parts
+            if b is not None and not (box.contains(b.x0, b.y0) and box.contains(b.x1, b.y1))]

@@ -14,12 +14,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from bkflow.figures.style import COLUMN_WIDTH
 from bkflow.observables.states import r_independent
 from tests.figures.reading import (
     density_problems,
     draw_as_saved,
     outside_or_hidden,
     small_text,
+    text_outside,
 )
 
 STARTS = ("synchronized", "random", "stratified", "partial")
@@ -127,10 +129,11 @@ def test_every_panel_names_its_phi_and_n_and_a_histogram_is_drawn(stiff):
 
 
 def test_the_stiff_states_figure_is_readable(stiff):
-    """No text under 7 pt, every point inside its axes and off the key, time axes in the
-    model's time unit."""
+    """A page's column wide, no text under 7 pt, every point inside its axes and off the key,
+    time axes in the model's time unit."""
     _, fig = stiff
-    assert small_text(fig) == []
+    assert fig.get_figwidth() <= COLUMN_WIDTH
+    assert small_text(fig) == [] and text_outside(fig) == []
     assert outside_or_hidden(fig) == []
     times = [ax.get_xlabel() for ax in fig.axes if ax.get_xlabel().startswith("$t$")]
     assert len(times) == 9 and all(r"\sqrt{m/k_d}" in x for x in times)
