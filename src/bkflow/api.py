@@ -131,7 +131,7 @@ class Run:
     @property
     def psi(self) -> pd.DataFrame | None:
         """Psi(t) (scenes order, full; None otherwise)."""
-        return self._intact().read_psi()
+        return self._intact().read_psi_table()
 
     @property
     def clusters(self) -> pd.DataFrame | None:

@@ -213,9 +213,10 @@ def hidden_points(fig) -> list[str]:
 
 
 def text_outside(fig) -> list[str]:
-    """What of ``fig`` (drawn as saved) reaches past the figure's edge, where an image saved at
-    the figure's size (not trimmed to its content, as ``bkflow plot`` saves) cuts it: each axes (its titles, labels and tick labels as drawn) and each legend of the
-    figure, by its title or label."""
+    """What of ``fig`` (drawn as saved) reaches past the figure's edge, where an image saved
+    at the figure's size (not trimmed to its content, as ``bkflow plot`` saves) cuts it: each
+    axes (its titles, labels and tick labels as drawn) and each legend and text of the figure,
+    by its title or label."""
     from matplotlib.legend import Legend
 
     r = fig.canvas.get_renderer()

@@ -98,7 +98,7 @@ class _Run:
         return pd.DataFrame({"event": np.arange(n) % 300, "n_c": 2 + (fx * lx * ly / 2).astype(int),
                              "l_x": fx * box_extent(lx, ly), "l_y": fy * box_extent(ly, lx)})
 
-    def read_psi(self):
+    def read_psi_table(self):
         t = np.arange(0.0, 1000.0, 20.0)
         psi = np.full(len(t), 0.99 - 0.1 / float(self.row.phi) ** 0.5)
         psi[0] = 1.0

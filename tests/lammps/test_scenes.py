@@ -76,7 +76,7 @@ def test_order_scene_computes_psi_in_the_run(lammps, tmp_path):
     assert not {"slips.lammpstrj", "snapshots.lammpstrj"} & _files(tmp_path)
     s = analyze(tmp_path)
     assert not (tmp_path / "psi.csv").exists()
-    psi = RunDir(tmp_path).read_psi()
+    psi = RunDir(tmp_path).read_psi_table()
     assert list(psi.columns) == ["t", "psi"] and len(psi) == 11  # t = 0, 10, ..., 100
     assert psi["psi"].iloc[0] == pytest.approx(1.0, abs=1e-6)  # starts on the lattice
     assert 0.9 < s["psi_inf"] <= 1.0  # stiff layer stays crystalline

@@ -58,7 +58,7 @@ def fig3_order(data: SweepData, plt):
         if phi in shown:
             continue
         shown.append(phi)
-        p = data.run_dir(data.runs_of(*inset_size, phi).iloc[0]).read_psi()
+        p = data.run_dir(data.runs_of(*inset_size, phi).iloc[0]).read_psi_table()
         if p is None or len(p) < 2:
             continue
         t, psi = p.t.to_numpy(dtype=float), p.psi.to_numpy(dtype=float)

@@ -155,10 +155,11 @@ class RunAnalysisFiles(RunFiles):
         s = self.summary()
         return s is not None and EVENTS_PARQUET in (s.get("tables") or [])
 
-    def read_psi(self):
-        """Psi(t) as a DataFrame (t, psi): the run's psi.npy, or the psi.csv the analysis
-        wrote from the snapshots of a run made before bkflow computed Psi in the run; None
-        when the run recorded neither."""
+    def read_psi_table(self):
+        """Psi(t) as a table in time (t, psi), what the figures and ``bkflow.load_run`` read:
+        from the run's own record (``read_psi_record``: steps and Psi as fix bk/psi computed
+        them), or the psi.csv the analysis wrote from the snapshots of a run made before bkflow
+        computed Psi in the run; None when the run recorded neither."""
         import pandas as pd
 
         if self.file(PSI_RECORD).exists():
