@@ -50,7 +50,7 @@ def test_the_tables_are_written_before_the_summary_that_records_them(tmp_path):
     events = rd.read_events()
     np.testing.assert_array_equal(events.t_max, EVENTS_TABLE.t_max)
     assert str(events.late.dtype) == "boolean" and list(events.late) == [False, True]
-    pd.testing.assert_frame_equal(rd.read_psi(), PSI_TABLE, check_exact=True)
+    pd.testing.assert_frame_equal(rd.read_psi_table(), PSI_TABLE, check_exact=True)
     assert rd.has_events()
 
 
@@ -83,23 +83,18 @@ def test_a_table_that_is_not_the_analysiss_own_is_refused(tmp_path, damage, why)
     repair = (f"{d}: {why}; bkflow analyze {shell_word(d)} (or bkflow collect, for a sweep) "
               "makes the analysis again")
     # the tables are one set with their summary: a reader of one checks them all
-    readers = (rd.read_psi, rd.read_events) if rd.file(PSI).exists() else (rd.read_events,)
-    for read in readers:
+    for read in (rd.read_psi_table, rd.read_events):
         with pytest.raises(DamagedRunError) as exc:
             read()
         assert str(exc.value) == repair
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "read_psi (and read_clusters) check the tables only when their own file is there: a "
-    "psi.csv that summary.json lists but that is gone reads as None, a run that recorded no "
-    "Psi, where table_problem calls it missing and read_events refuses"))
 def test_a_table_the_summary_lists_that_is_gone_is_damage_not_absence(tmp_path):
     rd = _analysed(tmp_path)
     rd.file(PSI).unlink()
     assert rd.table_problem() == "psi.csv is missing"
     with pytest.raises(DamagedRunError, match="psi.csv is missing"):
-        rd.read_psi()
+        rd.read_psi_table()
 
 
 def test_why_an_analysis_is_stale(tmp_path):
@@ -156,10 +151,10 @@ def test_psi_of_the_run_comes_before_the_analysiss_table(tmp_path):
     psi = np.zeros(2, [("step", "<i8"), ("psi", "<f8")])
     psi["step"], psi["psi"] = [0, 700], [0.25, 0.75]
     np.save(rd.file(PSI_RECORD), psi)
-    got = rd.read_psi()
+    got = rd.read_psi_table()
     np.testing.assert_array_equal(got.t, np.array([0, 700]) * SPEC.dt)
     np.testing.assert_array_equal(got.psi, [0.25, 0.75])
     rd.file(PSI_RECORD).unlink()
     rd.file(PSI).unlink()
     rd.write_analysis({**rd.summary()}, {})                   # an analysis without Psi
-    assert rd.read_psi() is None and rd.read_clusters() is None
+    assert rd.read_psi_table() is None and rd.read_clusters() is None

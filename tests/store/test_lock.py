@@ -74,9 +74,6 @@ def test_busy_takes_no_lock_and_makes_no_file(tmp_path):
     assert (d / LOCK).is_file() and not RunLock(d).busy()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "busy() opens the lock file anew and flock conflicts between two open files of one "
-    "process, so the process that holds the lock is told another process does"))
 def test_busy_means_another_process_not_the_one_that_holds_the_lock(tmp_path):
     with RunLock(tmp_path).lock():
         assert not RunLock(tmp_path).busy()

@@ -101,12 +101,7 @@ def _damage(root, how: str) -> None:
     ("a table written apart, its size kept",
      "results.csv is not the one the last collect wrote (cut, or written apart)"),
     ("a table missing", "results.csv is missing"),
-    pytest.param("a table replaced by a link to its copy", "results.csv is missing",
-                 marks=pytest.mark.xfail(strict=True, reason=(
-                     "tables_problem asks files.within first, which refuses the link, so the "
-                     "message blames the record ('analysis.json names 'results.csv', which is "
-                     "not a table of the sweep's') and its own is_symlink branch is never "
-                     "reached"))),
+    ("a table replaced by a link to its copy", "results.csv is missing"),
     ("a record naming a file outside",
      "analysis.json names '../victim.csv', which is not a table of the sweep's"),
     ("an old catalogue beside", "catalogue.parquet is not one the last collect wrote"),

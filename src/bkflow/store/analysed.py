@@ -134,6 +134,14 @@ class RunAnalysisFiles(RunFiles):
                                   "collect, for a sweep) makes the analysis again")
         return self.file(name)
 
+    def _lists(self, name: str) -> bool:
+        """Whether the analysis wrote its table ``name``: the file is there, or summary.json
+        lists it (then it is missing: damage, which ``_checked`` names)."""
+        if self.file(name).exists():
+            return True
+        s = self.summary()
+        return s is not None and name in (s.get("tables") or [])
+
     def read_events(self):
         """The event catalogue as a typed DataFrame (events.parquet; events.csv where there is
         no Parquet copy): one row per slip, columns ``EVENT_COLUMNS`` and those of
@@ -166,7 +174,7 @@ class RunAnalysisFiles(RunFiles):
             spec = self.spec()
             steps, psi = self.read_psi_record(spec)
             return pd.DataFrame({"t": steps * spec.dt, "psi": psi})
-        return formats.read_table(self._checked(PSI)) if self.file(PSI).exists() else None
+        return formats.read_table(self._checked(PSI)) if self._lists(PSI) else None
 
     def read_clusters(self):
         """One row per slip cluster of the analysed slips (``CLUSTER_COLUMNS`` and n_x, n_y,
@@ -195,4 +203,4 @@ class RunAnalysisFiles(RunFiles):
             for c in ("n_c", "l_x", "l_y", "n_x", "n_y", "slip", "bond_change", "eq2_estimate"):
                 out[c] = rows[c][keep]
             return pd.DataFrame(out)
-        return formats.read_table(self._checked(CLUSTERS)) if self.file(CLUSTERS).exists() else None
+        return formats.read_table(self._checked(CLUSTERS)) if self._lists(CLUSTERS) else None

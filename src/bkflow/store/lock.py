@@ -52,6 +52,9 @@ class RunLock(RunFiles):
         collect), without taking it or creating a lock file."""
         import fcntl
 
+        if str(self.path.resolve()) in _HELD:   # this process holds it: no other can
+            return False
+
         try:
             fd = os.open(self.file(LOCK), os.O_RDONLY | os.O_NOFOLLOW)
         except OSError:
@@ -119,8 +122,8 @@ class RunLock(RunFiles):
 
         from bkflow import __version__
 
-        # replaced atomically: a link planted under the mark's name is replaced, never
-        # followed (and no component of the path is a link: ``inside``)
+        # written atomically; a link planted under the mark's name is refused (``inside``:
+        # no component of the path is a link), never followed
         formats.write_json_atomic(files.inside(self.path, MARK, "the run's mark"),
                                   {"bkflow": __version__, "began": time.time(),
                                    "directory": self._identity()})

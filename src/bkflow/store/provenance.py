@@ -57,8 +57,9 @@ def installed_versions() -> dict[str, str]:
         except OSError:
             continue
         for n in names:
-            if n.endswith(".dist-info") and "-" in n:
-                name, version = n[: -len(".dist-info")].rsplit("-", 1)
+            stem = n[: -len(".dist-info")] if n.endswith(".dist-info") else ""
+            if "-" in stem:   # NAME-VERSION; a name without a version is no distribution's
+                name, version = stem.rsplit("-", 1)
                 found.setdefault(_normal(name), version)
     return found
 

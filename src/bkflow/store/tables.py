@@ -112,10 +112,13 @@ def tables_problem(root) -> str | None:
     if not isinstance(record, dict) or RUNS_FILE not in record:
         return f"{SETTINGS_FILE} does not record the tables it belongs with"
     for name, want in record.items():
+        plain = Path(name).name == name and name not in (".", "..")
+        if plain and (root / name).is_symlink():
+            return f"{name} is missing"   # a link in its place: not the table collect wrote
         p = files.within(root, name)   # a name the record gives: read only inside the sweep
         if p is None:
             return f"{SETTINGS_FILE} names {name!r}, which is not a table of the sweep's"
-        if p.is_symlink() or not p.is_file():
+        if not p.is_file():
             return f"{name} is missing"
         if files.file_record(p) != want:
             return f"{name} is not the one the last collect wrote (cut, or written apart)"
