@@ -768,16 +768,16 @@ def test_lmp_in_a_finished_run_leaves_it_finished(lammps, tmp_path):
 
 
 @pytest.mark.slow
-def test_the_documented_cluster_commands_run(lammps, tmp_path):
-    """Every `python -m bkflow.slurm run ...` that README, docs and cluster.py show is
+def test_the_documented_slurm_commands_run(lammps, tmp_path):
+    """Every `python -m bkflow.slurm run ...` that README, docs and slurm.py show is
     accepted by flow and finishes the runs."""
     import re
 
     texts = [p.read_text() for p in (ROOT / "README.md", ROOT / "docs" / "slurm.md",
-                                     ROOT / "src" / "bkflow" / "cluster.py")]
+                                     ROOT / "src" / "bkflow" / "slurm.py")]
     cmds = sorted({m.strip() for t in texts
-                   for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
-    assert cmds, "no documented cluster run command found"
+                   for m in re.findall(r"python -m bkflow\.slurm run([^`\n#]*)", t)})
+    assert cmds, "no documented SLURM run command found"
     for i, args in enumerate(cmds):
         d = tmp_path / f"c{i}"
         assert bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene",

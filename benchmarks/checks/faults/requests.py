@@ -274,7 +274,7 @@ def docs(fuzz: Fuzz) -> None:
     texts = [(ROOT / f).read_text() for f in ("README.md", "docs/slurm.md",
                                                "src/bkflow/slurm.py")]
     cmds = sorted({m.strip() for t in texts
-                   for m in re.findall(r"python -m bkflow\.cluster run([^`\n#]*)", t)})
+                   for m in re.findall(r"python -m bkflow\.slurm run([^`\n#]*)", t)})
     for args in cmds:
         d = fuzz.scratch() / "c"
         bk("sweep", "--phi", "1,3", "--seeds", "1", "--t-end", "50", "--scene", "friction",
