@@ -54,11 +54,11 @@ def _close(a, b) -> bool:
 
 def test_the_installed_switching_calibration_is_the_records():
     from benchmarks.documents.stiff_end import states
-    from bkflow.model.calibration import SWITCHING
+    from bkflow.model.calibration import CALIBRATION_FILE
 
     sr, runs, means = states()
     made = json.loads(sr.calibration_text(runs, means))
-    installed = json.loads(SWITCHING.read_text())
+    installed = json.loads(CALIBRATION_FILE.read_text())
     assert _close(made, installed), ("src/bkflow/model/switching.json differs from the "
                                      "records: run python -m benchmarks.report.stiff_states")
 

@@ -55,7 +55,7 @@ def layout() -> str:
         for path in sorted((src / group).glob("*.py")):
             if path.name != "__init__.py":
                 rows.append(f"| | `{path.name}` | {_first_sentence(path)} |")
-    for name in ("api.py", "cluster.py"):
+    for name in ("api.py", "slurm.py", "cluster.py"):
         rows.append(f"| `{name}` | | {_first_sentence(src / name)} |")
     return "\n".join(rows) + "\n"
 

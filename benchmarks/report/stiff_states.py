@@ -35,7 +35,7 @@ import pandas as pd
 from benchmarks.harness import RECORDS, parser
 from benchmarks.measure.stiff_states import OUT
 from benchmarks.report import stiff_states_figure
-from bkflow.model.calibration import SWITCHING, in_place, reread
+from bkflow.model.calibration import CALIBRATION_FILE, in_place, reread
 from bkflow.observables import states, switching
 from bkflow.observables.states import BLOCK_T, r_independent
 
@@ -385,9 +385,9 @@ def report(root=OUT) -> None:
     runs = load(root)
     means = layer_means(runs)
     occ = occupancy(runs)
-    SWITCHING.write_text(calibration_text(runs, means))
+    CALIBRATION_FILE.write_text(calibration_text(runs, means))
     reread()
-    print(f"wrote {SWITCHING}")
+    print(f"wrote {CALIBRATION_FILE}")
     curve_table(means).to_csv(CURVE, index=False, float_format="%.10g")
     print(f"wrote {CURVE}")
     pd.set_option("display.width", 200)

@@ -37,7 +37,9 @@ def test_every_key_of_a_summary_is_declared_once(tmp_path, scene):
     names = [k.name for o in keys_.OBSERVABLES for k in o.keys]
     assert len(names) == len(set(names)), "a key declared twice"
     if scene == "friction":   # what the scene did not record holds its declared missing value
-        missing = keys_.not_measured("snapshots", "slips", "ledger")
+        missing = {k.name: k.missing for o in keys_.OBSERVABLES if o.needs is not None
+                   for k in o.keys}
+        assert {o.needs for o in keys_.OBSERVABLES} >= {"snapshots", "slips", "energy"}
         assert missing and all(_same(summary[k], v if not isinstance(v, float) else None)
                                for k, v in missing.items()), missing
     else:
@@ -79,7 +81,7 @@ def test_an_added_observable_is_computed_printed_and_drawn(monkeypatch):
     obs = keys_.Observable("two_n", (keys_.Key("two_n", "count", "twice N", averaged=True),),
                            compute=double_n, line="  2N = {two_n:g}", figure="two_n")
     monkeypatch.setattr(keys_, "OBSERVABLES", [*keys_.OBSERVABLES, obs])
-    ctx = keys_.Context(RunSpec(phi=1.0), None, np.zeros(2), np.zeros(2), None, 0.0)
+    ctx = keys_.Context(RunSpec(phi=1.0), None, np.zeros(2), np.zeros(2), None, 0.0, None)
     assert obs.values(ctx) == {"two_n": 200.0}
     assert keys_.averaged_keys()[-1] == "two_n"
     assert keys_.averaged_keys()[:-1] == keys_.COLUMNS
@@ -92,6 +94,14 @@ def test_an_added_observable_is_computed_printed_and_drawn(monkeypatch):
         keys_.summary(ctx)
     absent = keys_.Observable("absent", obs.keys, compute=lambda ctx: None)
     assert math.isnan(absent.values(ctx)["two_n"])
+    bare = keys_.Observable("bare", obs.keys, compute=lambda ctx: 2.0)   # a number, not a map
+    with pytest.raises(TypeError, match="observable bare's compute returned a float"):
+        bare.values(ctx)
+    # one that needs a record the run's scene does not keep is not computed
+    unrecorded = keys_.Observable("unrecorded", obs.keys, needs="energy",
+                                  compute=lambda ctx: 1 / 0)
+    monkeypatch.setattr(keys_, "OBSERVABLES", [unrecorded])
+    assert math.isnan(keys_.summary(ctx)["two_n"])
 
 
 def test_power_law_names_are_the_declared_ones():

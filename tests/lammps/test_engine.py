@@ -67,22 +67,32 @@ def test_a_claim_without_a_spec_checks_no_cost_and_is_reentrant(tmp_path, monkey
         assert rd.file(LOCK).exists()
 
 
-def test_a_claim_inside_a_claim_checks_nothing_again(tmp_path, monkeypatch):
-    """``bkflow run`` claims its directory around the run, which claims it again: the checks
-    (the record read for the answer, the cost) are made once; a claim after the outer one
-    has ended checks again."""
+def test_a_claim_inside_a_claim_for_the_same_run_checks_nothing_again(tmp_path, monkeypatch):
+    """``bkflow run`` claims its directory around the run, which claims it again for the same
+    request: the checks (the record read for the answer, the cost) are made once; a claim
+    inside for another request, or one after the outer one has ended, is checked."""
     from bkflow.lammps import engine
     from bkflow.lammps.continuation import answers
 
     asked = []
     monkeypatch.setattr(engine, "answers", lambda *a, **k: asked.append(1) or answers(*a, **k))
-    spec = _spec()
-    with claim(tmp_path / "a", spec):
-        with claim(tmp_path / "a", spec.replace(t_end=1e12)):   # would be refused alone
+    spec, d = _spec(), tmp_path / "a"
+    with claim(d, spec):
+        with claim(d, spec):            # the same request: nothing checked again
             pass
-    assert len(asked) == 1
+        assert len(asked) == 1
+        with monkeypatch.context() as m:
+            m.setattr(limits, "MAX_ATOM_STEPS", 1.0)
+            with pytest.raises(CostError):   # another request inside: checked
+                with claim(d, spec.replace(t_end=400.0)):
+                    pass
+        assert len(asked) == 2
+        with claim(d, None):            # no run asked: no record read, no cost
+            with claim(d, spec):        # a run inside it: checked
+                pass
+        assert len(asked) == 3
     monkeypatch.setattr(limits, "MAX_ATOM_STEPS", 1.0)
-    with pytest.raises(CostError):
-        with claim(tmp_path / "a", spec):
+    with pytest.raises(CostError):      # after the outer claim: checked
+        with claim(d, spec):
             pass
-    assert len(asked) == 2
+    assert len(asked) == 4

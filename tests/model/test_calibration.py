@@ -15,7 +15,7 @@ SRC = Path(__file__).resolve().parents[2] / "src" / "bkflow"
 
 
 def test_the_installed_calibration_is_the_file():
-    assert calibration.switching() == json.loads(calibration.SWITCHING.read_text())
+    assert calibration.switching() == json.loads(calibration.CALIBRATION_FILE.read_text())
     assert {"100", "400"} <= set(calibration.switching()["sizes"])
 
 
@@ -32,12 +32,36 @@ def test_a_calibration_in_place_is_the_one_in_force_and_then_gone():
     assert states.memory_chi(100) == installed["sizes"]["100"]["memory_chi"]
 
 
+def test_a_calibration_in_place_is_its_threads_own():
+    """Two threads, each with its own calibration in place at the same time, each see theirs
+    (a list of tables shared by the process gave one of them the other's)."""
+    import threading
+
+    seen, barrier = {}, threading.Barrier(2)
+
+    def hold(name, table):
+        with calibration.in_place(table):
+            barrier.wait()            # both in place now
+            seen[name] = calibration.switching()
+            barrier.wait()            # both have looked before either leaves
+
+    a, b = {"sizes": {"a": 1}}, {"sizes": {"b": 2}}
+    threads = [threading.Thread(target=hold, args=("a", a)),
+               threading.Thread(target=hold, args=("b", b))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=30)
+    assert seen == {"a": a, "b": b}
+    assert calibration.switching() == json.loads(calibration.CALIBRATION_FILE.read_text())
+
+
 def test_an_absent_or_unreadable_calibration_is_none(tmp_path, monkeypatch):
     for text in (None, "{not json"):
         path = tmp_path / "switching.json"
         if text is not None:
             path.write_text(text)
-        monkeypatch.setattr(calibration, "SWITCHING", path)
+        monkeypatch.setattr(calibration, "CALIBRATION_FILE", path)
         calibration.reread()
         try:
             assert calibration.switching() == {}

@@ -31,7 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from bkflow import __version__
-from bkflow.model.scenes import RECORDS
+from bkflow.model.scenes import RECORDS, records
 from bkflow.observables import catalogue
 
 NAN = math.nan
@@ -56,7 +56,7 @@ class Context:
     its analysed stress series (``t``, ``sigma``, sigma_x in stress units), the slips after the
     transient (``events``: bkflow.observables.stress.SlipEvents), the transient's end
     ``t_transient``, and ``run``: the results of bkflow's own observables
-    (``bkflow.analysis.summary.RunAnalysis``; None where only added observables are asked)."""
+    (``bkflow.analysis.summary.RunAnalysis``), which their ``compute`` reads."""
 
     spec: object
     settings: object
@@ -64,7 +64,7 @@ class Context:
     sigma: object
     events: object
     t_transient: float
-    run: object = None
+    run: object
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,10 @@ class Observable:
         got = self.compute(ctx)
         if got is None:
             return {k.name: k.missing for k in self.keys}
+        if not isinstance(got, dict):
+            raise TypeError(f"observable {self.name}'s compute returned a "
+                            f"{type(got).__name__}, not {{key: value}} of its keys "
+                            f"{list(self.names)} (or None: not measured)")
         if set(got) != set(self.names):
             raise ValueError(f"observable {self.name} returned {sorted(got)}, not its declared "
                              f"keys {list(self.names)}")
@@ -187,6 +191,7 @@ CONTACT_KEYS = (
     Key("contacts_coherent", "bool", "chi above the memory threshold", missing=None),
 )
 
+
 def _analysis(ctx: Context) -> dict:
     return {"bkflow": __version__, "params": ctx.spec.to_dict(),
             "settings": ctx.settings.to_dict()}
@@ -231,8 +236,9 @@ OBSERVABLES: list[Observable] = [
         Key("table_files", "map", "their sizes and digests"),
         Key("wall_time_s", "time", "the run's wall-clock time in seconds"),
         Key("bytes_written", "count", "the bytes of the run's files"),
-    ), written_by="the store, as it writes the analysis (bkflow.store.analysed), and the "
-                  "run's record of itself"),
+    ), written_by="the analysis as it writes the summary (bkflow.analysis.summary.analyze: "
+                  "the run's wall time and bytes) and the store (bkflow.store.analysed: the "
+                  "tables and the revision)"),
     Observable("run", (
         Key("N", "count", "the particles, Lx Ly"),
         Key("t_run", "time", "the length of the run", averaged=True),
@@ -339,13 +345,6 @@ def observable(name: str) -> Observable:
     return next(o for o in OBSERVABLES if o.name == name)
 
 
-def not_measured(*needs: str) -> dict:
-    """{key: its missing value} of the observables that need one of ``needs`` (default: every
-    observable that needs a record some scenes do not keep)."""
-    return {k.name: k.missing for o in OBSERVABLES
-            if o.needs is not None and (not needs or o.needs in needs) for k in o.keys}
-
-
 def averaged_keys() -> tuple[str, ...]:
     """The keys results.csv averages over seeds: bkflow's own in their columns' order
     (``COLUMNS``), then those of added observables in the order they were declared."""
@@ -356,10 +355,16 @@ def averaged_keys() -> tuple[str, ...]:
 
 def summary(ctx: Context) -> dict:
     """A run's summary: the keys of every observable it computes (``compute``), in the order
-    they are declared, each checked against its declaration."""
+    they are declared, each checked against its declaration; an observable that needs a
+    record the run's scene does not keep is not computed: its keys hold their missing
+    values."""
     row = {}
     for o in OBSERVABLES:
-        if o.written_by is None:
+        if o.written_by is not None:
+            continue
+        if o.needs is not None and not records(ctx.spec.scene, o.needs):
+            row.update((k.name, k.missing) for k in o.keys)
+        else:
             row.update(o.values(ctx))
     return row
 

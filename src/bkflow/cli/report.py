@@ -9,6 +9,7 @@ The verdicts are those of ``bkflow.observables.states.VERDICTS`` (docs/model.md 
 from __future__ import annotations
 
 import math
+import sys
 
 from bkflow.analysis.summary_keys import lines as observable_lines
 from bkflow.analysis.summary_keys import power_law_names
@@ -243,12 +244,14 @@ def sweep_plan_lines(phis, n_sizes: int, axes: dict, seeds: int, n_runs: int, ou
 
 
 def jobs_created_lines(out, n_jobs: int, done: int) -> list[str]:
-    """``bkflow sweep --init``: the jobs created, and how to run them."""
-    where = shell_word(out)
+    """``bkflow sweep --init``: the jobs created, how to run them (with this Python, the one
+    that has bkflow, whatever ``python`` names in the user's shell), and how to read them."""
+    where, python = shell_word(out), shell_word(sys.executable)
     return [f"{out}: {n_jobs} jobs ({done} finished); run them here with",
-            f"  (cd {where} && python -m bkflow.slurm run)",
+            f"  (cd {where} && {python} -m bkflow.slurm run)",
             "or submit them to the cluster's scheduler with",
-            f"  (cd {where} && python -m bkflow.slurm submit)"]
+            f"  (cd {where} && {python} -m bkflow.slurm submit)",
+            f"and once they are done, bkflow collect {where} writes the sweep's tables"]
 
 
 def sweep_done_line(rep) -> str:

@@ -179,9 +179,10 @@ def _claim(rd: RunDir, overwrite: bool, spec: RunSpec | None = None) -> None:
     rd.mark()
 
 
-#: the run directories this process has claimed (``claim``), which a claim inside takes as
-#: they are: its checks were made by the claim around it
-_CLAIMED: set[str] = set()
+#: the run directories this process has claimed (``claim``), each with the request it was
+#: claimed for: a claim inside asking the same takes the directory as it is (the claim around
+#: it made its checks); one asking more is checked
+_CLAIMED: dict[str, tuple] = {}
 
 
 @contextlib.contextmanager
@@ -192,21 +193,27 @@ def claim(out, spec: RunSpec | None = None, overwrite: bool = False, force: bool
     None: the caller runs nothing), and a directory that is not bkflow's refused
     (``refuse_foreign``) before its lock is taken. ``run`` claims its directory; a caller
     that analyses the run too (``bkflow run``) claims it around both, and the claim inside
-    (the run's) takes the directory as the one around it checked it."""
+    (the run's) for the same request takes the directory as the one around it checked it;
+    a claim inside for another request is checked. One thread of a process claims a
+    directory at a time, as its lock is the process's."""
     rd = RunDir(Path(out).absolute())
-    key = str(rd.path.resolve())
-    if key in _CLAIMED:   # claimed around this call (bkflow run): checked then
+    key, request = str(rd.path.resolve()), (spec, overwrite, force)
+    if _CLAIMED.get(key) == request:   # claimed for it around this call (bkflow run)
         yield rd
         return
     if spec is not None and (overwrite or not answers(rd, spec, identical=False)):
         check_cost(spec, out, force)
     refuse_foreign(rd, out)   # before the lock: no lock file in someone else's directory
     with rd.lock():
-        _CLAIMED.add(key)
+        outer = _CLAIMED.get(key)
+        _CLAIMED[key] = request
         try:
             yield rd
         finally:
-            _CLAIMED.discard(key)
+            if outer is None:
+                _CLAIMED.pop(key, None)
+            else:
+                _CLAIMED[key] = outer
 
 
 def refuse_foreign(rd: RunDir, shown) -> None:
