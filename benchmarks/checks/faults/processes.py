@@ -21,6 +21,14 @@ def children(pid: int) -> list[int]:
     return [int(x) for x in out.stdout.split()]
 
 
+def hangup_as_in_a_terminal() -> None:
+    """A child's SIGHUP as a terminal session has it (the default: it ends the process), even
+    where the fuzz itself runs under nohup, whose ignored SIGHUP every child would inherit:
+    bkflow keeps an ignored SIGHUP ignored (a sweep under nohup outlives the hangup), so the
+    SIGHUP cases would measure nohup, not bkflow."""
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 def sweep_args(out, *extra):
     """A sweep's arguments whose runs last long enough to be signalled while they run."""
     # runs of several seconds each (the small step), so that the signal meets them running
@@ -139,7 +147,7 @@ def hangs(fuzz: Fuzz) -> None:
         d = fuzz.scratch() / "s"
         args = sweep_args(d)
         p = subprocess.Popen([BKFLOW, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True)
+                             text=True, preexec_fn=hangup_as_in_a_terminal)
         deadline = time.time() + 120
         while time.time() < deadline and not list((d / "workspace").glob("*/extrema.npy")):
             time.sleep(0.1)
@@ -197,7 +205,8 @@ def signals(fuzz: Fuzz) -> None:
         d = fuzz.scratch()
         p = subprocess.Popen([BKFLOW, "run", "--phi", "1000", "--n", "900", "--t-end",
                               "20000", "--out", str(d / "r"), "--quiet"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             preexec_fn=hangup_as_in_a_terminal)
         deadline = time.time() + 60
         while not (d / "r" / "extrema.npy").exists() and time.time() < deadline:
             time.sleep(0.1)
