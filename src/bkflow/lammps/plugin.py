@@ -15,6 +15,7 @@ import importlib.util
 import json
 import os
 import signal
+import sys
 from pathlib import Path
 
 PLUGIN_FILE = "bkflowplugin.so"
@@ -184,18 +185,47 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+#: how long after a dropped Ctrl-C it is delivered again (seconds): time for the callback
+#: that dropped it to return (if it has not, it is dropped and delivered again)
+REDELIVER_S = 0.01
+
+
+def _redeliver(before, unraisable) -> None:
+    """``sys.unraisablehook`` within ``interrupts``: a Ctrl-C, or a signal taken as one, that
+    arrived while Python ran a weakref callback or a ``__del__`` (the garbage collector's,
+    where an exception is printed as "Exception ignored" and dropped) is delivered again, to
+    be raised where the command stops; without it the command ran on to its end. Any other
+    exception goes to the hook ``before`` it."""
+    exc = unraisable.exc_value
+    if not isinstance(exc, KeyboardInterrupt):
+        before(unraisable)
+        return
+    import threading
+
+    name = str(exc) or "SIGINT"
+    sig = signal.Signals[name] if name in signal.Signals.__members__ else signal.SIGINT
+    # from another thread, a moment later: raised here, it would be dropped again
+    again = threading.Timer(REDELIVER_S, signal.raise_signal, (sig,))
+    again.daemon = True
+    again.start()
+
+
 @contextlib.contextmanager
 def interrupts(signals: tuple):
     """Within: ``signals`` are taken as Ctrl-C (the command line's SIGTERM and SIGHUP; none in
     a sweep's worker, which dies of them as any process does). Their handlers are installed
-    on entry, and again whenever LAMMPS starts (``restore_signals``)."""
+    on entry, and again whenever LAMMPS starts (``restore_signals``); a Ctrl-C that lands
+    where Python drops exceptions is delivered again (``_redeliver``)."""
     global _INTERRUPT_SIGNALS
     before, _INTERRUPT_SIGNALS = _INTERRUPT_SIGNALS, tuple(signals)
+    hook = sys.unraisablehook
+    sys.unraisablehook = functools.partial(_redeliver, hook)
     restore_signals()
     try:
         yield
     finally:
         _INTERRUPT_SIGNALS = before
+        sys.unraisablehook = hook
 
 
 def restore_signals() -> None:
